@@ -1,0 +1,47 @@
+# shbake — two commands on a fresh machine with Python 3.11 and make:
+#   make demo   # bake the sample maps and write preview images into out/
+#   make test   # run the test suite (CI runs this)
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+SHARED ?= ../shared
+OUT    ?= out
+# Two cores: numba gets both, BLAS/OpenMP pools one each so they never fight (SPEC §6).
+export OMP_NUM_THREADS ?= 1
+export OPENBLAS_NUM_THREADS ?= 1
+
+.PHONY: demo test test-all bench lint clean
+
+$(STAMP): setup.cfg pyproject.toml requirements.lock
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip==24.3.1
+	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	@mkdir -p $(OUT)
+	@for m in data_samples/*.exr; do \
+	  n=$$(basename $$m .exr); \
+	  echo "== $$n" >&2; \
+	  $(BIN)/shbake project-env $$m -o $(OUT)/$$n.h5 --lmax 8 --extract-sun \
+	      --exr-maps $(OUT)/$$n-maps --export gltf --report || exit 1; \
+	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass irradiance -o $(OUT)/$$n-irradiance.exr --diff || exit 1; \
+	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass tangent -o $(OUT)/$$n-tangent.exr --diff || exit 1; \
+	done
+	@echo "demo: assets and previews in $(OUT)/" >&2
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2
+
+test-all: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2 -m ''
+
+bench: $(STAMP)
+	$(BIN)/python bench/run_all.py
+
+lint: $(STAMP)
+	$(BIN)/ruff check shbake cli tests bench
+
+clean:
+	rm -rf $(VENV) $(OUT) build *.egg-info

@@ -1,0 +1,45 @@
+"""Conversion of input RGB to shbake's working space, linear Rec.709 (colour-science)."""
+
+import warnings
+
+import numpy as np
+
+from shbake.errors import ParameterError
+
+WORKING_SPACE = "ITU-R BT.709"
+
+
+def _colour():
+    # Imported on demand: colour-science is slow to import and warns that
+    # matplotlib is absent, which shbake does not need.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        import colour
+    return colour
+
+
+def colorspace_names() -> list[str]:
+    """Names accepted by ``--colorspace`` (colour-science's RGB colourspaces)."""
+    return sorted(_colour().RGB_COLOURSPACES.keys())
+
+
+def to_working_space(pixels: np.ndarray, name: str) -> np.ndarray:
+    """Convert *linear* RGB in colourspace ``name`` to linear Rec.709 (CAT02 adaptation).
+
+    The input is taken as scene-linear (no transfer function is decoded):
+    HDR maps are stored linear.
+    """
+    if name in (WORKING_SPACE, "Rec.709", "sRGB", "linear-rec709"):
+        return pixels
+    colour = _colour()
+    try:
+        src = colour.RGB_COLOURSPACES[name]
+    except KeyError:
+        raise ParameterError(
+            f"unknown colourspace {name!r}; e.g. ACEScg, ACES2065-1, ITU-R BT.2020, Display P3"
+        ) from None
+    dst = colour.RGB_COLOURSPACES[WORKING_SPACE]
+    out = colour.RGB_to_RGB(
+        pixels.astype(np.float64), src, dst, chromatic_adaptation_transform="CAT02"
+    )
+    return out.astype(np.float32)

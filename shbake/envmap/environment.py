@@ -1,0 +1,103 @@
+"""An environment map loaded, validated and ready to integrate."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from shbake.envmap.colorspace import WORKING_SPACE, to_working_space
+from shbake.envmap.image_io import read_image, sha256_of, to_rgb
+from shbake.envmap.layouts import check_layout, detect_layout, texels
+from shbake.envmap.repair import apply_negative_policy, repair_nonfinite
+from shbake.sh.projection import fejer_row_weights, project_latlong, project_samples
+
+
+@dataclass
+class Environment:
+    """Radiance on the sphere, stored as an image of a known layout.
+
+    Attributes
+    ----------
+    pixels : (H, W, 3) float32
+        Linear Rec.709 radiance, finite.
+    layout : str
+        One of ``shbake.envmap.LAYOUTS``.
+    meta : dict
+        Provenance and input-policy record (path, SHA-256, counts).
+    """
+
+    pixels: np.ndarray
+    layout: str
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.pixels.shape[0], self.pixels.shape[1]
+
+    def texels(self):
+        """``(dirs (H,W,3), solid_angles (H,W), mask (H,W))`` — exact cell geometry."""
+        return texels(self.layout, *self.shape)
+
+    def quadrature_weights(self) -> np.ndarray:
+        """Weights the projection uses, ``(H, W)``: Fejér for lat-long, solid angles for cubes."""
+        h, w = self.shape
+        if self.layout == "latlong":
+            return np.repeat(fejer_row_weights(h, w)[:, None], w, axis=1)
+        return self.texels()[1]
+
+    def samples(self):
+        """Valid texels as flat arrays ``(dirs (N,3), solid_angles (N,), radiance (N,3))``."""
+        dirs, omega, mask = self.texels()
+        return dirs[mask], omega[mask], self.pixels[mask].astype(np.float64)
+
+    def project(self, lmax: int) -> np.ndarray:
+        """SH lighting coefficients ``L_lm`` in the world frame, ``((lmax+1)^2, 3)``."""
+        if self.layout == "latlong":
+            return project_latlong(self.pixels, lmax)
+        dirs, omega, mask = self.texels()
+        return project_samples(dirs[mask], omega[mask], self.pixels[mask], lmax)
+
+    def total_energy(self) -> np.ndarray:
+        """``∫ L dω`` per channel with the projection's weights (radiance × sr)."""
+        return np.einsum("hwc,hw->c", self.pixels.astype(np.float64), self.quadrature_weights())
+
+
+def load_environment(
+    path: str,
+    layout: str | None = None,
+    colorspace: str | None = None,
+    negative: str = "clamp",
+    fix_nonfinite: str | None = None,
+    quiet: bool = False,
+) -> Environment:
+    """Read, validate and convert an environment map.
+
+    Order of operations: read → RGB → layout → non-finite policy → colourspace
+    → negative policy. See :mod:`shbake.envmap.repair` for the policies.
+    """
+    raw, info = read_image(path)
+    rgb, channel_note = to_rgb(raw, info["channelnames"])
+    h, w = rgb.shape[:2]
+    layout = check_layout(layout, h, w) if layout else detect_layout(h, w, info["envmap"])
+    rgb, nonfinite = repair_nonfinite(rgb, fix_nonfinite, path)
+    if colorspace:
+        rgb = to_working_space(rgb, colorspace)
+    _, omega, mask = texels(layout, h, w)
+    rgb = np.where(mask[:, :, None], rgb, 0.0).astype(np.float32)
+    rgb, n_negative, energy_change = apply_negative_policy(rgb, omega, negative, path, quiet)
+    meta = {
+        "path": str(path),
+        "sha256": sha256_of(path),
+        "width": w,
+        "height": h,
+        "layout": layout,
+        "stored_format": info["format"],
+        "channels": channel_note,
+        "colorspace_in": colorspace or WORKING_SPACE,
+        "colorspace": WORKING_SPACE,
+        "nonfinite_policy": fix_nonfinite or "error",
+        "nonfinite_repaired": nonfinite,
+        "negative_policy": negative,
+        "negative_count": n_negative,
+        "negative_energy_change": energy_change,
+    }
+    return Environment(np.ascontiguousarray(rgb, dtype=np.float32), layout, meta)
