@@ -1,0 +1,1 @@
+"""The ``shbake`` command line: one thin click module per subcommand."""

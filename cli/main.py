@@ -1,0 +1,49 @@
+"""Entry point: the ``shbake`` group, and library errors turned into one-line messages."""
+
+import sys
+
+import click
+
+from shbake import __version__
+from shbake.errors import ShbakeError
+from shbake_cli.preview import preview
+from shbake_cli.project_env import project_env
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="shbake")
+def cli():
+    """Bake spherical-harmonic lighting assets for real-time renderers."""
+
+
+cli.add_command(project_env)
+cli.add_command(preview)
+
+
+def main(argv=None) -> int:
+    """Run the CLI; every error is one line on stderr and a non-zero exit.
+
+    Exit status: 0 success, 1 bad input or failed output (ShbakeError), 2
+    usage error (unknown option, invalid choice).
+    """
+    try:
+        if argv is None:
+            argv = sys.argv[1:]
+        cli.main(args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": list(argv)})
+    except click.exceptions.Abort:
+        click.echo("shbake: error: aborted", err=True)
+        return 1
+    except click.exceptions.UsageError as e:
+        click.echo(f"shbake: error: {e.format_message()}", err=True)
+        return 2
+    except click.exceptions.ClickException as e:
+        click.echo(f"shbake: error: {e.format_message()}", err=True)
+        return 1
+    except ShbakeError as e:
+        click.echo(f"shbake: error: {e}", err=True)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,198 @@
+"""The ``env_sh`` asset: SH lighting, Lambert and Kajiya–Kay irradiance of an environment.
+
+``bake_env_sh`` turns an :class:`~shbake.envmap.Environment` into an
+:class:`~shbake.format.asset.Asset` (``docs/FORMAT.md`` §3);
+``irradiance_errors`` measures what the chosen settings cost in accuracy
+against brute-force quadrature of the original map.
+"""
+
+import time
+
+import numpy as np
+
+from shbake.conventions import REC709_LUMINANCE, band_of_index, check_lmax
+from shbake.envmap.environment import Environment
+from shbake.envmap.sun import Sun, extract_sun
+from shbake.errors import ParameterError
+from shbake.format.asset import Asset
+from shbake.reference.irradiance import brute_force_irradiance
+from shbake.sh.basis import real_sh
+from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
+from shbake.sh.tangent_irradiance import matrix_form
+from shbake.sh.windows import WINDOW_METHODS, dering_window, fibonacci_sphere, window
+
+REPORT_LMAX = 64
+"""Band up to which ``--report`` projects to estimate what truncation loses."""
+
+
+def band_energy(coeffs) -> np.ndarray:
+    """``Σ_m L_lm²`` per band and channel, shape ``(lmax+1, C)`` (RH02 §5.1)."""
+    c = np.asarray(coeffs, dtype=np.float64)
+    lmax = int(round(np.sqrt(c.shape[0]))) - 1
+    return np.stack([np.sum(c[l * l : (l + 1) ** 2] ** 2, axis=0) for l in range(lmax + 1)])
+
+
+def bake_env_sh(
+    env: Environment,
+    lmax: int = 2,
+    window_name: str = "none",
+    irradiance_lmax: int = 2,
+    irradiance: bool = True,
+    tangent: bool = True,
+    sun: bool = False,
+    sun_radius_deg: float = 10.0,
+    provenance: dict | None = None,
+) -> tuple[Asset, dict]:
+    """Bake an ``env_sh`` asset.
+
+    Parameters
+    ----------
+    lmax : int, 0 … 128
+        Highest band of ``/lighting/sh``.
+    window_name : one of ``none, hann, lanczos, dering``
+        Window applied to the lighting before the irradiance kernels.
+    irradiance_lmax : int, 0 … lmax
+        Highest band of ``/irradiance/sh`` and ``/tangent_irradiance/sh``
+        (``Â_l`` / ``A_l`` folded in, so ``E(n) = Σ_i y_i(n) E_i``).
+    sun : bool
+        Extract the dominant compact light (:mod:`shbake.envmap.sun`) and
+        project the residual.
+
+    Returns
+    -------
+    (asset, summary)
+    """
+    lmax = check_lmax(lmax)
+    irradiance_lmax = check_lmax(irradiance_lmax, "irradiance lmax")
+    if irradiance_lmax > lmax:
+        raise ParameterError(f"irradiance lmax {irradiance_lmax} exceeds lmax {lmax}")
+    if window_name not in WINDOW_METHODS:
+        raise ParameterError(
+            f"unknown window {window_name!r}; choose one of {', '.join(WINDOW_METHODS)}"
+        )
+    t0 = time.perf_counter()
+    summary: dict = {"lmax": lmax, "irradiance_lmax": irradiance_lmax, "window": window_name}
+    datasets: dict = {}
+    dattrs: dict = {}
+    light = None
+    residual = env
+    if sun:
+        light, residual, sun_report = extract_sun(env, radius_deg=sun_radius_deg)
+        summary["sun"] = _jsonable(sun_report)
+        if light is not None:
+            datasets["/sun/direction"] = light.direction
+            datasets["/sun/solid_angle"] = np.float64(light.solid_angle)
+            datasets["/sun/radiance"] = light.radiance
+            dattrs["/sun/direction"] = {"frame": "world, unit vector toward the light"}
+            dattrs["/sun/radiance"] = {"units": "radiance; radiance * solid_angle = irradiance"}
+    L = residual.project(lmax)
+    datasets["/lighting/sh"] = L
+    dattrs["/lighting/sh"] = {
+        "lmax": lmax,
+        "sun_removed": light is not None,
+        "quadrature": "fejer-1 rows" if env.layout == "latlong" else "exact texel solid angles",
+    }
+    datasets["/lighting/band_energy"] = band_energy(L)
+
+    kernels = []
+    if irradiance:
+        kernels.append(lambert_kernel(irradiance_lmax))
+    if tangent:
+        kernels.append(kajiya_kay_kernel(irradiance_lmax))
+    n_irr = (irradiance_lmax + 1) ** 2
+    L_irr = L[:n_irr]
+    win_attrs = {"method": window_name, "lmax": irradiance_lmax}
+    if window_name == "dering" and kernels:
+        w, minimum = dering_window(L_irr, kernels)
+        win_attrs["reconstruction_minimum"] = float(minimum)
+        summary["dering_minimum"] = float(minimum)
+    elif window_name == "dering":
+        w = np.ones(irradiance_lmax + 1)
+    else:
+        w = window(window_name, irradiance_lmax)
+    datasets["/lighting/window"] = w
+    dattrs["/lighting/window"] = win_attrs
+    bands = band_of_index(irradiance_lmax)
+    if irradiance:
+        datasets["/irradiance/sh"] = L_irr * (lambert_kernel(irradiance_lmax) * w)[bands][:, None]
+        dattrs["/irradiance/sh"] = {"lmax": irradiance_lmax, "kernel": "lambert clamped cosine"}
+    if tangent:
+        E_t = L_irr * (kajiya_kay_kernel(irradiance_lmax) * w)[bands][:, None]
+        datasets["/tangent_irradiance/sh"] = E_t
+        dattrs["/tangent_irradiance/sh"] = {"lmax": irradiance_lmax, "kernel": "kajiya-kay diffuse"}
+        if irradiance_lmax >= 2:
+            datasets["/tangent_irradiance/matrix"] = matrix_form(L_irr[:9] * w[bands[:9]][:, None])
+            dattrs["/tangent_irradiance/matrix"] = {"form": "E(t) = [t,1]^T M [t,1], Mehta eq. 23"}
+    summary["bake_seconds"] = time.perf_counter() - t0
+    attrs = {"input_" + k: v for k, v in env.meta.items()}
+    attrs.update(provenance or {})
+    return Asset("env_sh", attrs, datasets, dattrs), summary
+
+
+def _jsonable(d: dict) -> dict:
+    return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}
+
+
+def sh_irradiance(asset: Asset, dirs: np.ndarray, tangent: bool = False) -> np.ndarray:
+    """Irradiance from an ``env_sh`` asset at unit ``dirs`` (…, 3): SH plus the sun if present."""
+    key = "/tangent_irradiance/sh" if tangent else "/irradiance/sh"
+    coeffs = asset[key]
+    lmax = int(round(np.sqrt(coeffs.shape[0]))) - 1
+    E = real_sh(dirs, lmax) @ coeffs
+    if "/sun/direction" in asset:
+        energy = asset["/sun/radiance"] * float(asset["/sun/solid_angle"])
+        c = np.asarray(dirs) @ asset["/sun/direction"]
+        k = np.sqrt(np.maximum(0.0, 1.0 - c * c)) / np.pi**2 if tangent else np.maximum(c, 0.0)
+        E = E + k[..., None] * energy
+    return E
+
+
+def irradiance_errors(asset: Asset, env: Environment, n_dirs: int = 2048) -> dict:
+    """Luminance relative error of the asset's irradiance vs brute force of ``env``.
+
+    ``env`` is the original map (before sun extraction). Queries: ``n_dirs``
+    spherical-Fibonacci directions. Returns, for ``irradiance`` and
+    ``tangent_irradiance`` when present, ``{"mean": …, "max": …}`` of
+    ``|Y(E) - Y(E_ref)| / Y(E_ref)``.
+    """
+    dirs, omega, radiance = env.samples()
+    q = fibonacci_sphere(n_dirs)
+    out = {}
+    for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
+        if f"/{name}/sh" not in asset:
+            continue
+        ref = brute_force_irradiance(dirs, omega, radiance, q, tangent=tangent) @ REC709_LUMINANCE
+        got = sh_irradiance(asset, q, tangent=tangent) @ REC709_LUMINANCE
+        rel = np.abs(got - ref) / np.maximum(ref, 1e-30)
+        out[name] = {"mean": float(rel.mean()), "max": float(rel.max())}
+    return out
+
+
+def truncation_report(env: Environment, lmax: int, irradiance_lmax: int) -> dict:
+    """Energy per band and the error the chosen ``lmax`` implies (RH02 §5.1).
+
+    Projects to ``max(lmax, 64)`` once and reports, per channel, the fraction
+    of ``∫ L² dω`` captured up to ``lmax`` (``1 - ε_L``), and for the Lambert
+    and Kajiya–Kay kernels the fraction of the *convolved* energy
+    ``Σ K_l² e_l`` lost beyond ``irradiance_lmax``.
+    """
+    top = max(lmax, REPORT_LMAX)
+    top = min(top, env.shape[1] // 2 - 1) if env.layout == "latlong" else top
+    L = env.project(top)
+    e = band_energy(L)
+    w = env.quadrature_weights()
+    total = np.einsum("hwc,hw->c", env.pixels.astype(np.float64) ** 2, w)
+    captured = e[: lmax + 1].sum(axis=0) / np.where(total > 0, total, 1.0)
+    rep = {
+        "band_energy": e[: lmax + 1].tolist(),
+        "lighting_energy_captured": captured.tolist(),
+        "lighting_epsilon": (1.0 - captured).tolist(),
+    }
+    for name, kernel in (("irradiance", lambert_kernel), ("tangent_irradiance", kajiya_kay_kernel)):
+        k2 = kernel(top)[:, None] ** 2 * e
+        lost = k2[irradiance_lmax + 1 :].sum(axis=0) / np.maximum(k2.sum(axis=0), 1e-300)
+        rep[f"{name}_energy_lost"] = lost.tolist()
+    return rep
+
+
+__all__ = ["Sun", "bake_env_sh", "irradiance_errors", "sh_irradiance", "truncation_report"]

@@ -1,0 +1,1 @@
+"""Assets out: versioned HDF5 (``docs/FORMAT.md``), images, engine exports; atomic writes."""

@@ -1,0 +1,71 @@
+"""EXR and PNG output through OpenImageIO, atomic, with explicit overflow checks."""
+
+import numpy as np
+import OpenImageIO as oiio
+
+from shbake.errors import OutputError
+from shbake.format.atomic import atomic_path
+
+HALF_MAX = 65504.0
+
+
+def write_exr(path: str, img: np.ndarray, half: bool = True, attrs: dict | None = None) -> None:
+    """Write ``(H, W, C)`` linear data to an EXR (half by default; float32 if ``half=False``).
+
+    Raises :class:`OutputError` for non-finite values, and for values beyond
+    ±65504 when writing half floats (OpenImageIO would silently store Inf).
+    """
+    img = np.asarray(img, dtype=np.float32)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if not np.all(np.isfinite(img)):
+        raise OutputError(f"{path}: refusing to write non-finite values")
+    peak = float(np.abs(img).max()) if img.size else 0.0
+    if half and peak > HALF_MAX:
+        raise OutputError(
+            f"{path}: value {peak:.6g} overflows half float (max 65504); use float EXR output"
+        )
+    h, w, c = img.shape
+    spec = oiio.ImageSpec(w, h, c, "half" if half else "float")
+    spec.channelnames = ("R", "G", "B", "A")[:c] if c in (3, 4) else tuple(f"c{i}" for i in range(c))
+    spec.attribute("compression", "zip")
+    for k, v in sorted((attrs or {}).items()):
+        spec.attribute(k, v)
+    _write(path, spec, img)
+
+
+def write_png(path: str, img8: np.ndarray) -> None:
+    """Write an 8-bit ``(H, W, 3)`` image to PNG."""
+    img8 = np.ascontiguousarray(img8, dtype=np.uint8)
+    h, w, c = img8.shape
+    _write(path, oiio.ImageSpec(w, h, c, "uint8"), img8)
+
+
+def _write(path, spec, pixels):
+    with atomic_path(path) as tmp:
+        out = oiio.ImageOutput.create(tmp)
+        if out is None:
+            raise OutputError(f"{path}: cannot create image writer ({oiio.geterror().strip()})")
+        try:
+            if not out.open(tmp, spec) or not out.write_image(pixels):
+                raise OutputError(f"{path}: write failed ({out.geterror().strip()})")
+        finally:
+            out.close()
+
+
+def tonemap_to_srgb8(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
+    """Tone-map linear RGB to 8-bit sRGB for looking at.
+
+    Exposure (a multiplier) defaults to ``0.18 / mean luminance`` of the
+    non-zero pixels; then Reinhard ``x/(1+x)`` on each channel, the sRGB
+    transfer function, and rounding. Deterministic.
+    """
+    x = np.maximum(np.asarray(img, dtype=np.float64), 0.0)
+    if exposure is None:
+        lum = x @ np.array([0.2126, 0.7152, 0.0722])
+        nz = lum[lum > 0]
+        exposure = 0.18 / float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0
+    x = x * exposure
+    x = x / (1.0 + x)
+    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+    return np.clip(np.round(srgb * 255.0), 0, 255).astype(np.uint8)

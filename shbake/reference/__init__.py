@@ -1,0 +1,1 @@
+"""Brute-force integrators: the independent reference for previews, reports and tests."""
