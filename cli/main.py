@@ -3,11 +3,11 @@
 import sys
 
 import click
+from shbake_cli.preview import preview
+from shbake_cli.project_env import project_env
 
 from shbake import __version__
 from shbake.errors import ShbakeError
-from shbake_cli.preview import preview
-from shbake_cli.project_env import project_env
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

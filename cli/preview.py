@@ -4,12 +4,12 @@ import os
 
 import click
 import numpy as np
+from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 
 from shbake.errors import FormatError, ImageReadError
 from shbake.format.asset import read_asset
 from shbake.format.images import tonemap_to_srgb8, write_exr, write_png
 from shbake.preview.passes import PASSES, render_pass
-from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent"}
 
@@ -26,9 +26,11 @@ def load_source(asset, source_path):
         raise FormatError(f"{path}: SHA-256 differs from the one recorded in the asset")
     a = asset.attrs
     return load_environment(
-        path, a.get("input_layout"),
-        None if a.get("input_colorspace_in") == a.get("input_colorspace") else a.get(
-            "input_colorspace_in"),
+        path,
+        a.get("input_layout"),
+        None
+        if a.get("input_colorspace_in") == a.get("input_colorspace")
+        else a.get("input_colorspace_in"),
         a.get("input_negative_policy", "clamp"),
         None if a.get("input_nonfinite_policy") == "error" else a.get("input_nonfinite_policy"),
         quiet=True,
@@ -37,16 +39,39 @@ def load_source(asset, source_path):
 
 @click.command("preview")
 @click.argument("asset_path", metavar="ASSET", type=click.Path(dir_okay=False))
-@click.option("--pass", "pass_name", type=click.Choice(PASSES), default="irradiance",
-              show_default=True, help="Shading pass to render.")
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
-              help="EXR path (float32); a tone-mapped PNG is written beside it.")
-@click.option("--size", type=click.IntRange(8, 4096), default=192, show_default=True,
-              help="Image size in pixels (square).")
-@click.option("--diff", is_flag=True,
-              help="Also render the brute-force reference; write the error image, print MSE.")
-@click.option("--source", type=click.Path(dir_okay=False), default=None,
-              help="Original map (default: the path recorded in the asset).")
+@click.option(
+    "--pass",
+    "pass_name",
+    type=click.Choice(PASSES),
+    default="irradiance",
+    show_default=True,
+    help="Shading pass to render.",
+)
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="EXR path (float32); a tone-mapped PNG is written beside it.",
+)
+@click.option(
+    "--size",
+    type=click.IntRange(8, 4096),
+    default=192,
+    show_default=True,
+    help="Image size in pixels (square).",
+)
+@click.option(
+    "--diff",
+    is_flag=True,
+    help="Also render the brute-force reference; write the error image, print MSE.",
+)
+@click.option(
+    "--source",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Original map (default: the path recorded in the asset).",
+)
 @json_opt
 @quiet_opt
 def preview(asset_path, pass_name, output, size, diff, source, as_json, quiet):
@@ -56,13 +81,14 @@ def preview(asset_path, pass_name, output, size, diff, source, as_json, quiet):
     src = load_source(asset, source) if needs_source else None
     img, timing = render_pass(asset, pass_name, size, src)
     outputs = {output: img}
-    summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"],
-               "fps": timing["fps"]}
+    summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
     stem = os.path.splitext(output)[0]
     exposure = _exposure(img)
     if diff:
         if pass_name not in REFERENCE_OF:
-            raise click.UsageError("--diff compares the irradiance or tangent pass with its reference")
+            raise click.UsageError(
+                "--diff compares the irradiance or tangent pass with its reference"
+            )
         ref, ref_timing = render_pass(asset, REFERENCE_OF[pass_name], size, src)
         err = img - ref
         mse = float(np.mean(err**2))

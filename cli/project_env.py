@@ -6,16 +6,6 @@ import sys
 
 import click
 import numpy as np
-
-from shbake.env_sh import bake_env_sh, irradiance_errors, sh_irradiance, truncation_report
-from shbake.envmap import load_environment
-from shbake.envmap.layouts import latlong_directions
-from shbake.format.asset import write_asset
-from shbake.format.atomic import check_writable_dir
-from shbake.format.engine_export import write_gltf_json
-from shbake.format.images import HALF_MAX, write_exr
-from shbake.errors import OutputError
-from shbake.sh.windows import WINDOW_METHODS
 from shbake_cli.options import (
     colorspace_opt,
     emit_json,
@@ -27,6 +17,17 @@ from shbake_cli.options import (
     negative_opt,
     quiet_opt,
 )
+
+from shbake.conventions import check_lmax
+from shbake.env_sh import bake_env_sh, irradiance_errors, sh_irradiance, truncation_report
+from shbake.envmap import load_environment
+from shbake.envmap.layouts import latlong_directions
+from shbake.errors import OutputError
+from shbake.format.asset import write_asset
+from shbake.format.atomic import check_writable_dir
+from shbake.format.engine_export import write_gltf_json
+from shbake.format.images import HALF_MAX, write_exr
+from shbake.sh.windows import WINDOW_METHODS
 
 
 def command_line(ctx: click.Context) -> str:
@@ -41,27 +42,66 @@ def command_line(ctx: click.Context) -> str:
 @click.argument("env", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Asset (.h5).")
 @lmax_opt
-@click.option("--window", type=click.Choice(WINDOW_METHODS), default="none", show_default=True,
-              help="Band window before the irradiance kernels; 'dering' = weakest window "
-                   "that makes the reconstructions non-negative.")
-@click.option("--irradiance/--no-irradiance", default=True, show_default=True,
-              help="Store Lambert irradiance SH (/irradiance/sh).")
-@click.option("--tangent-irradiance/--no-tangent-irradiance", default=True, show_default=True,
-              help="Store Kajiya–Kay tangent irradiance (/tangent_irradiance/*).")
-@click.option("--irradiance-lmax", type=int, default=None,
-              help="Highest band of the irradiance SH [default: min(lmax, 2)].")
+@click.option(
+    "--window",
+    type=click.Choice(WINDOW_METHODS),
+    default="none",
+    show_default=True,
+    help="Band window before the irradiance kernels; 'dering' = weakest window "
+    "that makes the reconstructions non-negative.",
+)
+@click.option(
+    "--irradiance/--no-irradiance",
+    default=True,
+    show_default=True,
+    help="Store Lambert irradiance SH (/irradiance/sh).",
+)
+@click.option(
+    "--tangent-irradiance/--no-tangent-irradiance",
+    default=True,
+    show_default=True,
+    help="Store Kajiya–Kay tangent irradiance (/tangent_irradiance/*).",
+)
+@click.option(
+    "--irradiance-lmax",
+    type=int,
+    default=None,
+    help="Highest band of the irradiance SH [default: min(lmax, 2)].",
+)
 @click.option("--extract-sun", is_flag=True, help="Extract the dominant compact light first.")
-@click.option("--sun-radius", type=float, default=10.0, show_default=True,
-              help="Largest angular radius of the extracted light, degrees.")
-@click.option("--exr-maps", type=click.Path(file_okay=False), default=None,
-              help="Write irradiance / tangent-irradiance lat-long EXRs into this directory.")
-@click.option("--map-height", type=click.IntRange(2, 4096), default=128, show_default=True,
-              help="Height of the --exr-maps images (width = 2 × height).")
+@click.option(
+    "--sun-radius",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="Largest angular radius of the extracted light, degrees.",
+)
+@click.option(
+    "--exr-maps",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Write irradiance / tangent-irradiance lat-long EXRs into this directory.",
+)
+@click.option(
+    "--map-height",
+    type=click.IntRange(2, 4096),
+    default=128,
+    show_default=True,
+    help="Height of the --exr-maps images (width = 2 × height).",
+)
 @click.option("--float-exr", is_flag=True, help="Write float32 EXRs instead of half.")
-@click.option("--export", "exports", type=click.Choice(["gltf"]), multiple=True,
-              help="Engine export beside the asset (gltf: EXT_lights_image_based JSON).")
-@click.option("--report", is_flag=True,
-              help="Energy per band, truncation error, and error vs brute force on stderr.")
+@click.option(
+    "--export",
+    "exports",
+    type=click.Choice(["gltf"]),
+    multiple=True,
+    help="Engine export beside the asset (gltf: EXT_lights_image_based JSON).",
+)
+@click.option(
+    "--report",
+    is_flag=True,
+    help="Energy per band, truncation error, and error vs brute force on stderr.",
+)
 @layout_opt
 @negative_opt
 @fix_nonfinite_opt
@@ -69,27 +109,55 @@ def command_line(ctx: click.Context) -> str:
 @json_opt
 @quiet_opt
 @click.pass_context
-def project_env(ctx, env, output, lmax, window, irradiance, tangent_irradiance, irradiance_lmax,
-                extract_sun, sun_radius, exr_maps, map_height, float_exr, exports, report,
-                layout, negative, fix_nonfinite, colorspace, as_json, quiet):
+def project_env(
+    ctx,
+    env,
+    output,
+    lmax,
+    window,
+    irradiance,
+    tangent_irradiance,
+    irradiance_lmax,
+    extract_sun,
+    sun_radius,
+    exr_maps,
+    map_height,
+    float_exr,
+    exports,
+    report,
+    layout,
+    negative,
+    fix_nonfinite,
+    colorspace,
+    as_json,
+    quiet,
+):
     """Project the environment map ENV onto SH and write the asset OUTPUT.
 
     ENV: lat-long, cube strip or cross; EXR, HDR or any format OpenImageIO reads.
     """
+    check_lmax(lmax)
+    if irradiance_lmax is None:
+        irradiance_lmax = min(lmax, 2)
+    check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
     check_writable_dir(output)
     if exr_maps is not None and os.path.exists(exr_maps) and not os.path.isdir(exr_maps):
         raise OutputError(f"{exr_maps}: exists and is not a directory")
-    if irradiance_lmax is None:
-        irradiance_lmax = min(lmax, 2) if lmax >= 0 else 0
     environment = load_environment(env, layout, colorspace, negative, fix_nonfinite, quiet)
     provenance = {
         "command_line": command_line(ctx),
         "input_abspath": os.path.abspath(env),
     }
     asset, summary = bake_env_sh(
-        environment, lmax=lmax, window_name=window, irradiance_lmax=irradiance_lmax,
-        irradiance=irradiance, tangent=tangent_irradiance, sun=extract_sun,
-        sun_radius_deg=sun_radius, provenance=provenance,
+        environment,
+        lmax=lmax,
+        window_name=window,
+        irradiance_lmax=irradiance_lmax,
+        irradiance=irradiance,
+        tangent=tangent_irradiance,
+        sun=extract_sun,
+        sun_radius_deg=sun_radius,
+        provenance=provenance,
     )
     maps = {}
     if exr_maps is not None:
@@ -112,15 +180,16 @@ def project_env(ctx, env, output, lmax, window, irradiance, tangent_irradiance, 
     if maps:
         os.makedirs(exr_maps, exist_ok=True)
         for name, img in maps.items():
-            write_exr(os.path.join(exr_maps, name), img, half=not float_exr,
-                      attrs={"envmap": 0})
+            write_exr(os.path.join(exr_maps, name), img, half=not float_exr, attrs={"envmap": 0})
     if "gltf" in exports:
         gltf_path = os.path.splitext(output)[0] + ".gltf.json"
         write_gltf_json(gltf_path, asset["/irradiance/sh"][:9], os.path.basename(env))
         summary["gltf"] = gltf_path
 
     summary.update(
-        output=output, input=env, layout=environment.layout,
+        output=output,
+        input=env,
+        layout=environment.layout,
         negative_count=environment.meta["negative_count"],
         lighting_L00=asset["/lighting/sh"][0].tolist(),
     )
@@ -137,17 +206,26 @@ def _print_report(summary: dict, quiet: bool) -> None:
     info("band  energy (R, G, B)", quiet)
     for l, e in enumerate(rep["band_energy"]):
         info(f"{l:4d}  " + "  ".join(f"{v:.4g}" for v in e), quiet)
-    info("lighting energy captured: " + ", ".join(f"{v:.6f}" for v in
-                                                  rep["lighting_energy_captured"]), quiet)
+    info(
+        "lighting energy captured: "
+        + ", ".join(f"{v:.6f}" for v in rep["lighting_energy_captured"]),
+        quiet,
+    )
     for k in ("irradiance", "tangent_irradiance"):
-        info(f"{k} energy lost beyond its lmax: " + ", ".join(
-            f"{v:.3e}" for v in rep[f"{k}_energy_lost"]), quiet)
+        info(
+            f"{k} energy lost beyond its lmax: "
+            + ", ".join(f"{v:.3e}" for v in rep[f"{k}_energy_lost"]),
+            quiet,
+        )
     for k, v in rep["error_vs_brute_force"].items():
         info(f"{k} vs brute force: mean {v['mean']:.4%}, max {v['max']:.4%}", quiet)
     if "sun" in summary:
         s = summary["sun"]
         if s.get("extracted"):
-            info(f"sun: contrast {s['contrast']:.1f}, energy fraction "
-                 + ", ".join(f"{v:.3f}" for v in s["energy_fraction"]), quiet)
+            info(
+                f"sun: contrast {s['contrast']:.1f}, energy fraction "
+                + ", ".join(f"{v:.3f}" for v in s["energy_fraction"]),
+                quiet,
+            )
         else:
             info(f"sun: none extracted (peak/background contrast {s['contrast']:.1f})", quiet)

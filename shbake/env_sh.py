@@ -147,23 +147,35 @@ def sh_irradiance(asset: Asset, dirs: np.ndarray, tangent: bool = False) -> np.n
     return E
 
 
-def irradiance_errors(asset: Asset, env: Environment, n_dirs: int = 2048) -> dict:
-    """Luminance relative error of the asset's irradiance vs brute force of ``env``.
+def brute_force_reference(env: Environment, n_dirs: int = 2048) -> dict:
+    """Brute-force luminance of irradiance and tangent irradiance of ``env``.
 
-    ``env`` is the original map (before sun extraction). Queries: ``n_dirs``
-    spherical-Fibonacci directions. Returns, for ``irradiance`` and
-    ``tangent_irradiance`` when present, ``{"mean": …, "max": …}`` of
-    ``|Y(E) - Y(E_ref)| / Y(E_ref)``.
+    Queries: ``n_dirs`` spherical-Fibonacci directions. Returns
+    ``{"dirs": (n, 3), "irradiance": (n,), "tangent_irradiance": (n,)}``.
     """
     dirs, omega, radiance = env.samples()
     q = fibonacci_sphere(n_dirs)
+    out = {"dirs": q}
+    for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
+        out[name] = brute_force_irradiance(dirs, omega, radiance, q, tangent) @ REC709_LUMINANCE
+    return out
+
+
+def irradiance_errors(asset: Asset, env: Environment, reference: dict | None = None) -> dict:
+    """Luminance relative error of the asset's irradiance vs brute force of ``env``.
+
+    ``env`` is the original map (before sun extraction); ``reference`` a
+    :func:`brute_force_reference` of it, computed here when omitted. Returns,
+    for ``irradiance`` and ``tangent_irradiance`` when present,
+    ``{"mean": …, "max": …}`` of ``|Y(E) - Y(E_ref)| / Y(E_ref)``.
+    """
+    ref = reference if reference is not None else brute_force_reference(env)
     out = {}
     for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
         if f"/{name}/sh" not in asset:
             continue
-        ref = brute_force_irradiance(dirs, omega, radiance, q, tangent=tangent) @ REC709_LUMINANCE
-        got = sh_irradiance(asset, q, tangent=tangent) @ REC709_LUMINANCE
-        rel = np.abs(got - ref) / np.maximum(ref, 1e-30)
+        got = sh_irradiance(asset, ref["dirs"], tangent=tangent) @ REC709_LUMINANCE
+        rel = np.abs(got - ref[name]) / np.maximum(ref[name], 1e-30)
         out[name] = {"mean": float(rel.mean()), "max": float(rel.max())}
     return out
 
@@ -195,4 +207,11 @@ def truncation_report(env: Environment, lmax: int, irradiance_lmax: int) -> dict
     return rep
 
 
-__all__ = ["Sun", "bake_env_sh", "irradiance_errors", "sh_irradiance", "truncation_report"]
+__all__ = [
+    "Sun",
+    "bake_env_sh",
+    "brute_force_reference",
+    "irradiance_errors",
+    "sh_irradiance",
+    "truncation_report",
+]

@@ -33,15 +33,15 @@ def read_image(path: str) -> tuple[np.ndarray, dict]:
     inp = oiio.ImageInput.open(path)
     if inp is None:
         msg = oiio.geterror().strip().splitlines()
-        raise ImageReadError(f"{path}: not a readable image ({msg[-1] if msg else 'unknown format'})")
+        raise ImageReadError(
+            f"{path}: not a readable image ({msg[-1] if msg else 'unknown format'})"
+        )
     try:
         spec = inp.spec()
         if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
             raise ImageReadError(f"{path}: image has no pixels")
         if spec.width * spec.height > MAX_PIXELS:
-            raise ImageReadError(
-                f"{path}: {spec.width}x{spec.height} exceeds {MAX_PIXELS} pixels"
-            )
+            raise ImageReadError(f"{path}: {spec.width}x{spec.height} exceeds {MAX_PIXELS} pixels")
         pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
         err = inp.geterror().strip()
         if pixels is None or err:
@@ -83,7 +83,6 @@ def to_rgb(pixels: np.ndarray, channelnames: tuple[str, ...]) -> tuple[np.ndarra
 
 def sha256_of(path: str) -> str:
     """Hex SHA-256 of a file's bytes."""
-
 
     h = hashlib.sha256()
     with open(path, "rb") as f:

@@ -117,8 +117,11 @@ def latlong_directions(height: int, width: int) -> np.ndarray:
     phi = 2.0 * np.pi * (np.arange(width) + 0.5) / width
     st = np.sin(theta)[:, None]
     return np.stack(
-        [st * np.sin(phi)[None, :], np.repeat(np.cos(theta)[:, None], width, 1),
-         -st * np.cos(phi)[None, :]],
+        [
+            st * np.sin(phi)[None, :],
+            np.repeat(np.cos(theta)[:, None], width, 1),
+            -st * np.cos(phi)[None, :],
+        ],
         axis=-1,
     )
 

@@ -27,7 +27,9 @@ def write_exr(path: str, img: np.ndarray, half: bool = True, attrs: dict | None 
         )
     h, w, c = img.shape
     spec = oiio.ImageSpec(w, h, c, "half" if half else "float")
-    spec.channelnames = ("R", "G", "B", "A")[:c] if c in (3, 4) else tuple(f"c{i}" for i in range(c))
+    spec.channelnames = (
+        ("R", "G", "B", "A")[:c] if c in (3, 4) else tuple(f"c{i}" for i in range(c))
+    )
     spec.attribute("compression", "zip")
     for k, v in sorted((attrs or {}).items()):
         spec.attribute(k, v)

@@ -44,7 +44,9 @@ def _brute_force(dirs, lw, queries, tangent, out):
 
 
 def _prepare(dirs, solid_angles, radiance):
-    lw = np.asarray(radiance, dtype=np.float64) * np.asarray(solid_angles, dtype=np.float64)[:, None]
+    lw = (
+        np.asarray(radiance, dtype=np.float64) * np.asarray(solid_angles, dtype=np.float64)[:, None]
+    )
     keep = np.any(lw != 0.0, axis=1)
     return np.ascontiguousarray(dirs[keep], dtype=np.float64), np.ascontiguousarray(lw[keep])
 

@@ -24,7 +24,7 @@ Recurrences (``Q_0^0 = 1/sqrt(4π)``)::
     a_lm = sqrt((4l²-1)/(l²-m²)),  b_lm = sqrt(((l-1)²-m²)/(4(l-1)²-1))
 """
 
-from functools import lru_cache
+from functools import cache
 
 import numba
 import numpy as np
@@ -36,7 +36,7 @@ from shbake.jit import jit, pjit
 SQRT2 = np.sqrt(2.0)
 
 
-@lru_cache(maxsize=None)
+@cache
 def recurrence_tables(lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Coefficients of the normalised recurrence, shape ``(lmax+1, lmax+1)`` each.
 

@@ -11,8 +11,9 @@ so that rotating a function, ``g(d) = f(Rᵀ d)``, maps its coefficients as
 Blocks are built by the Ivanic–Ruedenberg recurrence (J. Phys. Chem. 100,
 6342 (1996), with the 1998 erratum) from the ``l = 1`` block, which in the
 basis order ``(y, z, x)`` is ``R`` permuted: ``M_1[i, j] = R[p(i), p(j)]``,
-``p = (1, 2, 0)``. The recurrence is stable: blocks stay orthogonal to ~1e-13
-at ``lmax`` 128.
+``p = (1, 2, 0)``. Measured deviation from orthogonality of the band-``l``
+block for a random rotation: 2e-14 at l = 30, 9e-12 at 64, 7e-9 at 96,
+6e-6 at 128 (rounding grows with l in this recurrence; SPEC asks 1e-10 to 30).
 """
 
 import numpy as np
@@ -141,7 +142,9 @@ class SHRotation:
         n = c.shape[0]
         lmax_c = int(round(np.sqrt(n))) - 1
         if (lmax_c + 1) ** 2 != n or lmax_c > self.lmax:
-            raise ParameterError(f"cannot rotate {n} coefficients with an lmax {self.lmax} rotation")
+            raise ParameterError(
+                f"cannot rotate {n} coefficients with an lmax {self.lmax} rotation"
+            )
         out = np.empty_like(c)
         for l in range(lmax_c + 1):
             blk = self.block(l)

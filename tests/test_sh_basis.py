@@ -1,0 +1,108 @@
+"""Real SH basis (SPEC §2): closed forms, orthonormality to lmax 64, extremes."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.polynomial.legendre import leggauss
+
+from shbake.errors import ParameterError
+from shbake.sh.basis import evaluate, real_sh, real_sh_numba
+
+
+def gauss_legendre_sphere(lmax):
+    """Product rule exact for band ≤ 2 lmax: Gauss–Legendre in z, uniform in φ."""
+    z, wz = leggauss(lmax + 1)
+    nphi = 2 * lmax + 2
+    phi = 2 * np.pi * np.arange(nphi) / nphi
+    r = np.sqrt(1 - z * z)
+    d = np.stack(
+        [np.outer(r, np.cos(phi)), np.outer(r, np.sin(phi)), np.repeat(z[:, None], nphi, 1)], -1
+    )
+    w = np.outer(wz, np.full(nphi, 2 * np.pi / nphi))
+    return d.reshape(-1, 3), w.ravel()
+
+
+class TestRealSh:
+    def test_closed_forms_of_spec(self):
+        rng = np.random.default_rng(0)
+        d = rng.normal(size=(100, 3))
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        x, y, z = d.T
+        c1, c2 = np.sqrt(3 / (4 * np.pi)), np.sqrt(15 / (4 * np.pi))
+        expected = np.stack(
+            [
+                np.full_like(x, 0.5 * np.sqrt(1 / np.pi)),
+                c1 * y,
+                c1 * z,
+                c1 * x,
+                c2 * x * y,
+                c2 * y * z,
+                np.sqrt(5 / (16 * np.pi)) * (3 * z * z - 1),
+                c2 * x * z,
+                np.sqrt(15 / (16 * np.pi)) * (x * x - y * y),
+            ],
+            axis=1,
+        )
+        np.testing.assert_allclose(real_sh(d, 2), expected, atol=1e-15)
+
+    def test_no_condon_shortley_phase(self):
+        # y_{l,l} at +X is positive for every l (a CS phase would alternate signs).
+        y = real_sh([1.0, 0.0, 0.0], 20)
+        assert all(y[l * (l + 1) + l] > 0 for l in range(21))
+
+    def test_orthonormal_to_lmax_64(self):
+        lmax = 64
+        d, w = gauss_legendre_sphere(lmax)
+        Y = real_sh_numba(d, lmax)
+        gram = (Y * w[:, None]).T @ Y
+        assert np.abs(gram - np.eye(gram.shape[0])).max() < 1e-10
+
+    def test_finite_at_lmax_128_including_poles(self):
+        d = np.array([[0, 0, 1.0], [0, 0, -1.0], [1, 0, 0], [1e-9, 0, 1.0], [0.6, 0.8, 0.0]])
+        Y = real_sh(d, 128)
+        assert np.all(np.isfinite(Y))
+        # At the poles only m = 0 survives and y_l0(±z) = ±^l sqrt((2l+1)/4π).
+        l = np.arange(129)
+        np.testing.assert_allclose(Y[0, l * (l + 1)], np.sqrt((2 * l + 1) / (4 * np.pi)))
+        np.testing.assert_allclose(
+            Y[1, l * (l + 1)], (-1.0) ** l * np.sqrt((2 * l + 1) / (4 * np.pi))
+        )
+
+    def test_addition_theorem_at_lmax_100(self):
+        # Σ_m y_lm(d)² = (2l+1)/(4π) for every l and d — checks large-l accuracy.
+        d = np.random.default_rng(5).normal(size=(20, 3))
+        Y = real_sh_numba(d, 100)
+        for l in (10, 50, 100):
+            np.testing.assert_allclose(
+                np.sum(Y[:, l * l : (l + 1) ** 2] ** 2, axis=1),
+                (2 * l + 1) / (4 * np.pi),
+                rtol=1e-11,
+            )
+
+    @settings(max_examples=50, deadline=None)
+    @given(
+        st.tuples(*[st.floats(-1, 1, allow_nan=False)] * 3).filter(
+            lambda v: sum(c * c for c in v) > 1e-6
+        )
+    )
+    def test_numba_matches_numpy(self, v):
+        np.testing.assert_allclose(real_sh_numba(v, 12), real_sh(v, 12), atol=1e-13)
+
+    def test_rejects_bad_input(self):
+        with pytest.raises(ParameterError):
+            real_sh([0.0, 0.0, 0.0], 2)
+        with pytest.raises(ParameterError):
+            real_sh([1.0, 0.0, 0.0], 129)
+        with pytest.raises(ParameterError):
+            real_sh([np.nan, 0.0, 1.0], 2)
+
+
+class TestEvaluate:
+    def test_reconstructs_a_known_function(self):
+        # f = 2 y_0 + 3 y_2 (= 3 c1 z + const) evaluated analytically.
+        c = np.zeros(9)
+        c[0], c[2] = 2.0, 3.0
+        d = np.array([[0, 0, 1.0], [0, 1.0, 0]])
+        expected = 2 * 0.5 / np.sqrt(np.pi) + 3 * np.sqrt(3 / (4 * np.pi)) * d[:, 2]
+        np.testing.assert_allclose(evaluate(c, d), expected)
