@@ -1,0 +1,11 @@
+"""Run every benchmark and print the Markdown tables of docs/BENCHMARKS.md."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+for script in ("projection.py", "end_to_end.py", "irradiance_accuracy.py"):
+    print(f"\n## {script}\n", flush=True)
+    subprocess.run([sys.executable, str(HERE / script)], check=True)
