@@ -33,16 +33,35 @@ def main():
         asset = os.path.join(tmp, "e.h5")
         print("| command | best of 3, s |")
         print("|---|---|")
-        for extra in ([], ["--extract-sun"], ["--lmax", "8", "--extract-sun", "--window", "dering"]):
+        for extra in (
+            [],
+            ["--extract-sun"],
+            ["--lmax", "8", "--extract-sun", "--window", "dering"],
+        ):
             args = [SHBAKE, "project-env", str(MAP), "-o", asset, "-q", *extra]
             t, _ = timed(args)
             print(f"| `shbake project-env esplanade.exr {' '.join(extra)}` | {t:.3f} |")
         for p in ("irradiance", "tangent"):
-            _, out = timed([SHBAKE, "preview", asset, "--pass", p, "-o",
-                            os.path.join(tmp, "p.exr"), "--size", "512", "--json"], n=1)
+            _, out = timed(
+                [
+                    SHBAKE,
+                    "preview",
+                    asset,
+                    "--pass",
+                    p,
+                    "-o",
+                    os.path.join(tmp, "p.exr"),
+                    "--size",
+                    "512",
+                    "--json",
+                ],
+                n=1,
+            )
             s = json.loads(out)
-            print(f"| preview `{p}` pass 512×512, kernel only | {s['seconds']:.5f} "
-                  f"({s['fps']:.0f} frames/s) |")
+            print(
+                f"| preview `{p}` pass 512×512, kernel only | {s['seconds']:.5f} "
+                f"({s['fps']:.0f} frames/s) |"
+            )
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 
 from shbake.errors import FormatError, ImageReadError
 from shbake.format.asset import read_asset
-from shbake.format.images import tonemap_to_srgb8, write_exr, write_png
+from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
 from shbake.preview.passes import PASSES, render_pass
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent"}
@@ -83,7 +83,7 @@ def preview(asset_path, pass_name, output, size, diff, source, as_json, quiet):
     outputs = {output: img}
     summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
     stem = os.path.splitext(output)[0]
-    exposure = _exposure(img)
+    exposure = auto_exposure(img)
     if diff:
         if pass_name not in REFERENCE_OF:
             raise click.UsageError(
@@ -107,9 +107,3 @@ def preview(asset_path, pass_name, output, size, diff, source, as_json, quiet):
         emit_json(summary)
     else:
         info(f"wrote {output} ({pass_name}, {timing['fps']:.1f} frames/s)", quiet)
-
-
-def _exposure(img: np.ndarray) -> float:
-    lum = img @ np.array([0.2126, 0.7152, 0.0722])
-    nz = lum[lum > 0]
-    return 0.18 / float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0

@@ -55,6 +55,13 @@ def _write(path, spec, pixels):
             out.close()
 
 
+def auto_exposure(img: np.ndarray) -> float:
+    """``0.18 / geometric-mean luminance`` of the non-zero pixels (1 for a black image)."""
+    lum = np.maximum(np.asarray(img, dtype=np.float64), 0.0) @ np.array([0.2126, 0.7152, 0.0722])
+    nz = lum[lum > 0]
+    return 0.18 / float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0
+
+
 def tonemap_to_srgb8(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
     """Tone-map linear RGB to 8-bit sRGB for looking at.
 
@@ -64,9 +71,7 @@ def tonemap_to_srgb8(img: np.ndarray, exposure: float | None = None) -> np.ndarr
     """
     x = np.maximum(np.asarray(img, dtype=np.float64), 0.0)
     if exposure is None:
-        lum = x @ np.array([0.2126, 0.7152, 0.0722])
-        nz = lum[lum > 0]
-        exposure = 0.18 / float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0
+        exposure = auto_exposure(x)
     x = x * exposure
     x = x / (1.0 + x)
     srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
