@@ -3,6 +3,7 @@
 import sys
 
 import click
+from shbake_cli.brdf_table import brdf_table
 from shbake_cli.preview import preview
 from shbake_cli.project_env import project_env
 
@@ -18,6 +19,7 @@ def cli():
 
 cli.add_command(project_env)
 cli.add_command(preview)
+cli.add_command(brdf_table)
 
 
 def main(argv=None) -> int:

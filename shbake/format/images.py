@@ -9,8 +9,17 @@ from shbake.format.atomic import atomic_path
 HALF_MAX = 65504.0
 
 
-def write_exr(path: str, img: np.ndarray, half: bool = True, attrs: dict | None = None) -> None:
+def write_exr(
+    path: str,
+    img: np.ndarray,
+    half: bool = True,
+    attrs: dict | None = None,
+    channel_names: tuple[str, ...] | None = None,
+) -> None:
     """Write ``(H, W, C)`` linear data to an EXR (half by default; float32 if ``half=False``).
+
+    Channels are named R, G, B(, A) for 3 or 4 channels, ``c0 …`` otherwise,
+    unless ``channel_names`` gives one name per channel.
 
     Raises :class:`OutputError` for non-finite values, and for values beyond
     ±65504 when writing half floats (OpenImageIO would silently store Inf).
@@ -27,9 +36,13 @@ def write_exr(path: str, img: np.ndarray, half: bool = True, attrs: dict | None 
         )
     h, w, c = img.shape
     spec = oiio.ImageSpec(w, h, c, "half" if half else "float")
-    spec.channelnames = (
-        ("R", "G", "B", "A")[:c] if c in (3, 4) else tuple(f"c{i}" for i in range(c))
-    )
+    if channel_names is None:
+        channel_names = (
+            ("R", "G", "B", "A")[:c] if c in (3, 4) else tuple(f"c{i}" for i in range(c))
+        )
+    if len(channel_names) != c:
+        raise ValueError(f"{c} channels but {len(channel_names)} names")
+    spec.channelnames = tuple(channel_names)
     spec.attribute("compression", "zip")
     for k, v in sorted((attrs or {}).items()):
         spec.attribute(k, v)

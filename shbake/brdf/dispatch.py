@@ -1,0 +1,76 @@
+"""One entry point per kernel operation, switching on the model id (check-free).
+
+The tabulation and preview kernels call :func:`brdf_eval`, :func:`lobe_sample`
+and :func:`lobe_pdf` with a model id, the packed parameter vector and, for
+measured data, the data array; a plain integer switch keeps every kernel a
+single cached compilation.
+"""
+
+from shbake.brdf import (
+    ashikhmin_shirley,
+    blinn_phong,
+    ggx,
+    kajiya_kay,
+    lambert,
+    merl,
+    phong,
+    ward,
+)
+from shbake.jit import jit
+
+
+@jit
+def brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, out):
+    """``out[0:3] = f(s, v)`` (1/sr) in the local frame, ``s_z, v_z > 0``."""
+    if model == 0:
+        lambert.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    elif model == 1:
+        phong.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    elif model == 2:
+        blinn_phong.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    elif model == 3:
+        ashikhmin_shirley.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    elif model == 4:
+        ward.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    elif model == 5:
+        ggx.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    elif model == 6:
+        kajiya_kay.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    else:
+        merl.evaluate_data(data, sx, sy, sz, vx, vy, vz, out)
+
+
+@jit
+def lobe_sample(model, prm, vx, vy, vz, ur, ua):
+    """Lobe direction from ``ur`` (radial) and ``ua`` (azimuthal) in ``[0, 1)`` (may fall below the horizon)."""
+    if model == 1:
+        return phong.sample(prm, vx, vy, vz, ur, ua)
+    if model == 2:
+        return blinn_phong.sample(prm, vx, vy, vz, ur, ua)
+    if model == 3:
+        return ashikhmin_shirley.sample(prm, vx, vy, vz, ur, ua)
+    if model == 4:
+        return ward.sample(prm, vx, vy, vz, ur, ua)
+    if model == 5:
+        return ggx.sample(prm, vx, vy, vz, ur, ua)
+    if model == 6:
+        return kajiya_kay.sample(prm, vx, vy, vz, ur, ua)
+    return merl.sample(prm, vx, vy, vz, ur, ua)
+
+
+@jit
+def lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz):
+    """Solid-angle density of :func:`lobe_sample` at ``s`` (1/sr)."""
+    if model == 1:
+        return phong.pdf(prm, sx, sy, sz, vx, vy, vz)
+    if model == 2:
+        return blinn_phong.pdf(prm, sx, sy, sz, vx, vy, vz)
+    if model == 3:
+        return ashikhmin_shirley.pdf(prm, sx, sy, sz, vx, vy, vz)
+    if model == 4:
+        return ward.pdf(prm, sx, sy, sz, vx, vy, vz)
+    if model == 5:
+        return ggx.pdf(prm, sx, sy, sz, vx, vy, vz)
+    if model == 6:
+        return kajiya_kay.pdf(prm, sx, sy, sz, vx, vy, vz)
+    return merl.pdf(prm, sx, sy, sz, vx, vy, vz)

@@ -1,0 +1,154 @@
+"""Measured isotropic BRDFs in the MERL ``.binary`` format (Matusik et al. 2003).
+
+File layout (little-endian): three ``int32`` dimensions ``(90, 90, 180)`` =
+``(θ_h, θ_d, φ_d)`` bins, then ``3 × 90·90·180`` ``float64`` values, all red,
+then green, then blue, stored divided by the channel scales
+``(1/1500, 1.15/1500, 1.66/1500)``. Negative values mark missing data.
+
+Sample ``(i, j, k)`` sits at ``θ_h = (i/90)² π/2``, ``θ_d = j π/180``,
+``φ_d = k π/180`` (the MERL index maps read as grid points; ``φ_d`` has period
+π by reciprocity). :func:`evaluate` converts ``(s, v)`` to Rusinkiewicz's
+half/difference angles and interpolates trilinearly in index space (missing
+values read as 0, ``θ`` beyond the last sample clamps, ``φ_d`` wraps).
+"""
+
+import os
+
+import numpy as np
+
+from shbake.brdf.sampling import TWO_PI, lobe_frame_dir, safe_pow
+from shbake.brdf.spec import ModelSpec, Param
+from shbake.errors import InputError
+from shbake.format.atomic import atomic_path
+from shbake.jit import jit
+
+N_TH, N_TD, N_PD = 90, 90, 180
+SCALES = np.array([1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0])
+
+SPEC = ModelSpec(
+    name="merl",
+    model_id=7,
+    params=(
+        Param(
+            "lobe",
+            64.0,
+            0.0,
+            1e5,
+            doc="sampling hint only: exponent of the Phong lobe importance-sampled "
+            "beside the cosine (does not change the BRDF)",
+        ),
+    ),
+    citation="W. Matusik, H. Pfister, M. Brand, L. McMillan, A data-driven reflectance "
+    "model, SIGGRAPH 2003; S. Rusinkiewicz, A new change of variables for efficient BRDF "
+    "representation, EGWR 1998",
+    summary="measured isotropic BRDF read from a MERL .binary file",
+)
+
+
+def read_merl(path: str) -> np.ndarray:
+    """Read a MERL ``.binary`` file; return ``(3, 90, 90, 180)`` float64 BRDF values (1/sr).
+
+    Raises :class:`~shbake.errors.InputError` for a missing, truncated or
+    malformed file, or non-finite values.
+    """
+    try:
+        raw = open(path, "rb").read()
+    except OSError as e:
+        raise InputError(f"{path}: cannot read MERL file ({e.strerror})") from None
+    if len(raw) < 12:
+        raise InputError(f"{path}: not a MERL .binary file (only {len(raw)} bytes)")
+    dims = tuple(int(d) for d in np.frombuffer(raw[:12], dtype="<i4"))
+    if dims != (N_TH, N_TD, N_PD):
+        raise InputError(f"{path}: MERL dimensions {dims}, expected {(N_TH, N_TD, N_PD)}")
+    n = N_TH * N_TD * N_PD
+    if len(raw) != 12 + 3 * 8 * n:
+        raise InputError(
+            f"{path}: truncated or padded MERL file ({len(raw)} bytes, expected {12 + 24 * n})"
+        )
+    vals = np.frombuffer(raw[12:], dtype="<f8").reshape(3, N_TH, N_TD, N_PD)
+    if not np.all(np.isfinite(vals)):
+        raise InputError(f"{path}: MERL file holds NaN or Inf values")
+    return np.ascontiguousarray(np.maximum(vals, 0.0) * SCALES[:, None, None, None])
+
+
+def half_diff_grid() -> tuple[np.ndarray, np.ndarray]:
+    """Light and view directions ``(s, v)``, each ``(90, 90, 180, 3)``, of every MERL sample."""
+    th = (np.arange(N_TH) / N_TH) ** 2 * (np.pi / 2)
+    td = np.arange(N_TD) * (np.pi / 2) / N_TD
+    pd = np.arange(N_PD) * np.pi / N_PD
+    th, td, pd = np.meshgrid(th, td, pd, indexing="ij")
+    d = np.stack([np.sin(td) * np.cos(pd), np.sin(td) * np.sin(pd), np.cos(td)], axis=-1)
+    e = d * np.array([-1.0, -1.0, 1.0])  # the other direction, mirrored about h = +Z
+
+    def rot_y(w):
+        c, s = np.cos(th), np.sin(th)
+        return np.stack(
+            [w[..., 0] * c + w[..., 2] * s, w[..., 1], -w[..., 0] * s + w[..., 2] * c], -1
+        )
+
+    return rot_y(d), rot_y(e)
+
+
+def write_merl(path: str, values: np.ndarray) -> None:
+    """Write ``(3, 90, 90, 180)`` BRDF values (1/sr) as a MERL ``.binary`` file, atomically.
+
+    Use with :func:`half_diff_grid` to tabulate any model in MERL form.
+    """
+    v = np.asarray(values, dtype=float)
+    if v.shape != (3, N_TH, N_TD, N_PD) or not np.all(np.isfinite(v)):
+        raise InputError(f"MERL values must be finite, shape (3, 90, 90, 180), got {v.shape}")
+    body = (v / SCALES[:, None, None, None]).astype("<f8").tobytes()
+    with atomic_path(os.fspath(path)) as tmp, open(tmp, "wb") as f:
+        f.write(np.array([N_TH, N_TD, N_PD], dtype="<i4").tobytes())
+        f.write(body)
+
+
+@jit
+def evaluate_data(data, sx, sy, sz, vx, vy, vz, out):
+    """Trilinear look-up of ``data (3, 90, 90, 180)`` at the half/difference angles of ``(s, v)``."""
+    if sz <= 0.0 or vz <= 0.0:
+        for c in range(3):
+            out[c] = 0.0
+        return
+    hx, hy, hz = sx + vx, sy + vy, sz + vz
+    n = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / n, hy / n, hz / n
+    th = np.arccos(min(1.0, hz))
+    ph = np.arctan2(hy, hx)
+    cp, sp = np.cos(ph), np.sin(ph)
+    ax, ay, az = sx * cp + sy * sp, -sx * sp + sy * cp, sz  # rotate by −φ_h about z
+    ct, st = np.cos(th), np.sin(th)
+    dx, dy, dz = ax * ct - az * st, ay, ax * st + az * ct  # rotate by −θ_h about y
+    td = np.arccos(min(1.0, max(-1.0, dz)))
+    pd = np.arctan2(dy, dx)
+    if pd < 0.0:
+        pd += np.pi
+    fi = min(np.sqrt(th / (0.5 * np.pi)) * N_TH, N_TH - 1.0)
+    fj = min(td / (0.5 * np.pi) * N_TD, N_TD - 1.0)
+    fk = pd / np.pi * N_PD
+    i0, j0, k0 = min(int(fi), N_TH - 2), min(int(fj), N_TD - 2), int(fk) % N_PD
+    wi, wj, wk = fi - i0, fj - j0, fk - int(fk)
+    k1 = (k0 + 1) % N_PD
+    for c in range(3):
+        acc = 0.0
+        for di in range(2):
+            a = wi if di else 1.0 - wi
+            for dj in range(2):
+                b = wj if dj else 1.0 - wj
+                row = data[c, i0 + di, j0 + dj]
+                acc += a * b * ((1.0 - wk) * row[k0] + wk * row[k1])
+        out[c] = acc
+
+
+@jit
+def sample(prm, vx, vy, vz, ur, ua):
+    """Phong lobe of exponent ``prm[0]`` about the mirror direction (a sampling hint)."""
+    ct = ur ** (1.0 / (prm[0] + 1.0))
+    return lobe_frame_dir(-vx, -vy, vz, ct, TWO_PI * ua)
+
+
+@jit
+def pdf(prm, sx, sy, sz, vx, vy, vz):
+    """Density of :func:`sample` (1/sr)."""
+    n = prm[0]
+    return (n + 1.0) / (2.0 * np.pi) * safe_pow(-vx * sx - vy * sy + vz * sz, n)

@@ -1,0 +1,123 @@
+"""The registry of BRDF models and :class:`BRDF`, a model with validated parameters."""
+
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from shbake.brdf import (
+    ashikhmin_shirley,
+    blinn_phong,
+    ggx,
+    kajiya_kay,
+    lambert,
+    merl,
+    phong,
+    ward,
+)
+from shbake.brdf.dispatch import brdf_eval
+from shbake.brdf.spec import ModelSpec
+from shbake.errors import ParameterError
+from shbake.jit import pjit
+
+MODELS: dict[str, ModelSpec] = {
+    m.SPEC.name: m.SPEC
+    for m in (lambert, phong, blinn_phong, ashikhmin_shirley, ward, ggx, kajiya_kay, merl)
+}
+"""Model name → :class:`~shbake.brdf.spec.ModelSpec`, in kernel-id order."""
+
+NO_DATA = np.zeros((3, 2, 2, 2))
+
+
+@pjit
+def _eval_many(model, prm, data, s, v, out):
+    for i in numba.prange(s.shape[0]):
+        if s[i, 2] > 0.0 and v[i, 2] > 0.0:
+            brdf_eval(
+                model, prm, data, s[i, 0], s[i, 1], s[i, 2], v[i, 0], v[i, 1], v[i, 2], out[i]
+            )
+
+
+@dataclass
+class BRDF:
+    """A BRDF model with its parameters resolved and checked.
+
+    Attributes
+    ----------
+    spec : ModelSpec
+    values : dict
+        Parameter name → float or ``(3,)`` RGB array.
+    data : ndarray
+        Measured data (MERL) or a placeholder.
+    source : str
+        Where measured data came from (path), else ``""``.
+    """
+
+    spec: ModelSpec
+    values: dict
+    data: np.ndarray = field(default_factory=lambda: NO_DATA)
+    source: str = ""
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def packed(self) -> np.ndarray:
+        return self.spec.pack(self.values)
+
+    @property
+    def coloured(self) -> bool:
+        """True when any colour parameter differs between channels (RGB table)."""
+        if self.spec.name == "merl":
+            return True
+        return any(p.colour and np.ptp(self.values[p.name]) > 0 for p in self.spec.params)
+
+    def with_values(self, **changes) -> "BRDF":
+        """A copy with some parameters changed (validated)."""
+        given = {k: v for k, v in self.values.items()}
+        given.update(changes)
+        return BRDF(self.spec, self.spec.resolve(given), self.data, self.source)
+
+    def evaluate(self, s, v) -> np.ndarray:
+        """``f(s, v)`` per channel (1/sr) at local-frame unit directions ``(..., 3)``; 0 below the horizon."""
+        s = np.asarray(s, dtype=float)
+        v = np.broadcast_to(np.asarray(v, dtype=float), s.shape)
+        flat_s = np.ascontiguousarray(s.reshape(-1, 3))
+        flat_v = np.ascontiguousarray(v.reshape(-1, 3))
+        out = np.zeros((flat_s.shape[0], 3))
+        _eval_many(self.spec.model_id, self.packed, self.data, flat_s, flat_v, out)
+        return out.reshape(s.shape[:-1] + (3,))
+
+    def describe(self) -> dict:
+        """Model name and parameter values, JSON-ready."""
+        vals = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.values.items()}
+        return {"model": self.name, "parameters": vals, "source": self.source}
+
+
+def model_spec(name: str) -> ModelSpec:
+    """The spec of model ``name``; unknown names list the allowed ones."""
+    try:
+        return MODELS[name]
+    except KeyError:
+        raise ParameterError(
+            f"unknown BRDF model {name!r} (allowed: {', '.join(MODELS)})"
+        ) from None
+
+
+def make_brdf(name: str, merl_path: str | None = None, **values) -> BRDF:
+    """Build a :class:`BRDF` from a model name and parameter values (strings or numbers).
+
+    ``merl_path`` is required for (and only accepted by) the ``merl`` model.
+    """
+    spec = model_spec(name)
+    if (name == "merl") != (merl_path is not None):
+        raise ParameterError(
+            "the merl model needs a MERL .binary file"
+            if name == "merl"
+            else f"a MERL file is only used by the merl model, not {name!r}"
+        )
+    data, source = NO_DATA, ""
+    if merl_path is not None:
+        data, source = merl.read_merl(merl_path), str(merl_path)
+    return BRDF(spec, spec.resolve(values), data, source)

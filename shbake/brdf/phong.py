@@ -1,0 +1,51 @@
+"""Energy-normalised Phong BRDF (Lafortune & Willems 1994).
+
+``f(s, v) = ρ_d/π + ρ_s (n+2)/(2π) max(0, r·s)^n`` with ``r = (−v_x, −v_y, v_z)``
+the mirror direction of ``v`` (1/sr). Its specular albedo at normal incidence
+is exactly ``ρ_s``; at other views less (the lobe is clipped by the horizon),
+so ``ρ_d + ρ_s ≤ 1`` conserves energy.
+Lobe sampling: ``cos α = u^{1/(n+1)}`` about ``r``, density ``(n+1)/(2π) cos^n α``.
+"""
+
+import numpy as np
+
+from shbake.brdf.sampling import TWO_PI, lobe_frame_dir, safe_pow
+from shbake.brdf.spec import ModelSpec, Param
+from shbake.jit import jit
+
+SPEC = ModelSpec(
+    name="phong",
+    model_id=1,
+    params=(
+        Param("rho_d", 0.0, 0.0, 1.0, colour=True, doc="diffuse albedo"),
+        Param("rho_s", 1.0, 0.0, 1.0, colour=True, doc="specular albedo at normal incidence"),
+        Param("n", 32.0, 0.0, 1e6, doc="Phong exponent"),
+    ),
+    citation="E. Lafortune, Y. Willems, Using the modified Phong reflectance model "
+    "for physically based rendering, KU Leuven CW197 (1994)",
+    summary="normalised Phong lobe about the mirror direction",
+    energy=("rho_d", "rho_s"),
+)
+
+
+@jit
+def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
+    """Radiometric BRDF value per channel; ``prm = (ρ_d[3], ρ_s[3], n)``."""
+    n = prm[6]
+    lobe = (n + 2.0) / (2.0 * np.pi) * safe_pow(-vx * sx - vy * sy + vz * sz, n)
+    for c in range(3):
+        out[c] = prm[c] / np.pi + prm[3 + c] * lobe
+
+
+@jit
+def sample(prm, vx, vy, vz, ur, ua):
+    """A direction from the lobe density about the mirror direction."""
+    ct = ur ** (1.0 / (prm[6] + 1.0))
+    return lobe_frame_dir(-vx, -vy, vz, ct, TWO_PI * ua)
+
+
+@jit
+def pdf(prm, sx, sy, sz, vx, vy, vz):
+    """Density of :func:`sample` (1/sr)."""
+    n = prm[6]
+    return (n + 1.0) / (2.0 * np.pi) * safe_pow(-vx * sx - vy * sy + vz * sz, n)

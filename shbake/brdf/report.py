@@ -1,0 +1,106 @@
+"""What a table's settings cost and how accurate they are (``brdf-table --report``).
+
+Three independent error sources, each against a brute-force or converged value:
+
+* ``lmax`` — truncation of ``f*(·, v)`` to bands ≤ lmax: relative L2 error
+  ``sqrt(1 − Σ_i c_i² / ∫ f*² ds)`` (Parseval), ``∫ f*²`` by a 1024 × 2048
+  Gauss–Legendre × trapezoid hemisphere quadrature; mean over probe views.
+* resolution — bilinear look-up error: ``sqrt(4π) max |c_lookup(v) − c(v)|``
+  at random views (``c(v)`` projected directly with the same samples).
+* samples — the table's own refinement history (error estimate per doubling).
+
+Times are measured: per-view cost on the probe views, scaled to the table.
+"""
+
+import time
+
+import numpy as np
+
+from shbake.brdf.lookup import lookup
+from shbake.brdf.model import BRDF
+from shbake.brdf.tabulate import SQRT_4PI, project_views, tabulate
+
+LMAX_STUDY = (2, 4, 6, 8)
+RESOLUTION_STUDY = (32, 64, 128, 256)
+
+
+def probe_views(count: int = 16, seed: int = 7) -> np.ndarray:
+    """Deterministic random unit views in the upper hemisphere, two of them grazing (z = 0.05)."""
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(count, 3))
+    v[:, 2] = np.abs(v[:, 2])
+    v[:2, 2] = 0.0
+    v[:2] /= np.linalg.norm(v[:2], axis=1, keepdims=True)
+    v[:2] *= np.sqrt(1 - 0.05**2)
+    v[:2, 2] = 0.05
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def product_energy(brdf: BRDF, views: np.ndarray, n_theta: int = 1024) -> np.ndarray:
+    """``∫ f*(s, v)² ds`` per view and channel by a dense hemisphere product rule."""
+    x, w = np.polynomial.legendre.leggauss(n_theta)
+    theta = 0.25 * np.pi * (x + 1.0)
+    wt = 0.25 * np.pi * w * np.sin(theta)
+    n_phi = 2 * n_theta
+    phi = 2 * np.pi * (np.arange(n_phi) + 0.5) / n_phi
+    st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
+    s = np.stack(np.broadcast_arrays(st * np.cos(phi), st * np.sin(phi), ct), -1).reshape(-1, 3)
+    weight = (wt[:, None] * np.full(n_phi, 2 * np.pi / n_phi)).reshape(-1)
+    out = []
+    for v in views:
+        fs = brdf.evaluate(s, v) * s[:, 2:3]
+        out.append(weight @ (fs * fs))
+    return np.array(out)
+
+
+def settings_report(
+    brdf: BRDF, lmax: int, resolution: tuple[int, int], samples: int, history: list
+) -> dict:
+    """Error and time of the chosen settings and their neighbours (see module docstring)."""
+    views = probe_views()
+    energy = product_energy(brdf, views)
+    h, w = resolution
+    by_lmax = []
+    for l in sorted(set(LMAX_STUDY) | {lmax}):
+        t0 = time.perf_counter()
+        c, _ = project_views(brdf, views, l, samples=samples)
+        dt = (time.perf_counter() - t0) / len(views)
+        kept = np.sum(c * c, axis=1)
+        rel = np.sqrt(np.clip(1.0 - kept / np.maximum(energy, 1e-300), 0.0, None))
+        by_lmax.append(
+            {
+                "lmax": l,
+                "truncation_rel_l2": float(np.mean(rel[energy > 0])) if np.any(energy > 0) else 0.0,
+                "est_table_seconds": dt * h * w / 4,
+            }
+        )
+    test_views = probe_views(64, seed=11)
+    direct, _ = project_views(brdf, test_views, lmax, samples=samples)
+    by_res = []
+    for r in sorted(set(RESOLUTION_STUDY) | {h}):
+        t0 = time.perf_counter()
+        table, _ = tabulate(brdf, lmax, (r, r), samples=samples)
+        dt = time.perf_counter() - t0
+        err = SQRT_4PI * float(np.max(np.abs(lookup(table, test_views) - direct)))
+        by_res.append({"resolution": r, "lookup_error": err, "table_seconds": dt})
+    return {"lmax": by_lmax, "resolution": by_res, "samples": history}
+
+
+def format_report(rep: dict) -> str:
+    """The report as three small text tables."""
+    lines = ["lmax  f* truncation (rel. L2)  est. table time (s)"]
+    lines += [
+        f"{r['lmax']:>4}  {r['truncation_rel_l2']:>23.4%}  {r['est_table_seconds']:>19.2f}"
+        for r in rep["lmax"]
+    ]
+    lines += ["", "res   bilinear look-up error  table time (s)"]
+    lines += [
+        f"{r['resolution']:>4}  {r['lookup_error']:>22.2e}  {r['table_seconds']:>14.2f}"
+        for r in rep["resolution"]
+    ]
+    lines += ["", "samples  views refined  error estimate  cumulative time (s)"]
+    lines += [
+        f"{r['samples']:>7}  {r['views']:>13}  {r['error_estimate']:>14.2e}  {r['seconds']:>19.2f}"
+        for r in rep["samples"]
+    ]
+    return "\n".join(lines)

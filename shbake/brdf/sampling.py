@@ -1,0 +1,54 @@
+"""Helpers shared by the sampling strategies of the BRDF models.
+
+Lobe samplers map ``(u_r, u_a) ∈ [0, 1)²`` — a radial and an azimuthal
+coordinate — to a direction; :mod:`shbake.brdf.tabulate` integrates over that
+square with a product Gauss–Legendre × midpoint rule.
+"""
+
+import numpy as np
+
+from shbake.jit import jit
+
+INV_PI = 1.0 / np.pi
+TWO_PI = 2.0 * np.pi
+
+
+@jit
+def cosine_pdf(sz):
+    """Solid-angle density of :func:`cosine_sample` at a direction with ``z = sz``."""
+    return sz * INV_PI if sz > 0.0 else 0.0
+
+
+@jit
+def reflect_about(hx, hy, hz, vx, vy, vz):
+    """``2 (v·h) h − v`` for unit ``h``."""
+    d = 2.0 * (vx * hx + vy * hy + vz * hz)
+    return d * hx - vx, d * hy - vy, d * hz - vz
+
+
+@jit
+def lobe_frame_dir(ax, ay, az, ct, phi):
+    """Direction at polar angle ``acos(ct)``, azimuth ``phi`` about the unit axis ``a``."""
+    st = np.sqrt(max(0.0, 1.0 - ct * ct))
+    # an orthonormal basis (t, b, a) (Duff et al. 2017, branchless)
+    sign = 1.0 if az >= 0.0 else -1.0
+    e = -1.0 / (sign + az)
+    f = ax * ay * e
+    tx, ty, tz = 1.0 + sign * ax * ax * e, sign * f, -sign * ax
+    bx, by, bz = f, sign + ay * ay * e, -ay
+    cp, sp = np.cos(phi) * st, np.sin(phi) * st
+    return (
+        cp * tx + sp * bx + ct * ax,
+        cp * ty + sp * by + ct * ay,
+        cp * tz + sp * bz + ct * az,
+    )
+
+
+@jit
+def safe_pow(c, n):
+    """``max(c, 0)^n`` for ``n ≥ 0`` without overflow or ``0^0`` surprises (``0^0 = 1``)."""
+    if n == 0.0:
+        return 1.0
+    if c <= 0.0:
+        return 0.0
+    return np.exp(n * np.log(c))

@@ -1,0 +1,144 @@
+"""The ``brdf_table`` asset (``docs/FORMAT.md`` §4): build it, read it, look it up.
+
+``/table`` is float32 with axes ``([channel,] *parameter axes, row, col, coeff)``:
+a leading channel axis of 3 only for RGB BRDFs, then one axis per ``--vary``
+parameter, then the parabolic map (SPEC §4) and the ``(lmax+1)^2`` SH
+coefficients of ``f*(·, v)``. The axes are named in the ``axes`` attribute.
+"""
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from shbake.brdf.model import BRDF, make_brdf, model_spec
+from shbake.brdf.parabolic import VIEW_Z_MIN
+from shbake.brdf.tabulate import SQRT_4PI, Convergence
+from shbake.conventions import lmax_of
+from shbake.errors import FormatError, ParameterError
+from shbake.format.asset import Asset
+
+ENERGY_SLACK = 1e-3
+"""Measured albedo above ``1 + ENERGY_SLACK`` flags a table as not energy-conserving."""
+
+PARAMETERISATION = (
+    "parabolic (Heidrich-Seidel 1999): p=(x,y)/(1+z), u=(p_x+1)/2 cols, w=(p_y+1)/2 rows"
+)
+
+
+def build_table_asset(
+    brdf: BRDF,
+    tables: np.ndarray,
+    convs: list[Convergence],
+    vary: list[tuple[str, np.ndarray]],
+    lmax: int,
+    record_time: bool = True,
+) -> Asset:
+    """Assemble the asset from :func:`~shbake.brdf.tabulate.tabulate_axes` output.
+
+    ``tables`` is ``(*axes, H, W, n, 3)``. Returns an :class:`Asset` whose
+    attributes record the model, parameters, quadrature error and (unless
+    ``record_time`` is false, for byte-identical rebuilds) the bake time.
+    """
+    coloured = brdf.coloured
+    axes = [name for name, _ in vary]
+    data = np.moveaxis(tables, -1, 0) if coloured else tables[..., 0]
+    names = (["channel"] if coloured else []) + axes + ["row", "col", "coeff"]
+    shape_axes = tuple(len(v) for _, v in vary)
+    h, w = tables.shape[len(vary) : len(vary) + 2]
+    err_map = np.stack([c.view_errors for c in convs]).reshape(shape_axes + (h, w))
+    albedo = SQRT_4PI * tables[..., 0, :]  # white-furnace value per view, channel
+    max_albedo = albedo.reshape(-1, 3).max(axis=0)
+    conserving = bool(np.all(max_albedo <= 1.0 + ENERGY_SLACK))
+    table_attrs = {
+        "axes": names,
+        "lmax": lmax,
+        "parameterisation": PARAMETERISATION,
+        "view_z_min": VIEW_Z_MIN,
+        "error_estimate": float(max(c.error for c in convs)),
+        "error_definition": "sqrt(4*pi) * max |c(N) - c(N/2)| over coefficients and channels",
+        "samples_max": int(max(c.samples for c in convs)),
+        "quadrature": "MIS: GL(theta) x trapezoid(phi) hemisphere + GL x midpoint lobe (tabulate.py)",
+        "max_albedo": max_albedo,
+        "energy_conserving": conserving,
+    }
+    if record_time:
+        table_attrs["bake_seconds"] = float(sum(c.seconds for c in convs))
+    datasets = {"/table": data.astype(np.float32), "/error": err_map.astype(np.float32)}
+    dattrs = {
+        "/table": table_attrs,
+        "/error": {"meaning": "per-texel error estimate (same definition as /table)"},
+    }
+    for name, values in vary:
+        datasets[f"/axes/{name}"] = np.asarray(values, dtype=np.float64)
+    desc = brdf.describe()
+    attrs = {
+        "brdf_model": desc["model"],
+        "brdf_parameters": desc["parameters"],
+        "brdf_citation": brdf.spec.citation,
+        "brdf_source": desc["source"],
+        "brdf_coloured": coloured,
+    }
+    return Asset("brdf_table", attrs, datasets, dattrs)
+
+
+def _json_attr(v):
+    return json.loads(v) if isinstance(v, str) else v
+
+
+@dataclass
+class BRDFTable:
+    """One parameter point of a ``brdf_table`` asset: ``coeffs (H, W, n, 3)`` and its BRDF's record."""
+
+    coeffs: np.ndarray
+    lmax: int
+    model: str
+    params: dict
+    source: str
+    attrs: dict
+
+    def make_brdf(self, merl_path: str | None = None) -> BRDF:
+        """The tabulated BRDF, rebuilt from the recorded model and parameters."""
+        if self.model == "merl":
+            return make_brdf("merl", merl_path=merl_path or self.source, **self.params)
+        return make_brdf(self.model, **self.params)
+
+
+def table_at(asset: Asset, at: dict | None = None) -> BRDFTable:
+    """Select one parameter point of a table asset (nearest tabulated value per axis).
+
+    ``at`` maps varied parameter names to values; unnamed axes take their first value.
+    """
+    if asset.kind != "brdf_table":
+        raise FormatError(f"expected a brdf_table asset, got {asset.kind!r}")
+    at = dict(at or {})
+    data = np.asarray(asset["/table"], dtype=np.float64)
+    tattrs = asset.dataset_attrs["/table"]
+    axes = _json_attr(tattrs["axes"])
+    if axes[0] == "channel":
+        data = np.moveaxis(data, 0, -1)
+    else:
+        data = np.repeat(data[..., None], 3, axis=-1)
+    params = _json_attr(asset.attrs["brdf_parameters"])
+    vary_names = [a for a in axes if a not in ("channel", "row", "col", "coeff")]
+    unknown = set(at) - set(vary_names)
+    if unknown:
+        raise ParameterError(
+            f"{', '.join(sorted(unknown))}: not a varied axis of this table "
+            f"(axes: {', '.join(vary_names) or 'none'})"
+        )
+    for name in vary_names:
+        values = asset[f"/axes/{name}"]
+        k = int(np.argmin(np.abs(values - float(at.get(name, values[0])))))
+        data = data[k]
+        params[name] = float(values[k])
+    model = asset.attrs["brdf_model"]
+    model_spec(model)
+    return BRDFTable(
+        np.ascontiguousarray(data),
+        lmax_of(data.shape[-2]),
+        model,
+        params,
+        asset.attrs.get("brdf_source", ""),
+        tattrs,
+    )

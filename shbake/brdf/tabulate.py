@@ -1,0 +1,358 @@
+"""SH projection of the BRDF product function per view direction (Kautz et al. 2002, §3).
+
+For each view ``v``::
+
+    c_i(v) = ∫ y_i(s) f(s, v) max(0, s_z) ds                  (Kautz et al. 2002, §3)
+
+by deterministic quadrature with importance sampling. The integrand
+``g = y_i f s_z`` is split by the balance heuristic (Veach & Guibas 1995)
+between two strategies, ``g = g p_c/(p_c + p_l) + g p_l/(p_c + p_l)`` with
+``p_c = s_z/π`` (cosine) and ``p_l`` the model's lobe density:
+
+* the hemisphere part on a product rule, Gauss–Legendre in ``θ`` × trapezoid
+  in ``φ`` (spectrally accurate for smooth integrands: a Lambert table is exact);
+* the lobe part on the lobe sampler's square ``(u_r, u_a)``, Gauss–Legendre
+  × midpoint, integrand ``g / (p_c + p_l)``.
+
+On each line of constant ``u_a`` the lobe rule's Gauss–Legendre nodes span
+only the part of ``u_r`` whose directions lie above the horizon (its end
+found by bisection): at grazing views some models' ``f*`` jumps at the
+horizon (Ashikhmin–Shirley's ``1/max(n·s, n·v)``), and a rule spanning the
+crossing would converge only as ``O(1/n)``.
+
+Diffuse models (no lobe) use the first rule alone. ``N`` samples per strategy
+means ``n_r = round(sqrt(N/2))`` radial by ``2 n_r`` azimuthal nodes. The
+error estimate is the largest change of any coefficient from ``N/2`` to ``N``
+samples, times ``sqrt(4π)`` (it reads as an error of the white-furnace value
+``Q = sqrt(4π) c_0``); ``tol`` doubles ``N`` until it is met.
+
+Every model here satisfies ``f(σs, σv) = f(s, v)`` for the mirrors
+``σ: x → −x`` and ``y → −y``, so only one quadrant of the parabolic map is
+integrated and the rest follows from ``c_i(σv) = ±c_i(v)``, exactly.
+"""
+
+import itertools
+import time
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from shbake.brdf.dispatch import brdf_eval, lobe_pdf, lobe_sample
+from shbake.brdf.model import BRDF
+from shbake.brdf.parabolic import check_resolution, texel_views
+from shbake.brdf.sampling import cosine_pdf
+from shbake.conventions import check_lmax, n_coeffs
+from shbake.errors import ParameterError
+from shbake.jit import jit, pjit
+from shbake.sh.basis import recurrence_tables, sh_eval_into
+
+SQRT_4PI = np.sqrt(4.0 * np.pi)
+LMAX_LIMIT = 16
+MAX_SAMPLES_LIMIT = 1 << 22
+HALF_PI = 0.5 * np.pi
+TWO_PI = 2.0 * np.pi
+
+
+@jit
+def _horizon_span(model, prm, vx, vy, vz, ua):
+    """The sub-interval of ``u_r ∈ [0, 1]`` whose lobe directions have ``s_z > 0``.
+
+    Assumes at most one crossing along the line; ``(0, 0)`` if none is above.
+    """
+    lo_up = lobe_sample(model, prm, vx, vy, vz, 0.0, ua)[2] > 0.0
+    hi_up = lobe_sample(model, prm, vx, vy, vz, 1.0 - 1e-12, ua)[2] > 0.0
+    if lo_up and hi_up:
+        return 0.0, 1.0
+    if not lo_up and not hi_up:
+        return 0.0, 0.0
+    a, b = 0.0, 1.0 - 1e-12
+    for _ in range(48):
+        m = 0.5 * (a + b)
+        if (lobe_sample(model, prm, vx, vy, vz, m, ua)[2] > 0.0) == lo_up:
+            a = m
+        else:
+            b = m
+    return (0.0, a) if lo_up else (b, 1.0)
+
+
+@pjit
+def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, out):
+    """``out[v] = c(v)`` by the two product rules; ``gx, gw`` GL nodes/weights on [0, 1]."""
+    n = (lmax + 1) * (lmax + 1)
+    for iv in numba.prange(views.shape[0]):
+        y = np.empty(n)
+        f = np.empty(3)
+        acc = np.zeros((n, 3))
+        vx, vy, vz = views[iv, 0], views[iv, 1], views[iv, 2]
+        # hemisphere rule: GL in θ × trapezoid in φ, weight p_c/(p_c + p_l)
+        for ir in range(gx.shape[0]):
+            theta = HALF_PI * gx[ir]
+            st, ct = np.sin(theta), np.cos(theta)
+            w_r = HALF_PI * gw[ir] * st * TWO_PI / n_a
+            for ia in range(n_a):
+                phi = TWO_PI * (ia + 0.5) / n_a
+                sx, sy, sz = st * np.cos(phi), st * np.sin(phi), ct
+                w = w_r * sz
+                if has_lobe:
+                    pc = cosine_pdf(sz)
+                    w *= pc / (pc + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz))
+                brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
+                sh_eval_into(sx, sy, sz, lmax, qmm, a, b, y)
+                for i in range(n):
+                    yw = y[i] * w
+                    for c in range(3):
+                        acc[i, c] += yw * f[c]
+        # lobe rule: midpoint in u_a × GL over the above-horizon span of u_r
+        if has_lobe:
+            for ia in range(n_a):
+                ua = (ia + 0.5) / n_a
+                u0, u1 = _horizon_span(model, prm, vx, vy, vz, ua)
+                if u1 <= u0:
+                    continue
+                for ir in range(gx.shape[0]):
+                    ur = u0 + (u1 - u0) * gx[ir]
+                    sx, sy, sz = lobe_sample(model, prm, vx, vy, vz, ur, ua)
+                    if sz <= 0.0:
+                        continue
+                    p = cosine_pdf(sz) + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz)
+                    if p <= 0.0:
+                        continue
+                    w = (u1 - u0) * gw[ir] / n_a * sz / p
+                    brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
+                    sh_eval_into(sx, sy, sz, lmax, qmm, a, b, y)
+                    for i in range(n):
+                        yw = y[i] * w
+                        for c in range(3):
+                            acc[i, c] += yw * f[c]
+        for i in range(n):
+            for c in range(3):
+                out[iv, i, c] = acc[i, c]
+
+
+def gauss_legendre_unit(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Legendre nodes and weights on ``[0, 1]``."""
+    x, w = np.polynomial.legendre.leggauss(k)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+def radial_nodes(samples: int) -> int:
+    """Radial node count ``n_r`` of a rule with about ``samples`` points (``n_r × 2 n_r``).
+
+    ``n_r`` is even so that ``2 n_r`` azimuthal nodes split evenly into the
+    four quadrants some lobe samplers map separately.
+    """
+    return max(2, 2 * int(round(np.sqrt(samples / 8.0))))
+
+
+def mirror_signs(lmax: int) -> tuple[np.ndarray, np.ndarray]:
+    """Signs ``s_i`` with ``y_i(σd) = s_i y_i(d)`` for ``σ: x → −x`` and for ``σ: y → −y``."""
+    sx, sy = [], []
+    for l in range(lmax + 1):
+        for m in range(-l, l + 1):
+            sx.append((-1.0) ** abs(m) * (-1.0 if m < 0 else 1.0))
+            sy.append(-1.0 if m < 0 else 1.0)
+    return np.array(sx), np.array(sy)
+
+
+@dataclass
+class Convergence:
+    """How the quadrature converged.
+
+    ``samples``: the most points per strategy any view used; ``error``: the
+    largest per-view error estimate; ``view_errors``/``view_samples``: per view;
+    ``history``: one entry per refinement step (views still refined, time).
+    """
+
+    samples: int
+    error: float
+    seconds: float
+    history: list = field(default_factory=list)
+    view_errors: np.ndarray | None = None
+    view_samples: np.ndarray | None = None
+
+    def as_dict(self) -> dict:
+        return {
+            "samples": self.samples,
+            "error_estimate": self.error,
+            "seconds": self.seconds,
+            "history": self.history,
+        }
+
+
+def _check_sampling(samples, tol, max_samples):
+    if tol is not None and not (np.isfinite(tol) and 0 < tol < 1):
+        raise ParameterError(f"tol must be in (0, 1), got {tol}")
+    if not isinstance(max_samples, int) or not 16 <= max_samples <= MAX_SAMPLES_LIMIT:
+        raise ParameterError(f"max_samples must be an integer in [16, {MAX_SAMPLES_LIMIT}]")
+    if samples is not None and (not isinstance(samples, int) or not 16 <= samples <= max_samples):
+        raise ParameterError(f"samples must be an integer in [16, {max_samples}], got {samples}")
+
+
+def project_views(
+    brdf: BRDF,
+    views,
+    lmax: int = 4,
+    samples: int | None = 1024,
+    tol: float | None = None,
+    max_samples: int = 1 << 16,
+    start_samples: int = 256,
+    progress=None,
+) -> tuple[np.ndarray, Convergence]:
+    """SH coefficients of ``f*(·, v)`` for arbitrary view directions.
+
+    Parameters
+    ----------
+    brdf : BRDF
+    views : array_like, (V, 3)
+        Unit local-frame view directions, ``v_z > 0``.
+    lmax : int, 0 … 16
+    samples : int, optional
+        Points per strategy (≥ 16). Ignored when ``tol`` is given.
+    tol : float, optional
+        Double the sample count from ``start_samples`` until the error estimate
+        is at most ``tol`` or the next step would pass ``max_samples``.
+    progress : callable(samples, error), optional
+
+    Returns
+    -------
+    coeffs : ndarray, (V, (lmax+1)^2, 3)
+    convergence : Convergence
+    """
+    lmax = check_lmax(lmax, limit=LMAX_LIMIT)
+    _check_sampling(samples, tol, max_samples)
+    v = np.ascontiguousarray(np.asarray(views, dtype=float).reshape(-1, 3))
+    if np.any(v[:, 2] <= 0) or np.any(np.abs(np.linalg.norm(v, axis=1) - 1) > 1e-9):
+        raise ParameterError("view directions must be unit vectors with z > 0")
+    qmm, a, b = recurrence_tables(lmax)
+    model, prm, data = brdf.spec.model_id, brdf.packed, brdf.data
+    t0 = time.perf_counter()
+
+    def run(idx, n_samples):
+        nr = radial_nodes(n_samples)
+        gx, gw = gauss_legendre_unit(nr)
+        out = np.empty((idx.size, n_coeffs(lmax), 3))
+        sub = np.ascontiguousarray(v[idx])
+        _integrate(model, prm, data, brdf.spec.has_lobe, sub, lmax, qmm, a, b, gx, gw, 2 * nr, out)
+        return out
+
+    active = np.arange(v.shape[0])
+    N = start_samples if tol is not None else max(samples // 2, 8)
+    prev = run(active, N)
+    coeffs = np.empty_like(prev)
+    errors = np.zeros(v.shape[0])
+    used = np.zeros(v.shape[0], dtype=np.int64)
+    history = []
+    while True:
+        N *= 2
+        cur = run(active, N)
+        err = SQRT_4PI * np.max(np.abs(cur - prev), axis=(1, 2))
+        coeffs[active], errors[active], used[active] = cur, err, N
+        history.append(
+            {
+                "samples": N,
+                "views": int(active.size),
+                "error_estimate": float(err.max()),
+                "seconds": time.perf_counter() - t0,
+            }
+        )
+        if progress is not None:
+            progress(N, float(errors.max()))
+        keep = err > tol if tol is not None else np.zeros(err.shape, bool)
+        if not keep.any() or 2 * N > max_samples:
+            break
+        active, prev = active[keep], cur[keep]
+    conv = Convergence(int(used.max()), float(errors.max()), time.perf_counter() - t0, history)
+    conv.view_errors = errors
+    conv.view_samples = used
+    return coeffs, conv
+
+
+def tabulate(
+    brdf: BRDF,
+    lmax: int = 4,
+    resolution: tuple[int, int] = (128, 128),
+    samples: int | None = 1024,
+    tol: float | None = None,
+    max_samples: int = 1 << 16,
+    progress=None,
+) -> tuple[np.ndarray, Convergence]:
+    """The parabolic-map table ``c_i(v)``, shape ``(H, W, (lmax+1)^2, 3)``.
+
+    Only the quadrant ``p_x ≥ 0, p_y ≥ 0`` is integrated; the rest is filled by
+    the mirror symmetries (module docstring). Arguments as :func:`project_views`;
+    ``convergence.view_errors``/``view_samples`` become ``(H, W)`` maps.
+    """
+    h, w = check_resolution(*resolution)
+    views = texel_views(h, w)
+    r0, c0 = h // 2, w // 2
+    quad = views[r0:, c0:]
+    coeffs, conv = project_views(
+        brdf, quad.reshape(-1, 3), lmax, samples, tol, max_samples, progress=progress
+    )
+    n = coeffs.shape[1]
+    table = np.empty((h, w, n, 3))
+    q = coeffs.reshape(h - r0, w - c0, n, 3)
+    sx, sy = mirror_signs(lmax)
+    table[r0:, c0:] = q
+    cols = w - 1 - np.arange(c0, w)  # mirror column of each computed column
+    rows = h - 1 - np.arange(r0, h)
+    table[r0:, cols] = q * sx[:, None]
+    table[rows, c0:] = q * sy[:, None]
+    table[rows[:, None], cols[None, :]] = q * (sx * sy)[:, None]
+    for name in ("view_errors", "view_samples"):
+        m = getattr(conv, name).reshape(h - r0, w - c0)
+        full = np.empty((h, w), m.dtype)
+        full[r0:, c0:] = m
+        full[r0:, cols] = m
+        full[rows, c0:] = m
+        full[rows[:, None], cols[None, :]] = m
+        setattr(conv, name, full)
+    return table, conv
+
+
+def parse_vary(spec: str) -> tuple[str, np.ndarray]:
+    """``"NAME=lo:hi:N"`` → ``(NAME, linspace(lo, hi, N))``; ``N`` in 2…64."""
+    try:
+        name, rng = spec.split("=", 1)
+        lo, hi, count = rng.split(":")
+        lo, hi, count = float(lo), float(hi), int(count)
+    except ValueError:
+        raise ParameterError(f"--vary {spec!r}: expected NAME=lo:hi:N, e.g. nu=10:100:4") from None
+    if not 2 <= count <= 64:
+        raise ParameterError(f"--vary {spec!r}: N must be in [2, 64]")
+    return name.strip(), np.linspace(lo, hi, count)
+
+
+def tabulate_axes(
+    brdf: BRDF,
+    vary: list[tuple[str, np.ndarray]],
+    progress=None,
+    **kwargs,
+) -> tuple[np.ndarray, list[Convergence]]:
+    """Tables over the product of parameter axes: ``(*axis sizes, H, W, n, 3)``.
+
+    Each axis ``(name, values)`` overrides one scalar parameter of ``brdf``;
+    every value is validated before any work starts.
+    """
+    names = [name for name, _ in vary]
+    if len(set(names)) != len(names):
+        raise ParameterError("each parameter may be varied once")
+    for name, values in vary:
+        p = brdf.spec.param(name)
+        if p.colour:
+            raise ParameterError(f"--vary takes scalar parameters; {name} is a colour")
+        for value in values:
+            brdf.with_values(**{name: value})
+    points = list(itertools.product(*[range(len(v)) for _, v in vary]))
+    tables, convs = [], []
+    for idx, point in enumerate(points):
+        b = brdf.with_values(
+            **{name: vary[a][1][i] for a, (name, _) in enumerate(vary) for i in [point[a]]}
+        )
+        cb = None if progress is None else (lambda n, e, idx=idx: progress(idx, len(points), n, e))
+        table, conv = tabulate(b, progress=cb, **kwargs)
+        tables.append(table)
+        convs.append(conv)
+    shape = tuple(len(v) for _, v in vary)
+    return np.stack(tables).reshape(shape + tables[0].shape), convs
