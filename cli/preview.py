@@ -11,7 +11,7 @@ from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
 from shbake.preview.passes import PASSES, render_pass
 
-REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent"}
+REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
 
 
 def load_source(asset, source_path):
@@ -72,16 +72,57 @@ def load_source(asset, source_path):
     default=None,
     help="Original map (default: the path recorded in the asset).",
 )
+@click.option(
+    "--table",
+    "table_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="brdf_table asset: needed by --pass kautz; makes --pass reference use its BRDF.",
+)
+@click.option(
+    "--at",
+    "at",
+    multiple=True,
+    metavar="PARAM=VALUE",
+    help="Parameter point of a table with --vary axes (nearest tabulated value).",
+)
+@click.option(
+    "--merl",
+    "merl_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="MERL file of a merl table (default: the recorded path).",
+)
 @json_opt
 @quiet_opt
-def preview(asset_path, pass_name, output, size, diff, source, as_json, quiet):
-    """Render a sphere lit by ASSET with one shading pass."""
+def preview(
+    asset_path, pass_name, output, size, diff, source, table_path, at, merl_path, as_json, quiet
+):
+    """Render a sphere lit by ASSET (an env_sh asset) with one shading pass."""
     asset = read_asset(asset_path, kinds=("env_sh",))
+    table = brdf = None
+    if pass_name == "kautz" and table_path is None:
+        raise click.UsageError("--pass kautz needs --table TABLE.h5")
+    if table_path is not None:
+        from shbake_cli.brdf_table import parse_params
+
+        from shbake.brdf.table_asset import table_at
+
+        table = table_at(
+            read_asset(table_path, kinds=("brdf_table",)),
+            {k: float(v) for k, v in parse_params(at).items()},
+        )
     needs_source = pass_name.startswith("reference") or diff
+    if table is not None and needs_source:
+        brdf = table.make_brdf(merl_path)
     src = load_source(asset, source) if needs_source else None
-    img, timing = render_pass(asset, pass_name, size, src)
+    img, timing = render_pass(asset, pass_name, size, src, table, brdf)
     outputs = {output: img}
     summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
+    if "modes" in timing:
+        summary["modes"] = timing["modes"]
+        for mode, t in timing["modes"].items():
+            info(f"kautz {mode}: {t['fps']:.1f} frames/s", quiet)
     stem = os.path.splitext(output)[0]
     exposure = auto_exposure(img)
     if diff:
@@ -89,7 +130,7 @@ def preview(asset_path, pass_name, output, size, diff, source, as_json, quiet):
             raise click.UsageError(
                 "--diff compares the irradiance or tangent pass with its reference"
             )
-        ref, ref_timing = render_pass(asset, REFERENCE_OF[pass_name], size, src)
+        ref, ref_timing = render_pass(asset, REFERENCE_OF[pass_name], size, src, None, brdf)
         err = img - ref
         mse = float(np.mean(err**2))
         rel = float(np.sqrt(np.sum(err**2) / max(np.sum(ref**2), 1e-300)))

@@ -9,8 +9,8 @@ The specular term peaks on the cone of mirror directions about the fibre
 (``angle(t, s) = π − angle(t, v)``); the ``(p+2)/(2π)`` factor is a Phong-like
 normalisation, so the albedo is measured and recorded, not guaranteed ≤ 1.
 Lobe sampling: the angle to the fibre is drawn about the cone from a logistic
-density of scale ``0.551/√p`` (≈ the width of ``cos^p``), the azimuth about
-the fibre uniformly.
+density of scale ``0.551/√p`` (≈ the width of ``cos^p``) truncated to
+``[0, π]``, the azimuth about the fibre uniformly.
 """
 
 import numpy as np
@@ -52,13 +52,24 @@ def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
 
 
 @jit
+def _logistic_cdf(x, s):
+    return 1.0 / (1.0 + np.exp(-x / s))
+
+
+@jit
+def _span(vx, s):
+    """Cone angle ``θ*`` and the logistic CDF at the ends of ``θ ∈ [0, π]``."""
+    centre = np.pi - np.arccos(min(1.0, max(-1.0, vx)))
+    return centre, _logistic_cdf(-centre, s), _logistic_cdf(np.pi - centre, s)
+
+
+@jit
 def sample(prm, vx, vy, vz, ur, ua):
-    """Angle to the fibre about the mirror cone (logistic), azimuth uniform."""
+    """Angle to the fibre from a logistic about the cone, truncated to ``[0, π]``; azimuth uniform."""
     s = _scale(prm[6])
-    u = min(max(ur, 1e-12), 1.0 - 1e-12)
-    theta = np.pi - np.arccos(min(1.0, max(-1.0, vx))) + s * np.log(u / (1.0 - u))
-    if theta <= 0.0 or theta >= np.pi:
-        return 0.0, 0.0, -1.0
+    centre, f0, f1 = _span(vx, s)
+    u = min(max(f0 + ur * (f1 - f0), 1e-300), 1.0 - 1e-16)
+    theta = min(max(centre + s * np.log(u / (1.0 - u)), 0.0), np.pi)
     st = np.sin(theta)
     psi = TWO_PI * ua
     return np.cos(theta), st * np.cos(psi), st * np.sin(psi)
@@ -71,7 +82,7 @@ def pdf(prm, sx, sy, sz, vx, vy, vz):
     st = np.sqrt(max(0.0, 1.0 - sx * sx))
     if st <= 1e-12:
         return 0.0
-    theta = np.arccos(min(1.0, max(-1.0, sx)))
-    d = (theta - np.pi + np.arccos(min(1.0, max(-1.0, vx)))) / s
+    centre, f0, f1 = _span(vx, s)
+    d = (np.arccos(min(1.0, max(-1.0, sx))) - centre) / s
     e = np.exp(-abs(d))
-    return e / (s * (1.0 + e) ** 2) / (TWO_PI * st)
+    return e / (s * (1.0 + e) ** 2) / (f1 - f0) / (TWO_PI * st)

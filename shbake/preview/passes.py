@@ -4,8 +4,10 @@
 ``E(n) = Σ_i y_i(n) E_i`` from ``/irradiance/sh`` plus the directional light
 of ``/sun`` if present. ``tangent``: Kajiya–Kay diffuse sphere with
 longitude-line tangents, ``E(t) = t̃ᵀ M t̃`` from ``/tangent_irradiance/matrix``
-(Mehta eq. 23) plus the sun's ``sqrt(1 − (t·s)²)/π²`` term. The reference
-passes compute the same quantities by brute force over the original map.
+(Mehta eq. 23) plus the sun's ``sqrt(1 − (t·s)²)/π²`` term. ``kautz``: a
+BRDF table shaded under the asset's lighting (:mod:`shbake.preview.kautz`).
+The reference passes compute the same quantities by brute force over the
+original map; ``reference`` with a table integrates the table's BRDF.
 """
 
 import time
@@ -21,7 +23,7 @@ from shbake.sh.basis import recurrence_tables, sh_eval_into
 INV_PI = 1.0 / np.pi
 INV_PI2 = 1.0 / (np.pi * np.pi)
 
-PASSES = ("irradiance", "tangent", "reference", "reference-tangent")
+PASSES = ("irradiance", "tangent", "kautz", "reference", "reference-tangent")
 
 
 @pjit
@@ -68,14 +70,34 @@ def _sun(asset: Asset):
     return np.array([0.0, 0.0, 1.0]), np.zeros(3)
 
 
-def render_pass(asset: Asset, name: str, size: int = 256, source=None) -> tuple[np.ndarray, dict]:
+def render_pass(
+    asset: Asset, name: str, size: int = 256, source=None, table=None, brdf=None
+) -> tuple[np.ndarray, dict]:
     """Render pass ``name`` of an ``env_sh`` asset on a ``size``² sphere.
 
     ``source`` is the original :class:`~shbake.envmap.Environment`, needed by
-    the reference passes only. Returns the linear image ``(size, size, 3)``
-    and timing ``{"seconds": …, "fps": …}`` (the kernel alone, after
-    compilation).
+    the reference passes only; ``table`` a :class:`~shbake.brdf.table_asset.BRDFTable`
+    for ``kautz``; ``brdf`` turns ``reference`` into the brute-force shading
+    with that BRDF. Returns the linear image ``(size, size, 3)`` and timing
+    ``{"seconds": …, "fps": …}`` (the kernel alone, after compilation; for
+    ``kautz`` also ``"modes"``: full, fixed-light and fixed-view timings).
     """
+    if name == "kautz":
+        from shbake.preview.kautz import render_kautz
+
+        img, modes = render_kautz(asset, table, size)
+        return img, {**modes["full"], "modes": modes}
+    if name == "reference" and brdf is not None:
+        from shbake.preview.kautz import shading_frames
+        from shbake.reference.brdf_shading import brute_force_shading
+
+        frames, views, mask = shading_frames(size)
+        dirs, omega, radiance = source.samples()
+        out = np.zeros((size, size, 3))
+        t0 = time.perf_counter()
+        out[mask] = brute_force_shading(dirs, omega, radiance, frames, views, brdf)
+        dt = time.perf_counter() - t0
+        return out, {"seconds": dt, "fps": 1.0 / dt if dt > 0 else float("inf")}
     normals, tangents, mask = sphere_geometry(size)
     out = np.zeros((size, size, 3))
     sun_dir, sun_energy = _sun(asset)

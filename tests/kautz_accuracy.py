@@ -1,0 +1,33 @@
+"""Relative RMS error of the kautz pass vs brute force: AS (24,8), three maps, lmax 2–8.
+
+Shared by tests/test_kautz_pass.py (asserts the figures) and bench/brdf_table.py
+(writes them to docs/BENCHMARKS.md). Settings: env lighting projected at
+lmax 8 (no sun extraction), 64² tables at 1024 samples, 48² sphere.
+"""
+
+import numpy as np
+
+from shbake.brdf import make_brdf
+from shbake.brdf.table_asset import BRDFTable
+from shbake.brdf.tabulate import tabulate
+from shbake.env_sh import bake_env_sh
+from shbake.envmap import load_environment
+from shbake.preview.passes import render_pass
+
+MAPS = ("esplanade", "forest", "studio")
+LMAXES = (2, 4, 6, 8)
+SIZE = 48
+
+
+def kautz_errors(map_path) -> dict:
+    brdf = make_brdf("ashikhmin-shirley", nu=24, nv=8)
+    env = load_environment(str(map_path), quiet=True)
+    asset, _ = bake_env_sh(env, lmax=8)
+    ref, _ = render_pass(asset, "reference", SIZE, env, brdf=brdf)
+    out = {}
+    for lmax in LMAXES:
+        coeffs, _ = tabulate(brdf, lmax, (64, 64), samples=1024)
+        table = BRDFTable(coeffs, lmax, brdf.name, {}, "", {})
+        img, _ = render_pass(asset, "kautz", SIZE, table=table)
+        out[lmax] = float(np.sqrt(np.sum((img - ref) ** 2) / np.sum(ref**2)))
+    return out
