@@ -42,7 +42,7 @@ def brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, out):
 
 @jit
 def lobe_sample(model, prm, vx, vy, vz, ur, ua):
-    """Lobe direction from ``ur`` (radial) and ``ua`` (azimuthal) in ``[0, 1)`` (may fall below the horizon)."""
+    """Lobe direction from ``ur`` (radial), ``ua`` (azimuthal) in ``[0, 1)``; may be below."""
     if model == 1:
         return phong.sample(prm, vx, vy, vz, ur, ua)
     if model == 2:

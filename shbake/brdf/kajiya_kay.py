@@ -65,7 +65,7 @@ def _span(vx, s):
 
 @jit
 def sample(prm, vx, vy, vz, ur, ua):
-    """Angle to the fibre from a logistic about the cone, truncated to ``[0, π]``; azimuth uniform."""
+    """Angle to the fibre: logistic about the cone, truncated to ``[0, π]``; azimuth uniform."""
     s = _scale(prm[6])
     centre, f0, f1 = _span(vx, s)
     u = min(max(f0 + ur * (f1 - f0), 1e-300), 1.0 - 1e-16)

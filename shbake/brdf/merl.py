@@ -105,7 +105,7 @@ def write_merl(path: str, values: np.ndarray) -> None:
 
 @jit
 def evaluate_data(data, sx, sy, sz, vx, vy, vz, out):
-    """Trilinear look-up of ``data (3, 90, 90, 180)`` at the half/difference angles of ``(s, v)``."""
+    """Trilinear look-up of ``data (3, 90, 90, 180)`` at the half/difference angles."""
     if sz <= 0.0 or vz <= 0.0:
         for c in range(3):
             out[c] = 0.0

@@ -80,7 +80,7 @@ class BRDF:
         return BRDF(self.spec, self.spec.resolve(given), self.data, self.source)
 
     def evaluate(self, s, v) -> np.ndarray:
-        """``f(s, v)`` per channel (1/sr) at local-frame unit directions ``(..., 3)``; 0 below the horizon."""
+        """``f(s, v)`` per channel (1/sr) at local unit directions ``(..., 3)``; 0 below horizon."""
         s = np.asarray(s, dtype=float)
         v = np.broadcast_to(np.asarray(v, dtype=float), s.shape)
         flat_s = np.ascontiguousarray(s.reshape(-1, 3))

@@ -41,7 +41,7 @@ def texel_views(height: int, width: int) -> np.ndarray:
 
 
 def view_to_texture(views) -> tuple[np.ndarray, np.ndarray]:
-    """Continuous texture coordinates ``(u, w)`` in ``[0, 1]`` of view directions (z clamped ≥ 0)."""
+    """Texture coordinates ``(u, w)`` in ``[0, 1]`` of view directions (z clamped ≥ 0)."""
     v = np.asarray(views, dtype=float)
     z = np.maximum(v[..., 2], 0.0)
     return (v[..., 0] / (1.0 + z) + 1.0) / 2.0, (v[..., 1] / (1.0 + z) + 1.0) / 2.0

@@ -1,4 +1,4 @@
-"""Images of a BRDF table: one multi-channel EXR per band, and a PNG sheet like Kautz et al. Fig. 2."""
+"""Images of a BRDF table: one EXR per band, and a PNG sheet like Kautz et al. Fig. 2."""
 
 import os
 

@@ -58,7 +58,7 @@ def build_table_asset(
         "error_estimate": float(max(c.error for c in convs)),
         "error_definition": "sqrt(4*pi) * max |c(N) - c(N/2)| over coefficients and channels",
         "samples_max": int(max(c.samples for c in convs)),
-        "quadrature": "MIS: GL(theta) x trapezoid(phi) hemisphere + GL x midpoint lobe (tabulate.py)",
+        "quadrature": "MIS: GL x trapezoid hemisphere + GL x midpoint lobe (tabulate.py)",
         "max_albedo": max_albedo,
         "energy_conserving": conserving,
     }
@@ -88,7 +88,7 @@ def _json_attr(v):
 
 @dataclass
 class BRDFTable:
-    """One parameter point of a ``brdf_table`` asset: ``coeffs (H, W, n, 3)`` and its BRDF's record."""
+    """One parameter point of a ``brdf_table`` asset: ``coeffs (H, W, n, 3)``, BRDF record."""
 
     coeffs: np.ndarray
     lmax: int

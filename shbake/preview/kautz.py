@@ -108,7 +108,7 @@ def _dot_world(coeffs_world, L, out):
 
 
 def shading_frames(size: int):
-    """World → local rotations ``(P, 3, 3)`` and local views ``(P, 3)`` of the sphere's pixels, and the mask."""
+    """World → local rotations ``(P, 3, 3)``, local views ``(P, 3)`` and the mask."""
     normals, tangents, mask = sphere_geometry(size)
     n, t = normals[mask], tangents[mask]
     b = np.cross(n, t)
@@ -137,7 +137,7 @@ def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
 
 
 def render_kautz(env_asset, table, size: int = 192) -> tuple[np.ndarray, dict]:
-    """Render the sphere; return the image and ``{"full", "fixed_light", "fixed_view"}`` seconds/fps."""
+    """Render the sphere; the image and per-mode (full, fixed_light, fixed_view) timings."""
     frames, views, mask = shading_frames(size)
     lmax = table.lmax
     L = lighting_with_sun(env_asset, lmax)
