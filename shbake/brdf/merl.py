@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-from shbake.brdf.sampling import TWO_PI, lobe_frame_dir, safe_pow
+from shbake.brdf.phong import mirror_lobe_pdf, mirror_lobe_sample
 from shbake.brdf.spec import ModelSpec, Param
 from shbake.errors import InputError
 from shbake.format.atomic import atomic_path
@@ -143,12 +143,10 @@ def evaluate_data(data, sx, sy, sz, vx, vy, vz, out):
 @jit
 def sample(prm, vx, vy, vz, ur, ua):
     """Phong lobe of exponent ``prm[0]`` about the mirror direction (a sampling hint)."""
-    ct = ur ** (1.0 / (prm[0] + 1.0))
-    return lobe_frame_dir(-vx, -vy, vz, ct, TWO_PI * ua)
+    return mirror_lobe_sample(prm[0], vx, vy, vz, ur, ua)
 
 
 @jit
 def pdf(prm, sx, sy, sz, vx, vy, vz):
     """Density of :func:`sample` (1/sr)."""
-    n = prm[0]
-    return (n + 1.0) / (2.0 * np.pi) * safe_pow(-vx * sx - vy * sy + vz * sz, n)
+    return mirror_lobe_pdf(prm[0], sx, sy, sz, vx, vy, vz)

@@ -38,14 +38,25 @@ def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
 
 
 @jit
+def mirror_lobe_sample(n, vx, vy, vz, ur, ua):
+    """Direction with density ``(n+1)/(2π) cos^n α`` about the mirror direction of ``v``."""
+    ct = ur ** (1.0 / (n + 1.0))
+    return lobe_frame_dir(-vx, -vy, vz, ct, TWO_PI * ua)
+
+
+@jit
+def mirror_lobe_pdf(n, sx, sy, sz, vx, vy, vz):
+    """Density of :func:`mirror_lobe_sample` (1/sr)."""
+    return (n + 1.0) / (2.0 * np.pi) * safe_pow(-vx * sx - vy * sy + vz * sz, n)
+
+
+@jit
 def sample(prm, vx, vy, vz, ur, ua):
     """A direction from the lobe density about the mirror direction."""
-    ct = ur ** (1.0 / (prm[6] + 1.0))
-    return lobe_frame_dir(-vx, -vy, vz, ct, TWO_PI * ua)
+    return mirror_lobe_sample(prm[6], vx, vy, vz, ur, ua)
 
 
 @jit
 def pdf(prm, sx, sy, sz, vx, vy, vz):
     """Density of :func:`sample` (1/sr)."""
-    n = prm[6]
-    return (n + 1.0) / (2.0 * np.pi) * safe_pow(-vx * sx - vy * sy + vz * sz, n)
+    return mirror_lobe_pdf(prm[6], sx, sy, sz, vx, vy, vz)

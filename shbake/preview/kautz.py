@@ -24,25 +24,30 @@ import numba
 import numpy as np
 
 from shbake.brdf.lookup import fetch_into
-from shbake.jit import pjit
+from shbake.errors import ParameterError
+from shbake.jit import jit, pjit
 from shbake.preview.sphere import sphere_geometry
 from shbake.sh.basis import real_sh
 from shbake.sh.rotation import _block_offsets, _rotation_blocks
 
-PERM = np.array([1, 2, 0])
+
+@jit
+def _frame_blocks(R, lmax, offsets):
+    """Flat per-band blocks of ``M(R)`` (the ``l = 1`` block is ``R`` permuted, see rotation.py)."""
+    r1 = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            r1[i, j] = R[(i + 1) % 3, (j + 1) % 3]
+    flat = np.zeros(offsets[-1])
+    _rotation_blocks(r1, lmax, offsets, flat)
+    return flat
 
 
 @pjit
 def _rotate_lighting(frames, L, lmax, offsets, out):
     """``out[p] = M(R_p) L`` (block-diagonal), for every pixel."""
     for p in numba.prange(frames.shape[0]):
-        R = frames[p]
-        r1 = np.empty((3, 3))
-        for i in range(3):
-            for j in range(3):
-                r1[i, j] = R[(i + 1) % 3, (j + 1) % 3]
-        flat = np.zeros(offsets[-1])
-        _rotation_blocks(r1, lmax, offsets, flat)
+        flat = _frame_blocks(frames[p], lmax, offsets)
         for l in range(lmax + 1):
             size = 2 * l + 1
             blk = flat[offsets[l] : offsets[l + 1]].reshape((size, size))
@@ -60,13 +65,7 @@ def _rotate_coeffs_to_world(frames, views, table, lmax, offsets, out):
     """``out[p] = M(R_p)ᵀ c(v_p)`` (the fixed-view precomputation)."""
     n = (lmax + 1) * (lmax + 1)
     for p in numba.prange(frames.shape[0]):
-        R = frames[p]
-        r1 = np.empty((3, 3))
-        for i in range(3):
-            for j in range(3):
-                r1[i, j] = R[(i + 1) % 3, (j + 1) % 3]
-        flat = np.zeros(offsets[-1])
-        _rotation_blocks(r1, lmax, offsets, flat)
+        flat = _frame_blocks(frames[p], lmax, offsets)
         c = np.empty((n, 3))
         fetch_into(table, views[p, 0], views[p, 1], views[p, 2], c)
         for l in range(lmax + 1):
@@ -124,8 +123,6 @@ def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
     n = (lmax + 1) ** 2
     if L.shape[0] < n:
         have = int(round(np.sqrt(L.shape[0]))) - 1
-        from shbake.errors import ParameterError
-
         raise ParameterError(
             f"the environment asset has lighting to lmax {have}; the table needs {lmax}"
         )

@@ -15,7 +15,6 @@ from shbake.jit import pjit
 
 @pjit
 def _shade(dirs, omega, radiance, frames, views, model, prm, data, out):
-    f = np.empty(3)
     for p in numba.prange(frames.shape[0]):
         f = np.empty(3)
         R = frames[p]
