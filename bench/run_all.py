@@ -6,6 +6,6 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
-for script in ("projection.py", "end_to_end.py", "irradiance_accuracy.py"):
+for script in ("projection.py", "end_to_end.py", "irradiance_accuracy.py", "brdf_table.py"):
     print(f"\n## {script}\n", flush=True)
     subprocess.run([sys.executable, str(HERE / script)], check=True)
