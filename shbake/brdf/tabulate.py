@@ -18,7 +18,12 @@ On each line of constant ``u_a`` the lobe rule's Gauss–Legendre nodes span
 only the part of ``u_r`` whose directions lie above the horizon (its end
 found by bisection): at grazing views some models' ``f*`` jumps at the
 horizon (Ashikhmin–Shirley's ``1/max(n·s, n·v)``), and a rule spanning the
-crossing would converge only as ``O(1/n)``.
+crossing would converge only as ``O(1/n)``. Across lines the same happens
+in ``u_a``: at grazing views the lines whose first step leaves the mirror
+direction downwards hold almost nothing and the others almost all of the
+lobe, a step one ``u_a`` node straddles. The ``u_a`` axis is therefore cut at
+the quadrant boundaries and at every ``u_a`` where that first step turns from
+up to down (found by bisection), and each piece gets its own midpoint rule.
 
 Diffuse models (no lobe) use the first rule alone. ``N`` samples per strategy
 means ``n_r = round(sqrt(N/2))`` radial by ``2 n_r`` azimuthal nodes. The
@@ -76,6 +81,98 @@ def _horizon_span(model, prm, vx, vy, vz, ua):
     return (0.0, a) if lo_up else (b, 1.0)
 
 
+AZIMUTH_PROBES = 64
+FIRST_STEP = 1e-6
+STEP_PROBE = 1.0 / 256.0
+STEP_JUMP = 0.25
+
+
+@jit
+def _first_step_rise(model, prm, vx, vy, vz, ua):
+    """``s_z(u_r = ε, u_a) − s_z(0, u_a)``: whether the lobe line starts upwards."""
+    return (
+        lobe_sample(model, prm, vx, vy, vz, FIRST_STEP, ua)[2]
+        - lobe_sample(model, prm, vx, vy, vz, 0.0, ua)[2]
+    )
+
+
+@jit
+def _span_length(model, prm, vx, vy, vz, ua):
+    u0, u1 = _horizon_span(model, prm, vx, vy, vz, ua)
+    return max(0.0, u1 - u0)
+
+
+@jit
+def _step_cuts(model, prm, vx, vy, vz):
+    """The ``u_a`` where the lobe line's first step turns and the span steps.
+
+    Sign changes of :func:`_first_step_rise` are bracketed on a grid of
+    ``AZIMUTH_PROBES`` intervals and refined by bisection; one is kept when
+    the above-horizon span of ``u_r`` differs by more than ``STEP_JUMP``
+    within ``±STEP_PROBE`` of it (a grazing view's step).
+    """
+    cuts = np.empty(AZIMUTH_PROBES)
+    n = 0
+    prev = _first_step_rise(model, prm, vx, vy, vz, 0.0)
+    for j in range(1, AZIMUTH_PROBES + 1):
+        hi = j / AZIMUTH_PROBES
+        cur = _first_step_rise(model, prm, vx, vy, vz, hi)
+        if (prev > 0.0) != (cur > 0.0):
+            a, b = (j - 1) / AZIMUTH_PROBES, hi
+            for _ in range(48):
+                m = 0.5 * (a + b)
+                if (_first_step_rise(model, prm, vx, vy, vz, m) > 0.0) == (prev > 0.0):
+                    a = m
+                else:
+                    b = m
+            c = 0.5 * (a + b)
+            lo = _span_length(model, prm, vx, vy, vz, max(0.0, c - STEP_PROBE))
+            up = _span_length(model, prm, vx, vy, vz, min(1.0 - 1e-12, c + STEP_PROBE))
+            if abs(up - lo) > STEP_JUMP:
+                cuts[n] = c
+                n += 1
+        prev = cur
+    return cuts[:n]
+
+
+@jit
+def _piece_nodes(n_a, width):
+    """Nodes on a piece: its share of ``n_a``, at least ``n_a/16`` (a narrow piece
+    beside a step holds its steep side) and 2 (the sin² rule's least)."""
+    return max(2, int(round(n_a * width)), n_a // 16)
+
+
+@jit
+def _azimuth_rule(model, prm, vx, vy, vz, n_a):
+    """Nodes and weights in ``u_a ∈ [0, 1)`` for the lobe rule.
+
+    Without a step: the midpoint rule on ``n_a`` nodes. With one: the axis is
+    cut at the quadrant boundaries and the steps, and each piece of width
+    ``w`` gets :func:`_piece_nodes` midpoint nodes after Sidi's sin²
+    substitution ``u = t − sin(2πt)/2π``, which clusters them at the cuts.
+    """
+    steps = _step_cuts(model, prm, vx, vy, vz)
+    if steps.size == 0:
+        nodes = (np.arange(n_a) + 0.5) / n_a
+        return nodes, np.full(n_a, 1.0 / n_a)
+    cuts = np.sort(np.concatenate((np.array([0.0, 0.25, 0.5, 0.75, 1.0]), steps)))
+    count = 0
+    for k in range(cuts.size - 1):
+        count += _piece_nodes(n_a, cuts[k + 1] - cuts[k])
+    nodes = np.empty(count)
+    weights = np.empty(count)
+    j = 0
+    for k in range(cuts.size - 1):
+        width = cuts[k + 1] - cuts[k]
+        m = _piece_nodes(n_a, width)
+        for i in range(m):
+            t = (i + 0.5) / m
+            nodes[j] = cuts[k] + width * (t - np.sin(TWO_PI * t) / TWO_PI)
+            weights[j] = width / m * (1.0 - np.cos(TWO_PI * t))
+            j += 1
+    return nodes, weights
+
+
 @pjit
 def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, out):
     """``out[v] = c(v)`` by the two product rules; ``gx, gw`` GL nodes/weights on [0, 1]."""
@@ -103,10 +200,11 @@ def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, 
                     yw = y[i] * w
                     for c in range(3):
                         acc[i, c] += yw * f[c]
-        # lobe rule: midpoint in u_a × GL over the above-horizon span of u_r
+        # lobe rule: the azimuth rule in u_a × GL over the above-horizon span of u_r
         if has_lobe:
-            for ia in range(n_a):
-                ua = (ia + 0.5) / n_a
+            nodes, weights = _azimuth_rule(model, prm, vx, vy, vz, n_a)
+            for ia in range(nodes.size):
+                ua = nodes[ia]
                 u0, u1 = _horizon_span(model, prm, vx, vy, vz, ua)
                 if u1 <= u0:
                     continue
@@ -118,7 +216,7 @@ def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, 
                     p = cosine_pdf(sz) + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz)
                     if p <= 0.0:
                         continue
-                    w = (u1 - u0) * gw[ir] / n_a * sz / p
+                    w = (u1 - u0) * gw[ir] * weights[ia] * sz / p
                     brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
                     sh_eval_into(sx, sy, sz, lmax, qmm, a, b, y)
                     for i in range(n):
