@@ -5,7 +5,10 @@ import sys
 import click
 from shbake_cli.brdf_table import brdf_table
 from shbake_cli.preview import preview
+from shbake_cli.probe_eval import probe_eval
+from shbake_cli.probe_fit import probe_fit
 from shbake_cli.project_env import project_env
+from shbake_cli.split_sum import split_sum
 
 from shbake import __version__
 from shbake.errors import ShbakeError
@@ -20,6 +23,9 @@ def cli():
 cli.add_command(project_env)
 cli.add_command(preview)
 cli.add_command(brdf_table)
+cli.add_command(probe_fit)
+cli.add_command(split_sum)
+cli.add_command(probe_eval)
 
 
 def main(argv=None) -> int:

@@ -1,0 +1,70 @@
+"""``shbake probe-eval``: SH-exp vs split-sum against ground truth on rendered spheres."""
+
+from pathlib import Path
+
+import click
+from shbake_cli.options import emit_json, info, json_opt, quiet_opt
+
+from shbake.envmap import load_environment
+from shbake.errors import InputError
+from shbake.format.atomic import write_text
+from shbake.probe.albedo_table import albedo_table
+from shbake.probe.evaluation import evaluate_map
+from shbake.probe.probe_asset import probe_bytes
+from shbake.probe.shexp import FitConfig, FitPlan
+from shbake.probe.splitsum import SplitSumConfig
+
+
+def markdown_table(results: dict) -> str:
+    lines = [
+        "| map | material | roughness | view yaw | MSE SH-exp | MSE split-sum | ratio | winner |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, rows in results.items():
+        for r in rows:
+            ratio = r["mse_shexp"] / r["mse_splitsum"] if r["mse_splitsum"] > 0 else float("inf")
+            lines.append(
+                f"| {name} | {r['material']} | {r['roughness']:.2f} | {r['yaw']:.0f} | "
+                f"{r['mse_shexp']:.3e} | {r['mse_splitsum']:.3e} | {ratio:.2f} | "
+                f"{'SH-exp' if r['shexp_wins'] else 'split-sum'} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+@click.command("probe-eval")
+@click.argument("maps", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--size", type=int, default=32, show_default=True, help="Sphere size in pixels.")
+@click.option("--truth-samples", type=int, default=4096, show_default=True, help="Ground-truth samples per pixel.")
+@click.option("--markdown", type=click.Path(dir_okay=False), help="Write the case table here.")
+@json_opt
+@quiet_opt
+def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
+    """Measure SH-exp and split-sum probes of MAPS against ground truth.
+
+    Cases: chrome (F0 1) and dielectric (F0 0.04), roughness 0.25–1.0, four
+    views; error: MSE over the sphere. Default fit and split-sum settings.
+    """
+    if not 8 <= size <= 512:
+        raise InputError("--size must be in [8, 512]")
+    dfg = albedo_table()
+    split_config = SplitSumConfig()
+    results, sizes = {}, {}
+    for path in maps:
+        env = load_environment(path, quiet=True)
+        if env.layout != "latlong":
+            raise InputError(f"{path}: probe-eval takes lat-long maps (2:1)")
+        plan = FitPlan(FitConfig(), env.shape)
+        rows, a, b = evaluate_map(env, plan, split_config, dfg, size, truth_samples)
+        name = Path(path).stem
+        results[name] = rows
+        sizes = {"shexp_bytes": probe_bytes(a), "splitsum_bytes": probe_bytes(b)}
+        wins = sum(r["shexp_wins"] for r in rows)
+        info(f"probe-eval: {name}: SH-exp wins {wins}/{len(rows)}", quiet)
+    total = sum(len(r) for r in results.values())
+    wins = sum(x["shexp_wins"] for r in results.values() for x in r)
+    info(f"probe-eval: SH-exp wins {wins}/{total} ({wins / total:.0%}); bytes per probe "
+         f"{sizes['shexp_bytes']} vs {sizes['splitsum_bytes']}", quiet)  # fmt: skip
+    if markdown:
+        write_text(markdown, markdown_table(results))
+    if as_json:
+        emit_json({"cases": results, "wins": wins, "total": total, **sizes})

@@ -1,0 +1,119 @@
+"""Probe fitting as pure units of work: a spec in, one file out.
+
+A :class:`ProbeJob` names its map, its output and its configuration; running
+it reads the map, fits the probe and writes the asset atomically. Nothing in
+the asset depends on where or when the job ran (no times, no host, no
+scheduling options), so running a job twice, locally or on a Dask worker,
+gives byte-identical files. The probe-independent state — the
+:class:`~shbake.probe.shexp.FitPlan` (sample directions, their texels and
+weights, the design matrix) and the DFG table — is built once per process
+and reused by every job that shares its configuration and map shape.
+"""
+
+import functools
+import os
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+
+import numba
+
+from shbake.envmap import load_environment
+from shbake.errors import InputError, ParameterError
+from shbake.format.asset import write_asset
+from shbake.probe.albedo_table import albedo_table
+from shbake.probe.probe_asset import build_shexp_asset, probe_bytes
+from shbake.probe.shexp import FitConfig, FitPlan
+
+
+@dataclass(frozen=True)
+class ProbeJob:
+    """One probe: map path → asset path, with the fit configuration and input policies."""
+
+    source: str
+    output: str
+    config: FitConfig = FitConfig()
+    negative: str = "clamp"
+    fix_nonfinite: str | None = None
+
+
+@functools.lru_cache(maxsize=4)
+def fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
+    """The plan for ``config`` and map ``shape``, built once per process."""
+    return FitPlan(config, shape)
+
+
+@functools.lru_cache(maxsize=1)
+def shared_albedo_table():
+    return albedo_table()
+
+
+def run_probe_job(job: ProbeJob) -> dict:
+    """Fit one probe and write it; returns a summary (no timing, for determinism)."""
+    env = load_environment(
+        job.source, negative=job.negative, fix_nonfinite=job.fix_nonfinite, quiet=True
+    )
+    if env.layout != "latlong":
+        raise InputError(f"{job.source}: probe-fit takes lat-long maps (2:1), got {env.layout}")
+    plan = fit_plan(job.config, env.shape)
+    probe = plan.fit(env.pixels)
+    asset = build_shexp_asset(probe, job.config, shared_albedo_table(), env.meta)
+    write_asset(job.output, asset)
+    return {
+        "source": job.source,
+        "output": job.output,
+        "bytes": probe_bytes(asset),
+        **probe.stats,
+    }
+
+
+def _single_thread():
+    numba.set_num_threads(1)
+
+
+def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict]:
+    """Run jobs in this process (``n_jobs = 1``) or ``n_jobs`` worker processes.
+
+    Worker processes run numba on one thread each. Results keep the job order.
+    """
+    if not 1 <= n_jobs <= (os.cpu_count() or 1) * 4:
+        raise ParameterError(f"--jobs must be in [1, {(os.cpu_count() or 1) * 4}], got {n_jobs}")
+    results = []
+    if n_jobs == 1:
+        for i, job in enumerate(jobs):
+            results.append(run_probe_job(job))
+            if progress:
+                progress(i + 1, len(jobs))
+        return results
+    with ProcessPoolExecutor(max_workers=n_jobs, initializer=_single_thread) as pool:
+        chunk = max(1, len(jobs) // (4 * n_jobs))
+        for i, res in enumerate(pool.map(run_probe_job, jobs, chunksize=chunk)):
+            results.append(res)
+            if progress:
+                progress(i + 1, len(jobs))
+    return results
+
+
+def _dask_job(job: ProbeJob) -> dict:
+    _single_thread()
+    return run_probe_job(job)
+
+
+def run_dask(jobs: list[ProbeJob], address: str, progress=None) -> list[dict]:
+    """Run jobs on the Dask distributed scheduler at ``address``; results keep job order."""
+    try:
+        from distributed import Client, as_completed
+    except ImportError:  # pragma: no cover - dask is an install requirement
+        raise ParameterError("--scheduler needs the 'distributed' package") from None
+    try:
+        client = Client(address, timeout=10, set_as_default=False)
+    except OSError as e:
+        raise InputError(f"cannot reach the Dask scheduler at {address}: {e}") from None
+    with client:
+        futures = client.map(_dask_job, jobs, pure=False)
+        index = {f.key: i for i, f in enumerate(futures)}
+        results = [None] * len(jobs)
+        for done, fut in enumerate(as_completed(futures, loop=client.loop), 1):
+            results[index[fut.key]] = fut.result()
+            if progress:
+                progress(done, len(jobs))
+    return results

@@ -1,0 +1,82 @@
+"""The ``shexp_probe`` and ``splitsum_probe`` assets (``docs/FORMAT.md`` §5–6).
+
+Both carry the shared DFG table ``/dfg`` (``A0``, ``A1`` over ``(n·v, r)``)
+so the preview needs nothing else. Neither records a time or a command line:
+a probe is a pure function of its map and its configuration, so the same
+inputs give byte-identical files wherever they are baked.
+"""
+
+import numpy as np
+
+from shbake.format.asset import Asset
+from shbake.probe.albedo_table import MU_MIN, TABLE_SAMPLES
+from shbake.probe.ggx_integrals import ROUGHNESS_MIN
+from shbake.probe.shexp import FitConfig, ShexpProbe
+from shbake.probe.splitsum import SplitSumConfig
+
+ROUGHNESS_CONVENTION = "perceptual roughness r; GGX width alpha = r^2 (Burley 2012)"
+DFG_ATTRS = {
+    "axes": ["n_dot_v", "roughness", "A0_A1"],
+    "n_dot_v_range": [MU_MIN, 1.0],
+    "roughness_range": [ROUGHNESS_MIN, 1.0],
+    "samples": TABLE_SAMPLES,
+    "meaning": "A0 = int f_DV (n.l) dl, A1 = int f_DV (1-v.h)^5 (n.l) dl; node-centred, bilinear",
+}
+
+
+def _source_attrs(meta: dict) -> dict:
+    keep = ("sha256", "width", "height", "layout", "colorspace", "negative_policy")
+    return {f"source_{k}": meta[k] for k in keep if k in meta} | {
+        "source_name": str(meta.get("path", "")).rsplit("/", 1)[-1]
+    }
+
+
+def build_shexp_asset(probe: ShexpProbe, config: FitConfig, dfg: np.ndarray, meta: dict) -> Asset:
+    """``/p`` ``(n_p, 3)``, ``/q`` ``(n_q − 1, 3)`` float32 and ``/dfg``."""
+    attrs = {
+        "technique": "SH exponential (Silvennoinen et al. 2025)",
+        "roughness_convention": ROUGHNESS_CONVENTION,
+        "roughness_range": [config.roughness_min, config.roughness_max],
+        "lmax_p": config.lmax_p,
+        "lmax_q": config.lmax_q,
+        "fit_config": config.as_dict(),
+        "fit_stats": probe.stats,
+        "fresnel_tail": "E1 = E0 * A1/A0 (eq. 15, exact under constant light)",
+        **_source_attrs(meta),
+    }
+    return Asset(
+        "shexp_probe",
+        attrs,
+        {
+            "/p": probe.p.astype(np.float32),
+            "/q": probe.q.astype(np.float32),
+            "/dfg": dfg.astype(np.float32),
+        },
+        {"/dfg": DFG_ATTRS, "/p": {"axes": ["coeff", "channel"]}, "/q": {"axes": ["coeff", "channel"]}},
+    )
+
+
+def build_splitsum_asset(levels, config: SplitSumConfig, dfg: np.ndarray, meta: dict) -> Asset:
+    """``/levels/k`` octahedral ``(size_k, size_k, 3)``, ``/level_roughness`` and ``/dfg``."""
+    datasets = {f"/levels/{k}": np.asarray(lv, np.float32) for k, lv in enumerate(levels)}
+    datasets["/level_roughness"] = config.roughness.astype(np.float64)
+    datasets["/dfg"] = dfg.astype(np.float32)
+    attrs = {
+        "technique": "split-sum prefiltered octahedral mip chain (Karis 2013)",
+        "roughness_convention": ROUGHNESS_CONVENTION,
+        "roughness_range": [config.roughness_min, config.roughness_max],
+        "levels": config.levels,
+        "splitsum_config": config.as_dict(),
+        "octahedral": "about +Y; p=(x,z)/(|x|+|y|+|z|), folded for y<0; (u,w)=(p+1)/2",
+        **_source_attrs(meta),
+    }
+    return Asset("splitsum_probe", attrs, datasets, {"/dfg": DFG_ATTRS})
+
+
+def probe_bytes(asset: Asset, bytes_per_value: int = 4) -> int:
+    """Bytes of the per-probe payload (the shared ``/dfg`` table excluded)."""
+    return bytes_per_value * sum(
+        int(np.prod(a.shape))
+        for name, a in asset.datasets.items()
+        if name not in ("/dfg", "/level_roughness")
+    )
