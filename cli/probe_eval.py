@@ -34,7 +34,13 @@ def markdown_table(results: dict) -> str:
 @click.command("probe-eval")
 @click.argument("maps", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--size", type=int, default=32, show_default=True, help="Sphere size in pixels.")
-@click.option("--truth-samples", type=int, default=4096, show_default=True, help="Ground-truth samples per pixel.")
+@click.option(
+    "--truth-samples",
+    type=int,
+    default=4096,
+    show_default=True,
+    help="Ground-truth samples per pixel.",
+)
 @click.option("--markdown", type=click.Path(dir_okay=False), help="Write the case table here.")
 @json_opt
 @quiet_opt

@@ -61,19 +61,79 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite) -> lis
 
 @click.command("probe-fit")
 @click.argument("maps", nargs=-1, type=click.Path(dir_okay=False))
-@click.option("--list", "probe_list", type=click.Path(dir_okay=False), help="Probe list: lines 'MAP [OUTPUT]'.")
-@click.option("-o", "--out-dir", default=".", show_default=True, type=click.Path(file_okay=False), help="Folder for <map stem>.h5 outputs.")
-@click.option("--lmax-p", type=int, default=4, show_default=True, help="Highest band of P (mirror direction).")
-@click.option("--lmax-q", type=int, default=2, show_default=True, help="Highest band of Q (half-reflection), DC dropped.")
-@click.option("--normals", type=int, default=64, show_default=True, help="Fit normals (Fibonacci sphere).")
-@click.option("--views", type=int, default=64, show_default=True, help="Fit views per normal (hemisphere).")
-@click.option("--roughness-range", default="0.2:1", show_default=True, help="Perceptual roughness range lo:hi of the fit.")
-@click.option("--roughness-count", type=int, default=4, show_default=True, help="Roughness samples in the range.")
-@click.option("--samples", type=int, default=1024, show_default=True, help="Visible-normal samples per E0 target.")
-@click.option("--weighting", type=click.Choice(WEIGHTINGS), default="log", show_default=True, help="log: eq. 13; relative: Gauss-Newton on PQ/E0 - 1.")
-@click.option("--floor", type=float, default=1e-4, show_default=True, help="E0 floor before the log, × mean E0 per channel.")
-@click.option("--jobs", "n_jobs", type=int, default=1, show_default=True, help="Local worker processes.")
-@click.option("--scheduler", default=None, metavar="ADDRESS", help="Dask distributed scheduler (tcp://host:port).")
+@click.option(
+    "--list",
+    "probe_list",
+    type=click.Path(dir_okay=False),
+    help="Probe list: lines 'MAP [OUTPUT]'.",
+)
+@click.option(
+    "-o",
+    "--out-dir",
+    default=".",
+    show_default=True,
+    type=click.Path(file_okay=False),
+    help="Folder for <map stem>.h5 outputs.",
+)
+@click.option(
+    "--lmax-p", type=int, default=4, show_default=True, help="Highest band of P (mirror direction)."
+)
+@click.option(
+    "--lmax-q",
+    type=int,
+    default=2,
+    show_default=True,
+    help="Highest band of Q (half-reflection), DC dropped.",
+)
+@click.option(
+    "--normals", type=int, default=64, show_default=True, help="Fit normals (Fibonacci sphere)."
+)
+@click.option(
+    "--views", type=int, default=64, show_default=True, help="Fit views per normal (hemisphere)."
+)
+@click.option(
+    "--roughness-range",
+    default="0.2:1",
+    show_default=True,
+    help="Perceptual roughness range lo:hi of the fit.",
+)
+@click.option(
+    "--roughness-count",
+    type=int,
+    default=4,
+    show_default=True,
+    help="Roughness samples in the range.",
+)
+@click.option(
+    "--samples",
+    type=int,
+    default=1024,
+    show_default=True,
+    help="Visible-normal samples per E0 target.",
+)
+@click.option(
+    "--weighting",
+    type=click.Choice(WEIGHTINGS),
+    default="log",
+    show_default=True,
+    help="log: eq. 13; relative: Gauss-Newton on PQ/E0 - 1.",
+)
+@click.option(
+    "--floor",
+    type=float,
+    default=1e-4,
+    show_default=True,
+    help="E0 floor before the log, × mean E0 per channel.",
+)
+@click.option(
+    "--jobs", "n_jobs", type=int, default=1, show_default=True, help="Local worker processes."
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="Dask distributed scheduler (tcp://host:port).",
+)
 @negative_opt
 @fix_nonfinite_opt
 @json_opt

@@ -16,10 +16,18 @@ from shbake.probe.splitsum import SplitSumConfig, prefilter_chain
 @click.command("split-sum")
 @click.argument("env", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Asset (.h5).")
-@click.option("--top", type=int, default=128, show_default=True, help="Size of the first (roughest-detail) level.")
+@click.option(
+    "--top",
+    type=int,
+    default=128,
+    show_default=True,
+    help="Size of the first (roughest-detail) level.",
+)
 @click.option("--min-size", type=int, default=32, show_default=True, help="Smallest level size.")
 @click.option("--levels", type=int, default=5, show_default=True, help="Roughness levels.")
-@click.option("--roughness-range", default="0.2:1", show_default=True, help="Perceptual roughness lo:hi.")
+@click.option(
+    "--roughness-range", default="0.2:1", show_default=True, help="Perceptual roughness lo:hi."
+)
 @click.option("--samples", type=int, default=1024, show_default=True, help="GGX samples per texel.")
 @negative_opt
 @fix_nonfinite_opt

@@ -11,6 +11,7 @@ and reused by every job that shares its configuration and map shape.
 """
 
 import functools
+import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -73,7 +74,7 @@ def _single_thread():
 def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict]:
     """Run jobs in this process (``n_jobs = 1``) or ``n_jobs`` worker processes.
 
-    Worker processes run numba on one thread each. Results keep the job order.
+    Worker processes (spawned) run numba on one thread each. Results keep the job order.
     """
     if not 1 <= n_jobs <= (os.cpu_count() or 1) * 4:
         raise ParameterError(f"--jobs must be in [1, {(os.cpu_count() or 1) * 4}], got {n_jobs}")
@@ -84,7 +85,9 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict
             if progress:
                 progress(i + 1, len(jobs))
         return results
-    with ProcessPoolExecutor(max_workers=n_jobs, initializer=_single_thread) as pool:
+    # spawn, not fork: forking a process whose numba thread pool is running is unsafe
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread) as pool:
         chunk = max(1, len(jobs) // (4 * n_jobs))
         for i, res in enumerate(pool.map(run_probe_job, jobs, chunksize=chunk)):
             results.append(res)

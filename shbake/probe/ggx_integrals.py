@@ -92,7 +92,11 @@ def sample_light(vx, vy, vz, nx, ny, nz, alpha, prm, ur, ua):
     The weight is 0 when ``l`` falls below the surface.
     """
     (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
-    lx_, ly_, lz_ = tx * vx + ty * vy + tz * vz, bx * vx + by * vy + bz * vz, nx * vx + ny * vy + nz * vz
+    lx_, ly_, lz_ = (
+        tx * vx + ty * vy + tz * vz,
+        bx * vx + by * vy + bz * vz,
+        nx * vx + ny * vy + nz * vz,
+    )
     sx, sy, sz = vndf_sample(prm, lx_, ly_, lz_, ur, ua)
     if sz <= 0.0:
         return 0.0, 0.0, 1.0, 0.0, 0.0

@@ -52,7 +52,11 @@ def build_shexp_asset(probe: ShexpProbe, config: FitConfig, dfg: np.ndarray, met
             "/q": probe.q.astype(np.float32),
             "/dfg": dfg.astype(np.float32),
         },
-        {"/dfg": DFG_ATTRS, "/p": {"axes": ["coeff", "channel"]}, "/q": {"axes": ["coeff", "channel"]}},
+        {
+            "/dfg": DFG_ATTRS,
+            "/p": {"axes": ["coeff", "channel"]},
+            "/q": {"axes": ["coeff", "channel"]},
+        },
     )
 
 

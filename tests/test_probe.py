@@ -1,0 +1,240 @@
+"""probe-fit: GGX integrals, DFG table, SH-exp fit, split-sum, batch, extremes (SPEC §5).
+
+Oracles: a dense Gauss–Legendre hemisphere quadrature of the GGX BRDF
+(``albedo_quadrature`` of tests/test_brdf.py), the brute-force texel sum of
+``shbake.reference.brdf_shading``, exact synthetic targets for the least
+squares, Mitsuba 3 renders (tests/test_mitsuba_probe.py), and byte
+comparison of files written by different runners.
+"""
+
+import filecmp
+
+import numpy as np
+import pytest
+from conftest import write_test_exr
+from shbake_cli.main import main
+from test_brdf import albedo_quadrature
+
+from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
+from shbake.brdf import make_brdf
+from shbake.envmap.layouts import latlong_directions
+from shbake.format.asset import read_asset
+from shbake.format.images import write_exr
+from shbake.probe.albedo_table import albedo_table, lookup, table_axes
+from shbake.probe.ggx_integrals import ggx_integrals, tangent_frame
+from shbake.probe.shexp import FitConfig, FitPlan, evaluate_shexp
+from shbake.probe.splitsum import (
+    SplitSumConfig,
+    evaluate_splitsum,
+    oct_decode,
+    oct_encode,
+    prefilter_chain,
+)
+from shbake.reference.brdf_shading import brute_force_shading
+
+SMALL = FitConfig(normals=16, views=16, samples=256)
+
+
+def smooth_map(h=32, sun=None):
+    """A smooth positive lat-long map (optionally a one-texel sun)."""
+    d = latlong_directions(h, 2 * h)
+    base = 0.5 + 0.4 * d[..., 1] + 0.3 * d[..., 2] ** 2
+    img = np.stack([base, 0.8 * base + 0.1 * d[..., 0], 1.2 - 0.5 * base], -1)
+    img = np.clip(img, 0.02, None).astype(np.float32)
+    if sun is not None:
+        img[h // 4, h // 2] = sun
+    return img
+
+
+def random_pairs(n, seed):
+    rng = np.random.default_rng(seed)
+    nrm = rng.normal(size=(n, 3))
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    v = rng.normal(size=(n, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    v = np.where(np.einsum("ij,ij->i", v, nrm)[:, None] < 0.05, -v, v)
+    keep = np.einsum("ij,ij->i", v, nrm) > 0.05
+    return v[keep], nrm[keep]
+
+
+class TestGgxIntegrals:
+    @pytest.mark.parametrize("r", [0.25, 0.5, 1.0])
+    def test_white_map_gives_directional_albedo(self, r):
+        brdf = make_brdf("ggx", F0=1.0, alpha=r * r)
+        mu = np.array([0.05, 0.3, 0.7, 1.0])
+        views = np.stack([np.sqrt(1 - mu**2), np.zeros(4), mu], 1)
+        e0, _ = ggx_integrals(np.ones((8, 16, 3)), views, np.tile([0, 0, 1.0], (4, 1)), r, 8192)
+        ref = np.array([albedo_quadrature(brdf, v, 1024)[0] for v in views])
+        np.testing.assert_allclose(e0[:, 0], ref, atol=2e-3)
+
+    def test_converges_to_brute_force_texel_sum(self):
+        # 256x128: the texel-centre sum's own discretisation error is well below 1e-3 here
+        img = smooth_map(128)
+        h, w = img.shape[:2]
+        v, n = random_pairs(12, 5)
+        d = latlong_directions(h, w).reshape(-1, 3)
+        from shbake.envmap.layouts import latlong_solid_angles
+
+        omega = latlong_solid_angles(h, w).reshape(-1)
+        frames = np.array([np.array([*tangent_frame(*nn), nn]) for nn in n])
+        views_local = np.einsum("pij,pj->pi", frames, v)
+        r = 0.5
+        bf = brute_force_shading(d, omega, img.reshape(-1, 3), frames, views_local,
+                                 make_brdf("ggx", F0=1.0, alpha=r * r))  # fmt: skip
+        errs = [
+            np.abs(ggx_integrals(img, v, n, r, s)[0] / bf - 1).max() for s in (256, 4096, 65536)
+        ]
+        assert errs[2] < errs[1] < errs[0] and errs[2] < 1e-3, errs
+
+    def test_bad_geometry_refused(self):
+        with pytest.raises(ValueError, match="above its surface"):
+            ggx_integrals(np.ones((8, 16, 3)), [[0, 0, -1.0]], [[0, 0, 1.0]], 0.5)
+        with pytest.raises(ValueError, match="roughness"):
+            ggx_integrals(np.ones((8, 16, 3)), [[0, 0, 1.0]], [[0, 0, 1.0]], 1.5)
+
+
+class TestAlbedoTable:
+    def test_nodes_match_dense_quadrature(self):
+        table = albedo_table(size=8, samples=8192)
+        mu, r = table_axes(8)
+        for i in (1, 4, 7):
+            for j in (2, 5, 7):
+                v = np.array([np.sqrt(1 - mu[i] ** 2), 0.0, mu[i]])
+                brdf = make_brdf("ggx", F0=1.0, alpha=r[j] ** 2)
+                tail = make_brdf("ggx", F0=0.0, alpha=r[j] ** 2)
+                assert table[i, j, 0] == pytest.approx(albedo_quadrature(brdf, v, 768)[0], abs=3e-3)
+                assert table[i, j, 1] == pytest.approx(albedo_quadrature(tail, v, 768)[0], abs=3e-3)
+
+    def test_lookup_is_exact_at_nodes(self):
+        table = albedo_table(size=8, samples=512)
+        mu, r = table_axes(8)
+        np.testing.assert_allclose(lookup(table, mu[3], r[5]), table[3, 5], atol=1e-12)
+
+
+class TestShexpFit:
+    def test_recovers_exact_sh_exponential(self):
+        plan = FitPlan(SMALL, (32, 64))
+        rng = np.random.default_rng(2)
+        x = rng.normal(scale=0.3, size=(SMALL.n_params, 3))
+        e0 = np.exp(plan.A @ x)  # targets exactly of the model's form
+        probe = plan.fit_targets(e0)
+        np.testing.assert_allclose(np.concatenate([probe.p, probe.q]), x, atol=1e-8)
+        # the numba evaluator (independent of the numpy design rows) reproduces the targets
+        table = albedo_table(size=8, samples=256)
+        est = evaluate_shexp(probe.p, probe.q, table, plan.views, plan.normals, plan.roughness)
+        np.testing.assert_allclose(est, e0, rtol=1e-7)
+
+    def test_relative_weighting_lowers_relative_error(self):
+        plan_log = FitPlan(SMALL, (32, 64))
+        plan_rel = FitPlan(
+            FitConfig(normals=16, views=16, samples=256, weighting="relative"), (32, 64)
+        )
+        img = smooth_map(32, sun=(50.0, 40.0, 30.0))
+        a = plan_log.fit(img).stats["relative_rms"]
+        b = plan_rel.fit(img).stats["relative_rms"]
+        assert b < a
+
+    def test_black_map_is_finite(self):
+        probe = FitPlan(SMALL, (32, 64)).fit(np.zeros((32, 64, 3), np.float32))
+        assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
+        table = albedo_table(size=8, samples=256)
+        out = evaluate_shexp(probe.p, probe.q, table, [[0, 0, 1.0]], [[0, 0, 1.0]], 0.5)
+        assert np.all(out < 1e-20)
+
+    def test_sun_of_1e5_is_finite(self):
+        probe = FitPlan(SMALL, (32, 64)).fit(smooth_map(32, sun=(1e5, 1e5, 1e5)))
+        assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
+
+    def test_bad_config_refused(self):
+        for kw in ({"weighting": "l1"}, {"roughness_min": 0.0}, {"lmax_p": 12}, {"floor": 0.0}):
+            with pytest.raises(ValueError):
+                FitConfig(**kw)
+
+
+class TestSplitSum:
+    def test_octahedral_round_trip(self):
+        rng = np.random.default_rng(1)
+        d = rng.normal(size=(500, 3))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        for x in d:
+            u, w = oct_encode(*x)
+            np.testing.assert_allclose(oct_decode(u, w), x, atol=1e-12)
+
+    def test_constant_map_gives_dfg_product(self):
+        cfg = SplitSumConfig(top=32, min_size=8, levels=3, samples=256)
+        levels = prefilter_chain(np.full((16, 32, 3), 2.0, np.float32), cfg)
+        for lv in levels:
+            np.testing.assert_allclose(lv, 2.0, rtol=1e-6)
+        table = albedo_table(size=8, samples=512)
+        v, n = random_pairs(20, 3)
+        out = evaluate_splitsum(levels, cfg.roughness, table, v, n, 0.5, (0.04,) * 3)
+        a = lookup(table, np.einsum("ij,ij->i", v, n), 0.5)
+        np.testing.assert_allclose(out[:, 0], 2.0 * (0.04 * a[:, 0] + 0.96 * a[:, 1]), rtol=1e-6)
+
+
+@pytest.fixture(scope="module")
+def probe_maps(tmp_path_factory):
+    d = tmp_path_factory.mktemp("maps")
+    paths = []
+    for i in range(4):
+        path = d / f"m{i}.exr"
+        write_exr(str(path), smooth_map(32) * (1 + i))
+        paths.append(str(path))
+    return paths
+
+
+class TestBatch:
+    def test_jobs_and_dask_write_identical_files(self, probe_maps, tmp_path):
+        def jobs(folder):
+            (tmp_path / folder).mkdir()
+            return [
+                ProbeJob(p, str(tmp_path / folder / f"p{i}.h5"), SMALL)
+                for i, p in enumerate(probe_maps)
+            ]
+
+        run_local(jobs("one"), 1)
+        run_local(jobs("two"), 2)
+        from distributed import LocalCluster
+
+        with LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1",
+                          dashboard_address=None) as cluster:  # fmt: skip
+            run_dask(jobs("dask"), cluster.scheduler_address)
+        for i in range(len(probe_maps)):
+            a = tmp_path / "one" / f"p{i}.h5"
+            assert filecmp.cmp(a, tmp_path / "two" / f"p{i}.h5", shallow=False)
+            assert filecmp.cmp(a, tmp_path / "dask" / f"p{i}.h5", shallow=False)
+        asset = read_asset(str(tmp_path / "one" / "p0.h5"), ("shexp_probe",))
+        assert asset["/p"].shape == (25, 3) and asset["/q"].shape == (8, 3)
+
+
+class TestCli:
+    def test_probe_fit_and_split_sum(self, probe_maps, tmp_path, capsys):
+        rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path), "--normals", "16",
+                   "--views", "16", "--samples", "256", "--json", "-q"])  # fmt: skip
+        assert rc == 0 and '"bytes": 396' in capsys.readouterr().out
+        rc = main(["split-sum", probe_maps[0], "-o", str(tmp_path / "s.h5"), "--top", "32",
+                   "--samples", "256", "-q"])  # fmt: skip
+        assert rc == 0 and read_asset(str(tmp_path / "s.h5")).kind == "splitsum_probe"
+
+    @pytest.mark.parametrize(
+        "args, message",
+        [
+            (["--roughness-range", "0:2"], "roughness range"),
+            (["--weighting", "l1"], "is not one of"),
+            (["--jobs", "0"], "--jobs"),
+        ],
+    )
+    def test_bad_options_one_line(self, probe_maps, tmp_path, capsys, args, message):
+        rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path), *args])
+        err = capsys.readouterr().err.strip()
+        assert rc != 0 and message in err and "\n" not in err
+        assert not list(tmp_path.glob("*.h5"))
+
+    def test_nan_map_refused(self, tmp_path, capsys):
+        img = smooth_map(32)
+        img[3, 4] = np.nan
+        write_test_exr(tmp_path / "nan.exr", img)
+        rc = main(["probe-fit", str(tmp_path / "nan.exr"), "-o", str(tmp_path)])
+        err = capsys.readouterr().err.strip()
+        assert rc == 1 and "NaN" in err and "\n" not in err
+        assert not (tmp_path / "nan.h5").exists()
