@@ -138,9 +138,26 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite) -> lis
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
-def probe_fit(maps, probe_list, out_dir, lmax_p, lmax_q, normals, views, roughness_range,
-              roughness_count, samples, weighting, floor, n_jobs, scheduler, negative,
-              fix_nonfinite, as_json, quiet):  # fmt: skip
+def probe_fit(
+    maps,
+    probe_list,
+    out_dir,
+    lmax_p,
+    lmax_q,
+    normals,
+    views,
+    roughness_range,
+    roughness_count,
+    samples,
+    weighting,
+    floor,
+    n_jobs,
+    scheduler,
+    negative,
+    fix_nonfinite,
+    as_json,
+    quiet,
+):
     """Fit P/Q SH-exponential probes (33 numbers per channel by default) to MAPS.
 
     Roughness is perceptual (GGX width = r²). Each probe is one atomic,

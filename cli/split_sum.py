@@ -33,8 +33,19 @@ from shbake.probe.splitsum import SplitSumConfig, prefilter_chain
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
-def split_sum(env, output, top, min_size, levels, roughness_range, samples, negative,
-              fix_nonfinite, as_json, quiet):  # fmt: skip
+def split_sum(
+    env,
+    output,
+    top,
+    min_size,
+    levels,
+    roughness_range,
+    samples,
+    negative,
+    fix_nonfinite,
+    as_json,
+    quiet,
+):
     """Bake the split-sum baseline of ENV (Karis 2013) as a probe asset of its own."""
     lo, hi = parse_range(roughness_range)
     config = SplitSumConfig(top, min_size, levels, lo, hi, samples)
