@@ -17,11 +17,12 @@ from test_brdf import albedo_quadrature
 
 from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
 from shbake.brdf import make_brdf
+from shbake.brdf.sampling import tangent_frame
 from shbake.envmap.layouts import latlong_directions
 from shbake.format.asset import read_asset
 from shbake.format.images import write_exr
 from shbake.probe.albedo_table import albedo_table, lookup, table_axes
-from shbake.probe.ggx_integrals import ggx_integrals, tangent_frame
+from shbake.probe.ggx_integrals import ggx_integrals
 from shbake.probe.shexp import FitConfig, FitPlan, evaluate_shexp
 from shbake.probe.splitsum import (
     SplitSumConfig,

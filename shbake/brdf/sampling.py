@@ -27,15 +27,19 @@ def reflect_about(hx, hy, hz, vx, vy, vz):
 
 
 @jit
+def tangent_frame(nx, ny, nz):
+    """Tangent and bitangent completing the unit vector ``n`` (Duff et al. 2017, branchless)."""
+    sign = 1.0 if nz >= 0.0 else -1.0
+    e = -1.0 / (sign + nz)
+    f = nx * ny * e
+    return (1.0 + sign * nx * nx * e, sign * f, -sign * nx), (f, sign + ny * ny * e, -ny)
+
+
+@jit
 def lobe_frame_dir(ax, ay, az, ct, phi):
     """Direction at polar angle ``acos(ct)``, azimuth ``phi`` about the unit axis ``a``."""
     st = np.sqrt(max(0.0, 1.0 - ct * ct))
-    # an orthonormal basis (t, b, a) (Duff et al. 2017, branchless)
-    sign = 1.0 if az >= 0.0 else -1.0
-    e = -1.0 / (sign + az)
-    f = ax * ay * e
-    tx, ty, tz = 1.0 + sign * ax * ax * e, sign * f, -sign * ax
-    bx, by, bz = f, sign + ay * ay * e, -ay
+    (tx, ty, tz), (bx, by, bz) = tangent_frame(ax, ay, az)
     cp, sp = np.cos(phi) * st, np.sin(phi) * st
     return (
         cp * tx + sp * bx + ct * ax,

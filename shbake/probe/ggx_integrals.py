@@ -29,6 +29,7 @@ import numpy as np
 
 from shbake.brdf.ggx import sample as vndf_sample
 from shbake.brdf.ggx import smith_lambda
+from shbake.brdf.sampling import tangent_frame
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 
@@ -61,15 +62,6 @@ def check_samples(n) -> int:
     if not isinstance(n, int | np.integer) or not 16 <= n <= SAMPLES_LIMIT:
         raise ParameterError(f"samples must be an integer in [16, {SAMPLES_LIMIT}], got {n}")
     return int(n)
-
-
-@jit
-def tangent_frame(nx, ny, nz):
-    """Tangent and bitangent completing the unit normal ``n`` (Duff et al. 2017)."""
-    sign = 1.0 if nz >= 0.0 else -1.0
-    e = -1.0 / (sign + nz)
-    f = nx * ny * e
-    return (1.0 + sign * nx * nx * e, sign * f, -sign * nx), (f, sign + ny * ny * e, -ny)
 
 
 @jit

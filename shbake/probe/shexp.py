@@ -21,12 +21,14 @@ import numba
 import numpy as np
 import scipy.linalg
 
+from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 from shbake.probe.albedo_table import table_lookup
 from shbake.probe.ggx_integrals import QuadraturePlan, check_roughness, fibonacci_square
 from shbake.sh.basis import real_sh, recurrence_tables, sh_eval_into
+from shbake.sh.windows import fibonacci_sphere
 
 WEIGHTINGS = ("log", "relative")
 GAUSS_NEWTON_STEPS = 4
@@ -97,15 +99,6 @@ def hemisphere_fibonacci(n: int) -> np.ndarray:
     """``n`` local directions spread uniformly over the upper hemisphere (``z`` uniform)."""
     u = fibonacci_square(n)
     z = 1.0 - u[:, 0]
-    s = np.sqrt(1.0 - z * z)
-    phi = 2.0 * np.pi * u[:, 1]
-    return np.stack([s * np.cos(phi), s * np.sin(phi), z], 1)
-
-
-def sphere_fibonacci(n: int) -> np.ndarray:
-    """``n`` directions spread uniformly over the sphere."""
-    u = fibonacci_square(n)
-    z = 1.0 - 2.0 * u[:, 0]
     s = np.sqrt(1.0 - z * z)
     phi = 2.0 * np.pi * u[:, 1]
     return np.stack([s * np.cos(phi), s * np.sin(phi), z], 1)
@@ -187,14 +180,9 @@ class FitPlan:
 
     def __init__(self, config: FitConfig, shape: tuple[int, int]):
         self.config = config
-        normals = sphere_fibonacci(config.normals)
+        normals = fibonacci_sphere(config.normals)
         local = hemisphere_fibonacci(config.views)
-        views = []
-        for n in normals:
-            t = np.cross(n, [0.0, 1.0, 0.0] if abs(n[1]) < 0.9 else [1.0, 0.0, 0.0])
-            t /= np.linalg.norm(t)
-            b = np.cross(n, t)
-            views.append(local @ np.stack([t, b, n]))
+        views = [local @ np.array([*tangent_frame(*n), n]) for n in normals]
         v1 = np.concatenate(views)
         n1 = np.repeat(normals, config.views, axis=0)
         r = config.roughness

@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 import numba
 import numpy as np
 
+from shbake.brdf.sampling import tangent_frame
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 from shbake.probe.albedo_table import table_lookup
@@ -29,7 +30,6 @@ from shbake.probe.ggx_integrals import (
     fibonacci_square,
     ggx_alpha,
     latlong_texel,
-    tangent_frame,
 )
 
 
