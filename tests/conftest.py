@@ -34,6 +34,14 @@ def synth_latlong(coeffs: np.ndarray, height: int) -> np.ndarray:
     return (real_sh(d, lmax) @ coeffs).astype(np.float64)
 
 
+@pytest.fixture(scope="session", autouse=True)
+def plan_cache(tmp_path_factory):
+    """Keep shbake's plan cache (SHBAKE_CACHE_DIR) inside the test session."""
+    folder = tmp_path_factory.mktemp("plan-cache")
+    os.environ["SHBAKE_CACHE_DIR"] = str(folder)
+    return folder
+
+
 @pytest.fixture
 def run_cli(capfd):
     """Run ``shbake ARGS``; return (exit status, stdout, stderr)."""

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numba
 
+from shbake.batch.plan_cache import cached_fit_plan
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
@@ -39,8 +40,9 @@ class ProbeJob:
 
 @functools.lru_cache(maxsize=4)
 def fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
-    """The plan for ``config`` and map ``shape``, built once per process."""
-    return FitPlan(config, shape)
+    """The plan for ``config`` and map ``shape``: once per process, once per machine
+    (:mod:`shbake.batch.plan_cache`)."""
+    return cached_fit_plan(config, shape)
 
 
 @functools.lru_cache(maxsize=1)
@@ -67,6 +69,17 @@ def run_probe_job(job: ProbeJob) -> dict:
     }
 
 
+def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
+    """Build the first job's plan here, on every core, so that workers load it from
+    the plan cache instead of each building it (a bad first map is left to its job)."""
+    try:
+        env = load_environment(jobs[0].source, fix_nonfinite="black", negative="keep", quiet=True)
+    except (InputError, ParameterError):
+        return
+    if env.layout == "latlong":
+        fit_plan(jobs[0].config, env.shape)
+
+
 def _single_thread():
     numba.set_num_threads(1)
 
@@ -85,6 +98,7 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict
             if progress:
                 progress(i + 1, len(jobs))
         return results
+    _warm_plan_cache(jobs)
     # spawn, not fork: forking a process whose numba thread pool is running is unsafe
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread) as pool:

@@ -6,7 +6,7 @@ import numpy as np
 
 from shbake.envmap.colorspace import WORKING_SPACE, to_working_space
 from shbake.envmap.image_io import read_image, sha256_of, to_rgb
-from shbake.envmap.layouts import check_layout, detect_layout, texels
+from shbake.envmap.layouts import check_layout, detect_layout, latlong_solid_angles, texels
 from shbake.envmap.repair import apply_negative_policy, repair_nonfinite
 from shbake.sh.projection import fejer_row_weights, project_latlong, project_samples
 
@@ -81,8 +81,12 @@ def load_environment(
     rgb, nonfinite = repair_nonfinite(rgb, fix_nonfinite, path)
     if colorspace:
         rgb = to_working_space(rgb, colorspace)
-    _, omega, mask = texels(layout, h, w)
-    rgb = np.where(mask[:, :, None], rgb, 0.0).astype(np.float32)
+    if layout == "latlong":  # every texel is valid
+        omega = latlong_solid_angles(h, w)
+        rgb = rgb.astype(np.float32, copy=False)
+    else:
+        _, omega, mask = texels(layout, h, w)
+        rgb = np.where(mask[:, :, None], rgb, 0.0).astype(np.float32)
     rgb, n_negative, energy_change = apply_negative_policy(rgb, omega, negative, path, quiet)
     meta = {
         "path": str(path),

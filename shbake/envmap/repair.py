@@ -22,6 +22,8 @@ def repair_nonfinite(pixels: np.ndarray, repair: str | None, name: str) -> tuple
     ``black`` sets every non-finite channel value to 0; ``box3`` replaces it
     by the mean of the finite values among its 3×3 neighbours (0 if none).
     """
+    if np.isfinite(pixels.sum(dtype=np.float64)):  # one pass when all are finite
+        return pixels, 0
     bad = ~np.isfinite(pixels)
     count = int(np.any(bad, axis=2).sum())
     if count == 0:
@@ -51,10 +53,12 @@ def apply_negative_policy(pixels, weights, policy: str, name: str, quiet: bool =
     """
     if policy not in NEGATIVE_POLICIES:
         raise ParameterError(f"unknown --negative {policy!r}; choose one of clamp, keep, error")
+    change = np.zeros(pixels.shape[2])
+    if pixels.size == 0 or pixels.min() >= 0:
+        return pixels, 0, change
     neg = pixels < 0
     count = int(np.any(neg, axis=2).sum())
-    change = np.zeros(pixels.shape[2])
-    if count == 0 or policy == "keep":
+    if policy == "keep":
         return pixels, count, change
     if policy == "error":
         raise InputError(

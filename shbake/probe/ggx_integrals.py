@@ -17,9 +17,11 @@ of a deterministic 2D Fibonacci lattice::
 estimate converges to the exact integral of the piecewise-constant map — the
 brute-force texel sum of :mod:`shbake.reference.brdf_shading`.
 
-Everything that does not depend on the map (the directions, their texels and
-weights at a fixed set of ``(v, n, r)``) is built once as a
-:class:`QuadraturePlan`; a probe is then one gather.
+:func:`ggx_integrals` is this plain estimator (the ground truth).
+The fit's targets use a :class:`QuadraturePlan`: everything that does not
+depend on the map (the directions, their texels and weights at a fixed set
+of ``(v, n, r)``) is built once, with filtered importance sampling on a
+solid-angle pyramid of the map, and a probe is then one gather.
 """
 
 from dataclasses import dataclass
@@ -27,8 +29,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from shbake.brdf.ggx import ggx_d, smith_lambda
 from shbake.brdf.ggx import sample as vndf_sample
-from shbake.brdf.ggx import smith_lambda
 from shbake.brdf.sampling import tangent_frame
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
@@ -36,6 +38,9 @@ from shbake.jit import jit, pjit
 ROUGHNESS_MIN = 0.02
 """Smallest perceptual roughness the integrals accept (GGX width 4e-4)."""
 SAMPLES_LIMIT = 1 << 20
+PYRAMID_LEVELS = 6
+LOD_BIAS = 1.0
+"""Pyramid levels one coarser than the sample footprint (Křivánek & Colbert 2008)."""
 INV_GOLDEN = 0.6180339887498949
 
 
@@ -78,10 +83,11 @@ def latlong_texel(dx, dy, dz, height, width):
 
 @jit
 def sample_light(vx, vy, vz, nx, ny, nz, alpha, prm, ur, ua):
-    """One visible-normal sample: world ``l``, weight ``G1(l)`` and ``(1 − v·h)^5``.
+    """One visible-normal sample: world ``l``, weights ``G1(l)`` and ``G1(l) (1 − v·h)^5``,
+    and the density ``p(l) = G1(v) D(h) / (4 n·v)`` (1/sr).
 
     ``prm`` is a scratch GGX parameter vector with ``prm[3] = prm[4] = α``.
-    The weight is 0 when ``l`` falls below the surface.
+    The weights are 0 when ``l`` falls below the surface.
     """
     (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
     lx_, ly_, lz_ = (
@@ -91,16 +97,18 @@ def sample_light(vx, vy, vz, nx, ny, nz, alpha, prm, ur, ua):
     )
     sx, sy, sz = vndf_sample(prm, lx_, ly_, lz_, ur, ua)
     if sz <= 0.0:
-        return 0.0, 0.0, 1.0, 0.0, 0.0
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
     g1 = 1.0 / (1.0 + smith_lambda(alpha, alpha, sx, sy, sz))
     hx, hy, hz = sx + lx_, sy + ly_, sz + lz_
     hn = np.sqrt(hx * hx + hy * hy + hz * hz)
     vh = (hx * lx_ + hy * ly_ + hz * lz_) / hn
     tail = (1.0 - min(1.0, max(0.0, vh))) ** 5
+    g1v = 1.0 / (1.0 + smith_lambda(alpha, alpha, lx_, ly_, lz_))
+    pdf = g1v * ggx_d(alpha, alpha, hx / hn, hy / hn, hz / hn) / (4.0 * lz_)
     wx = sx * tx + sy * bx + sz * nx
     wy = sx * ty + sy * by + sz * ny
     wz = sx * tz + sy * bz + sz * nz
-    return wx, wy, wz, g1, g1 * tail
+    return wx, wy, wz, g1, g1 * tail, pdf
 
 
 @pjit
@@ -112,7 +120,7 @@ def _integrate_direct(views, normals, alphas, square, pixels, height, width, out
         a0 = np.zeros(3)
         a1 = np.zeros(3)
         for k in range(n):
-            lx, ly, lz, w0, w1 = sample_light(
+            lx, ly, lz, w0, w1, _ = sample_light(
                 views[t, 0], views[t, 1], views[t, 2],
                 normals[t, 0], normals[t, 1], normals[t, 2],
                 alphas[t], prm, square[k, 0], square[k, 1],
@@ -128,36 +136,129 @@ def _integrate_direct(views, normals, alphas, square, pixels, height, width, out
             out1[t, c] = a1[c] / n
 
 
+@jit
+def _row_solid_angle(row, height, width):
+    """Solid angle of one texel in lat-long row ``row`` (sr)."""
+    return (np.cos(np.pi * row / height) - np.cos(np.pi * (row + 1) / height)) * 2.0 * np.pi / width
+
+
+@jit
+def _filtered_texel(lx, ly, lz, pdf, n, height, width, levels, level_offsets):
+    """Pyramid texel (flat, across levels) for a sample of density ``pdf`` among ``n``.
+
+    Level ``k = ⌊½ log2(Ω_s / Ω_texel) + 1⌋`` clamped to ``[0, levels − 1]``, where
+    ``Ω_s = 1/(n p)`` is the sample's share of the sphere and ``Ω_texel`` the
+    level-0 texel it lands in (Křivánek & Colbert 2008).
+    """
+    j = latlong_texel(lx, ly, lz, height, width)
+    row, col = j // width, j % width
+    lod = 0.5 * np.log2(1.0 / (n * pdf * _row_solid_angle(row, height, width)))
+    k = min(max(int(np.floor(lod + LOD_BIAS)), 0), levels - 1)
+    return level_offsets[k] + (row >> k) * (width >> k) + (col >> k)
+
+
 @pjit
-def _build_plan(views, normals, alphas, square, height, width, index, weight):
+def _plan_rows(views, normals, alphas, square, height, width, level_offsets, index, weight, count):
     n = square.shape[0]
+    levels = level_offsets.shape[0] - 1
     for t in numba.prange(views.shape[0]):
         prm = np.zeros(6)
         prm[3] = prm[4] = alphas[t]
         for k in range(n):
-            lx, ly, lz, w0, _ = sample_light(
+            lx, ly, lz, w0, _, pdf = sample_light(
                 views[t, 0], views[t, 1], views[t, 2],
                 normals[t, 0], normals[t, 1], normals[t, 2],
                 alphas[t], prm, square[k, 0], square[k, 1],
             )  # fmt: skip
-            index[t, k] = latlong_texel(lx, ly, lz, height, width) if w0 > 0.0 else 0
+            if w0 > 0.0:
+                index[t, k] = _filtered_texel(
+                    lx, ly, lz, pdf, n, height, width, levels, level_offsets
+                )
+            else:
+                index[t, k] = 0
             weight[t, k] = w0 / n
-        order = np.argsort(index[t])  # memory order: neighbouring texels together
-        index[t] = index[t][order]
-        weight[t] = weight[t][order]
+        # memory order, then one entry per texel
+        order = np.argsort(index[t])
+        idx = index[t][order]
+        wgt = weight[t][order]
+        m = 0
+        for k in range(n):
+            if wgt[k] == 0.0:
+                continue
+            if m > 0 and idx[k] == index[t, m - 1]:
+                weight[t, m - 1] += wgt[k]
+            else:
+                index[t, m] = idx[k]
+                weight[t, m] = wgt[k]
+                m += 1
+        count[t] = m
 
 
 @pjit
-def _gather(index, weight, pixels, out):
+def _compact(index, weight, offsets, flat_index, flat_weight):
     for t in numba.prange(index.shape[0]):
+        a = offsets[t]
+        for k in range(offsets[t + 1] - a):
+            flat_index[a + k] = index[t, k]
+            flat_weight[a + k] = weight[t, k]
+
+
+@jit
+def _downsample(src, height, width, dst):
+    """One pyramid step: 2×2 texels averaged with their solid angles."""
+    for i in range(height // 2):
+        w0 = _row_solid_angle(2 * i, height, width)
+        w1 = _row_solid_angle(2 * i + 1, height, width)
+        s = 0.5 / (w0 + w1)
+        for j in range(width // 2):
+            a, b = (2 * i) * width + 2 * j, (2 * i + 1) * width + 2 * j
+            for c in range(3):
+                dst[i * (width // 2) + j, c] = s * (
+                    w0 * (src[a, c] + src[a + 1, c]) + w1 * (src[b, c] + src[b + 1, c])
+                )
+
+
+@pjit
+def _gather(offsets, index, weight, pixels, out):
+    for t in numba.prange(offsets.shape[0] - 1):
         a0 = a1 = a2 = 0.0
-        for k in range(index.shape[1]):
-            j = index[t, k]
-            w = weight[t, k]
+        for k in range(offsets[t], offsets[t + 1]):
+            j = index[k]
+            w = weight[k]
             a0 += w * pixels[j, 0]
             a1 += w * pixels[j, 1]
             a2 += w * pixels[j, 2]
         out[t, 0], out[t, 1], out[t, 2] = a0, a1, a2
+
+
+def pyramid_levels(shape: tuple[int, int]) -> int:
+    """Levels of the lat-long pyramid of a map: halve while even and at least 8 rows."""
+    h = shape[0]
+    levels = 1
+    while levels < PYRAMID_LEVELS and h % 2 == 0 and h // 2 >= 8:
+        h //= 2
+        levels += 1
+    return levels
+
+
+def level_offsets(shape: tuple[int, int], levels: int) -> np.ndarray:
+    """Flat start of each pyramid level (and the total), ``(levels + 1,)`` int64."""
+    h, w = shape
+    sizes = [(h >> k) * (w >> k) for k in range(levels)]
+    return np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+
+
+def latlong_pyramid(flat: np.ndarray, shape: tuple[int, int], levels: int) -> np.ndarray:
+    """The map and its solid-angle-weighted 2×2 reductions, stacked flat ``(Σ texels, 3)``."""
+    offsets = level_offsets(shape, levels)
+    out = np.empty((offsets[-1], 3), dtype=np.float32)
+    out[: offsets[1]] = flat
+    h, w = shape
+    for k in range(levels - 1):
+        _downsample(
+            out[offsets[k] : offsets[k + 1]], h >> k, w >> k, out[offsets[k + 1] : offsets[k + 2]]
+        )
+    return out
 
 
 def _check_geometry(views, normals, roughness):
@@ -206,11 +307,18 @@ def ggx_integrals(pixels, views, normals, roughness, samples: int = 4096):
 class QuadraturePlan:
     """Texels and weights of ``E0`` at fixed ``(v, n, r)`` targets for one map shape.
 
-    ``index``/``weight``: ``(T, N)`` int32/float32, each row sorted by texel.
-    Built once per (targets, samples, map shape); :meth:`e0` is one gather.
+    Filtered importance sampling (Křivánek & Colbert 2008): each of the
+    ``samples`` visible-normal samples reads the level of the map's
+    solid-angle pyramid whose texels match its share of the sphere, so a
+    broad lobe reads a coarse level. Samples that land in one texel are
+    merged; rows are stored back to back (``offsets``, ``index`` into the
+    stacked pyramid, ``weight``), each sorted by texel. Built once per
+    (targets, samples, map shape); :meth:`e0` is one pyramid build and one gather.
     """
 
     shape: tuple[int, int]
+    levels: int
+    offsets: np.ndarray
     index: np.ndarray
     weight: np.ndarray
 
@@ -218,17 +326,25 @@ class QuadraturePlan:
     def build(cls, views, normals, roughness, samples: int, shape: tuple[int, int]):
         v, n, r = _check_geometry(views, normals, roughness)
         samples = check_samples(samples)
-        h, w = shape
+        levels = pyramid_levels(shape)
         index = np.empty((v.shape[0], samples), dtype=np.int32)
         weight = np.empty((v.shape[0], samples), dtype=np.float32)
-        _build_plan(v, n, ggx_alpha(r), fibonacci_square(samples), h, w, index, weight)
-        return cls((h, w), index, weight)
+        count = np.empty(v.shape[0], dtype=np.int64)
+        square = fibonacci_square(samples)
+        starts = level_offsets(shape, levels)
+        _plan_rows(v, n, ggx_alpha(r), square, shape[0], shape[1], starts, index, weight, count)
+        offsets = np.concatenate([[0], np.cumsum(count)]).astype(np.int64)
+        flat_index = np.empty(offsets[-1], dtype=np.int32)
+        flat_weight = np.empty(offsets[-1], dtype=np.float32)
+        _compact(index, weight, offsets, flat_index, flat_weight)
+        return cls(tuple(shape), levels, offsets, flat_index, flat_weight)
 
     def e0(self, pixels) -> np.ndarray:
         """``E0`` at the plan's targets, ``(T, 3)`` float64."""
         flat, h, w = _latlong_pixels(pixels)
         if (h, w) != self.shape:
             raise ParameterError(f"plan is for {self.shape[1]}x{self.shape[0]} maps, got {w}x{h}")
-        out = np.empty((self.index.shape[0], 3))
-        _gather(self.index, self.weight, flat, out)
+        pyramid = latlong_pyramid(flat, self.shape, self.levels)
+        out = np.empty((self.offsets.shape[0] - 1, 3))
+        _gather(self.offsets, self.index, self.weight, pyramid, out)
         return out

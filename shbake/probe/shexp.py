@@ -175,10 +175,11 @@ class FitPlan:
 
     ``views``/``normals`` ``(T, 3)``: for each of ``config.normals`` Fibonacci
     normals, ``config.views`` views spread uniformly over its hemisphere; each
-    pair at every roughness of ``config.roughness``.
+    pair at every roughness of ``config.roughness``. ``quadrature``: a
+    :class:`QuadraturePlan` built earlier for the same config and shape.
     """
 
-    def __init__(self, config: FitConfig, shape: tuple[int, int]):
+    def __init__(self, config: FitConfig, shape: tuple[int, int], quadrature=None):
         self.config = config
         normals = fibonacci_sphere(config.normals)
         local = hemisphere_fibonacci(config.views)
@@ -190,7 +191,7 @@ class FitPlan:
         self.normals = np.tile(n1, (r.size, 1))
         self.roughness = np.repeat(r, v1.shape[0])
         self.A = design_rows(self.views, self.normals, self.roughness, config.lmax_p, config.lmax_q)
-        self.quadrature = QuadraturePlan.build(
+        self.quadrature = quadrature or QuadraturePlan.build(
             self.views, self.normals, self.roughness, config.samples, shape
         )
         self.unit_weights = np.ones(self.A.shape[0])
