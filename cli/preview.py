@@ -9,9 +9,11 @@ from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 from shbake.errors import FormatError, ImageReadError
 from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
+from shbake.preview.glossy import PASS_OF_KIND, render_glossy
 from shbake.preview.passes import PASSES, render_pass
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
+ALL_PASSES = PASSES + ("shexp", "splitsum")
 
 
 def load_source(asset, source_path):
@@ -37,15 +39,30 @@ def load_source(asset, source_path):
     )
 
 
+def load_probe_source(asset, asset_path, source_path):
+    """The map a probe was fitted to: ``--source``, or its recorded name beside the asset."""
+    from shbake.envmap import load_environment
+    from shbake.envmap.image_io import sha256_of
+
+    name = asset.attrs.get("source_name", "")
+    path = source_path or os.path.join(os.path.dirname(os.path.abspath(asset_path)), name)
+    if not os.path.isfile(path):
+        raise ImageReadError(f"original map {name!r} not found beside the asset; give --source")
+    if sha256_of(path) != asset.attrs.get("source_sha256"):
+        raise FormatError(f"{path}: SHA-256 differs from the one recorded in the probe")
+    return load_environment(path, negative=asset.attrs.get("source_negative_policy", "clamp"),
+                            quiet=True)  # fmt: skip
+
+
 @click.command("preview")
 @click.argument("asset_path", metavar="ASSET", type=click.Path(dir_okay=False))
 @click.option(
     "--pass",
     "pass_name",
-    type=click.Choice(PASSES),
-    default="irradiance",
-    show_default=True,
-    help="Shading pass to render.",
+    type=click.Choice(ALL_PASSES),
+    default=None,
+    help="Shading pass [default: irradiance; shexp or splitsum for probes]. "
+    "reference: brute force of the asset's kind.",
 )
 @click.option(
     "-o",
@@ -93,13 +110,47 @@ def load_source(asset, source_path):
     default=None,
     help="MERL file of a merl table (default: the recorded path).",
 )
+@click.option(
+    "--roughness",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="Probes: perceptual roughness of the sphere (within the probe's range).",
+)
+@click.option(
+    "--f0",
+    type=click.FloatRange(0.0, 1.0),
+    default=1.0,
+    show_default=True,
+    help="Probes: Schlick F0 of the sphere (1 chrome, 0.04 dielectric).",
+)
+@click.option(
+    "--samples",
+    type=click.IntRange(16, 1 << 20),
+    default=4096,
+    show_default=True,
+    help="Probes: ground-truth samples per pixel of the reference pass.",
+)
 @json_opt
 @quiet_opt
 def preview(
-    asset_path, pass_name, output, size, diff, source, table_path, at, merl_path, as_json, quiet
-):
-    """Render a sphere lit by ASSET (an env_sh asset) with one shading pass."""
-    asset = read_asset(asset_path, kinds=("env_sh",))
+    asset_path, pass_name, output, size, diff, source, table_path, at, merl_path,
+    roughness, f0, samples, as_json, quiet,
+):  # fmt: skip
+    """Render a sphere lit by ASSET with one shading pass.
+
+    env_sh assets: irradiance, tangent, kautz and their references. Probe
+    assets (shexp_probe, splitsum_probe): a GGX sphere of --roughness and
+    --f0 shaded by the probe, or the glossy reference.
+    """
+    asset = read_asset(asset_path, kinds=("env_sh", *PASS_OF_KIND))
+    if asset.kind in PASS_OF_KIND:
+        preview_probe(asset, asset_path, pass_name, output, size, diff, source, roughness, f0,
+                      samples, as_json, quiet)  # fmt: skip
+        return
+    pass_name = pass_name or "irradiance"
+    if pass_name in PASS_OF_KIND.values():
+        raise click.UsageError(f"--pass {pass_name} needs a {pass_name}_probe asset")
     table = brdf = None
     if pass_name == "kautz" and table_path is None:
         raise click.UsageError("--pass kautz needs --table TABLE.h5")
@@ -117,26 +168,57 @@ def preview(
         brdf = table.make_brdf(merl_path)
     src = load_source(asset, source) if needs_source else None
     img, timing = render_pass(asset, pass_name, size, src, table, brdf)
-    outputs = {output: img}
     summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
     if "modes" in timing:
         summary["modes"] = timing["modes"]
         for mode, t in timing["modes"].items():
             info(f"kautz {mode}: {t['fps']:.1f} frames/s", quiet)
-    stem = os.path.splitext(output)[0]
-    exposure = auto_exposure(img)
+    reference = None
     if diff:
         if pass_name not in REFERENCE_OF:
             raise click.UsageError(
                 "--diff compares the irradiance or tangent pass with its reference"
             )
-        ref, ref_timing = render_pass(asset, REFERENCE_OF[pass_name], size, src, None, brdf)
-        err = img - ref
+        reference, ref_timing = render_pass(asset, REFERENCE_OF[pass_name], size, src, None, brdf)
+        summary["reference_seconds"] = ref_timing["seconds"]
+    write_outputs(output, img, reference, summary, as_json, quiet)
+
+
+def preview_probe(asset, asset_path, pass_name, output, size, diff, source, roughness, f0,
+                  samples, as_json, quiet):  # fmt: skip
+    """The glossy passes of a probe asset (:mod:`shbake.preview.glossy`)."""
+    own = PASS_OF_KIND[asset.kind]
+    pass_name = pass_name or own
+    if pass_name not in (own, "reference"):
+        raise click.UsageError(f"a {asset.kind} asset has passes {own} and reference")
+    if diff and pass_name == "reference":
+        raise click.UsageError("--diff compares a probe pass with the reference")
+    needs_source = pass_name == "reference" or diff
+    src = load_probe_source(asset, asset_path, source) if needs_source else None
+    img, timing = render_glossy(asset, pass_name, size, roughness, f0, src, samples)
+    summary = {"pass": pass_name, "size": size, "roughness": roughness, "f0": f0,
+               "seconds": timing["seconds"], "fps": timing["fps"]}  # fmt: skip
+    reference = None
+    if diff:
+        reference, ref_timing = render_glossy(asset, "reference", size, roughness, f0, src, samples)
+        summary["reference_seconds"] = ref_timing["seconds"]
+    write_outputs(output, img, reference, summary, as_json, quiet)
+
+
+def write_outputs(output, img, reference, summary, as_json, quiet):
+    """Write the pass (EXR + PNG) and, with a reference, the reference and the error image
+    (MSE and relative RMS error into ``summary``); then report."""
+    pass_name = summary["pass"]
+    stem = os.path.splitext(output)[0]
+    exposure = auto_exposure(img)
+    outputs = {output: img}
+    if reference is not None:
+        err = img - reference
         mse = float(np.mean(err**2))
-        rel = float(np.sqrt(np.sum(err**2) / max(np.sum(ref**2), 1e-300)))
-        outputs[stem + "-reference.exr"] = ref
+        rel = float(np.sqrt(np.sum(err**2) / max(np.sum(reference**2), 1e-300)))
+        outputs[stem + "-reference.exr"] = reference
         outputs[stem + "-diff.exr"] = np.abs(err)
-        summary.update(mse=mse, relative_rms_error=rel, reference_seconds=ref_timing["seconds"])
+        summary.update(mse=mse, relative_rms_error=rel)
         info(f"{pass_name} vs brute force: MSE {mse:.6g}, relative RMS error {rel:.4%}", quiet)
     for path, im in outputs.items():
         write_exr(path, im, half=False)
@@ -147,4 +229,4 @@ def preview(
     if as_json:
         emit_json(summary)
     else:
-        info(f"wrote {output} ({pass_name}, {timing['fps']:.1f} frames/s)", quiet)
+        info(f"wrote {output} ({pass_name}, {summary['fps']:.1f} frames/s)", quiet)

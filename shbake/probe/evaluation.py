@@ -13,6 +13,7 @@ import numpy as np
 
 from shbake.preview.sphere import sphere_geometry
 from shbake.probe.ggx_integrals import ggx_integrals
+from shbake.probe.probe_asset import check_probe_roughness
 from shbake.probe.shexp import evaluate_shexp
 from shbake.probe.splitsum import evaluate_splitsum
 
@@ -52,6 +53,8 @@ class ProbeRenders:
 
 def render_case(pixels, shexp_asset, splitsum_asset, roughness, f0, yaw, size, truth_samples):
     """Shade one case three ways; returns :class:`ProbeRenders`."""
+    for asset in (shexp_asset, splitsum_asset):
+        check_probe_roughness(asset, roughness)
     normals, view, _ = sphere_views(size, yaw)
     views = np.broadcast_to(view, normals.shape)
     e0, e1 = ggx_integrals(pixels, views, normals, roughness, truth_samples)

@@ -6,8 +6,11 @@ a probe is a pure function of its map and its configuration, so the same
 inputs give byte-identical files wherever they are baked.
 """
 
+import json
+
 import numpy as np
 
+from shbake.errors import ParameterError
 from shbake.format.asset import Asset
 from shbake.probe.albedo_table import MU_MIN, TABLE_SAMPLES
 from shbake.probe.ggx_integrals import ROUGHNESS_MIN
@@ -84,3 +87,20 @@ def probe_bytes(asset: Asset, bytes_per_value: int = 4) -> int:
         for name, a in asset.datasets.items()
         if name not in ("/dfg", "/level_roughness")
     )
+
+
+def check_probe_roughness(asset: Asset, roughness) -> float:
+    """Refuse a shading roughness outside the probe's ``roughness_range``.
+
+    Neither probe extrapolates: SH-exp was fitted on that range only and the
+    split-sum chain has no level outside it.
+    """
+    span = asset.attrs["roughness_range"]  # a list in memory, JSON text once read back
+    lo, hi = (float(x) for x in (json.loads(span) if isinstance(span, str) else span))
+    r = float(roughness)
+    if not (np.isfinite(r) and lo - 1e-9 <= r <= hi + 1e-9):
+        raise ParameterError(
+            f"roughness {r:g} is outside this probe's fitted range [{lo:g}, {hi:g}]; "
+            "probes do not extrapolate (refit with --roughness-range)"
+        )
+    return r
