@@ -10,7 +10,7 @@ from shbake_cli.options import emit_json, fix_nonfinite_opt, info, json_opt, neg
 from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
 from shbake.errors import InputError, ParameterError
 from shbake.format.atomic import check_writable_dir
-from shbake.probe.shexp import WEIGHTINGS, FitConfig
+from shbake.probe.shexp import TARGETS, WEIGHTINGS, FitConfig
 
 
 def parse_range(text: str) -> tuple[float, float]:
@@ -126,6 +126,21 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite) -> lis
     help="E0 floor before the log, × mean E0 per channel.",
 )
 @click.option(
+    "--targets",
+    type=click.Choice(TARGETS),
+    default="quadrature",
+    show_default=True,
+    help="E0 at the fit samples: quadrature (filtered importance sampling) or sh "
+    "(SH lighting x GGX tables; fast, blurs low roughness).",
+)
+@click.option(
+    "--targets-lmax",
+    type=int,
+    default=8,
+    show_default=True,
+    help="Lighting bands of --targets sh.",
+)
+@click.option(
     "--jobs", "n_jobs", type=int, default=1, show_default=True, help="Local worker processes."
 )
 @click.option(
@@ -151,6 +166,8 @@ def probe_fit(
     samples,
     weighting,
     floor,
+    targets,
+    targets_lmax,
     n_jobs,
     scheduler,
     negative,
@@ -166,7 +183,7 @@ def probe_fit(
     """
     lo, hi = parse_range(roughness_range)
     config = FitConfig(lmax_p, lmax_q, normals, views, roughness_count, lo, hi, samples,
-                       weighting, floor)  # fmt: skip
+                       weighting, floor, targets, targets_lmax)  # fmt: skip
     jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite)
     if scheduler and n_jobs != 1:
         raise ParameterError("use --jobs or --scheduler, not both")

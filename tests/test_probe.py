@@ -123,7 +123,7 @@ class TestQuadraturePlan:
 
         pixels = load_environment(str(map_path(name)), quiet=True).pixels
         plan = FitPlan(FitConfig(normals=8, views=16), pixels.shape[:2])
-        e0 = plan.quadrature.e0(pixels)
+        e0 = plan.targets.e0(pixels)
         args = (pixels, plan.views, plan.normals, plan.roughness)
         ref, _ = ggx_integrals(*args, 65536)
         plain, _ = ggx_integrals(*args, 1024)
@@ -132,6 +132,32 @@ class TestQuadraturePlan:
         assert err_plan <= 1.05 * err_plain
         if name == "city":
             assert err_plan < 0.02
+
+
+class TestShTargets:
+    def test_matches_quadrature_where_band_limit_suffices(self):
+        """SH lighting × GGX tables against converged quadrature: rough targets agree
+        (the map's SH to lmax 8 carries the lobe), sharp ones do not (band limit)."""
+        from shbake.probe.sh_targets import ShTargets
+
+        img = smooth_map(64, sun=[40.0, 30.0, 20.0])
+        v, n = random_pairs(40, 11)
+        for r, bound in ((1.0, 5e-3), (0.6, 2e-2)):
+            rough = np.full(len(v), r)
+            ref, _ = ggx_integrals(img, v, n, rough, 1 << 16)
+            got = ShTargets(v, n, rough, lmax=8, samples=2048).e0(img)
+            assert np.sqrt(np.mean((got / ref - 1) ** 2)) < bound
+        sharp = np.full(len(v), 0.2)
+        ref, _ = ggx_integrals(img, v, n, sharp, 1 << 16)
+        got = ShTargets(v, n, sharp, lmax=8, samples=2048).e0(img)
+        assert np.sqrt(np.mean((got / ref - 1) ** 2)) > 1e-2  # the documented limit
+
+    def test_cli_choice(self, probe_maps, tmp_path, run_cli):
+        code, out, _ = run_cli("probe-fit", probe_maps[0], "-o", tmp_path, "--normals", "16",
+                               "--views", "16", "--targets", "sh", "--json", "-q")  # fmt: skip
+        assert code == 0 and json.loads(out)["config"]["targets"] == "sh"
+        asset = read_asset(str(tmp_path / "m0.h5"), ("shexp_probe",))
+        assert np.all(np.isfinite(asset["/p"])) and np.all(np.isfinite(asset["/q"]))
 
 
 class TestAlbedoTable:
@@ -285,16 +311,16 @@ class TestPlanCache:
         from shbake.batch.plan_cache import cached_fit_plan
 
         monkeypatch.setenv("SHBAKE_CACHE_DIR", str(tmp_path))
-        fresh = FitPlan(SMALL, (32, 64)).quadrature
-        first = cached_fit_plan(SMALL, (32, 64)).quadrature  # builds and stores
+        fresh = FitPlan(SMALL, (32, 64)).targets
+        first = cached_fit_plan(SMALL, (32, 64)).targets  # builds and stores
         (entry,) = tmp_path.glob("plan-*.npz")
-        second = cached_fit_plan(SMALL, (32, 64)).quadrature  # loads
+        second = cached_fit_plan(SMALL, (32, 64)).targets  # loads
         for q in (first, second):
             assert q.shape == fresh.shape and q.levels == fresh.levels
             for name in ("offsets", "index", "weight"):
                 np.testing.assert_array_equal(getattr(q, name), getattr(fresh, name))
         entry.write_bytes(b"not a plan")  # unreadable entries are rebuilt and replaced
-        third = cached_fit_plan(SMALL, (32, 64)).quadrature
+        third = cached_fit_plan(SMALL, (32, 64)).targets
         np.testing.assert_array_equal(third.weight, fresh.weight)
         assert entry.stat().st_size > 100
 

@@ -72,11 +72,11 @@ def _save(path: Path, plan: QuadraturePlan) -> None:
 def cached_fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
     """The :class:`FitPlan` of ``config`` and ``shape``, its quadrature from the cache."""
     folder = cache_dir()
-    if folder is None:
+    if folder is None or config.targets != "quadrature":
         return FitPlan(config, shape)
     path = folder / f"plan-{plan_key(config, shape)}.npz"
     quadrature = _load(path) if path.exists() else None
     plan = FitPlan(config, shape, quadrature)
     if quadrature is None:
-        _save(path, plan.quadrature)
+        _save(path, plan.targets)
     return plan

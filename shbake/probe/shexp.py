@@ -27,10 +27,12 @@ from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 from shbake.probe.albedo_table import table_lookup
 from shbake.probe.ggx_integrals import QuadraturePlan, check_roughness, fibonacci_square
+from shbake.probe.sh_targets import LMAX_LIMIT, ShTargets
 from shbake.sh.basis import real_sh, recurrence_tables, sh_eval_into
 from shbake.sh.windows import fibonacci_sphere
 
 WEIGHTINGS = ("log", "relative")
+TARGETS = ("quadrature", "sh")
 GAUSS_NEWTON_STEPS = 4
 ABSOLUTE_FLOOR = 1e-30
 
@@ -43,7 +45,10 @@ class FitConfig:
     ``1e-30``) is raised to it before the log, so dark and black maps stay
     finite. ``weighting``: ``log`` minimises the log residual (eq. 13, a
     proxy of relative error); ``relative`` continues with Gauss–Newton steps
-    on the relative error ``PQ/E0 − 1`` itself.
+    on the relative error ``PQ/E0 − 1`` itself. ``targets``: how ``E0`` is
+    computed at the fit samples — ``quadrature`` (``samples`` filtered
+    visible-normal samples each) or ``sh`` (SH lighting to ``targets_lmax``
+    × GGX tables, :mod:`shbake.probe.sh_targets`).
     """
 
     lmax_p: int = 4
@@ -56,6 +61,8 @@ class FitConfig:
     samples: int = 1024
     weighting: str = "log"
     floor: float = 1e-4
+    targets: str = "quadrature"
+    targets_lmax: int = 8
 
     def __post_init__(self):
         checks = [
@@ -66,6 +73,8 @@ class FitConfig:
             (1 <= self.roughness_count <= 64, "roughness_count must be in [1, 64]"),
             (self.weighting in WEIGHTINGS, f"weighting must be one of {', '.join(WEIGHTINGS)}"),
             (np.isfinite(self.floor) and 0 < self.floor < 1, "floor must be in (0, 1)"),
+            (self.targets in TARGETS, f"targets must be one of {', '.join(TARGETS)}"),
+            (1 <= self.targets_lmax <= LMAX_LIMIT, f"targets_lmax must be in [1, {LMAX_LIMIT}]"),
         ]
         for ok, msg in checks:
             if not ok:
@@ -175,8 +184,9 @@ class FitPlan:
 
     ``views``/``normals`` ``(T, 3)``: for each of ``config.normals`` Fibonacci
     normals, ``config.views`` views spread uniformly over its hemisphere; each
-    pair at every roughness of ``config.roughness``. ``quadrature``: a
-    :class:`QuadraturePlan` built earlier for the same config and shape.
+    pair at every roughness of ``config.roughness``. ``targets`` computes
+    ``E0`` there: a :class:`QuadraturePlan` (``quadrature``, when given, is
+    one built earlier for the same config and shape) or :class:`ShTargets`.
     """
 
     def __init__(self, config: FitConfig, shape: tuple[int, int], quadrature=None):
@@ -191,15 +201,19 @@ class FitPlan:
         self.normals = np.tile(n1, (r.size, 1))
         self.roughness = np.repeat(r, v1.shape[0])
         self.A = design_rows(self.views, self.normals, self.roughness, config.lmax_p, config.lmax_q)
-        self.quadrature = quadrature or QuadraturePlan.build(
-            self.views, self.normals, self.roughness, config.samples, shape
-        )
+        if config.targets == "sh":
+            self.targets = ShTargets(self.views, self.normals, self.roughness,
+                                     config.targets_lmax, config.samples)  # fmt: skip
+        else:
+            self.targets = quadrature or QuadraturePlan.build(
+                self.views, self.normals, self.roughness, config.samples, shape
+            )
         self.unit_weights = np.ones(self.A.shape[0])
         self.unit_factor = _factor(self.A, self.unit_weights)
 
     def fit(self, pixels) -> ShexpProbe:
         """Fit ``p``, ``q`` to the map ``pixels`` (lat-long, the plan's shape)."""
-        return self.fit_targets(self.quadrature.e0(pixels))
+        return self.fit_targets(self.targets.e0(pixels))
 
     def fit_targets(self, e0: np.ndarray) -> ShexpProbe:
         """Fit ``p``, ``q`` to given ``E0`` values at the plan's samples, ``(T, 3)``."""
