@@ -1,6 +1,6 @@
 """probe-fit throughput: probes per second on local worker processes, vs split-sum baking.
 
-Usage: ``python bench/probe_fit.py [--probes 200] [--jobs 2]``
+Usage: ``python bench/probe_fit.py [--probes 200] [--jobs 2] [--dask]``
 
 A probe list of ``--probes`` lines cycles the six shared 512×256 maps (each
 line its own output file); ``shbake probe-fit --list … --jobs N`` fits them
@@ -9,9 +9,13 @@ worker's plan. The peer in the same run is the split-sum bake of
 ``shbake split-sum`` (the prefiltered mip chain engines use today: read,
 prefilter, write), run in this process on the same maps with numba on
 ``--jobs`` threads, after one warm-up bake. Output: a Markdown table and the ratio.
+``--dask`` also fits the list on a ``--jobs``-worker Dask LocalCluster
+(loopback) with ``--scheduler`` and compares every file byte for byte with
+the local run's.
 """
 
 import argparse
+import filecmp
 import subprocess
 import sys
 import tempfile
@@ -58,10 +62,28 @@ def split_sum_seconds(n: int, threads: int, tmp: Path) -> float:
     return time.perf_counter() - t0
 
 
+def dask_run(lines: list[str], workers: int, tmp: Path) -> tuple[float, int]:
+    """Fit the same probes on a LocalCluster into ``tmp/dask``; (seconds, identical files)."""
+    from distributed import LocalCluster
+
+    folder = tmp / "dask"
+    folder.mkdir()
+    pairs = [line.split() for line in lines]
+    listing = tmp / "dask.txt"
+    listing.write_text("".join(f"{src} {folder / Path(out).name}\n" for src, out in pairs))
+    with LocalCluster(n_workers=workers, threads_per_worker=1, host="127.0.0.1",
+                      dashboard_address=None) as cluster:  # fmt: skip
+        seconds = timed(["probe-fit", "--list", str(listing), "--scheduler",
+                         cluster.scheduler_address, "-q"])  # fmt: skip
+    same = sum(filecmp.cmp(out, folder / Path(out).name, shallow=False) for _, out in pairs)
+    return seconds, same
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--probes", type=int, default=200)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--dask", action="store_true")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         listing = Path(tmp) / "probes.txt"
@@ -73,12 +95,19 @@ def main():
         fit = timed(["probe-fit", "--list", str(listing), "--jobs", str(args.jobs), "-q"])
         n_split = min(args.probes, 24)
         split = split_sum_seconds(n_split, args.jobs, Path(tmp))
+        if args.dask:
+            dask_seconds, same = dask_run(lines, args.jobs, Path(tmp))
     fit_rate, split_rate = args.probes / fit, n_split / split
     print("| bake | probes | wall s | probes/s |")
     print("|---|---|---|---|")
     print(f"| SH-exp `probe-fit --jobs {args.jobs}` | {args.probes} | {fit:.2f} | {fit_rate:.1f} |")
     print(f"| split-sum bake, {args.jobs} threads | {n_split} | {split:.2f} | {split_rate:.1f} |")
     print(f"\nSH-exp / split-sum throughput: {fit_rate / split_rate:.1f}×")
+    if args.dask:
+        print(
+            f"\nDask LocalCluster ({args.jobs} workers): {args.probes} probes in "
+            f"{dask_seconds:.2f} s; {same}/{args.probes} files byte-identical to --jobs"
+        )
 
 
 if __name__ == "__main__":

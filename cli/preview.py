@@ -11,6 +11,7 @@ from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
 from shbake.preview.glossy import PASS_OF_KIND, render_glossy
 from shbake.preview.passes import PASSES, render_pass
+from shbake.probe.probe_asset import probe_from_set
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
 ALL_PASSES = PASSES + ("shexp", "splitsum")
@@ -125,6 +126,13 @@ def load_probe_source(asset, asset_path, source_path):
     help="Probes: Schlick F0 of the sphere (1 chrome, 0.04 dielectric).",
 )
 @click.option(
+    "--index",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Probe sets: which probe (list order).",
+)
+@click.option(
     "--samples",
     type=click.IntRange(16, 1 << 20),
     default=4096,
@@ -135,15 +143,17 @@ def load_probe_source(asset, asset_path, source_path):
 @quiet_opt
 def preview(
     asset_path, pass_name, output, size, diff, source, table_path, at, merl_path,
-    roughness, f0, samples, as_json, quiet,
+    roughness, f0, index, samples, as_json, quiet,
 ):  # fmt: skip
     """Render a sphere lit by ASSET with one shading pass.
 
     env_sh assets: irradiance, tangent, kautz and their references. Probe
-    assets (shexp_probe, splitsum_probe): a GGX sphere of --roughness and
-    --f0 shaded by the probe, or the glossy reference.
+    assets (shexp_probe, shexp_probe_set with --index, splitsum_probe): a GGX
+    sphere of --roughness and --f0 shaded by the probe, or the glossy reference.
     """
-    asset = read_asset(asset_path, kinds=("env_sh", *PASS_OF_KIND))
+    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", *PASS_OF_KIND))
+    if asset.kind == "shexp_probe_set":
+        asset = probe_from_set(asset, index)
     if asset.kind in PASS_OF_KIND:
         preview_probe(asset, asset_path, pass_name, output, size, diff, source, roughness, f0,
                       samples, as_json, quiet)  # fmt: skip

@@ -5,20 +5,22 @@ from pathlib import Path
 import click
 from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 
+from shbake.batch.probe_jobs import fit_plan
 from shbake.envmap import load_environment
 from shbake.errors import InputError
 from shbake.format.atomic import write_text
 from shbake.probe.albedo_table import albedo_table
 from shbake.probe.evaluation import evaluate_map
 from shbake.probe.probe_asset import probe_bytes
-from shbake.probe.shexp import FitConfig, FitPlan
+from shbake.probe.shexp import FitConfig
 from shbake.probe.splitsum import SplitSumConfig
 
 
 def markdown_table(results: dict) -> str:
     lines = [
-        "| map | material | roughness | view yaw | MSE SH-exp | MSE split-sum | ratio | winner |",
-        "|---|---|---|---|---|---|---|---|",
+        "| map | material | roughness | view yaw | MSE SH-exp | MSE split-sum | ratio | winner "
+        "| truth MSE (est.) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for name, rows in results.items():
         for r in rows:
@@ -26,7 +28,7 @@ def markdown_table(results: dict) -> str:
             lines.append(
                 f"| {name} | {r['material']} | {r['roughness']:.2f} | {r['yaw']:.0f} | "
                 f"{r['mse_shexp']:.3e} | {r['mse_splitsum']:.3e} | {ratio:.2f} | "
-                f"{'SH-exp' if r['shexp_wins'] else 'split-sum'} |"
+                f"{'SH-exp' if r['shexp_wins'] else 'split-sum'} | {r['mse_truth_estimate']:.1e} |"
             )
     return "\n".join(lines) + "\n"
 
@@ -59,7 +61,7 @@ def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
         env = load_environment(path, quiet=True)
         if env.layout != "latlong":
             raise InputError(f"{path}: probe-eval takes lat-long maps (2:1)")
-        plan = FitPlan(FitConfig(), env.shape)
+        plan = fit_plan(FitConfig(), env.shape)
         rows, a, b = evaluate_map(env, plan, split_config, dfg, size, truth_samples)
         name = Path(path).stem
         results[name] = rows
@@ -68,9 +70,15 @@ def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
         info(f"probe-eval: {name}: SH-exp wins {wins}/{len(rows)}", quiet)
     total = sum(len(r) for r in results.values())
     wins = sum(x["shexp_wins"] for r in results.values() for x in r)
-    info(f"probe-eval: SH-exp wins {wins}/{total} ({wins / total:.0%}); bytes per probe "
-         f"{sizes['shexp_bytes']} vs {sizes['splitsum_bytes']}", quiet)  # fmt: skip
+    ties = sum(
+        abs(x["mse_shexp"] - x["mse_splitsum"]) < x["mse_truth_estimate"]
+        for r in results.values()
+        for x in r
+    )
+    info(f"probe-eval: SH-exp wins {wins}/{total} ({wins / total:.0%}); {ties} cases differ by "
+         f"less than the truth's own error; bytes per probe {sizes['shexp_bytes']} vs "
+         f"{sizes['splitsum_bytes']}", quiet)  # fmt: skip
     if markdown:
         write_text(markdown, markdown_table(results))
     if as_json:
-        emit_json({"cases": results, "wins": wins, "total": total, **sizes})
+        emit_json({"cases": results, "wins": wins, "total": total, "ties": ties, **sizes})

@@ -41,10 +41,17 @@ def read_probe_list(path: str) -> list[tuple[str, str | None]]:
     return out
 
 
-def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite) -> list[ProbeJob]:
+def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_set=None):
+    """One :class:`ProbeJob` per map; with ``probe_set`` the jobs write nothing (a set)."""
     entries = [(m, None) for m in maps] + (read_probe_list(probe_list) if probe_list else [])
     if not entries:
         raise ParameterError("give maps as arguments or a --list file")
+    if probe_set:
+        check_writable_dir(probe_set)
+        return [
+            ProbeJob(os.path.abspath(src), None, config, negative, fix_nonfinite)
+            for src, _ in entries
+        ]
     jobs, seen = [], set()
     for src, out in entries:
         if out is None:
@@ -59,6 +66,18 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite) -> lis
     return jobs
 
 
+def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
+    """Write the probes of ``results`` as one set asset; return the summaries without arrays."""
+    from shbake.batch.probe_jobs import shared_albedo_table
+    from shbake.format.asset import write_asset
+    from shbake.probe.probe_asset import build_shexp_set_asset
+
+    probes = [r | {"name": Path(r["source"]).stem} for r in results]
+    write_asset(path, build_shexp_set_asset(probes, config, shared_albedo_table()))
+    keep = ("source", "bytes")
+    return [{k: r[k] for k in keep} | r["stats"] | {"output": path} for r in results]
+
+
 @click.command("probe-fit")
 @click.argument("maps", nargs=-1, type=click.Path(dir_okay=False))
 @click.option(
@@ -66,6 +85,12 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite) -> lis
     "probe_list",
     type=click.Path(dir_okay=False),
     help="Probe list: lines 'MAP [OUTPUT]'.",
+)
+@click.option(
+    "--set",
+    "probe_set",
+    type=click.Path(dir_okay=False),
+    help="Write all probes into this one shexp_probe_set asset (list order) instead.",
 )
 @click.option(
     "-o",
@@ -156,6 +181,7 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite) -> lis
 def probe_fit(
     maps,
     probe_list,
+    probe_set,
     out_dir,
     lmax_p,
     lmax_q,
@@ -184,7 +210,7 @@ def probe_fit(
     lo, hi = parse_range(roughness_range)
     config = FitConfig(lmax_p, lmax_q, normals, views, roughness_count, lo, hi, samples,
                        weighting, floor, targets, targets_lmax)  # fmt: skip
-    jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite)
+    jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_set)
     if scheduler and n_jobs != 1:
         raise ParameterError("use --jobs or --scheduler, not both")
     show = not quiet and click.get_text_stream("stderr").isatty()
@@ -198,6 +224,8 @@ def probe_fit(
         results = run_dask(jobs, scheduler, progress)
     else:
         results = run_local(jobs, n_jobs, progress)
+    if probe_set:
+        results = write_set(probe_set, results, config)
     seconds = time.perf_counter() - t0
     rate = len(jobs) / seconds if seconds > 0 else float("inf")
     info(f"probe-fit: {len(jobs)} probes in {seconds:.2f} s ({rate:.1f} probes/s)", quiet)

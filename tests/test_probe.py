@@ -333,6 +333,30 @@ class TestPlanCache:
         assert not list(tmp_path.iterdir())
 
 
+class TestProbeSet:
+    def test_set_holds_the_single_probes(self, probe_maps, tmp_path, run_cli):
+        """A set's probe i is bit for bit the probe of the single-file run; the set file
+        is byte-identical between --jobs 1 and 2; preview reads a probe by --index."""
+        opts = ["--normals", "16", "--views", "16", "--samples", "256", "-q"]
+        assert run_cli("probe-fit", *probe_maps, "-o", tmp_path, *opts)[0] == 0
+        for jobs in ("1", "2"):
+            out = tmp_path / f"set{jobs}.h5"
+            assert run_cli("probe-fit", *probe_maps, "--set", out, "--jobs", jobs, *opts)[0] == 0
+        assert filecmp.cmp(tmp_path / "set1.h5", tmp_path / "set2.h5", shallow=False)
+        probe_set = read_asset(str(tmp_path / "set1.h5"), ("shexp_probe_set",))
+        assert probe_set["/p"].shape == (4, 25, 3) and probe_set["/q"].shape == (4, 8, 3)
+        for i in range(4):
+            single = read_asset(str(tmp_path / f"m{i}.h5"), ("shexp_probe",))
+            np.testing.assert_array_equal(probe_set["/p"][i], single["/p"])
+            np.testing.assert_array_equal(probe_set["/q"][i], single["/q"])
+        code, _, err = run_cli("preview", tmp_path / "set1.h5", "--index", "3", "-o",
+                               tmp_path / "p3.exr", "--size", "16", "-q")  # fmt: skip
+        assert code == 0 and (tmp_path / "p3.png").exists()
+        code, _, err = run_cli("preview", tmp_path / "set1.h5", "--index", "4", "-o",
+                               tmp_path / "p4.exr")  # fmt: skip
+        assert code == 1 and "outside this set of 4 probes" in err
+
+
 class TestCli:
     def test_probe_fit_and_split_sum(self, probe_maps, tmp_path, capsys):
         rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path), "--normals", "16",

@@ -29,10 +29,11 @@ from shbake.probe.shexp import FitConfig, FitPlan
 
 @dataclass(frozen=True)
 class ProbeJob:
-    """One probe: map path → asset path, with the fit configuration and input policies."""
+    """One probe: map path → asset path (``None``: return the probe for a set), with the
+    fit configuration and input policies."""
 
     source: str
-    output: str
+    output: str | None
     config: FitConfig = FitConfig()
     negative: str = "clamp"
     fix_nonfinite: str | None = None
@@ -51,7 +52,8 @@ def shared_albedo_table():
 
 
 def run_probe_job(job: ProbeJob) -> dict:
-    """Fit one probe and write it; returns a summary (no timing, for determinism)."""
+    """Fit one probe and write it; returns a summary (no timing, for determinism).
+    Without an output the summary carries the probe (``p``, ``q``, ``stats``, ``meta``)."""
     env = load_environment(
         job.source, negative=job.negative, fix_nonfinite=job.fix_nonfinite, quiet=True
     )
@@ -60,13 +62,11 @@ def run_probe_job(job: ProbeJob) -> dict:
     plan = fit_plan(job.config, env.shape)
     probe = plan.fit(env.pixels)
     asset = build_shexp_asset(probe, job.config, shared_albedo_table(), env.meta)
+    summary = {"source": job.source, "output": job.output, "bytes": probe_bytes(asset)}
+    if job.output is None:
+        return summary | {"p": probe.p, "q": probe.q, "stats": probe.stats, "meta": env.meta}
     write_asset(job.output, asset)
-    return {
-        "source": job.source,
-        "output": job.output,
-        "bytes": probe_bytes(asset),
-        **probe.stats,
-    }
+    return summary | probe.stats
 
 
 def _warm_plan_cache(jobs: list[ProbeJob]) -> None:

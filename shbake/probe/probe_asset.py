@@ -1,4 +1,4 @@
-"""The ``shexp_probe`` and ``splitsum_probe`` assets (``docs/FORMAT.md`` §5–6).
+"""The ``shexp_probe``, ``shexp_probe_set`` and ``splitsum_probe`` assets (``docs/FORMAT.md`` §5–7).
 
 Both carry the shared DFG table ``/dfg`` (``A0``, ``A1`` over ``(n·v, r)``)
 so the preview needs nothing else. Neither records a time or a command line:
@@ -61,6 +61,52 @@ def build_shexp_asset(probe: ShexpProbe, config: FitConfig, dfg: np.ndarray, met
             "/q": {"axes": ["coeff", "channel"]},
         },
     )
+
+
+def build_shexp_set_asset(probes: list[dict], config: FitConfig, dfg: np.ndarray) -> Asset:
+    """Many SH-exp probes in one file: ``/p`` ``(N, n_p, 3)``, ``/q`` ``(N, n_q − 1, 3)``,
+    one ``/dfg``. ``probes``: per probe ``{"name", "p", "q", "stats", "meta"}`` in set order."""
+    attrs = {
+        "technique": "SH exponential (Silvennoinen et al. 2025)",
+        "roughness_convention": ROUGHNESS_CONVENTION,
+        "roughness_range": [config.roughness_min, config.roughness_max],
+        "lmax_p": config.lmax_p,
+        "lmax_q": config.lmax_q,
+        "fit_config": config.as_dict(),
+        "fresnel_tail": "E1 = E0 * A1/A0 (eq. 15, exact under constant light)",
+        "probe_count": len(probes),
+        "probe_names": [x["name"] for x in probes],
+        "probe_sources": [_source_attrs(x["meta"]) for x in probes],
+        "probe_fit_stats": [x["stats"] for x in probes],
+    }
+    return Asset(
+        "shexp_probe_set",
+        attrs,
+        {
+            "/p": np.stack([x["p"] for x in probes]).astype(np.float32),
+            "/q": np.stack([x["q"] for x in probes]).astype(np.float32),
+            "/dfg": dfg.astype(np.float32),
+        },
+        {
+            "/dfg": DFG_ATTRS,
+            "/p": {"axes": ["probe", "coeff", "channel"]},
+            "/q": {"axes": ["probe", "coeff", "channel"]},
+        },
+    )
+
+
+def probe_from_set(asset: Asset, index: int) -> Asset:
+    """Probe ``index`` of a ``shexp_probe_set`` as an in-memory ``shexp_probe``."""
+    count = int(asset.attrs["probe_count"])
+    if not 0 <= index < count:
+        raise ParameterError(f"probe index {index} is outside this set of {count} probes")
+    sources = asset.attrs["probe_sources"]
+    source = (json.loads(sources) if isinstance(sources, str) else sources)[index]
+    keep = ("technique", "roughness_convention", "roughness_range", "lmax_p", "lmax_q",
+            "fit_config", "fresnel_tail")  # fmt: skip
+    attrs = {k: asset.attrs[k] for k in keep} | source
+    datasets = {"/p": asset["/p"][index], "/q": asset["/q"][index], "/dfg": asset["/dfg"]}
+    return Asset("shexp_probe", attrs, datasets)
 
 
 def build_splitsum_asset(levels, config: SplitSumConfig, dfg: np.ndarray, meta: dict) -> Asset:
