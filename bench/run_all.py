@@ -6,6 +6,15 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
-for script in ("projection.py", "end_to_end.py", "irradiance_accuracy.py", "brdf_table.py"):
+SCRIPTS = (
+    ["projection.py"],
+    ["end_to_end.py"],
+    ["irradiance_accuracy.py"],
+    ["brdf_table.py"],
+    ["probe_fit.py", "--dask"],
+    ["probe_targets.py"],
+)
+
+for script, *args in SCRIPTS:
     print(f"\n## {script}\n", flush=True)
-    subprocess.run([sys.executable, str(HERE / script)], check=True)
+    subprocess.run([sys.executable, str(HERE / script), *args], check=True)
