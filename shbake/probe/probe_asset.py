@@ -34,19 +34,22 @@ def _source_attrs(meta: dict) -> dict:
     }
 
 
-def build_shexp_asset(probe: ShexpProbe, config: FitConfig, dfg: np.ndarray, meta: dict) -> Asset:
-    """``/p`` ``(n_p, 3)``, ``/q`` ``(n_q − 1, 3)`` float32 and ``/dfg``."""
-    attrs = {
+def _shexp_attrs(config: FitConfig) -> dict:
+    """Root attributes every SH-exp kind shares (FORMAT §5)."""
+    return {
         "technique": "SH exponential (Silvennoinen et al. 2025)",
         "roughness_convention": ROUGHNESS_CONVENTION,
         "roughness_range": [config.roughness_min, config.roughness_max],
         "lmax_p": config.lmax_p,
         "lmax_q": config.lmax_q,
         "fit_config": config.as_dict(),
-        "fit_stats": probe.stats,
         "fresnel_tail": "E1 = E0 * A1/A0 (eq. 15, exact under constant light)",
-        **_source_attrs(meta),
     }
+
+
+def build_shexp_asset(probe: ShexpProbe, config: FitConfig, dfg: np.ndarray, meta: dict) -> Asset:
+    """``/p`` ``(n_p, 3)``, ``/q`` ``(n_q − 1, 3)`` float32 and ``/dfg``."""
+    attrs = _shexp_attrs(config) | {"fit_stats": probe.stats, **_source_attrs(meta)}
     return Asset(
         "shexp_probe",
         attrs,
@@ -66,14 +69,7 @@ def build_shexp_asset(probe: ShexpProbe, config: FitConfig, dfg: np.ndarray, met
 def build_shexp_set_asset(probes: list[dict], config: FitConfig, dfg: np.ndarray) -> Asset:
     """Many SH-exp probes in one file: ``/p`` ``(N, n_p, 3)``, ``/q`` ``(N, n_q − 1, 3)``,
     one ``/dfg``. ``probes``: per probe ``{"name", "p", "q", "stats", "meta"}`` in set order."""
-    attrs = {
-        "technique": "SH exponential (Silvennoinen et al. 2025)",
-        "roughness_convention": ROUGHNESS_CONVENTION,
-        "roughness_range": [config.roughness_min, config.roughness_max],
-        "lmax_p": config.lmax_p,
-        "lmax_q": config.lmax_q,
-        "fit_config": config.as_dict(),
-        "fresnel_tail": "E1 = E0 * A1/A0 (eq. 15, exact under constant light)",
+    attrs = _shexp_attrs(config) | {
         "probe_count": len(probes),
         "probe_names": [x["name"] for x in probes],
         "probe_sources": [_source_attrs(x["meta"]) for x in probes],
@@ -102,9 +98,8 @@ def probe_from_set(asset: Asset, index: int) -> Asset:
         raise ParameterError(f"probe index {index} is outside this set of {count} probes")
     sources = asset.attrs["probe_sources"]
     source = (json.loads(sources) if isinstance(sources, str) else sources)[index]
-    keep = ("technique", "roughness_convention", "roughness_range", "lmax_p", "lmax_q",
-            "fit_config", "fresnel_tail")  # fmt: skip
-    attrs = {k: asset.attrs[k] for k in keep} | source
+    shared = _shexp_attrs(FitConfig())  # the names only
+    attrs = {k: asset.attrs[k] for k in shared} | source
     datasets = {"/p": asset["/p"][index], "/q": asset["/q"][index], "/dfg": asset["/dfg"]}
     return Asset("shexp_probe", attrs, datasets)
 
