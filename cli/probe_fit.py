@@ -2,6 +2,7 @@
 
 import os
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -64,6 +65,32 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_
         check_writable_dir(out)
         jobs.append(ProbeJob(os.path.abspath(src), out, config, negative, fix_nonfinite))
     return jobs
+
+
+def settings_study(job: ProbeJob, config: FitConfig, report: bool, tol, quiet: bool):
+    """``--tol`` and ``--report`` on the first map: (config to use, study for the summary)."""
+    from shbake.batch.probe_jobs import fit_plan
+    from shbake.envmap import load_environment
+    from shbake.probe.fit_report import format_report, orders_study, pick_samples, samples_study
+
+    if config.targets != "quadrature":
+        raise ParameterError("--report and --tol study the quadrature targets")
+    env = load_environment(job.source, negative=job.negative, fix_nonfinite=job.fix_nonfinite,
+                           quiet=True)  # fmt: skip
+    if env.layout != "latlong":
+        raise InputError(f"{job.source}: probe-fit takes lat-long maps (2:1), got {env.layout}")
+    samples_rows = samples_study(env.pixels, config)
+    study = {"samples_study": samples_rows}
+    if tol is not None:
+        config = replace(config, samples=pick_samples(samples_rows, tol))
+        study["chosen_samples"] = config.samples
+        info(f"probe-fit: --tol {tol:g} → --samples {config.samples}", quiet)
+    if report:
+        e0 = fit_plan(config, env.shape).targets.e0(env.pixels)
+        study["orders_study"] = orders_study(env.pixels, config, e0)
+        if not quiet:
+            click.echo(format_report(samples_rows, study["orders_study"]), err=True)
+    return config, study
 
 
 def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
@@ -166,6 +193,19 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
     help="Lighting bands of --targets sh.",
 )
 @click.option(
+    "--report",
+    is_flag=True,
+    help="Measure target error and time vs --samples, and fit residual vs orders, on the "
+    "first map.",
+)
+@click.option(
+    "--tol",
+    type=float,
+    default=None,
+    help="Use the fewest samples (256-4096) whose E0 target error (log RMS, first map) is "
+    "at most this.",
+)
+@click.option(
     "--jobs", "n_jobs", type=int, default=1, show_default=True, help="Local worker processes."
 )
 @click.option(
@@ -194,6 +234,8 @@ def probe_fit(
     floor,
     targets,
     targets_lmax,
+    report,
+    tol,
     n_jobs,
     scheduler,
     negative,
@@ -211,6 +253,10 @@ def probe_fit(
     config = FitConfig(lmax_p, lmax_q, normals, views, roughness_count, lo, hi, samples,
                        weighting, floor, targets, targets_lmax)  # fmt: skip
     jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_set)
+    study = None
+    if report or tol is not None:
+        config, study = settings_study(jobs[0], config, report, tol, quiet)
+        jobs = [replace(job, config=config) for job in jobs]
     if scheduler and n_jobs != 1:
         raise ParameterError("use --jobs or --scheduler, not both")
     show = not quiet and click.get_text_stream("stderr").isatty()
@@ -231,4 +277,4 @@ def probe_fit(
     info(f"probe-fit: {len(jobs)} probes in {seconds:.2f} s ({rate:.1f} probes/s)", quiet)
     if as_json:
         emit_json({"probes": results, "seconds": seconds, "probes_per_second": rate,
-                   "config": config.as_dict()})  # fmt: skip
+                   "config": config.as_dict(), **(study or {})})  # fmt: skip

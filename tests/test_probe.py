@@ -357,6 +357,29 @@ class TestProbeSet:
         assert code == 1 and "outside this set of 4 probes" in err
 
 
+class TestFitReport:
+    def test_report_and_tol(self, probe_maps, tmp_path, run_cli):
+        """--report measures target error against the 65 536-sample plain estimate
+        (falling with samples) and the fit residual by order; --tol picks the fewest
+        samples within the tolerance, and an unreachable one is a one-line error."""
+        opts = ["--normals", "16", "--views", "16", "-o", tmp_path, "--json"]
+        code, out, err = run_cli("probe-fit", probe_maps[0], *opts, "--report", "--tol", "0.01")
+        assert code == 0, err
+        summary = json.loads(out)
+        rows = summary["samples_study"]
+        errors = [r["target_log_rms"] for r in rows]
+        assert errors[-1] < errors[0] / 4 and errors[-1] < 2e-3
+        chosen = summary["chosen_samples"]
+        assert summary["config"]["samples"] == chosen
+        assert chosen == min(r["samples"] for r in rows if r["target_log_rms"] <= 0.01)
+        orders = {(r["lmax_p"], r["lmax_q"]): r for r in summary["orders_study"]}
+        assert orders[(4, 2)]["bytes"] == 396
+        assert orders[(8, 4)]["fit_log_rms"] <= orders[(2, 1)]["fit_log_rms"]
+        assert "target error (log RMS)" in err
+        code, _, err = run_cli("probe-fit", probe_maps[0], *opts, "--tol", "1e-9")
+        assert code == 1 and "meets --tol" in err and len(err.strip().splitlines()) == 1
+
+
 class TestCli:
     def test_probe_fit_and_split_sum(self, probe_maps, tmp_path, capsys):
         rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path), "--normals", "16",

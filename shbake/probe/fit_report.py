@@ -1,0 +1,96 @@
+"""What a probe fit's settings cost and how accurate they are (``probe-fit --report``, ``--tol``).
+
+Two error sources, each against an independent or converged value:
+
+* ``samples`` — the ``E0`` targets' own error: RMS of ``log(E0 / truth)`` over
+  every ``SUBSET``-th fit sample, the truth being the plain visible-normal
+  estimate at ``TRUTH_SAMPLES`` samples (:func:`ggx_integrals`). The time is
+  one probe's gather, measured on the subset and scaled to all targets.
+* orders — the fit's own residual: RMS log residual of ``P Q`` against the
+  targets of the chosen configuration (in-sample) for each ``(lmax_p,
+  lmax_q)``, with the bytes per probe and the solve time.
+
+``--tol`` picks the fewest samples of :data:`SAMPLE_STUDY` whose target error
+is at most the tolerance.
+"""
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from shbake.conventions import n_coeffs
+from shbake.errors import ParameterError
+from shbake.probe.ggx_integrals import QuadraturePlan, ggx_integrals
+from shbake.probe.shexp import FitConfig, FitPlan
+
+SAMPLE_STUDY = (256, 512, 1024, 2048, 4096)
+ORDER_STUDY = ((2, 1), (3, 2), (4, 2), (6, 3), (8, 4))
+TRUTH_SAMPLES = 1 << 16
+SUBSET = 7
+
+
+def _log_rms(values, truth, floor):
+    return float(np.sqrt(np.mean(np.log(np.maximum(values, floor) / truth) ** 2)))
+
+
+def samples_study(pixels, config: FitConfig) -> list[dict]:
+    """Target error and gather time per sample count (module docstring)."""
+    plan = FitPlan(replace(config, samples=64), pixels.shape[:2])  # geometry only
+    pick = np.arange(0, plan.views.shape[0], SUBSET)
+    v, n, r = plan.views[pick], plan.normals[pick], plan.roughness[pick]
+    truth, _ = ggx_integrals(pixels, v, n, r, TRUTH_SAMPLES)
+    floor = config.floor * truth.mean(axis=0)
+    rows = []
+    for samples in sorted(set(SAMPLE_STUDY) | {config.samples}):
+        sub = QuadraturePlan.build(v, n, r, samples, pixels.shape[:2])
+        sub.e0(pixels)
+        t0 = time.perf_counter()
+        e0 = sub.e0(pixels)
+        seconds = (time.perf_counter() - t0) * plan.views.shape[0] / len(pick)
+        rows.append({"samples": samples, "target_log_rms": _log_rms(e0, truth, floor),
+                     "gather_seconds": seconds})  # fmt: skip
+    return rows
+
+
+def orders_study(pixels, config: FitConfig, e0) -> list[dict]:
+    """In-sample fit residual, bytes and solve time per ``(lmax_p, lmax_q)``."""
+    rows = []
+    for lmax_p, lmax_q in sorted(set(ORDER_STUDY) | {(config.lmax_p, config.lmax_q)}):
+        plan = FitPlan(replace(config, lmax_p=lmax_p, lmax_q=lmax_q, samples=64),
+                       pixels.shape[:2])  # fmt: skip
+        t0 = time.perf_counter()
+        probe = plan.fit_targets(e0)
+        seconds = time.perf_counter() - t0
+        rows.append({"lmax_p": lmax_p, "lmax_q": lmax_q, "fit_log_rms": probe.stats["log_rms"],
+                     "bytes": 12 * (n_coeffs(lmax_p) + n_coeffs(lmax_q) - 1),
+                     "solve_seconds": seconds})  # fmt: skip
+    return rows
+
+
+def pick_samples(rows: list[dict], tol: float) -> int:
+    """Fewest samples whose target error is within ``tol``."""
+    ok = [r["samples"] for r in rows if r["target_log_rms"] <= tol]
+    if not ok:
+        best = min(rows, key=lambda r: r["target_log_rms"])
+        raise ParameterError(
+            f"no sample count up to {rows[-1]['samples']} meets --tol {tol:g} "
+            f"(best: {best['target_log_rms']:.3g} at {best['samples']})"
+        )
+    return min(ok)
+
+
+def format_report(samples_rows: list[dict], order_rows: list[dict]) -> str:
+    """The report as two small text tables."""
+    lines = ["samples  target error (log RMS)  gather per probe (ms)"]
+    lines += [
+        f"{r['samples']:>7}  {r['target_log_rms']:>21.4f}  {1e3 * r['gather_seconds']:>21.1f}"
+        for r in samples_rows
+    ]
+    lines += ["", "lmax_p lmax_q  fit residual (log RMS)  bytes/probe  solve (ms)"]
+    lines += [
+        f"{r['lmax_p']:>6} {r['lmax_q']:>6}  {r['fit_log_rms']:>22.4f}  {r['bytes']:>11}  "
+        f"{1e3 * r['solve_seconds']:>10.1f}"
+        for r in order_rows
+    ]
+    return "\n".join(lines)
