@@ -26,7 +26,8 @@ from shbake.probe.ggx_integrals import QuadraturePlan
 from shbake.probe.shexp import FitConfig, FitPlan
 
 CACHE_ENV = "SHBAKE_CACHE_DIR"
-PLAN_FORMAT = 1
+ARRAYS = ("offsets", "index", "weight", "views", "normals", "alphas")
+PLAN_FORMAT = 2
 
 
 def cache_dir() -> Path | None:
@@ -52,7 +53,7 @@ def _load(path: Path) -> QuadraturePlan | None:
     try:
         with np.load(path) as z:
             shape = tuple(int(x) for x in z["shape"])
-            return QuadraturePlan(shape, int(z["levels"]), z["offsets"], z["index"], z["weight"])
+            return QuadraturePlan(shape, int(z["levels"]), *(z[k] for k in ARRAYS))
     except (OSError, KeyError, ValueError):
         return None
 
@@ -61,10 +62,8 @@ def _save(path: Path, plan: QuadraturePlan) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(str(path)) as tmp, open(tmp, "wb") as f:
-            np.savez(
-                f, shape=np.array(plan.shape), levels=np.array(plan.levels),
-                offsets=plan.offsets, index=plan.index, weight=plan.weight,
-            )  # fmt: skip
+            arrays = {k: getattr(plan, k) for k in ARRAYS}
+            np.savez(f, shape=np.array(plan.shape), levels=np.array(plan.levels), **arrays)
     except OSError:
         pass  # a cache that cannot be written only costs time
 

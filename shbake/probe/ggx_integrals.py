@@ -7,21 +7,28 @@ Silvennoinen et al. (2025), eq. 6–8, with ``f_DV = D V`` (no Fresnel)::
 
 GGX width ``α = r²`` for perceptual roughness ``r`` (``docs/CONVENTIONS.md``),
 separable Smith ``G = G1(v) G1(l)`` (SPEC §4, as Mitsuba 3). Sampling
-half vectors from the distribution of visible normals (Heitz 2018) leaves the
-estimator weight ``f_DV (n·l) / p(l) = G1(l)``, so with ``N`` points ``u_k``
-of a deterministic 2D Fibonacci lattice::
+half vectors from the distribution of visible normals (Heitz 2018) has density
+``p_B(l) = G1(v) D(h) / (4 n·v)`` and leaves ``f_DV (n·l) = p_B(l) G1(l)``.
+The map is sampled too: texel ``j`` with probability ∝ luminance × solid
+angle, uniformly inside it (density ``p_L``). ``N`` samples of each,
+combined by the balance heuristic (Veach 1997), on a deterministic 2D
+Fibonacci lattice::
 
-    E0 ≈ (1/N) Σ_k L(l_k) G1(l_k) [l_k·n > 0],   E1 adds (1 − v·h_k)^5.
+    E0 ≈ (1/N) Σ_{l ∈ B ∪ L} L(l) G1(l) p_B(l) / (p_B(l) + p_L(l)) [n·l > 0],
+    E1 adds (1 − v·h)^5.
 
-``L`` is read from the lat-long map's nearest texel, so as ``N → ∞`` the
-estimate converges to the exact integral of the piecewise-constant map — the
-brute-force texel sum of :mod:`shbake.reference.brdf_shading`.
+The map's samples converge fast where a small bright source (a sun, a lamp)
+dominates; the BRDF's where the lobe is sharp. ``L`` is the lat-long texel
+holding ``l``, so as ``N → ∞`` the estimate converges to the exact integral
+of the piecewise-constant map — the brute-force texel sum of
+:mod:`shbake.reference.brdf_shading`.
 
-:func:`ggx_integrals` is this plain estimator (the ground truth).
-The fit's targets use a :class:`QuadraturePlan`: everything that does not
-depend on the map (the directions, their texels and weights at a fixed set
-of ``(v, n, r)``) is built once, with filtered importance sampling on a
-solid-angle pyramid of the map, and a probe is then one gather.
+:func:`ggx_integrals` is this estimator (the ground truth). The fit's
+targets use a :class:`QuadraturePlan` of the visible-normal samples alone:
+everything that does not depend on the map (the directions, their texels
+and weights at a fixed set of ``(v, n, r)``) is built once, with filtered
+importance sampling on a solid-angle pyramid of the map, and a probe is
+then one gather.
 """
 
 from dataclasses import dataclass
@@ -32,6 +39,7 @@ import numpy as np
 from shbake.brdf.ggx import ggx_d, smith_lambda
 from shbake.brdf.ggx import sample as vndf_sample
 from shbake.brdf.sampling import tangent_frame
+from shbake.conventions import REC709_LUMINANCE
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 
@@ -42,6 +50,10 @@ PYRAMID_LEVELS = 6
 LOD_BIAS = 1.0
 """Pyramid levels one coarser than the sample footprint (Křivánek & Colbert 2008)."""
 INV_GOLDEN = 0.6180339887498949
+BRIGHT_TEXELS = 64
+"""Texels the fit targets take as point lights: at most this many, the brightest ..."""
+BRIGHT_SHARE = 1e-4
+"""... among those holding more than this share of the map's luminance × solid angle."""
 
 
 def ggx_alpha(roughness):
@@ -82,6 +94,19 @@ def latlong_texel(dx, dy, dz, height, width):
 
 
 @jit
+def _vndf_pdf(vx, vy, vz, lx, ly, lz, alpha):
+    """Density ``p(l) = G1(v) D(h) / (4 n·v)`` (1/sr), ``G1(l)`` and ``(1 − v·h)^5``
+    for local unit ``v``, ``l`` above the surface."""
+    hx, hy, hz = vx + lx, vy + ly, vz + lz
+    hn = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / hn, hy / hn, hz / hn
+    g1v = 1.0 / (1.0 + smith_lambda(alpha, alpha, vx, vy, vz))
+    g1l = 1.0 / (1.0 + smith_lambda(alpha, alpha, lx, ly, lz))
+    tail = (1.0 - min(1.0, max(0.0, vx * hx + vy * hy + vz * hz))) ** 5
+    return g1v * ggx_d(alpha, alpha, hx, hy, hz) / (4.0 * vz), g1l, tail
+
+
+@jit
 def sample_light(vx, vy, vz, nx, ny, nz, alpha, prm, ur, ua):
     """One visible-normal sample: world ``l``, weights ``G1(l)`` and ``G1(l) (1 − v·h)^5``,
     and the density ``p(l) = G1(v) D(h) / (4 n·v)`` (1/sr).
@@ -98,42 +123,137 @@ def sample_light(vx, vy, vz, nx, ny, nz, alpha, prm, ur, ua):
     sx, sy, sz = vndf_sample(prm, lx_, ly_, lz_, ur, ua)
     if sz <= 0.0:
         return 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
-    g1 = 1.0 / (1.0 + smith_lambda(alpha, alpha, sx, sy, sz))
-    hx, hy, hz = sx + lx_, sy + ly_, sz + lz_
-    hn = np.sqrt(hx * hx + hy * hy + hz * hz)
-    vh = (hx * lx_ + hy * ly_ + hz * lz_) / hn
-    tail = (1.0 - min(1.0, max(0.0, vh))) ** 5
-    g1v = 1.0 / (1.0 + smith_lambda(alpha, alpha, lx_, ly_, lz_))
-    pdf = g1v * ggx_d(alpha, alpha, hx / hn, hy / hn, hz / hn) / (4.0 * lz_)
+    pdf, g1, tail = _vndf_pdf(lx_, ly_, lz_, sx, sy, sz, alpha)
     wx = sx * tx + sy * bx + sz * nx
     wy = sx * ty + sy * by + sz * ny
     wz = sx * tz + sy * bz + sz * nz
     return wx, wy, wz, g1, g1 * tail, pdf
 
 
+@jit
+def _texel_direction(j, f, u, height, width):
+    """A point of lat-long texel ``j``: ``f`` uniform in ``cos θ``, ``u`` in ``φ`` (SPEC §3)."""
+    row, col = j // width, j % width
+    z0, z1 = np.cos(np.pi * row / height), np.cos(np.pi * (row + 1) / height)
+    y = z0 - f * (z0 - z1)
+    s = np.sqrt(max(0.0, 1.0 - y * y))
+    phi = 2.0 * np.pi * (col + u) / width
+    return s * np.sin(phi), y, -s * np.cos(phi)
+
+
 @pjit
-def _integrate_direct(views, normals, alphas, square, pixels, height, width, out0, out1):
+def _integrate_mis(views, normals, alphas, square, pixels, height, width, cdf, density,
+                   out0, out1):  # fmt: skip
+    """Balance-heuristic MIS of ``N`` visible-normal and ``N`` map samples (module docstring)."""
     n = square.shape[0]
+    texels = cdf.shape[0]
     for t in numba.prange(views.shape[0]):
         prm = np.zeros(6)
         prm[3] = prm[4] = alphas[t]
+        vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
+        nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
+        (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
+        v_loc = (
+            tx * vx + ty * vy + tz * vz,
+            bx * vx + by * vy + bz * vz,
+            nx * vx + ny * vy + nz * vz,
+        )
         a0 = np.zeros(3)
         a1 = np.zeros(3)
         for k in range(n):
-            lx, ly, lz, w0, w1, _ = sample_light(
-                views[t, 0], views[t, 1], views[t, 2],
-                normals[t, 0], normals[t, 1], normals[t, 2],
-                alphas[t], prm, square[k, 0], square[k, 1],
-            )  # fmt: skip
-            if w0 == 0.0:
+            # the BRDF's sample
+            lx, ly, lz, g1, g1_tail, p_brdf = sample_light(
+                vx, vy, vz, nx, ny, nz, alphas[t], prm, square[k, 0], square[k, 1]
+            )
+            if g1 > 0.0:
+                j = latlong_texel(lx, ly, lz, height, width)
+                w = p_brdf / (p_brdf + density[j])
+                for c in range(3):
+                    a0[c] += w * g1 * pixels[j, c]
+                    a1[c] += w * g1_tail * pixels[j, c]
+            # the map's sample
+            if texels == 0:
                 continue
-            j = latlong_texel(lx, ly, lz, height, width)
+            u = square[k, 0]
+            j = min(np.searchsorted(cdf, u, side="right"), texels - 1)
+            lo = cdf[j - 1] if j > 0 else 0.0
+            f = (u - lo) / (cdf[j] - lo) if cdf[j] > lo else 0.5
+            lx, ly, lz = _texel_direction(j, min(max(f, 0.0), 1.0), square[k, 1], height, width)
+            l_loc = (
+                tx * lx + ty * ly + tz * lz,
+                bx * lx + by * ly + bz * lz,
+                nx * lx + ny * ly + nz * lz,
+            )
+            if l_loc[2] <= 0.0:
+                continue
+            p_brdf, g1, tail = _vndf_pdf(*v_loc, *l_loc, alphas[t])
+            w = p_brdf / (p_brdf + density[j])
             for c in range(3):
-                a0[c] += w0 * pixels[j, c]
-                a1[c] += w1 * pixels[j, c]
+                a0[c] += w * g1 * pixels[j, c]
+                a1[c] += w * g1 * tail * pixels[j, c]
         for c in range(3):
             out0[t, c] = a0[c] / n
             out1[t, c] = a1[c] / n
+
+
+def _luminous_weight(flat: np.ndarray, height: int, width: int):
+    """Luminance × solid angle per texel, and the solid angles (flat, float64)."""
+    omega = np.repeat(
+        (2.0 * np.pi / width) * np.diff(-np.cos(np.pi * np.arange(height + 1) / height)), width
+    )
+    return flat.astype(np.float64) @ REC709_LUMINANCE * omega, omega
+
+
+def light_distribution(flat: np.ndarray, height: int, width: int):
+    """Texel CDF ∝ luminance × solid angle and the matching density per steradian.
+
+    A black map has an empty CDF (then only the BRDF is sampled).
+    """
+    weight, omega = _luminous_weight(flat, height, width)
+    total = weight.sum()
+    if not total > 0.0:
+        return np.zeros(0), np.zeros(flat.shape[0])
+    cdf = np.cumsum(weight) / total
+    cdf[-1] = 1.0
+    return cdf, weight / total / omega
+
+
+def bright_texels(flat: np.ndarray, height: int, width: int):
+    """The map's brightest texels as point lights: flat indices, world directions (texel
+    centres) and ``L Ω`` (:data:`BRIGHT_TEXELS`, :data:`BRIGHT_SHARE`)."""
+    weight, omega = _luminous_weight(flat, height, width)
+    total = weight.sum()
+    if not total > 0.0:
+        return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3))
+    top = np.argsort(-weight, kind="stable")[:BRIGHT_TEXELS]
+    top = np.sort(top[weight[top] > BRIGHT_SHARE * total])
+    theta = np.pi * (top // width + 0.5) / height
+    phi = 2.0 * np.pi * (top % width + 0.5) / width
+    dirs = np.stack(
+        [np.sin(theta) * np.sin(phi), np.cos(theta), -np.sin(theta) * np.cos(phi)], axis=1
+    )
+    return top, dirs, flat[top].astype(np.float64) * omega[top, None]
+
+
+@pjit
+def _add_point_lights(views, normals, alphas, dirs, energy, out):
+    """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k`` with ``f_DV (n·l) = p_B(l) G1(l)``."""
+    for t in numba.prange(views.shape[0]):
+        vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
+        nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
+        (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
+        v_loc = (tx * vx + ty * vy + tz * vz, bx * vx + by * vy + bz * vz,
+                 nx * vx + ny * vy + nz * vz)  # fmt: skip
+        for k in range(dirs.shape[0]):
+            lx, ly, lz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
+            cz = nx * lx + ny * ly + nz * lz
+            if cz <= 0.0:
+                continue
+            p_brdf, g1, _ = _vndf_pdf(*v_loc, tx * lx + ty * ly + tz * lz,
+                                      bx * lx + by * ly + bz * lz, cz, alphas[t])  # fmt: skip
+            w = p_brdf * g1
+            for c in range(3):
+                out[t, c] += w * energy[k, c]
 
 
 @jit
@@ -292,14 +412,15 @@ def ggx_integrals(pixels, views, normals, roughness, samples: int = 4096):
     views, normals : (T, 3) unit world directions with ``n·v > 0``; ``v`` points
         from the surface toward the viewer.
     roughness : scalar or (T,) perceptual roughness ``r`` in ``[0.02, 1]``.
-    samples : visible-normal samples per integral.
+    samples : visible-normal samples, and as many map samples, per integral.
     """
     v, n, r = _check_geometry(views, normals, roughness)
     flat, h, w = _latlong_pixels(pixels)
     samples = check_samples(samples)
     e0 = np.empty((v.shape[0], 3))
     e1 = np.empty((v.shape[0], 3))
-    _integrate_direct(v, n, ggx_alpha(r), fibonacci_square(samples), flat, h, w, e0, e1)
+    cdf, density = light_distribution(flat, h, w)
+    _integrate_mis(v, n, ggx_alpha(r), fibonacci_square(samples), flat, h, w, cdf, density, e0, e1)
     return e0, e1
 
 
@@ -313,7 +434,10 @@ class QuadraturePlan:
     broad lobe reads a coarse level. Samples that land in one texel are
     merged; rows are stored back to back (``offsets``, ``index`` into the
     stacked pyramid, ``weight``), each sorted by texel. Built once per
-    (targets, samples, map shape); :meth:`e0` is one pyramid build and one gather.
+    (targets, samples, map shape); :meth:`e0` is one pyramid build and one
+    gather. A map's brightest texels (:func:`bright_texels`: a sun, lamps),
+    whose few samples would make every target noisy, are taken out of the
+    pyramid and added exactly as point lights at their centres.
     """
 
     shape: tuple[int, int]
@@ -321,6 +445,9 @@ class QuadraturePlan:
     offsets: np.ndarray
     index: np.ndarray
     weight: np.ndarray
+    views: np.ndarray
+    normals: np.ndarray
+    alphas: np.ndarray
 
     @classmethod
     def build(cls, views, normals, roughness, samples: int, shape: tuple[int, int]):
@@ -337,14 +464,20 @@ class QuadraturePlan:
         flat_index = np.empty(offsets[-1], dtype=np.int32)
         flat_weight = np.empty(offsets[-1], dtype=np.float32)
         _compact(index, weight, offsets, flat_index, flat_weight)
-        return cls(tuple(shape), levels, offsets, flat_index, flat_weight)
+        return cls(tuple(shape), levels, offsets, flat_index, flat_weight, v, n, ggx_alpha(r))
 
     def e0(self, pixels) -> np.ndarray:
         """``E0`` at the plan's targets, ``(T, 3)`` float64."""
         flat, h, w = _latlong_pixels(pixels)
         if (h, w) != self.shape:
             raise ParameterError(f"plan is for {self.shape[1]}x{self.shape[0]} maps, got {w}x{h}")
+        lights, dirs, energy = bright_texels(flat, h, w)
+        if lights.size:
+            flat = flat.copy()
+            flat[lights] = 0.0
         pyramid = latlong_pyramid(flat, self.shape, self.levels)
         out = np.empty((self.offsets.shape[0] - 1, 3))
         _gather(self.offsets, self.index, self.weight, pyramid, out)
+        if lights.size:
+            _add_point_lights(self.views, self.normals, self.alphas, dirs, energy, out)
         return out
