@@ -8,11 +8,13 @@ rebuild it every time; the cache builds it once per machine.
 
 Location: ``$SHBAKE_CACHE_DIR``, else ``$XDG_CACHE_HOME/shbake``, else
 ``~/.cache/shbake``; ``SHBAKE_CACHE_DIR=off`` disables it. Entries are named
-by a SHA-256 of the configuration, the shape, the plan format and the shbake
-version, written atomically, and rebuilt when unreadable. A cached plan is
+by a SHA-256 of the configuration, the shape, the plan format, the shbake
+version and the source of the modules that build plans, written
+atomically, and rebuilt when unreadable. A cached plan is
 the same bytes a fresh build gives, so outputs do not depend on the cache.
 """
 
+import functools
 import hashlib
 import json
 import os
@@ -21,7 +23,9 @@ from pathlib import Path
 import numpy as np
 
 import shbake
+from shbake.brdf import ggx, sampling
 from shbake.format.atomic import atomic_path
+from shbake.probe import ggx_integrals
 from shbake.probe.ggx_integrals import QuadraturePlan
 from shbake.probe.shexp import FitConfig, FitPlan
 
@@ -45,8 +49,18 @@ def plan_key(config: FitConfig, shape: tuple[int, int]) -> str:
         "shape": list(shape),
         "format": PLAN_FORMAT,
         "version": shbake.__version__,
+        "code": _code_digest(),
     }
     return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:32]
+
+
+@functools.lru_cache(maxsize=1)
+def _code_digest() -> str:
+    """SHA-256 of the modules that build a plan: any change to them is a new key."""
+    digest = hashlib.sha256()
+    for module in (ggx_integrals, ggx, sampling):
+        digest.update(Path(module.__file__).read_bytes())
+    return digest.hexdigest()
 
 
 def _load(path: Path) -> QuadraturePlan | None:

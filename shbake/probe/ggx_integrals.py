@@ -107,26 +107,29 @@ def _vndf_pdf(vx, vy, vz, lx, ly, lz, alpha):
 
 
 @jit
-def sample_light(vx, vy, vz, nx, ny, nz, alpha, prm, ur, ua):
-    """One visible-normal sample: world ``l``, weights ``G1(l)`` and ``G1(l) (1 − v·h)^5``,
-    and the density ``p(l) = G1(v) D(h) / (4 n·v)`` (1/sr).
+def surface_frame(vx, vy, vz, nx, ny, nz):
+    """Tangent ``t``, bitangent ``b`` of ``n`` (Duff et al.) and ``v`` in that frame."""
+    (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
+    v_loc = (tx * vx + ty * vy + tz * vz, bx * vx + by * vy + bz * vz, nx * vx + ny * vy + nz * vz)
+    return (tx, ty, tz), (bx, by, bz), v_loc
+
+
+@jit
+def sample_light(t, b, n, v_loc, alpha, prm, ur, ua):
+    """One visible-normal sample in the frame ``(t, b, n)`` of :func:`surface_frame`: world
+    ``l``, weights ``G1(l)`` and ``G1(l) (1 − v·h)^5``, and the density
+    ``p(l) = G1(v) D(h) / (4 n·v)`` (1/sr).
 
     ``prm`` is a scratch GGX parameter vector with ``prm[3] = prm[4] = α``.
     The weights are 0 when ``l`` falls below the surface.
     """
-    (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
-    lx_, ly_, lz_ = (
-        tx * vx + ty * vy + tz * vz,
-        bx * vx + by * vy + bz * vz,
-        nx * vx + ny * vy + nz * vz,
-    )
-    sx, sy, sz = vndf_sample(prm, lx_, ly_, lz_, ur, ua)
+    sx, sy, sz = vndf_sample(prm, v_loc[0], v_loc[1], v_loc[2], ur, ua)
     if sz <= 0.0:
         return 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
-    pdf, g1, tail = _vndf_pdf(lx_, ly_, lz_, sx, sy, sz, alpha)
-    wx = sx * tx + sy * bx + sz * nx
-    wy = sx * ty + sy * by + sz * ny
-    wz = sx * tz + sy * bz + sz * nz
+    pdf, g1, tail = _vndf_pdf(v_loc[0], v_loc[1], v_loc[2], sx, sy, sz, alpha)
+    wx = sx * t[0] + sy * b[0] + sz * n[0]
+    wy = sx * t[1] + sy * b[1] + sz * n[1]
+    wz = sx * t[2] + sy * b[2] + sz * n[2]
     return wx, wy, wz, g1, g1 * tail, pdf
 
 
@@ -150,21 +153,18 @@ def _integrate_mis(views, normals, alphas, square, pixels, height, width, cdf, d
     for t in numba.prange(views.shape[0]):
         prm = np.zeros(6)
         prm[3] = prm[4] = alphas[t]
-        vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
-        (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
-        v_loc = (
-            tx * vx + ty * vy + tz * vz,
-            bx * vx + by * vy + bz * vz,
-            nx * vx + ny * vy + nz * vz,
+        (tx, ty, tz), (bx, by, bz), v_loc = surface_frame(
+            views[t, 0], views[t, 1], views[t, 2], nx, ny, nz
         )
         a0 = np.zeros(3)
         a1 = np.zeros(3)
         for k in range(n):
             # the BRDF's sample
             lx, ly, lz, g1, g1_tail, p_brdf = sample_light(
-                vx, vy, vz, nx, ny, nz, alphas[t], prm, square[k, 0], square[k, 1]
-            )
+                (tx, ty, tz), (bx, by, bz), (nx, ny, nz), v_loc, alphas[t], prm,
+                square[k, 0], square[k, 1],
+            )  # fmt: skip
             if g1 > 0.0:
                 j = latlong_texel(lx, ly, lz, height, width)
                 w = p_brdf / (p_brdf + density[j])
@@ -225,8 +225,10 @@ def bright_texels(flat: np.ndarray, height: int, width: int):
     total = weight.sum()
     if not total > 0.0:
         return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3))
-    top = np.argsort(-weight, kind="stable")[:BRIGHT_TEXELS]
-    top = np.sort(top[weight[top] > BRIGHT_SHARE * total])
+    top = np.flatnonzero(weight > BRIGHT_SHARE * total)
+    if top.size > BRIGHT_TEXELS:  # the brightest; ties broken by index, so deterministic
+        order = np.lexsort((top, -weight[top]))[:BRIGHT_TEXELS]
+        top = np.sort(top[order])
     theta = np.pi * (top // width + 0.5) / height
     phi = 2.0 * np.pi * (top % width + 0.5) / width
     dirs = np.stack(
@@ -237,21 +239,27 @@ def bright_texels(flat: np.ndarray, height: int, width: int):
 
 @pjit
 def _add_point_lights(views, normals, alphas, dirs, energy, out):
-    """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k`` with ``f_DV (n·l) = p_B(l) G1(l)``."""
+    """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k``: ``G1(v) G1(l) D(h) / (4 n·v)`` per light
+    (:func:`_vndf_pdf` with the per-target factors hoisted)."""
     for t in numba.prange(views.shape[0]):
-        vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
-        (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
-        v_loc = (tx * vx + ty * vy + tz * vz, bx * vx + by * vy + bz * vz,
-                 nx * vx + ny * vy + nz * vz)  # fmt: skip
+        (tx, ty, tz), (bx, by, bz), (v0, v1, v2) = surface_frame(
+            views[t, 0], views[t, 1], views[t, 2], nx, ny, nz
+        )
+        a = alphas[t]
+        a2 = a * a
+        scale = 1.0 / ((1.0 + smith_lambda(a, a, v0, v1, v2)) * 4.0 * v2 * np.pi * a2)
         for k in range(dirs.shape[0]):
             lx, ly, lz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
-            cz = nx * lx + ny * ly + nz * lz
-            if cz <= 0.0:
+            l2 = nx * lx + ny * ly + nz * lz
+            if l2 <= 0.0:
                 continue
-            p_brdf, g1, _ = _vndf_pdf(*v_loc, tx * lx + ty * ly + tz * lz,
-                                      bx * lx + by * ly + bz * lz, cz, alphas[t])  # fmt: skip
-            w = p_brdf * g1
+            l0, l1 = tx * lx + ty * ly + tz * lz, bx * lx + by * ly + bz * lz
+            h0, h1, h2 = v0 + l0, v1 + l1, v2 + l2
+            hz2 = h2 * h2 / (h0 * h0 + h1 * h1 + h2 * h2)
+            d = hz2 * (a2 - 1.0) + 1.0  # D(h) = a2 / (π d²) = 1 / (π a2 (d/a2)²)
+            g1l = 2.0 / (1.0 + np.sqrt(1.0 + a2 * (l0 * l0 + l1 * l1) / (l2 * l2)))
+            w = scale * g1l * a2 * a2 / (d * d)
             for c in range(3):
                 out[t, c] += w * energy[k, c]
 
@@ -263,16 +271,17 @@ def _row_solid_angle(row, height, width):
 
 
 @jit
-def _filtered_texel(lx, ly, lz, pdf, n, height, width, levels, level_offsets):
+def _filtered_texel(lx, ly, lz, pdf, n, height, width, levels, level_offsets, log2_omega):
     """Pyramid texel (flat, across levels) for a sample of density ``pdf`` among ``n``.
 
     Level ``k = ⌊½ log2(Ω_s / Ω_texel) + 1⌋`` clamped to ``[0, levels − 1]``, where
     ``Ω_s = 1/(n p)`` is the sample's share of the sphere and ``Ω_texel`` the
-    level-0 texel it lands in (Křivánek & Colbert 2008).
+    level-0 texel it lands in (Křivánek & Colbert 2008); ``log2_omega[row]``
+    is ``log2 Ω_texel`` per row.
     """
     j = latlong_texel(lx, ly, lz, height, width)
     row, col = j // width, j % width
-    lod = 0.5 * np.log2(1.0 / (n * pdf * _row_solid_angle(row, height, width)))
+    lod = -0.5 * (np.log2(n * pdf) + log2_omega[row])
     k = min(max(int(np.floor(lod + LOD_BIAS)), 0), levels - 1)
     return level_offsets[k] + (row >> k) * (width >> k) + (col >> k)
 
@@ -281,18 +290,21 @@ def _filtered_texel(lx, ly, lz, pdf, n, height, width, levels, level_offsets):
 def _plan_rows(views, normals, alphas, square, height, width, level_offsets, index, weight, count):
     n = square.shape[0]
     levels = level_offsets.shape[0] - 1
+    log2_omega = np.empty(height)
+    for row in range(height):
+        log2_omega[row] = np.log2(_row_solid_angle(row, height, width))
     for t in numba.prange(views.shape[0]):
         prm = np.zeros(6)
         prm[3] = prm[4] = alphas[t]
+        nrm = (normals[t, 0], normals[t, 1], normals[t, 2])
+        tan, bit, v_loc = surface_frame(views[t, 0], views[t, 1], views[t, 2], *nrm)
         for k in range(n):
             lx, ly, lz, w0, _, pdf = sample_light(
-                views[t, 0], views[t, 1], views[t, 2],
-                normals[t, 0], normals[t, 1], normals[t, 2],
-                alphas[t], prm, square[k, 0], square[k, 1],
-            )  # fmt: skip
+                tan, bit, nrm, v_loc, alphas[t], prm, square[k, 0], square[k, 1]
+            )
             if w0 > 0.0:
                 index[t, k] = _filtered_texel(
-                    lx, ly, lz, pdf, n, height, width, levels, level_offsets
+                    lx, ly, lz, pdf, n, height, width, levels, level_offsets, log2_omega
                 )
             else:
                 index[t, k] = 0
