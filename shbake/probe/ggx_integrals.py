@@ -40,6 +40,7 @@ from shbake.brdf.ggx import ggx_d, smith_lambda
 from shbake.brdf.ggx import sample as vndf_sample
 from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import REC709_LUMINANCE
+from shbake.envmap.layouts import latlong_solid_angles
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 
@@ -197,11 +198,10 @@ def _integrate_mis(views, normals, alphas, square, pixels, height, width, cdf, d
 
 
 def _luminous_weight(flat: np.ndarray, height: int, width: int):
-    """Luminance × solid angle per texel, and the solid angles (flat, float64)."""
-    omega = np.repeat(
-        (2.0 * np.pi / width) * np.diff(-np.cos(np.pi * np.arange(height + 1) / height)), width
-    )
-    return flat.astype(np.float64) @ REC709_LUMINANCE * omega, omega
+    """Luminance × solid angle per texel (negative luminance counts as 0), and the
+    solid angles (flat, float64)."""
+    omega = latlong_solid_angles(height, width).reshape(-1)
+    return np.maximum(flat.astype(np.float64) @ REC709_LUMINANCE, 0.0) * omega, omega
 
 
 def light_distribution(flat: np.ndarray, height: int, width: int):
@@ -229,11 +229,7 @@ def bright_texels(flat: np.ndarray, height: int, width: int):
     if top.size > BRIGHT_TEXELS:  # the brightest; ties broken by index, so deterministic
         order = np.lexsort((top, -weight[top]))[:BRIGHT_TEXELS]
         top = np.sort(top[order])
-    theta = np.pi * (top // width + 0.5) / height
-    phi = 2.0 * np.pi * (top % width + 0.5) / width
-    dirs = np.stack(
-        [np.sin(theta) * np.sin(phi), np.cos(theta), -np.sin(theta) * np.cos(phi)], axis=1
-    )
+    dirs = np.array([_texel_direction(j, 0.5, 0.5, height, width) for j in top]).reshape(-1, 3)
     return top, dirs, flat[top].astype(np.float64) * omega[top, None]
 
 
