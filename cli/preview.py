@@ -191,7 +191,7 @@ def preview(
             )
         reference, ref_timing = render_pass(asset, REFERENCE_OF[pass_name], size, src, None, brdf)
         summary["reference_seconds"] = ref_timing["seconds"]
-    write_outputs(output, img, reference, summary, as_json, quiet)
+    write_outputs(output, img, reference, summary, as_json, quiet, src)
 
 
 def preview_probe(asset, asset_path, pass_name, output, size, diff, source, roughness, f0,
@@ -212,12 +212,13 @@ def preview_probe(asset, asset_path, pass_name, output, size, diff, source, roug
     if diff:
         reference, ref_timing = render_glossy(asset, "reference", size, roughness, f0, src, samples)
         summary["reference_seconds"] = ref_timing["seconds"]
-    write_outputs(output, img, reference, summary, as_json, quiet)
+    write_outputs(output, img, reference, summary, as_json, quiet, src)
 
 
-def write_outputs(output, img, reference, summary, as_json, quiet):
+def write_outputs(output, img, reference, summary, as_json, quiet, source=None):
     """Write the pass (EXR + PNG) and, with a reference, the reference and the error image
-    (MSE and relative RMS error into ``summary``); then report."""
+    (MSE and relative RMS error into ``summary``); then report. Refuses to overwrite
+    the ``source`` map."""
     pass_name = summary["pass"]
     stem = os.path.splitext(output)[0]
     exposure = auto_exposure(img)
@@ -230,6 +231,11 @@ def write_outputs(output, img, reference, summary, as_json, quiet):
         outputs[stem + "-diff.exr"] = np.abs(err)
         summary.update(mse=mse, relative_rms_error=rel)
         info(f"{pass_name} vs brute force: MSE {mse:.6g}, relative RMS error {rel:.4%}", quiet)
+    written = [p for path in outputs for p in (path, os.path.splitext(path)[0] + ".png")]
+    if source is not None:
+        for path in written:
+            if os.path.exists(path) and os.path.samefile(path, source.meta["path"]):
+                raise click.UsageError(f"{path} is the source map; choose another --output")
     for path, im in outputs.items():
         write_exr(path, im, half=False)
         png = os.path.splitext(path)[0] + ".png"

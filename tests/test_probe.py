@@ -312,6 +312,17 @@ class TestGlossyPreview:
                                "--pass", "splitsum")  # fmt: skip
         assert code == 2 and "passes shexp and reference" in err
 
+    def test_never_overwrites_the_source_map(self, probe_maps, tmp_path, run_cli):
+        import shutil
+
+        src = tmp_path / "m0.exr"
+        shutil.copy(probe_maps[0], src)
+        opts = ["--normals", "16", "--views", "16", "--samples", "256", "-q"]
+        assert run_cli("probe-fit", src, "-o", tmp_path, *opts)[0] == 0
+        before = src.read_bytes()
+        code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", src, "--diff", "--size", "16")
+        assert code == 2 and "is the source map" in err and src.read_bytes() == before
+
 
 class TestPlanCache:
     def test_cached_plan_is_the_fresh_plan(self, monkeypatch, tmp_path):
