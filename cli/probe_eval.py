@@ -5,11 +5,10 @@ from pathlib import Path
 import click
 from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 
-from shbake.batch.probe_jobs import fit_plan
+from shbake.batch.probe_jobs import fit_plan, shared_albedo_table
 from shbake.envmap import load_environment
 from shbake.errors import InputError
 from shbake.format.atomic import write_text
-from shbake.probe.albedo_table import albedo_table
 from shbake.probe.evaluation import evaluate_map
 from shbake.probe.probe_asset import probe_bytes
 from shbake.probe.shexp import FitConfig
@@ -54,7 +53,7 @@ def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
     """
     if not 8 <= size <= 512:
         raise InputError("--size must be in [8, 512]")
-    dfg = albedo_table()
+    dfg = shared_albedo_table()
     split_config = SplitSumConfig()
     results, sizes = {}, {}
     for path in maps:

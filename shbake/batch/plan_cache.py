@@ -1,10 +1,12 @@
-"""On-disk cache of quadrature plans, shared by worker processes and by runs.
+"""On-disk cache of quadrature plans and the DFG table, shared by worker processes and runs.
 
 A :class:`~shbake.probe.ggx_integrals.QuadraturePlan` depends only on the fit
 configuration and the map shape, yet takes seconds to build (16 384 targets ×
 1024 samples by default) while a probe takes tens of milliseconds. A build
 pipeline that calls ``shbake probe-fit`` once per probe (``make -j``) would
-rebuild it every time; the cache builds it once per machine.
+rebuild it every time; the cache builds it once per machine. The DFG table
+(:func:`~shbake.probe.albedo_table.albedo_table`, about a second) is cached
+the same way.
 
 Location: ``$SHBAKE_CACHE_DIR``, else ``$XDG_CACHE_HOME/shbake``, else
 ``~/.cache/shbake``; ``SHBAKE_CACHE_DIR=off`` disables it. Entries are named
@@ -25,7 +27,7 @@ import numpy as np
 import shbake
 from shbake.brdf import ggx, sampling
 from shbake.format.atomic import atomic_path
-from shbake.probe import ggx_integrals
+from shbake.probe import albedo_table, ggx_integrals
 from shbake.probe.ggx_integrals import QuadraturePlan
 from shbake.probe.shexp import FitConfig, FitPlan
 
@@ -58,7 +60,7 @@ def plan_key(config: FitConfig, shape: tuple[int, int]) -> str:
 def _code_digest() -> str:
     """SHA-256 of the modules that build a plan: any change to them is a new key."""
     digest = hashlib.sha256()
-    for module in (ggx_integrals, ggx, sampling):
+    for module in (ggx_integrals, ggx, sampling, albedo_table):
         digest.update(Path(module.__file__).read_bytes())
     return digest.hexdigest()
 
@@ -72,14 +74,20 @@ def _load(path: Path) -> QuadraturePlan | None:
         return None
 
 
-def _save(path: Path, plan: QuadraturePlan) -> None:
+def _store(path: Path, write) -> None:
+    """Write a cache entry atomically with ``write(file)``."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(str(path)) as tmp, open(tmp, "wb") as f:
-            arrays = {k: getattr(plan, k) for k in ARRAYS}
-            np.savez(f, shape=np.array(plan.shape), levels=np.array(plan.levels), **arrays)
+            write(f)
     except OSError:
         pass  # a cache that cannot be written only costs time
+
+
+def _save(path: Path, plan: QuadraturePlan) -> None:
+    arrays = {k: getattr(plan, k) for k in ARRAYS}
+    _store(path, lambda f: np.savez(f, shape=np.array(plan.shape), levels=np.array(plan.levels),
+                                    **arrays))  # fmt: skip
 
 
 def cached_fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
@@ -93,3 +101,20 @@ def cached_fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
     if quadrature is None:
         _save(path, plan.targets)
     return plan
+
+
+def cached_albedo_table() -> np.ndarray:
+    """The shared DFG table (:func:`shbake.probe.albedo_table.albedo_table`), from the cache."""
+    folder = cache_dir()
+    if folder is None:
+        return albedo_table.albedo_table()
+    path = folder / f"dfg-{_code_digest()[:32]}.npy"
+    try:
+        table = np.load(path)
+        if table.shape == (albedo_table.TABLE_SIZE, albedo_table.TABLE_SIZE, 2):
+            return table
+    except (OSError, ValueError):
+        pass
+    table = albedo_table.albedo_table()
+    _store(path, lambda f: np.save(f, table))
+    return table

@@ -18,11 +18,10 @@ from dataclasses import dataclass
 
 import numba
 
-from shbake.batch.plan_cache import cached_fit_plan
+from shbake.batch.plan_cache import cached_albedo_table, cached_fit_plan
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
-from shbake.probe.albedo_table import albedo_table
 from shbake.probe.probe_asset import build_shexp_asset, probe_bytes
 from shbake.probe.shexp import FitConfig, FitPlan
 
@@ -48,7 +47,8 @@ def fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
 
 @functools.lru_cache(maxsize=1)
 def shared_albedo_table():
-    return albedo_table()
+    """The DFG table, once per process, once per machine (:mod:`shbake.batch.plan_cache`)."""
+    return cached_albedo_table()
 
 
 def run_probe_job(job: ProbeJob) -> dict:
@@ -78,6 +78,7 @@ def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
         return
     if env.layout == "latlong":
         fit_plan(jobs[0].config, env.shape)
+    shared_albedo_table()
 
 
 def _single_thread():
