@@ -21,6 +21,7 @@ $(STAMP): setup.cfg pyproject.toml requirements.lock
 
 demo: $(STAMP)
 	@mkdir -p $(OUT)
+	$(BIN)/shbake probe-fit data_samples/*.exr -o $(OUT)/probes --jobs 2
 	@for m in data_samples/*.exr; do \
 	  n=$$(basename $$m .exr); \
 	  echo "== $$n" >&2; \
@@ -28,6 +29,8 @@ demo: $(STAMP)
 	      --exr-maps $(OUT)/$$n-maps --export gltf --report || exit 1; \
 	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass irradiance -o $(OUT)/$$n-irradiance.exr --diff || exit 1; \
 	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass tangent -o $(OUT)/$$n-tangent.exr --diff || exit 1; \
+	  $(BIN)/shbake preview $(OUT)/probes/$$n.h5 --roughness 0.6 --f0 0.04 --size 128 \
+	      -o $(OUT)/$$n-glossy.exr --diff --source $$m || exit 1; \
 	done
 	@echo "demo: assets and previews in $(OUT)/" >&2
 
