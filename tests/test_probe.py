@@ -19,6 +19,7 @@ from test_brdf import albedo_quadrature
 from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
 from shbake.brdf import make_brdf
 from shbake.brdf.sampling import tangent_frame
+from shbake.envmap.image_io import read_image
 from shbake.envmap.layouts import latlong_directions
 from shbake.format.asset import read_asset
 from shbake.format.images import write_exr
@@ -308,6 +309,13 @@ class TestGlossyPreview:
                                "--roughness", "0.1")  # fmt: skip
         assert code == 1 and "outside this probe's fitted range [0.2, 1]" in err
         assert len(err.strip().splitlines()) == 1 and not (tmp_path / "x.exr").exists()
+        for edge in ("0.2", "1.0"):  # the range's ends are inside it
+            out = tmp_path / f"edge{edge}.exr"
+            code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", out, "--roughness", edge,
+                                   "--size", "16", "-q")  # fmt: skip
+            assert code == 0, err
+            pixels, _ = read_image(str(out))
+            assert np.all(np.isfinite(pixels)) and pixels.max() > 0
         code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", tmp_path / "x.exr",
                                "--pass", "splitsum")  # fmt: skip
         assert code == 2 and "passes shexp and reference" in err
