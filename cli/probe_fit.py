@@ -168,7 +168,7 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
     type=click.Choice(WEIGHTINGS),
     default="log",
     show_default=True,
-    help="log: eq. 13; relative: Gauss-Newton on PQ/E0 - 1.",
+    help="log: eq. 13; relative: Gauss-Newton on PQ/E0 - 1; linear: on (PQ - E0)/mean E0.",
 )
 @click.option(
     "--floor",

@@ -209,6 +209,27 @@ class TestShexpFit:
         b = plan_rel.fit(img).stats["relative_rms"]
         assert b < a
 
+    def test_linear_weighting_lowers_linear_error(self):
+        """--weighting linear minimises what an MSE weighs: its squared linear error
+        against the targets (re-integrated independently) is below the log fit's."""
+        img = smooth_map(32, sun=(50.0, 40.0, 30.0))
+        cfg = dict(normals=16, views=16, samples=256)
+        table = albedo_table(size=8, samples=256)
+        errors = []
+        for weighting in ("log", "linear"):
+            plan = FitPlan(FitConfig(**cfg, weighting=weighting), (32, 64))
+            probe = plan.fit(img)
+            truth, _ = ggx_integrals(img, plan.views, plan.normals, plan.roughness, 4096)
+            est = evaluate_shexp(probe.p, probe.q, table, plan.views, plan.normals,
+                                 plan.roughness)  # fmt: skip
+            errors.append(np.mean((est - truth) ** 2))
+        assert errors[1] < 0.9 * errors[0], errors  # measured 0.033 vs 0.038
+
+    def test_sun_of_1e5_linear_weighting_is_finite(self):
+        cfg = FitConfig(normals=16, views=16, samples=256, weighting="linear")
+        probe = FitPlan(cfg, (32, 64)).fit(smooth_map(32, sun=(1e5, 1e5, 1e5)))
+        assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
+
     def test_black_map_is_finite(self):
         probe = FitPlan(SMALL, (32, 64)).fit(np.zeros((32, 64, 3), np.float32))
         assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))

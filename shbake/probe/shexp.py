@@ -31,9 +31,10 @@ from shbake.probe.sh_targets import LMAX_LIMIT, ShTargets
 from shbake.sh.basis import real_sh, recurrence_tables, sh_eval_into
 from shbake.sh.windows import fibonacci_sphere
 
-WEIGHTINGS = ("log", "relative")
+WEIGHTINGS = ("log", "relative", "linear")
 TARGETS = ("quadrature", "sh")
 GAUSS_NEWTON_STEPS = 4
+STEP_HALVINGS = 12
 ABSOLUTE_FLOOR = 1e-30
 
 
@@ -44,11 +45,13 @@ class FitConfig:
     ``floor``: ``E0`` below ``floor × mean(E0)`` (per channel, and below
     ``1e-30``) is raised to it before the log, so dark and black maps stay
     finite. ``weighting``: ``log`` minimises the log residual (eq. 13, a
-    proxy of relative error); ``relative`` continues with Gauss–Newton steps
-    on the relative error ``PQ/E0 − 1`` itself. ``targets``: how ``E0`` is
-    computed at the fit samples — ``quadrature`` (``samples`` filtered
-    visible-normal samples each) or ``sh`` (SH lighting to ``targets_lmax``
-    × GGX tables, :mod:`shbake.probe.sh_targets`).
+    proxy of relative error); ``relative`` continues with damped Gauss–Newton
+    steps on the relative error ``PQ/E0 − 1`` itself, ``linear`` on the linear
+    error ``(PQ − E0)/mean(E0)`` (what an MSE weighs: bright targets
+    dominate). ``targets``: how ``E0`` is computed at the fit samples —
+    ``quadrature`` (``samples`` filtered visible-normal samples each) or
+    ``sh`` (SH lighting to ``targets_lmax`` × GGX tables,
+    :mod:`shbake.probe.sh_targets`).
     """
 
     lmax_p: int = 4
@@ -222,9 +225,12 @@ class FitPlan:
         floored = int((e0 < floor).sum())
         target = np.log(np.maximum(e0, floor))
         x = _solve(self.A, self.unit_weights, target, self.unit_factor)
-        if cfg.weighting == "relative":
+        if cfg.weighting != "log":
+            # relative: residual PQ/E0 − 1; linear: (PQ − E0)/mean(E0), the MSE's own proxy
+            scale = np.ones_like(e0) if cfg.weighting == "relative" else np.exp(target - np.log(
+                np.maximum(e0.mean(axis=0), ABSOLUTE_FLOOR)))  # fmt: skip
             for _ in range(GAUSS_NEWTON_STEPS):
-                x = self._gauss_newton_step(x, target)
+                x = self._gauss_newton_step(x, target, scale)
         res = self.A @ x - target
         rel = np.expm1(res)
         n_p = n_coeffs(cfg.lmax_p)
@@ -236,15 +242,28 @@ class FitPlan:
         }
         return ShexpProbe(x[:n_p], x[n_p:], stats)
 
-    def _gauss_newton_step(self, x, target):
-        """One step on ``Σ (exp(A x − b) − 1)²`` per channel."""
-        out = np.empty_like(x)
+    def _gauss_newton_step(self, x, target, scale):
+        """One damped step on ``Σ_t s_t² (exp(A x − b)_t − 1)²`` per channel: the full
+        Gauss–Newton step, halved until the sum decreases (at most 12 times)."""
+        out = x.copy()
         for c in range(x.shape[1]):
-            e = np.exp(self.A @ x[:, c] - target[:, c])
-            # J = diag(e) A; residual e − 1; normal equations Jᵀ J δ = −Jᵀ (e − 1)
-            delta = _solve(self.A, e * e, ((1.0 - e) / e)[:, None])[:, 0]
-            out[:, c] = x[:, c] + delta
+            s, b = scale[:, c], target[:, c]
+            e = np.exp(self.A @ x[:, c] - b)
+            # J = diag(s e) A; residual s (e − 1); normal equations Jᵀ J δ = −Jᵀ s (e − 1)
+            delta = _solve(self.A, (s * e) ** 2, ((1.0 - e) / e)[:, None])[:, 0]
+            base = _scaled_cost(self.A, x[:, c], b, s)
+            for k in range(STEP_HALVINGS + 1):
+                trial = x[:, c] + 0.5**k * delta
+                if _scaled_cost(self.A, trial, b, s) < base:
+                    out[:, c] = trial
+                    break
         return out
+
+
+def _scaled_cost(A, x, b, s) -> float:
+    """``Σ s² (exp(A x − b) − 1)²`` (overflow reads as +inf: the step is refused)."""
+    with np.errstate(over="ignore"):
+        return float(np.sum((s * np.expm1(A @ x - b)) ** 2))
 
 
 @pjit
