@@ -183,7 +183,7 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
     default="quadrature",
     show_default=True,
     help="E0 at the fit samples: quadrature (filtered importance sampling) or sh "
-    "(SH lighting x GGX tables; fast, blurs low roughness).",
+    "(SH lighting x GGX tables; noise-free, blurs low roughness).",
 )
 @click.option(
     "--targets-lmax",
