@@ -1,7 +1,7 @@
 """The SH-exp fit's ``E0`` targets by filtered importance sampling (a map-independent plan).
 
 The fit needs ``E0`` (:mod:`shbake.reference.ggx`) at a fixed set of
-``(v, n, r)`` targets for every probe. Everything that does not depend on the
+``(v, n, α)`` targets for every probe. Everything that does not depend on the
 map — the visible-normal sample directions, the pyramid texels they read and
 their weights — is built once per (targets, samples, map shape) as a
 :class:`QuadraturePlan`; a probe is then one pyramid build and one gather.
@@ -21,7 +21,7 @@ import numpy as np
 
 from shbake.brdf.ggx import check_geometry, sample_light, vndf_terms
 from shbake.brdf.sampling import surface_frame
-from shbake.conventions import check_samples, ggx_alpha
+from shbake.conventions import check_samples
 from shbake.envmap.importance import (
     bright_texels,
     latlong_flat,
@@ -32,6 +32,7 @@ from shbake.envmap.importance import (
 from shbake.envmap.layouts import latlong_texel, row_solid_angle
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
+from shbake.reference.ggx import check_alpha
 from shbake.sh.point_sets import fibonacci_square
 
 LOD_BIAS = 1.0
@@ -59,7 +60,7 @@ def _add_point_lights(views, normals, alphas, dirs, energy, out):
 
 
 @jit
-def _filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets, log2_omega):
+def filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets, log2_omega):
     """Pyramid texel (flat, across levels) for a sample of density ``pdf`` among ``n``.
 
     Level ``k = ⌊½ log2(Ω_s / Ω_texel) + 1⌋`` clamped to ``[0, levels − 1]``, where
@@ -91,7 +92,7 @@ def _plan_rows(views, normals, alphas, square, height, width, offsets, index, we
                 tan, bit, nrm, v_loc, alphas[t], prm, square[k, 0], square[k, 1]
             )
             if w0 > 0.0:
-                index[t, k] = _filtered_texel(
+                index[t, k] = filtered_texel(
                     lx, ly, lz, pdf, n, height, width, levels, offsets, log2_omega
                 )
             else:
@@ -138,7 +139,7 @@ def _gather(offsets, index, weight, pixels, out):
 
 @dataclass
 class QuadraturePlan:
-    """Texels and weights of ``E0`` at fixed ``(v, n, r)`` targets for one map shape.
+    """Texels and weights of ``E0`` at fixed ``(v, n, α)`` targets for one map shape.
 
     Rows are stored back to back (``offsets``, ``index`` into the stacked
     pyramid, ``weight``), each sorted by texel, samples landing in one texel
@@ -155,8 +156,10 @@ class QuadraturePlan:
     alphas: np.ndarray
 
     @classmethod
-    def build(cls, views, normals, roughness, samples: int, shape: tuple[int, int]):
-        v, n, r = check_geometry(views, normals, roughness)
+    def build(cls, views, normals, alpha, samples: int, shape: tuple[int, int]):
+        """The plan for ``(v, n, α)`` targets (``α`` the GGX width) and map ``shape``."""
+        v, n, _ = check_geometry(views, normals, 1.0)
+        a = check_alpha(alpha, v.shape[0])
         samples = check_samples(samples)
         levels = pyramid_levels(shape)
         index = np.empty((v.shape[0], samples), dtype=np.int32)
@@ -164,12 +167,12 @@ class QuadraturePlan:
         count = np.empty(v.shape[0], dtype=np.int64)
         square = fibonacci_square(samples)
         starts = level_offsets(shape, levels)
-        _plan_rows(v, n, ggx_alpha(r), square, shape[0], shape[1], starts, index, weight, count)
+        _plan_rows(v, n, a, square, shape[0], shape[1], starts, index, weight, count)
         offsets = np.concatenate([[0], np.cumsum(count)]).astype(np.int64)
         flat_index = np.empty(offsets[-1], dtype=np.int32)
         flat_weight = np.empty(offsets[-1], dtype=np.float32)
         _compact(index, weight, offsets, flat_index, flat_weight)
-        return cls(tuple(shape), levels, offsets, flat_index, flat_weight, v, n, ggx_alpha(r))
+        return cls(tuple(shape), levels, offsets, flat_index, flat_weight, v, n, a)
 
     def e0(self, pixels) -> np.ndarray:
         """``E0`` at the plan's targets, ``(T, 3)`` float64."""

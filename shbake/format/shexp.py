@@ -1,4 +1,10 @@
-"""The ``shexp_probe`` and ``shexp_probe_set`` assets (``docs/FORMAT.md`` §5, §5a)."""
+"""The ``shexp_probe`` and ``shexp_probe_set`` assets (``docs/FORMAT.md`` §5, §5a), probe format 2.
+
+``/p`` ``(K, (lmax_p+1)², 3)`` and ``/q`` ``(K, (lmax_q+1)² − 1, 3)`` float32: ``K``
+coefficient sets at the GGX widths ``/knots`` ``(K,)`` (float64), blended by
+hat functions of ``α`` (:mod:`shbake.shading.shexp`); sets gain a leading
+probe axis.
+"""
 
 import json
 
@@ -6,69 +12,58 @@ import numpy as np
 
 from shbake.errors import ParameterError
 from shbake.format.asset import Asset
-from shbake.format.probe import DFG_ATTRS, ROUGHNESS_CONVENTION, source_attrs
+from shbake.format.probe import DFG_ATTRS, convention_attrs, source_attrs
 
 SHEXP_ATTRS = (
-    "technique", "roughness_convention", "roughness_range", "lmax_p", "lmax_q", "fit_config",
-    "fresnel_tail",
+    "technique", "probe_format", "alpha_convention", "alpha_convention_text", "alpha_range",
+    "lmax_p", "lmax_q", "sets", "weights", "fit_config", "fresnel_tail",
 )  # fmt: skip
 
 
 def _shexp_attrs(config) -> dict:
     """Root attributes every SH-exp kind shares (FORMAT §5)."""
-    return {
-        "technique": "SH exponential (Silvennoinen et al. 2025)",
-        "roughness_convention": ROUGHNESS_CONVENTION,
-        "roughness_range": [config.roughness_min, config.roughness_max],
+    return convention_attrs((config.alpha_min, config.alpha_max)) | {
+        "technique": "SH exponential (Silvennoinen et al. 2025), K sets linear in alpha (v2)",
         "lmax_p": config.lmax_p,
         "lmax_q": config.lmax_q,
+        "sets": config.sets,
+        "weights": config.weights,
         "fit_config": config.as_dict(),
         "fresnel_tail": "E1 = E0 * A1/A0 (eq. 15, exact under constant light)",
     }
 
 
+def _datasets(p, q, knots, dfg, probe_axis: bool):
+    axes = ["probe", "set", "coeff", "channel"] if probe_axis else ["set", "coeff", "channel"]
+    data = {
+        "/p": np.asarray(p, np.float32),
+        "/q": np.asarray(q, np.float32),
+        "/knots": np.asarray(knots, np.float64),
+        "/dfg": dfg.astype(np.float32),
+    }
+    dattrs = {"/dfg": DFG_ATTRS, "/p": {"axes": axes}, "/q": {"axes": axes},
+              "/knots": {"axes": ["set"], "meaning": "GGX width of each coefficient set"}}  # fmt: skip
+    return data, dattrs
+
+
 def build_shexp_asset(probe, config, dfg: np.ndarray, meta: dict) -> Asset:
-    """``/p`` ``(n_p, 3)``, ``/q`` ``(n_q − 1, 3)`` float32 and ``/dfg``."""
+    """One probe: ``/p``, ``/q``, ``/knots`` and ``/dfg``."""
     attrs = _shexp_attrs(config) | {"fit_stats": probe.stats, **source_attrs(meta)}
-    return Asset(
-        "shexp_probe",
-        attrs,
-        {
-            "/p": probe.p.astype(np.float32),
-            "/q": probe.q.astype(np.float32),
-            "/dfg": dfg.astype(np.float32),
-        },
-        {
-            "/dfg": DFG_ATTRS,
-            "/p": {"axes": ["coeff", "channel"]},
-            "/q": {"axes": ["coeff", "channel"]},
-        },
-    )
+    return Asset("shexp_probe", attrs, *_datasets(probe.p, probe.q, probe.knots, dfg, False))
 
 
 def build_shexp_set_asset(probes: list[dict], config, dfg: np.ndarray) -> Asset:
-    """Many SH-exp probes in one file: ``/p`` ``(N, n_p, 3)``, ``/q`` ``(N, n_q − 1, 3)``,
-    one ``/dfg``. ``probes``: per probe ``{"name", "p", "q", "stats", "meta"}`` in set order."""
+    """Many SH-exp probes in one file, one ``/dfg`` and ``/knots``. ``probes``: per probe
+    ``{"name", "p", "q", "stats", "meta"}`` in set order."""
     attrs = _shexp_attrs(config) | {
         "probe_count": len(probes),
         "probe_names": [x["name"] for x in probes],
         "probe_sources": [source_attrs(x["meta"]) for x in probes],
         "probe_fit_stats": [x["stats"] for x in probes],
     }
-    return Asset(
-        "shexp_probe_set",
-        attrs,
-        {
-            "/p": np.stack([x["p"] for x in probes]).astype(np.float32),
-            "/q": np.stack([x["q"] for x in probes]).astype(np.float32),
-            "/dfg": dfg.astype(np.float32),
-        },
-        {
-            "/dfg": DFG_ATTRS,
-            "/p": {"axes": ["probe", "coeff", "channel"]},
-            "/q": {"axes": ["probe", "coeff", "channel"]},
-        },
-    )
+    p = np.stack([x["p"] for x in probes])
+    q = np.stack([x["q"] for x in probes])
+    return Asset("shexp_probe_set", attrs, *_datasets(p, q, config.knots, dfg, True))
 
 
 def probe_from_set(asset: Asset, index: int) -> Asset:
@@ -78,6 +73,7 @@ def probe_from_set(asset: Asset, index: int) -> Asset:
         raise ParameterError(f"probe index {index} is outside this set of {count} probes")
     sources = asset.attrs["probe_sources"]
     source = (json.loads(sources) if isinstance(sources, str) else sources)[index]
-    attrs = {k: asset.attrs[k] for k in SHEXP_ATTRS} | source
-    datasets = {"/p": asset["/p"][index], "/q": asset["/q"][index], "/dfg": asset["/dfg"]}
+    attrs = {k: asset.attrs[k] for k in SHEXP_ATTRS if k in asset.attrs} | source
+    datasets = {"/p": asset["/p"][index], "/q": asset["/q"][index], "/knots": asset["/knots"],
+                "/dfg": asset["/dfg"]}  # fmt: skip
     return Asset("shexp_probe", attrs, datasets)
