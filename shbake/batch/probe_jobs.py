@@ -65,7 +65,8 @@ def run_probe_job(job: ProbeJob) -> dict:
     asset = build_shexp_asset(probe, job.config, shared_dfg_table(), env.meta)
     summary = {"source": job.source, "output": job.output, "bytes": probe_bytes(asset)}
     if job.output is None:
-        return summary | {"p": probe.p, "q": probe.q, "stats": probe.stats, "meta": env.meta}
+        return summary | {"p": probe.p, "q": probe.q, "knots": probe.knots, "stats": probe.stats,
+                          "meta": env.meta}
     write_asset(job.output, asset)
     return summary | probe.stats
 

@@ -63,7 +63,9 @@ def check_probe_asset(asset: Asset, path: str = "probe") -> Asset:
         )
     version = asset.attrs.get("probe_format")
     if not isinstance(version, int | np.integer) or not 2 <= int(version) <= PROBE_FORMAT:
-        raise FormatError(f"{path}: probe format {version!r} is not supported (reads 2…{PROBE_FORMAT})")
+        raise FormatError(
+            f"{path}: probe format {version!r} is not supported (reads 2…{PROBE_FORMAT})"
+        )
     return asset
 
 

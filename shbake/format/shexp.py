@@ -41,8 +41,8 @@ def _datasets(p, q, knots, dfg, probe_axis: bool):
         "/knots": np.asarray(knots, np.float64),
         "/dfg": dfg.astype(np.float32),
     }
-    dattrs = {"/dfg": DFG_ATTRS, "/p": {"axes": axes}, "/q": {"axes": axes},
-              "/knots": {"axes": ["set"], "meaning": "GGX width of each coefficient set"}}  # fmt: skip
+    knots = {"axes": ["set"], "meaning": "GGX width of each coefficient set"}
+    dattrs = {"/dfg": DFG_ATTRS, "/p": {"axes": axes}, "/q": {"axes": axes}, "/knots": knots}
     return data, dattrs
 
 

@@ -49,7 +49,7 @@ def evaluate_splitsum(levels, level_alpha, table, views, normals, alpha, f0=(1.0
     offsets = np.concatenate([[0], np.cumsum(sizes * sizes * 3)]).astype(np.int64)
     v = np.ascontiguousarray(np.asarray(views, float).reshape(-1, 3))
     n = np.ascontiguousarray(np.asarray(normals, float).reshape(-1, 3))
-    a = np.ascontiguousarray(np.broadcast_to(np.asarray(alpha, float), (v.shape[0],)))
+    a = np.broadcast_to(np.asarray(alpha, float), (v.shape[0],)).copy()
     out = np.empty((v.shape[0], 3))
     f0 = np.broadcast_to(np.asarray(f0, float), (3,)).copy()
     _evaluate(
