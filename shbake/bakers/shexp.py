@@ -49,7 +49,8 @@ from shbake.sh.basis import real_sh
 from shbake.sh.point_sets import fibonacci_sphere, hemisphere_fibonacci
 from shbake.shading.shexp import hat_weights, mirror_and_half, vmf_factors
 
-WEIGHTS = ("log", "shaded", "shaded-nv")
+WEIGHTS = ("log", "shaded", "shaded-nv", "shaded-nv-f0")
+DIELECTRIC_F0 = 0.04
 WEIGHTINGS = WEIGHTS  # the name cli/probe_fit.py imports until its grammar pass
 TARGETS = ("quadrature", "sh")
 SETS_LIMIT = 8
@@ -233,6 +234,27 @@ class Design:
         return x
 
 
+def _material_balance(nv, alpha, dfg=None):
+    """Per-sample factor giving chrome and dielectric (``F0 = 0.04``) equal say in the fit.
+
+    A dielectric's shaded error is the chrome one times ``m = (F0 + (1 − F0) A1/A0)²``,
+    which grows toward grazing views; ``1/S_c + m/S_d`` (``S`` the means of ``2 n·v`` and
+    ``2 n·v m`` at each ``α``) weighs both materials' relative errors equally.
+    """
+    from shbake.bakers.dfg import dfg_table
+    from shbake.shading.dfg import dfg_lookup
+
+    table = dfg_table() if dfg is None else dfg
+    a = dfg_lookup(table, nv, alpha)
+    m = (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * a[:, 1] / np.maximum(a[:, 0], 1e-12)) ** 2
+    out = np.empty_like(m)
+    for x in np.unique(alpha):
+        k = alpha == x
+        s_c, s_d = np.mean(2.0 * nv[k]), np.mean(2.0 * nv[k] * m[k])
+        out[k] = 0.5 * (1.0 + m[k] * s_c / s_d)
+    return out
+
+
 @dataclass
 class ShexpProbe:
     """A fitted probe: ``p`` ``(K, (lmax_p+1)^2, 3)``, ``q`` ``(K, (lmax_q+1)^2 − 1, 3)``,
@@ -254,7 +276,7 @@ class FitPlan:
     earlier for the same config and shape) or :class:`ShTargets`.
     """
 
-    def __init__(self, config: FitConfig, shape: tuple[int, int], quadrature=None):
+    def __init__(self, config: FitConfig, shape: tuple[int, int], quadrature=None, dfg=None):
         self.config = config
         normals = fibonacci_sphere(config.normals)
         local = hemisphere_fibonacci(config.views)
@@ -267,7 +289,11 @@ class FitPlan:
         self.alpha = np.repeat(a, v1.shape[0])
         self.knots = config.knots
         self.design = Design(v1, n1, a, config.lmax_p, config.lmax_q, self.knots)
-        self.view_weight = 2.0 * np.maximum(np.einsum("ij,ij->i", self.views, self.normals), 0.0)
+        nv = np.maximum(np.einsum("ij,ij->i", self.views, self.normals), 0.0)
+        self.view_weight = 2.0 * nv
+        self.sample_weight = self.view_weight
+        if config.weights == "shaded-nv-f0":
+            self.sample_weight = self.view_weight * _material_balance(nv, self.alpha, dfg)
         if config.targets == "sh":
             self.targets = ShTargets(self.views, self.normals, self.alpha,
                                      config.targets_lmax, config.samples)  # fmt: skip
@@ -279,6 +305,13 @@ class FitPlan:
     def fit(self, pixels) -> ShexpProbe:
         """Fit the sets to the map ``pixels`` (lat-long, the plan's shape)."""
         return self.fit_targets(self.targets.e0(pixels))
+
+    def fit_many(self, maps) -> list[ShexpProbe]:
+        """:meth:`fit` of several maps, their targets gathered in one pass (quadrature
+        targets); each probe equals :meth:`fit` of its map bit for bit."""
+        if not hasattr(self.targets, "e0_many"):
+            return [self.fit(m) for m in maps]
+        return [self.fit_targets(e0) for e0 in self.targets.e0_many(maps)]
 
     def fit_targets(self, e0: np.ndarray) -> ShexpProbe:
         """Fit the sets to given ``E0`` values at the plan's samples, ``(T, 3)``."""
@@ -292,10 +325,10 @@ class FitPlan:
         else:
             # scale-free: E0 relative to its channel mean, so weights stay O(1)
             rel = target_lin / target_lin.mean(axis=0)
-            w = rel**2 * (self.view_weight[:, None] if cfg.weights == "shaded-nv" else 1.0)
+            w = rel**2 * (self.sample_weight[:, None] if cfg.weights != "shaded" else 1.0)
         x = self.design.solve(np.broadcast_to(w.reshape(w.shape[0], -1), target.shape), target)
         polished = 0
-        if cfg.weights == "shaded-nv":
+        if cfg.weights.startswith("shaded-nv"):
             for _ in range(cfg.polish):
                 x, took = self._polish_step(x, target_lin)
                 polished += took
@@ -310,7 +343,7 @@ class FitPlan:
     def _shaded_cost(self, x, target_lin, c):
         with np.errstate(over="ignore"):
             pq = np.exp(self.design.apply(x))
-        return float(np.sum(self.view_weight * (pq - target_lin[:, c]) ** 2)), pq
+        return float(np.sum(self.sample_weight * (pq - target_lin[:, c]) ** 2)), pq
 
     def _polish_step(self, x, target_lin):
         """One Gauss–Newton step per channel on ``Σ 2n·v (P Q − E0)²`` (module docstring);
@@ -321,7 +354,7 @@ class FitPlan:
             base, pq = self._shaded_cost(x[:, c], target_lin, c)
             scale = target_lin[:, c].mean()
             # J = diag(PQ) A; residual PQ − E0; (Jᵀ W J) δ = −Jᵀ W (PQ − E0)
-            w = self.view_weight * (pq / scale) ** 2
+            w = self.sample_weight * (pq / scale) ** 2
             delta = self.design.solve(w[:, None], ((target_lin[:, c] - pq) / pq)[:, None])[:, 0]
             for k in range(STEP_HALVINGS + 1):
                 trial = x[:, c] + 0.5**k * delta

@@ -125,16 +125,23 @@ def _compact(index, weight, offsets, flat_index, flat_weight):
 
 
 @pjit
-def _gather(offsets, index, weight, pixels, out):
+def _gather_many(offsets, index, weight, stacked, out):
+    """``out[b, t] = Σ_k weight_k stacked[index_k, b]`` over target ``t``'s entries, for ``B``
+    maps at once: ``stacked`` ``(texels, B, 3)``, ``out``
+    ``(B, T, 3)``; each entry read once for all maps, sums per map in entry order,
+    so a map's result does not depend on which maps share its pass."""
+    n_maps = stacked.shape[1]
     for t in numba.prange(offsets.shape[0] - 1):
-        a0 = a1 = a2 = 0.0
+        acc = np.zeros((n_maps, 3))
         for k in range(offsets[t], offsets[t + 1]):
             j = index[k]
             w = weight[k]
-            a0 += w * pixels[j, 0]
-            a1 += w * pixels[j, 1]
-            a2 += w * pixels[j, 2]
-        out[t, 0], out[t, 1], out[t, 2] = a0, a1, a2
+            for b in range(n_maps):
+                acc[b, 0] += w * stacked[j, b, 0]
+                acc[b, 1] += w * stacked[j, b, 1]
+                acc[b, 2] += w * stacked[j, b, 2]
+        for b in range(n_maps):
+            out[b, t, 0], out[b, t, 1], out[b, t, 2] = acc[b, 0], acc[b, 1], acc[b, 2]
 
 
 @dataclass
@@ -174,8 +181,8 @@ class QuadraturePlan:
         _compact(index, weight, offsets, flat_index, flat_weight)
         return cls(tuple(shape), levels, offsets, flat_index, flat_weight, v, n, a)
 
-    def e0(self, pixels) -> np.ndarray:
-        """``E0`` at the plan's targets, ``(T, 3)`` float64."""
+    def _prepare(self, pixels):
+        """The map's pyramid without its bright texels, and those as point lights."""
         flat, h, w = latlong_flat(pixels)
         if (h, w) != self.shape:
             raise ParameterError(f"plan is for {self.shape[1]}x{self.shape[0]} maps, got {w}x{h}")
@@ -183,9 +190,20 @@ class QuadraturePlan:
         if lights.size:
             flat = flat.copy()
             flat[lights] = 0.0
-        pyramid = latlong_pyramid(flat, self.shape, self.levels)
-        out = np.empty((self.offsets.shape[0] - 1, 3))
-        _gather(self.offsets, self.index, self.weight, pyramid, out)
-        if lights.size:
-            _add_point_lights(self.views, self.normals, self.alphas, dirs, energy, out)
-        return out
+        return latlong_pyramid(flat, self.shape, self.levels), dirs, energy
+
+    def e0(self, pixels) -> np.ndarray:
+        """``E0`` at the plan's targets, ``(T, 3)`` float64."""
+        return self.e0_many([pixels])[0]
+
+    def e0_many(self, maps) -> list[np.ndarray]:
+        """``E0`` of several maps in one pass over the plan's entries (each texel entry read
+        once for all maps); each result equals :meth:`e0` of that map bit for bit."""
+        prepared = [self._prepare(m) for m in maps]
+        stacked = np.stack([p[0] for p in prepared], axis=1)  # (texels, B, 3)
+        out = np.empty((len(prepared), self.offsets.shape[0] - 1, 3))
+        _gather_many(self.offsets, self.index, self.weight, stacked, out)
+        for b, (_, dirs, energy) in enumerate(prepared):
+            if dirs.shape[0]:
+                _add_point_lights(self.views, self.normals, self.alphas, dirs, energy, out[b])
+        return list(out)

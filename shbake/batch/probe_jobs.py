@@ -52,23 +52,50 @@ def shared_dfg_table():
     return cached_dfg_table()
 
 
-def run_probe_job(job: ProbeJob) -> dict:
-    """Fit one probe and write it; returns a summary (no timing, for determinism).
-    Without an output the summary carries the probe (``p``, ``q``, ``stats``, ``meta``)."""
+GATHER_BATCH = 8
+"""Probes whose targets are gathered in one pass over the plan (one worker's chunk)."""
+
+
+def _load(job: ProbeJob):
     env = load_environment(
         job.source, negative=job.negative, fix_nonfinite=job.fix_nonfinite, quiet=True
     )
     if env.layout != "latlong":
         raise InputError(f"{job.source}: probe-fit takes lat-long maps (2:1), got {env.layout}")
-    plan = fit_plan(job.config, env.shape)
-    probe = plan.fit(env.pixels)
+    return env
+
+
+def _finish(job: ProbeJob, env, probe) -> dict:
     asset = build_shexp_asset(probe, job.config, shared_dfg_table(), env.meta)
     summary = {"source": job.source, "output": job.output, "bytes": probe_bytes(asset)}
     if job.output is None:
         return summary | {"p": probe.p, "q": probe.q, "knots": probe.knots, "stats": probe.stats,
-                          "meta": env.meta}
+                          "meta": env.meta}  # fmt: skip
     write_asset(job.output, asset)
     return summary | probe.stats
+
+
+def run_probe_job(job: ProbeJob) -> dict:
+    """Fit one probe and write it; returns a summary (no timing, for determinism).
+    Without an output the summary carries the probe (``p``, ``q``, ``knots``, ``stats``,
+    ``meta``)."""
+    return run_probe_batch([job])[0]
+
+
+def run_probe_batch(jobs: list[ProbeJob]) -> list[dict]:
+    """Fit several probes, gathering the targets of those that share a configuration and
+    map shape in one pass (:meth:`FitPlan.fit_many`); summaries in job order. A probe's
+    bytes do not depend on the batch it ran in."""
+    envs = [_load(job) for job in jobs]
+    groups: dict = {}
+    for i, (job, env) in enumerate(zip(jobs, envs, strict=True)):
+        groups.setdefault((job.config, env.shape), []).append(i)
+    results: list = [None] * len(jobs)
+    for (config, shape), members in groups.items():
+        probes = fit_plan(config, shape).fit_many([envs[i].pixels for i in members])
+        for i, probe in zip(members, probes, strict=True):
+            results[i] = _finish(jobs[i], envs[i], probe)
+    return results
 
 
 def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
@@ -96,20 +123,20 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict
         raise ParameterError(f"--jobs must be in [1, {(os.cpu_count() or 1) * 4}], got {n_jobs}")
     results = []
     if n_jobs == 1:
-        for i, job in enumerate(jobs):
-            results.append(run_probe_job(job))
+        for i in range(0, len(jobs), GATHER_BATCH):
+            results.extend(run_probe_batch(jobs[i : i + GATHER_BATCH]))
             if progress:
-                progress(i + 1, len(jobs))
+                progress(len(results), len(jobs))
         return results
     _warm_plan_cache(jobs)
     # spawn, not fork: forking a process whose numba thread pool is running is unsafe
     context = multiprocessing.get_context("spawn")
+    batches = [jobs[i : i + GATHER_BATCH] for i in range(0, len(jobs), GATHER_BATCH)]
     with ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread) as pool:
-        chunk = max(1, len(jobs) // (4 * n_jobs))
-        for i, res in enumerate(pool.map(run_probe_job, jobs, chunksize=chunk)):
-            results.append(res)
+        for batch in pool.map(run_probe_batch, batches):
+            results.extend(batch)
             if progress:
-                progress(i + 1, len(jobs))
+                progress(len(results), len(jobs))
     return results
 
 
