@@ -37,3 +37,94 @@ def evaluate_map(env, plans: dict, split_config: SplitSumConfig, dfg, size: int 
     assets = bake_probes(env, plans, split_config, dfg)
     rows = evaluate_cases(env.pixels, assets, size, truth_samples, alphas, yaws, materials)
     return rows, assets, {name: probe_bytes(a) for name, a in assets.items()}
+
+
+def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=None) -> dict:
+    """Every case of every map (lat-long files): ``{"maps": {stem: rows}, "bytes": {name:
+    bytes per probe}, "configs": …}``; SH-exp v2 is :class:`FitConfig` ``()``, the paper's
+    fit :meth:`FitConfig.paper`, both split-sums :class:`SplitSumConfig` ``()`` (plain and
+    filtered)."""
+    from pathlib import Path
+
+    from shbake.bakers.shexp import FitConfig
+    from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
+    from shbake.envmap import load_environment
+    from shbake.errors import InputError
+
+    dfg = shared_dfg_table()
+    split = SplitSumConfig()
+    configs = {"shexp_v2": FitConfig(), "shexp_paper": FitConfig.paper()}
+    out = {"maps": {}, "bytes": {}, "size": size, "truth_samples": truth_samples,
+           "configs": {k: c.as_dict() for k, c in configs.items()} | {
+               "splitsum": split.as_dict()}}  # fmt: skip
+    for path in paths:
+        env = load_environment(str(path), quiet=True)
+        if env.layout != "latlong":
+            raise InputError(f"{path}: probe-eval takes lat-long maps (2:1)")
+        plans = {k: fit_plan(c, env.shape) for k, c in configs.items()}
+        rows, _, nbytes = evaluate_map(env, plans, split, dfg, size, truth_samples)
+        out["maps"][Path(path).stem] = rows
+        out["bytes"] = nbytes
+        if progress:
+            progress(Path(path).stem, rows)
+    return out
+
+
+def win_table(result: dict, method: str, baseline: str) -> dict:
+    """Wins of ``method`` over ``baseline``: per (material, α) and per (map, material, α),
+    and in total, as ``(wins, cases)`` pairs; ties (MSE difference below the truth's own
+    error estimate) are counted apart."""
+    cell, by_map, total, ties = {}, {}, [0, 0], 0
+    for name, rows in result["maps"].items():
+        for r in rows:
+            win = r["mse"][method] < r["mse"][baseline]
+            key = (r["material"], r["alpha"])
+            for table, k in ((cell, key), (by_map, (name, *key))):
+                w, n = table.get(k, (0, 0))
+                table[k] = (w + win, n + 1)
+            total = [total[0] + win, total[1] + 1]
+            ties += abs(r["mse"][method] - r["mse"][baseline]) < r["mse_truth_estimate"]
+    return {"cells": cell, "by_map": by_map, "total": tuple(total), "ties": ties}
+
+
+COMPARISONS = (("shexp_v2", "splitsum_plain"), ("shexp_v2", "splitsum_filtered"),
+               ("shexp_paper", "splitsum_plain"), ("shexp_paper", "splitsum_filtered"))
+
+
+def markdown_report(result: dict) -> str:
+    """Win rates per α and material for :data:`COMPARISONS`, bytes per probe, and the full
+    per-map table and case list."""
+    tables = {c: win_table(result, *c) for c in COMPARISONS}
+    keys = sorted(next(iter(tables.values()))["cells"])
+    head = " | ".join(f"{m} vs {b}" for m, b in COMPARISONS)
+    lines = [f"| material | α | {head} |", "|---|---|" + "---|" * len(COMPARISONS)]
+    for k in keys:
+        cells = " | ".join("{}/{}".format(*tables[c]["cells"][k]) for c in COMPARISONS)
+        lines.append(f"| {k[0]} | {k[1]:.4g} | {cells} |")
+    totals = []
+    for c in COMPARISONS:
+        w, n = tables[c]["total"]
+        totals.append(f"**{w}/{n} ({100 * w / n:.1f} %)**")
+    lines.append(f"| all | all | {' | '.join(totals)} |")
+    lines += ["", "ties (|ΔMSE| below the truth's own error estimate): "
+              + ", ".join(f"{m} vs {b}: {tables[(m, b)]['ties']}" for m, b in COMPARISONS)]
+    lines += ["", "| probe | bytes per probe |", "|---|---|"]
+    lines += [f"| {k} | {v} |" for k, v in result["bytes"].items()]
+    lines += ["", "Per map (wins of v2 vs plain / v2 vs filtered / paper vs plain / "
+              "paper vs filtered, out of 4 views):", "",
+              "| map | material | α | wins |", "|---|---|---|---|"]  # fmt: skip
+    for k in sorted(next(iter(tables.values()))["by_map"]):
+        cells = " / ".join(str(tables[c]["by_map"][k][0]) for c in COMPARISONS)
+        lines.append(f"| {k[0]} | {k[1]} | {k[2]:.4g} | {cells} |")
+    lines += ["", "Cases (MSE):", "",
+              "| map | material | α | yaw | v2 | paper | split-sum plain | split-sum filtered "
+              "| truth error (est.) |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for name, rows in result["maps"].items():
+        for r in rows:
+            m = r["mse"]
+            lines.append(
+                f"| {name} | {r['material']} | {r['alpha']:.4g} | {r['yaw']:.0f} | "
+                f"{m['shexp_v2']:.3e} | {m['shexp_paper']:.3e} | {m['splitsum_plain']:.3e} | "
+                f"{m['splitsum_filtered']:.3e} | {r['mse_truth_estimate']:.1e} |"
+            )
+    return "\n".join(lines) + "\n"
