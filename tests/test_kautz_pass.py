@@ -6,7 +6,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from conftest import map_path
+from helpers import map_path
 from kautz_accuracy import LMAXES, MAPS, kautz_errors
 
 EXPECTED = json.loads((Path(__file__).parent / "kautz_accuracy_expected.json").read_text())

@@ -12,7 +12,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import map_path, write_test_exr
+from helpers import map_path, write_test_exr
 from shbake_cli.main import main
 from test_brdf import albedo_quadrature
 
