@@ -99,12 +99,13 @@ def _render_probe(asset, asset_path, pass_name, size, diff, source, roughness, f
         raise ParameterError("--diff compares a probe pass with the reference")
     needs_source = pass_name == "reference" or diff
     src = load_probe_source(asset, asset_path, source) if needs_source else None
-    img, timing = render_glossy(asset, pass_name, size, roughness, f0, src, samples)
-    summary = {"pass": pass_name, "size": size, "roughness": roughness, "f0": f0,
+    alpha = roughness * roughness  # probes take the GGX width (probe format 2)
+    img, timing = render_glossy(asset, pass_name, size, alpha, f0, src, samples)
+    summary = {"pass": pass_name, "size": size, "roughness": roughness, "alpha": alpha, "f0": f0,
                "seconds": timing["seconds"], "fps": timing["fps"]}  # fmt: skip
     reference = None
     if diff:
-        reference, ref_timing = render_glossy(asset, "reference", size, roughness, f0, src, samples)
+        reference, ref_timing = render_glossy(asset, "reference", size, alpha, f0, src, samples)
         summary["reference_seconds"] = ref_timing["seconds"]
     settings = f"roughness {roughness:g} (α {roughness * roughness:.4g}), F0 {f0:g}, size {size}"
     return img, reference, summary, settings, src
