@@ -164,7 +164,7 @@ class TestShTargets:
         assert np.sqrt(np.mean((got / ref - 1) ** 2)) > 1e-2  # the documented limit
 
     def test_cli_choice(self, probe_maps, tmp_path, run_cli):
-        code, out, _ = run_cli("probe-fit", probe_maps[0], "-o", tmp_path, "--normals", "16",
+        code, out, _ = run_cli("probe-fit", probe_maps[0], "--out-dir", tmp_path, "--normals", "16",
                                "--views", "16", "--targets", "sh", "--json", "-q")  # fmt: skip
         assert code == 0 and json.loads(out)["config"]["targets"] == "sh"
         asset = read_asset(str(tmp_path / "m0.h5"), ("shexp_probe",))
@@ -387,39 +387,39 @@ class TestGlossyPreview:
     @pytest.mark.parametrize("f0", [1.0, 0.04])
     def test_probe_passes_approach_the_reference(self, probe_maps, tmp_path, capsys, f0):
         """On a smooth map both probe passes shade a rough sphere close to the
-        brute-force reference (``--diff``), and the images are written. SH-exp's
-        larger error is its model's: ``P(ρ) Q(h_ρ)`` has no term for the
-        ``n·v`` falloff of the GGX albedo (docs/BENCHMARKS.md)."""
+        brute-force reference (``--diff``), and the images are written."""
         m = probe_maps[0]
-        fit = ["probe-fit", m, "-o", str(tmp_path), "--normals", "32", "--views", "32", "-q"]
+        fit = ["probe-fit", m, "--out-dir", str(tmp_path), "--normals", "32", "--views", "32",
+               "-q"]  # fmt: skip
         assert main(fit) == 0
-        assert main(["split-sum", m, "-o", str(tmp_path / "s.h5"), "--top", "32", "-q"]) == 0
-        # measured: SH-exp 19.4 % / 17.2 %, split-sum 6.8 % / 6.6 % (chrome / dielectric)
-        for asset, limit in ((tmp_path / "m0.h5", 0.25), (tmp_path / "s.h5", 0.09)):
+        assert main(["split-sum", m, "-o", str(tmp_path / "s.h5"), "--size", "32", "-q"]) == 0
+        # measured at α 0.64: SH-exp v2 5.6 % / 8.2 % (chrome / dielectric)
+        for asset, limit in ((tmp_path / "m0.h5", 0.10), (tmp_path / "s.h5", 0.09)):
             out = tmp_path / f"{asset.stem}.exr"
-            args = ["--roughness", "0.8", "--f0", str(f0), "--size", "24", "--diff"]
+            args = ["--alpha", "0.64", "--f0", str(f0), "--size", "24", "--diff"]
             rc = main(["preview", str(asset), "-o", str(out), *args, "--source", m, "--json"])
             summary = json.loads(capsys.readouterr().out)
             assert rc == 0 and summary["relative_rms_error"] < limit, summary
             assert (tmp_path / f"{asset.stem}-sheet.png").exists()
 
     def test_outside_fitted_range_refused(self, probe_maps, tmp_path, run_cli):
-        fit = ["probe-fit", probe_maps[0], "-o", tmp_path, "--normals", "16", "--views", "16"]
+        fit = ["probe-fit", probe_maps[0], "--out-dir", tmp_path, "--normals", "16", "--views",
+               "16"]  # fmt: skip
         assert run_cli(*fit, "--samples", "256", "-q")[0] == 0
-        code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", tmp_path / "x.exr",
-                               "--roughness", "0.1")  # fmt: skip
-        assert code == 1 and "outside this probe's fitted range [0.2, 1]" in err
-        assert len(err.strip().splitlines()) == 1 and not (tmp_path / "x.exr").exists()
-        for edge in ("0.2", "1.0"):  # the range's ends are inside it
-            out = tmp_path / f"edge{edge}.exr"
-            code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", out, "--roughness", edge,
+        for bad in (["--alpha", "0.1"], ["--roughness", "0.4"]):  # α 0.1 and 0.16 < 0.2
+            code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", tmp_path / "x.exr", *bad)
+            assert code == 1 and "outside this probe's range [0.2, 1]" in err
+            assert len(err.strip().splitlines()) == 1 and not (tmp_path / "x.exr").exists()
+        for edge in (["--alpha", "0.2"], ["--roughness", "1.0"]):  # the range's ends are inside
+            out = tmp_path / f"edge{edge[1]}.exr"
+            code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", out, *edge,
                                    "--size", "16", "-q")  # fmt: skip
             assert code == 0, err
             pixels, _ = read_image(str(out))
             assert np.all(np.isfinite(pixels)) and pixels.max() > 0
         code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", tmp_path / "x.exr",
                                "--pass", "splitsum")  # fmt: skip
-        assert code == 2 and "passes shexp and reference" in err
+        assert code == 1 and "passes shexp and reference" in err
 
     def test_never_overwrites_the_source_map(self, probe_maps, tmp_path, run_cli):
         import shutil
@@ -427,10 +427,10 @@ class TestGlossyPreview:
         src = tmp_path / "m0.exr"
         shutil.copy(probe_maps[0], src)
         opts = ["--normals", "16", "--views", "16", "--samples", "256", "-q"]
-        assert run_cli("probe-fit", src, "-o", tmp_path, *opts)[0] == 0
+        assert run_cli("probe-fit", src, "--out-dir", tmp_path, *opts)[0] == 0
         before = src.read_bytes()
         code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", src, "--diff", "--size", "16")
-        assert code == 2 and "is the source map" in err and src.read_bytes() == before
+        assert code == 1 and "is the source map" in err and src.read_bytes() == before
 
 
 class TestPlanCache:
@@ -472,15 +472,19 @@ class TestPlanCache:
 class TestProbeSet:
     def test_set_holds_the_single_probes(self, probe_maps, tmp_path, run_cli):
         """A set's probe i is bit for bit the probe of the single-file run; the set file
-        is byte-identical between --jobs 1 and 2; preview reads a probe by --index."""
+        is byte-identical between --jobs 1 and 2 (and the deprecated --set); preview reads a
+        probe by --index."""
         opts = ["--normals", "16", "--views", "16", "--samples", "256", "-q"]
-        assert run_cli("probe-fit", *probe_maps, "-o", tmp_path, *opts)[0] == 0
+        assert run_cli("probe-fit", *probe_maps, "--out-dir", tmp_path, *opts)[0] == 0
         for jobs in ("1", "2"):
             out = tmp_path / f"set{jobs}.h5"
-            assert run_cli("probe-fit", *probe_maps, "--set", out, "--jobs", jobs, *opts)[0] == 0
+            assert run_cli("probe-fit", *probe_maps, "-o", out, "--jobs", jobs, *opts)[0] == 0
         assert filecmp.cmp(tmp_path / "set1.h5", tmp_path / "set2.h5", shallow=False)
+        code, _, err = run_cli("probe-fit", *probe_maps, "--set", tmp_path / "old.h5", *opts)
+        assert code == 0 and "--set is deprecated" in err
+        assert filecmp.cmp(tmp_path / "set1.h5", tmp_path / "old.h5", shallow=False)
         probe_set = read_asset(str(tmp_path / "set1.h5"), ("shexp_probe_set",))
-        assert probe_set["/p"].shape == (4, 25, 3) and probe_set["/q"].shape == (4, 8, 3)
+        assert probe_set["/p"].shape == (4, 2, 25, 3) and probe_set["/q"].shape == (4, 2, 8, 3)
         for i in range(4):
             single = read_asset(str(tmp_path / f"m{i}.h5"), ("shexp_probe",))
             np.testing.assert_array_equal(probe_set["/p"][i], single["/p"])
@@ -498,7 +502,7 @@ class TestFitReport:
         """--report measures target error against the 65 536-sample plain estimate
         (falling with samples) and the fit residual by order; --tol picks the fewest
         samples within the tolerance, and an unreachable one is a one-line error."""
-        opts = ["--normals", "16", "--views", "16", "-o", tmp_path, "--json"]
+        opts = ["--normals", "16", "--views", "16", "--out-dir", tmp_path, "--json"]
         code, out, err = run_cli("probe-fit", probe_maps[0], *opts, "--report", "--tol", "0.01")
         assert code == 0, err
         summary = json.loads(out)
@@ -509,32 +513,44 @@ class TestFitReport:
         assert summary["config"]["samples"] == chosen
         assert chosen == min(r["samples"] for r in rows if r["target_log_rms"] <= 0.01)
         orders = {(r["lmax_p"], r["lmax_q"]): r for r in summary["orders_study"]}
-        assert orders[(4, 2)]["bytes"] == 396
+        assert orders[(4, 2)]["bytes"] == 792  # two sets
         assert orders[(8, 4)]["fit_log_rms"] <= orders[(2, 1)]["fit_log_rms"]
-        assert "target error (log RMS)" in err
+        by_alpha = summary["alpha_study"]
+        assert [r["alpha"] for r in by_alpha] == pytest.approx(np.linspace(0.2, 1, 8))
+        assert all(0 < r["shaded_relative_rms"] < 0.5 for r in by_alpha)
+        assert "target error (log RMS)" in err and "fit shaded error" in err
         code, _, err = run_cli("probe-fit", probe_maps[0], *opts, "--tol", "1e-9")
         assert code == 1 and "meets --tol" in err and len(err.strip().splitlines()) == 1
 
 
 class TestCli:
     def test_probe_fit_and_split_sum(self, probe_maps, tmp_path, capsys):
-        rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path), "--normals", "16",
+        rc = main(["probe-fit", probe_maps[0], "--out-dir", str(tmp_path), "--normals", "16",
+                   "--views", "16", "--samples", "256", "--json", "-q"])  # fmt: skip
+        assert rc == 0 and '"bytes": 792' in capsys.readouterr().out
+        rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path / "paper.h5"), "--sets", "1",
+                   "--weights", "log", "--alpha-count", "4", "--polish", "0", "--normals", "16",
                    "--views", "16", "--samples", "256", "--json", "-q"])  # fmt: skip
         assert rc == 0 and '"bytes": 396' in capsys.readouterr().out
-        rc = main(["split-sum", probe_maps[0], "-o", str(tmp_path / "s.h5"), "--top", "32",
-                   "--samples", "256", "-q"])  # fmt: skip
-        assert rc == 0 and read_asset(str(tmp_path / "s.h5")).kind == "splitsum_probe"
+        rc = main(["split-sum", probe_maps[0], "-o", str(tmp_path / "s.h5"), "--size", "32",
+                   "--samples", "256", "--prefilter", "filtered", "--roughness-levels",
+                   "0.5,1", "-q"])  # fmt: skip
+        asset = read_asset(str(tmp_path / "s.h5"))
+        assert rc == 0 and asset.kind == "splitsum_probe" and asset.attrs["prefilter"] == "filtered"
+        np.testing.assert_array_equal(asset["/level_alpha"], [0.25, 1.0])
 
     @pytest.mark.parametrize(
         "args, message",
         [
-            (["--roughness-range", "0:2"], "roughness range"),
-            (["--weighting", "l1"], "is not one of"),
+            (["--alpha-range", "0:2"], "alpha range"),
+            (["--alpha-range", "0.2:1", "--roughness-range", "0.5:1"], "not both"),
+            (["--weights", "l1"], "is not one of"),
+            (["--sets", "4", "--alpha-count", "4"], "alpha_count"),
             (["--jobs", "0"], "--jobs"),
         ],
     )
     def test_bad_options_one_line(self, probe_maps, tmp_path, capsys, args, message):
-        rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path), *args])
+        rc = main(["probe-fit", probe_maps[0], "--out-dir", str(tmp_path), *args])
         err = capsys.readouterr().err.strip()
         assert rc != 0 and message in err and "\n" not in err
         assert not list(tmp_path.glob("*.h5"))
@@ -543,7 +559,7 @@ class TestCli:
         img = smooth_map(32)
         img[3, 4] = np.nan
         write_test_exr(tmp_path / "nan.exr", img)
-        rc = main(["probe-fit", str(tmp_path / "nan.exr"), "-o", str(tmp_path)])
+        rc = main(["probe-fit", str(tmp_path / "nan.exr"), "--out-dir", str(tmp_path)])
         err = capsys.readouterr().err.strip()
         assert rc == 1 and "NaN" in err and "\n" not in err
         assert not (tmp_path / "nan.h5").exists()

@@ -128,3 +128,25 @@ def markdown_report(result: dict) -> str:
                 f"{m['splitsum_filtered']:.3e} | {r['mse_truth_estimate']:.1e} |"
             )
     return "\n".join(lines) + "\n"
+
+
+def bake_splitsum_file(source, output, top=128, min_size=32, alphas=None, prefilter="plain",
+                       samples=1024, negative="clamp", fix_nonfinite=None) -> dict:  # fmt: skip
+    """``split-sum``: read a lat-long map, prefilter its chain, write the asset; a summary."""
+    from shbake.bakers.splitsum import PAPER_ALPHAS
+    from shbake.batch.probe_jobs import shared_dfg_table
+    from shbake.envmap import load_environment
+    from shbake.errors import InputError
+    from shbake.format.asset import write_asset
+    from shbake.format.atomic import check_writable_dir
+
+    config = SplitSumConfig(top, min_size, tuple(alphas or PAPER_ALPHAS), samples, prefilter)
+    check_writable_dir(output)
+    env = load_environment(source, negative=negative, fix_nonfinite=fix_nonfinite, quiet=True)
+    if env.layout != "latlong":
+        raise InputError(f"{source}: split-sum takes lat-long maps (2:1), got {env.layout}")
+    asset = build_splitsum_asset(prefilter_chain(env.pixels, config), config, shared_dfg_table(),
+                                 env.meta)  # fmt: skip
+    write_asset(output, asset)
+    return {"output": output, "levels": config.levels, "bytes": probe_bytes(asset),
+            "config": config.as_dict()}  # fmt: skip
