@@ -1,12 +1,13 @@
 """SH-exp v2 and the paper's SH-exp against both split-sums on the six shared maps.
 
-Usage: ``python bench/probe_eval.py [--jobs 2] [--size 32] [--truth-samples 4096] [MAP …]``
+Usage: ``python bench/probe_eval.py [--jobs 2] [--size 32] [--truth-samples 2048] [MAP …]``
 
 Runs :func:`shbake.batch.probe_eval.evaluate_maps` (2 materials × the paper's
 six α × 4 views per map) with one process per map (``--jobs`` at a time,
 numba on one thread each) and writes ``bench/results/probe_eval.json`` (every
 case) and ``bench/results/probe_eval.md`` (win rates per α and material, bytes
-per probe, the per-map table and every case). ``tests/test_probe_eval.py``
+per probe, the per-map table and every case). ``SHBAKE_TRUTH_CACHE=DIR`` keeps
+the ground truths there (they do not depend on the probes) for re-runs. ``tests/test_probe_eval.py``
 asserts the figures of the JSON.
 """
 
@@ -29,7 +30,7 @@ def one_map(args):
     numba.set_num_threads(1)
     from shbake.batch.probe_eval import evaluate_maps
 
-    return evaluate_maps([path], size, samples)
+    return evaluate_maps([path], size, samples, cache_dir=os.environ.get("SHBAKE_TRUTH_CACHE"))
 
 
 def main():
@@ -37,7 +38,7 @@ def main():
     ap.add_argument("maps", nargs="*")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--size", type=int, default=32)
-    ap.add_argument("--truth-samples", type=int, default=4096)
+    ap.add_argument("--truth-samples", type=int, default=2048)
     ap.add_argument("--out", default=str(RESULTS / "probe_eval"))
     args = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")

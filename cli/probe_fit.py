@@ -47,7 +47,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
               help="Highest band of Q (half-reflection), DC dropped.")  # fmt: skip
 @click.option("--normals", type=int, default=64, show_default=True,
               help="Fit normals (Fibonacci sphere).")  # fmt: skip
-@click.option("--views", type=int, default=64, show_default=True,
+@click.option("--views", type=int, default=32, show_default=True,
               help="Fit views per normal (uniform on the hemisphere; weighted 2 n·v by "
               "shaded-nv: the on-screen, cosine-weighted distribution).")  # fmt: skip
 @click.option("--alpha-range", default=None, metavar="LO:HI",

@@ -78,7 +78,7 @@ class FitConfig:
     lmax_p: int = 4
     lmax_q: int = 2
     normals: int = 64
-    views: int = 64
+    views: int = 32
     alpha_count: int = 8
     alpha_min: float = 0.2
     alpha_max: float = 1.0
@@ -125,7 +125,8 @@ class FitConfig:
     @classmethod
     def paper(cls, **changes) -> "FitConfig":
         """The paper's fit (§5.1): one set, log weights, 4 α samples over [0.2, 1], no polish."""
-        return cls(**({"sets": 1, "weights": "log", "alpha_count": 4, "polish": 0} | changes))
+        return cls(**({"sets": 1, "weights": "log", "alpha_count": 4, "polish": 0, "views": 64}
+                      | changes))
 
     @property
     def alphas(self) -> np.ndarray:

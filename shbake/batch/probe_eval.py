@@ -31,15 +31,17 @@ def bake_probes(env, plans: dict, split_config: SplitSumConfig, dfg) -> dict:
 
 def evaluate_map(env, plans: dict, split_config: SplitSumConfig, dfg, size: int = 32,
                  truth_samples: int = 4096, alphas=ALPHAS, yaws=VIEW_YAWS,
-                 materials=MATERIALS):  # fmt: skip
+                 materials=MATERIALS, cache_dir=None):  # fmt: skip
     """Every case of one loaded map: rows (:func:`evaluate_cases`), the assets and their
     bytes per probe."""
     assets = bake_probes(env, plans, split_config, dfg)
-    rows = evaluate_cases(env.pixels, assets, size, truth_samples, alphas, yaws, materials)
+    rows = evaluate_cases(env.pixels, assets, size, truth_samples, alphas, yaws, materials,
+                          cache_dir)  # fmt: skip
     return rows, assets, {name: probe_bytes(a) for name, a in assets.items()}
 
 
-def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=None) -> dict:
+def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=None,
+                  cache_dir=None) -> dict:  # fmt: skip
     """Every case of every map (lat-long files): ``{"maps": {stem: rows}, "bytes": {name:
     bytes per probe}, "configs": …}``; SH-exp v2 is :class:`FitConfig` ``()``, the paper's
     fit :meth:`FitConfig.paper`, both split-sums :class:`SplitSumConfig` ``()`` (plain and
@@ -62,7 +64,8 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
         if env.layout != "latlong":
             raise InputError(f"{path}: probe-eval takes lat-long maps (2:1)")
         plans = {k: fit_plan(c, env.shape) for k, c in configs.items()}
-        rows, _, nbytes = evaluate_map(env, plans, split, dfg, size, truth_samples)
+        rows, _, nbytes = evaluate_map(env, plans, split, dfg, size, truth_samples,
+                                       cache_dir=cache_dir)  # fmt: skip
         out["maps"][Path(path).stem] = rows
         out["bytes"] = nbytes
         if progress:

@@ -16,7 +16,9 @@ according to a perceptual roughness remapping" (Burley 2012): ``α = r²`` for
 192 cases. shbake uses 4 views and the 6 shared maps (288 cases).
 """
 
+import hashlib
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -77,23 +79,41 @@ class CaseTruth:
         return f0 * e0 + (1.0 - f0) * e1
 
 
-def case_truth(pixels, alpha: float, yaw: float, size: int, truth_samples: int) -> CaseTruth:
-    """The truth of every material at one (α, view): ``E0``, ``E1`` once."""
+def case_truth(pixels, alpha: float, yaw: float, size: int, truth_samples: int,
+               cache_dir=None) -> CaseTruth:  # fmt: skip
+    """The truth of every material at one (α, view): ``E0``, ``E1`` once.
+
+    ``cache_dir``: keep the integrals there as ``.npy`` files named by a SHA-256 of the
+    map's pixels and the case (the truth does not depend on the probes under test)."""
     normals, view, _ = sphere_views(size, yaw)
     views = np.ascontiguousarray(np.broadcast_to(view, normals.shape))
+    path = None
+    if cache_dir is not None:
+        key = hashlib.sha256(np.ascontiguousarray(pixels, np.float32).tobytes())
+        key.update(repr((float(alpha), float(yaw), int(size), int(truth_samples))).encode())
+        path = Path(cache_dir) / f"truth-{key.hexdigest()[:32]}.npy"
+        if path.exists():
+            e0, e1, c0, c1 = np.load(path)
+            return CaseTruth(normals, views, e0, e1, c0, c1)
     e0, e1 = ggx_integrals(pixels, views, normals, alpha, truth_samples)
     c0, c1 = ggx_integrals(pixels, views, normals, alpha, max(16, truth_samples // 4))
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npy")
+        np.save(tmp, np.stack([e0, e1, c0, c1]))
+        tmp.replace(path)
     return CaseTruth(normals, views, e0, e1, c0, c1)
 
 
 def evaluate_cases(pixels, assets: dict, size: int = 32, truth_samples: int = 4096,
-                   alphas=ALPHAS, yaws=VIEW_YAWS, materials=MATERIALS) -> list[dict]:  # fmt: skip
+                   alphas=ALPHAS, yaws=VIEW_YAWS, materials=MATERIALS,
+                   cache_dir=None) -> list[dict]:  # fmt: skip
     """Rows ``{material, alpha, yaw, mse: {name: MSE}, mse_truth_estimate}`` for every case
-    of one map; ``assets``: name → probe asset."""
+    of one map; ``assets``: name → probe asset; ``cache_dir``: :func:`case_truth`."""
     rows = []
     for a in alphas:
         for yaw in yaws:
-            truth = case_truth(pixels, a, yaw, size, truth_samples)
+            truth = case_truth(pixels, a, yaw, size, truth_samples, cache_dir)
             for material, f0 in materials.items():
                 ref = truth.radiance(f0)
                 mse = {
