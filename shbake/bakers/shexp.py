@@ -39,7 +39,6 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from shbake.bakers.shexp_sh_targets import ShTargets
 from shbake.bakers.shexp_targets import QuadraturePlan
 from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT, n_coeffs
@@ -296,6 +295,8 @@ class FitPlan:
         if config.weights == "shaded-nv-f0":
             self.sample_weight = self.view_weight * _material_balance(nv, self.alpha, dfg)
         if config.targets == "sh":
+            from shbake.bakers.shexp_sh_targets import ShTargets  # scipy.fft: only when asked
+
             self.targets = ShTargets(self.views, self.normals, self.alpha,
                                      config.targets_lmax, config.samples)  # fmt: skip
         else:
