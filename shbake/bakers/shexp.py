@@ -372,8 +372,8 @@ class FitPlan:
         overall and per fit ``α``."""
         fit = np.stack([self.design.apply(x[:, c]) for c in range(3)], axis=1)
         res = fit - target
-        with np.errstate(over="ignore"):
-            err = (np.exp(fit) - target_lin) ** 2
+        rel = np.minimum(np.expm1(np.minimum(fit - target, 30.0)), 1e12)  # finite for any fit
+        err = (target_lin * rel) ** 2
         w = self.view_weight[:, None]
         n_a = self.config.alpha_count
         num = (w * err).reshape(n_a, -1).sum(axis=1)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from shbake.brdf.ggx import check_geometry, sample_light, vndf_terms
+from shbake.brdf.ggx import check_geometry, ggx_d, sample_light, smith_lambda
 from shbake.brdf.sampling import surface_frame
 from shbake.conventions import check_samples
 from shbake.envmap.importance import (
@@ -41,20 +41,29 @@ LOD_BIAS = 1.0
 
 @pjit
 def _add_point_lights(views, normals, alphas, dirs, energy, out):
-    """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k`` (:func:`vndf_terms`: ``p(l) G1(l)``)."""
+    """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k = Σ_k G1(v) D(h) G1(l) / (4 n·v) E_k``.
+
+    Isotropic GGX needs only ``n·h`` and ``n·l``, so no tangent frame is built: ``D`` and
+    ``Λ`` (:mod:`shbake.brdf.ggx`) get the equivalent local vectors ``(sin θ, 0, cos θ)``,
+    and ``G1(v)/(4 n·v)`` is hoisted out of the light loop.
+    """
     for t in numba.prange(views.shape[0]):
+        vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
-        (tx, ty, tz), (bx, by, bz), (v0, v1, v2) = surface_frame(
-            views[t, 0], views[t, 1], views[t, 2], nx, ny, nz
-        )
+        a = alphas[t]
+        nv = nx * vx + ny * vy + nz * vz
+        front = 1.0 / ((1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nv * nv)), 0.0, nv))
+                       * 4.0 * nv)  # fmt: skip
         for k in range(dirs.shape[0]):
             lx, ly, lz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
-            l2 = nx * lx + ny * ly + nz * lz
-            if l2 <= 0.0:
+            nl = nx * lx + ny * ly + nz * lz
+            if nl <= 0.0:
                 continue
-            l0, l1 = tx * lx + ty * ly + tz * lz, bx * lx + by * ly + bz * lz
-            pdf, g1l, _ = vndf_terms(v0, v1, v2, l0, l1, l2, alphas[t])
-            w = pdf * g1l
+            hn = np.sqrt(max(2.0 + 2.0 * (vx * lx + vy * ly + vz * lz), 1e-300))
+            nh = min(1.0, (nv + nl) / hn)
+            d = ggx_d(a, a, np.sqrt(max(0.0, 1.0 - nh * nh)), 0.0, nh)
+            g1l = 1.0 / (1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nl * nl)), 0.0, nl))
+            w = front * d * g1l
             for c in range(3):
                 out[t, c] += w * energy[k, c]
 
