@@ -9,7 +9,10 @@ gathered per pass). Two runs, of ``SHORT`` and of ``--probes`` probes, each
 in a fresh pool, give the steady rate ``(N − SHORT)/(t_N − t_SHORT)`` and the
 fixed per-run cost ``t_SHORT − SHORT/rate`` (pool start, imports, numba
 cache loading, each worker's plan load from the on-disk cache). The plan
-build itself (first run on a machine) is timed apart, before both. ``--dask``
+build itself (first run on a machine) is timed apart, before both. On a
+shared machine wall times measure the load more than the code, so the CPU
+time one process spends per probe (batches of 8, after a warm-up batch) is
+reported too, with the rate two cores would give at that CPU time. ``--dask``
 fits the first ``N`` probes on a ``--jobs``-worker Dask LocalCluster and
 compares every file byte for byte with the local run's. Output: Markdown.
 """
@@ -39,6 +42,22 @@ def jobs_for(n: int, folder: Path):
                      FitConfig()) for i in range(n)]  # fmt: skip
 
 
+def cpu_per_probe(folder: Path, probes: int = 48) -> float:
+    """CPU milliseconds per probe of :func:`run_probe_batch` in this process (numba on one
+    thread), after one warm-up batch."""
+    import numba
+
+    from shbake.batch.probe_jobs import GATHER_BATCH, run_probe_batch
+
+    numba.set_num_threads(1)
+    jobs = jobs_for(probes + GATHER_BATCH, folder)
+    run_probe_batch(jobs[:GATHER_BATCH])
+    t0 = time.process_time()
+    for i in range(GATHER_BATCH, len(jobs), GATHER_BATCH):
+        run_probe_batch(jobs[i : i + GATHER_BATCH])
+    return 1e3 * (time.process_time() - t0) / probes
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--probes", type=int, default=200)
@@ -57,6 +76,7 @@ def main():
     plan_seconds = time.perf_counter() - t0
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
+        cpu_ms = cpu_per_probe(tmp / "cpu")
         t0 = time.perf_counter()
         run_local(jobs_for(SHORT, tmp / "short"), args.jobs)
         t_short = time.perf_counter() - t0
@@ -70,6 +90,8 @@ def main():
         print(f"| {SHORT} | {t_short:.2f} |\n| {args.probes} | {t_long:.2f} |")
         print(f"\nsteady rate: **{rate:.1f} probes/s**; fixed per-run cost {fixed:.2f} s "
               f"(pool, imports, plan load); plan build or cache check before: {plan_seconds:.2f} s")
+        print(f"\nCPU time per probe (one process, load, fit, write): {cpu_ms:.1f} ms → "
+              f"{2000 / cpu_ms:.1f} probes/s on 2 cores at that CPU time")
         if args.dask:
             from distributed import LocalCluster
 
