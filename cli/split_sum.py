@@ -2,6 +2,7 @@
 
 import click
 from shbake_cli.options import (
+    deprecated,
     emit_json,
     fix_nonfinite_opt,
     info,
@@ -46,6 +47,7 @@ def parse_levels(alphas: str | None, roughness: str | None) -> tuple[float, ...]
               help="plain: one map texel per sample (Karis; the paper's baseline); filtered: "
               "filtered importance sampling of the solid-angle pyramid (engine-grade).")
 @samples_opt(1024, "per texel (GGX half vectors)")
+@deprecated("--top", "size", "--size", type=click.IntRange(8, 2048))
 @negative_opt
 @fix_nonfinite_opt
 @json_opt
