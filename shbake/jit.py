@@ -19,16 +19,119 @@ CPUs this process may run on.
 """
 
 import os
+import sys
 import threading
-from functools import partial
+from functools import update_wrapper
 
-import numba
+prange = range
+"""Use ``from shbake.jit import prange`` in :data:`pjit` kernels: it becomes ``numba.prange``
+when the kernel is compiled and stays ``range`` for the interpreted ``py_func``."""
 
-jit = partial(numba.njit, cache=True, fastmath=False, nogil=True)
-"""``numba.njit`` with ``cache=True``; serial kernels."""
+_local = threading.local()
 
-pjit = partial(numba.njit, cache=True, fastmath=False, nogil=True, parallel=True)
-"""``numba.njit`` with ``cache=True`` and ``parallel=True``; kernels with ``prange``."""
+
+class LazyKernel:
+    """A numba kernel compiled — or loaded from numba's on-disk cache — on its first call.
+
+    Importing a module full of kernels then costs nothing: ``numba`` itself
+    (~200 ms) is imported only when a kernel first runs, so a command whose
+    options need no kernel (``--help``, a small-``lmax`` bake) never loads
+    it. Calls from other kernels work as with a plain dispatcher (numba types
+    a ``LazyKernel`` as its dispatcher). ``py_func`` is the Python function;
+    inside ``with interpreted():`` calls run it instead (tiny jobs).
+    """
+
+    def __init__(self, py_func, options: dict):
+        update_wrapper(self, py_func)
+        self.py_func = py_func
+        self._options = options
+        self._dispatcher = None
+        self._lock = threading.Lock()
+
+    @property
+    def dispatcher(self):
+        """The ``numba`` dispatcher (created on first use)."""
+        if self._dispatcher is None:
+            with self._lock:
+                if self._dispatcher is None:
+                    self._dispatcher = _compile(self.py_func, self._options)
+        return self._dispatcher
+
+    def __call__(self, *args):
+        if getattr(_local, "interpreted", False):
+            return self.py_func(*args)
+        return self.dispatcher(*args)
+
+    def __getattr__(self, name):  # signatures, inspect_asm, … of the dispatcher
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.dispatcher, name)
+
+    def __repr__(self) -> str:
+        return f"<LazyKernel {self.__qualname__}>"
+
+
+class interpreted:
+    """Context manager: kernels called inside run as plain Python (no numba import).
+
+    For the few small jobs where interpreting is cheaper than loading numba
+    (a rotation at ``lmax ≤ 8`` during a small bake). Thread-local.
+    """
+
+    def __enter__(self):
+        self._prev = getattr(_local, "interpreted", False)
+        _local.interpreted = True
+        return self
+
+    def __exit__(self, *exc):
+        _local.interpreted = self._prev
+
+
+_registered = False
+
+
+def _register_with_numba():
+    global _registered
+    if _registered:
+        return
+    from numba.core import types
+    from numba.extending import typeof_impl
+
+    @typeof_impl.register(LazyKernel)
+    def _typeof_lazy(val, c):
+        return types.Dispatcher(val.dispatcher)
+
+    _registered = True
+
+
+def _compile(py_func, options: dict):
+    import numba
+
+    _register_with_numba()
+    g = py_func.__globals__
+    if g.get("prange") is range and "prange" in py_func.__code__.co_names:
+        g["prange"] = numba.prange  # the module's kernels are compiled from now on
+    return numba.njit(**options)(py_func)
+
+
+def _decorator(defaults: dict):
+    def decorate(fn=None, **options):
+        opts = {**defaults, **options}
+        if fn is None:
+            return lambda f: LazyKernel(f, opts)
+        return LazyKernel(fn, opts)
+
+    return decorate
+
+
+jit = _decorator(dict(cache=True, fastmath=False, nogil=True))
+"""``numba.njit`` with ``cache=True``, lazily compiled; serial kernels."""
+
+pjit = _decorator(dict(cache=True, fastmath=False, nogil=True, parallel=True))
+"""``numba.njit`` with ``cache=True`` and ``parallel=True``, lazily compiled; ``prange`` kernels."""
+
+if "numba" in sys.modules:  # numba already loaded: kernels may meet LazyKernels at once
+    _register_with_numba()
 
 
 MIN_WORK_PER_THREAD = 2_000_000

@@ -126,11 +126,15 @@ def latlong_directions(height: int, width: int) -> np.ndarray:
     )
 
 
+def latlong_row_solid_angles(height: int, width: int) -> np.ndarray:
+    """Exact solid angle of one lat-long cell of each row, ``(H,)``, sr (SPEC §3)."""
+    edges = np.cos(np.pi * np.arange(height + 1) / height)
+    return (2.0 * np.pi / width) * (edges[:-1] - edges[1:])
+
+
 def latlong_solid_angles(height: int, width: int) -> np.ndarray:
     """Exact solid angle of every lat-long cell, ``(H, W)``; sums to 4π."""
-    edges = np.cos(np.pi * np.arange(height + 1) / height)
-    row = (2.0 * np.pi / width) * (edges[:-1] - edges[1:])
-    return np.repeat(row[:, None], width, axis=1)
+    return np.repeat(latlong_row_solid_angles(height, width)[:, None], width, axis=1)
 
 
 def _face_area(x, y):

@@ -23,13 +23,14 @@ Two quadratures:
   exact texel solid angles).
 """
 
+import sys
 from functools import lru_cache
 
 import numpy as np
 
 from shbake.conventions import check_lmax, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import jit, run_blocks
+from shbake.jit import interpreted, jit, run_blocks
 from shbake.sh.basis import legendre_next, real_sh_numba, recurrence_tables
 from shbake.sh.rotation import SHRotation
 
@@ -60,12 +61,20 @@ def fejer_row_weights(height: int, width: int) -> np.ndarray:
 
     ``w_i = (2/H) (1 - 2 Σ_{k=1}^{⌊H/2⌋} cos(2kθ_i)/(4k²-1))``, ``θ_i = π(i+½)/H``;
     ``Σ_i w_i = 2``. Read-only.
+
+    The sum is a DCT-III of ``a_0 = 1``, ``a_2k = -2/(4k²-1)`` (the term
+    ``2k = H`` vanishes at every node), evaluated by one complex FFT of length
+    ``2H``: ``O(H log H)`` instead of ``H²/2`` cosines.
     """
-    theta = np.pi * (np.arange(height) + 0.5) / height
-    acc = np.zeros(height)
-    for k in range(1, height // 2 + 1):
-        acc += np.cos(2.0 * k * theta) / (4.0 * k * k - 1.0)
-    w = (2.0 / height) * (1.0 - 2.0 * acc) * (2.0 * np.pi / width)
+    h = height
+    a = np.zeros(h)
+    a[0] = 1.0
+    k = np.arange(1, (h - 1) // 2 + 1)
+    a[2 * k] = -2.0 / (4.0 * k * k - 1.0)
+    b = np.zeros(2 * h, dtype=np.complex128)
+    b[:h] = a * np.exp(0.5j * np.pi * np.arange(h) / h)
+    dct = (2 * h) * np.fft.ifft(b)[:h].real  # Σ_j a_j cos(π j (i+½)/H)
+    w = (2.0 / h) * dct * (2.0 * np.pi / width)
     w.flags.writeable = False
     return w
 
@@ -279,16 +288,45 @@ def _row_sums_fft(img, lmax):
     return out
 
 
-def row_sums(img, lmax: int) -> np.ndarray:
+@lru_cache(maxsize=8)
+def _full_table(width: int, lmax: int) -> np.ndarray:
+    """``(W, 2 lmax+1)``: columns ``1, cos φ', sin φ', cos 2φ', …`` over the whole row."""
+    phi = -2.0 * np.pi * (np.arange(width) + 0.5) / width
+    t = np.empty((width, 2 * lmax + 1))
+    t[:, 0] = 1.0
+    for m in range(1, lmax + 1):
+        t[:, 2 * m - 1] = np.cos(m * phi)
+        t[:, 2 * m] = np.sin(m * phi)
+    t.flags.writeable = False
+    return t
+
+
+def _row_sums_blas(img, lmax):
+    """:func:`row_sums` by BLAS: rows converted to float64 in ~4 MB chunks, one matrix
+    product per chunk against the whole-row table (no numba)."""
+    h, w, nc = img.shape
+    table = _full_table(w, lmax)
+    out = np.empty((h, nc, 2 * lmax + 1))
+    rows = max(1, (4 << 20) // (w * nc * 8))
+    for r0 in range(0, h, rows):
+        chunk = img[r0 : r0 + rows].astype(np.float64)
+        np.matmul(chunk.transpose(0, 2, 1), table, out=out[r0 : r0 + rows])
+    return out
+
+
+def row_sums(img, lmax: int, method: str = "numba") -> np.ndarray:
     """Longitude stage: ``(H, C, 2 lmax+1)`` sums of each row against ``1, cos(mφ'), sin(mφ')``.
 
     ``img`` is ``(H, W, C)`` float32/float64 (read in place when C-contiguous).
     Table kernels below :data:`FFT_MIN_LMAX` (or when ``2 lmax ≥ W``), a real
-    FFT above. Threads: :func:`shbake.jit.run_blocks` (SPEC §6).
+    FFT above. ``method="numba"``: the folded kernels, threads by
+    :func:`shbake.jit.run_blocks` (SPEC §6); ``"blas"``: :func:`_row_sums_blas`.
     """
     h, w, nc = img.shape
     if lmax >= FFT_MIN_LMAX and 2 * lmax < w:
         return _row_sums_fft(img, lmax)
+    if method == "blas":
+        return _row_sums_blas(img, lmax)
     img = np.ascontiguousarray(img)
     cos_t, sin_t = azimuth_tables(w, lmax)
     out = np.empty((h, nc, 2 * lmax + 1))
@@ -347,10 +385,50 @@ def _legendre_sums(plus, minus, z, scale0, sin_t, lmax, qmm, a, b, out):
                     out[base - m, c] = acc
 
 
-def project_latlong_image_frame(img, lmax: int) -> np.ndarray:
+def _legendre_sums_numpy(plus, minus, z, scale0, sin_t, lmax, qmm, a, b, out):
+    """:func:`_legendre_sums` with numpy: the recurrence vectorised over rows (no numba)."""
+    step = legendre_next.py_func
+    scale = np.array(scale0, dtype=np.float64)
+    for m in range(lmax + 1):
+        kc = 0 if m == 0 else 2 * m - 1
+        if m > 0:
+            scale = scale * sin_t
+        f = 1.0 if m == 0 else SQRT2
+        q1 = np.full_like(z, qmm[m])
+        q2 = 0.0
+        for l in range(m, lmax + 1):
+            if l > m:
+                q1, q2 = step(a[l, m], b[l, m], z, q1, q2), q1
+            qs = q1 * scale * f
+            src = plus if (l - m) % 2 == 0 else minus
+            base = l * (l + 1)
+            out[base + m] = src[:, kc, :] @ qs
+            if m > 0:
+                out[base - m] = src[:, 2 * m, :] @ qs
+
+
+SQRT2 = 1.4142135623730951
+
+BLAS_MAX_LMAX = 8
+"""``method="auto"`` uses numpy/BLAS up to this ``lmax`` while numba is not loaded."""
+
+METHODS = ("auto", "numba", "blas")
+
+
+def _choose_method(method: str, lmax: int) -> str:
+    if method not in METHODS:
+        raise ParameterError(f"unknown projection method {method!r}; choose one of {METHODS}")
+    if method == "auto":
+        # Loading numba and its kernel cache costs ~0.35 s: more than a small projection.
+        small = lmax <= BLAS_MAX_LMAX and "numba" not in sys.modules
+        return "blas" if small else "numba"
+    return method
+
+
+def project_latlong_image_frame(img, lmax: int, method: str = "numba") -> np.ndarray:
     """Coefficients in the image frame (see module doc); ``img`` is ``(H, W, C)``."""
     h, w, nc = img.shape
-    sums = row_sums(img, lmax)
+    sums = row_sums(img, lmax, method)
     n = (h + 1) // 2
     top = sums[:n]
     bottom = sums[::-1][:n]
@@ -364,7 +442,8 @@ def project_latlong_image_frame(img, lmax: int) -> np.ndarray:
     theta = np.pi * (np.arange(n) + 0.5) / h
     qmm, a, b = recurrence_tables(lmax)
     out = np.empty((n_coeffs(lmax), nc))
-    _legendre_sums(
+    stage = _legendre_sums_numpy if method == "blas" else _legendre_sums
+    stage(
         plus,
         minus,
         np.cos(theta),
@@ -379,7 +458,7 @@ def project_latlong_image_frame(img, lmax: int) -> np.ndarray:
     return out
 
 
-def project_latlong(img, lmax: int) -> np.ndarray:
+def project_latlong(img, lmax: int, method: str = "auto") -> np.ndarray:
     """Project a lat-long radiance image onto real SH in the world frame.
 
     Parameters
@@ -388,6 +467,14 @@ def project_latlong(img, lmax: int) -> np.ndarray:
         Radiance, lat-long layout of SPEC §3 (row 0 = +Y, centre = +Z, pixels
         are cells with exact solid angles). Must be finite (validated upstream).
     lmax : int, 0 … 128
+    method : ``"auto"``, ``"numba"`` or ``"blas"``
+        ``numba``: the folded, blocked kernels (fastest once numba is loaded).
+        ``blas``: numpy/BLAS only, nothing compiled or loaded (a process that
+        projects one small-``lmax`` map and exits). ``auto``: ``blas`` for
+        ``lmax ≤`` :data:`BLAS_MAX_LMAX` while numba is not yet imported in
+        this process, else ``numba``. The two agree to 1e-15 relative
+        (tested), not bit for bit: pass ``method`` for bit-identical output
+        across processes that differ in what they loaded.
 
     Returns
     -------
@@ -399,8 +486,14 @@ def project_latlong(img, lmax: int) -> np.ndarray:
     img = np.asarray(img)
     if img.ndim != 3 or img.dtype not in (np.float32, np.float64):
         raise ParameterError(f"expected an (H, W, C) float image, got {img.shape} {img.dtype}")
-    local = project_latlong_image_frame(img, lmax)
-    return _to_world(lmax).apply(local)
+    method = _choose_method(method, lmax)
+    local = project_latlong_image_frame(img, lmax, method)
+    if method == "blas":
+        with interpreted():  # a few ms of Python instead of loading numba for the rotation
+            rot = _to_world(lmax)
+    else:
+        rot = _to_world(lmax)
+    return rot.apply(local)
 
 
 @lru_cache(maxsize=8)
