@@ -90,10 +90,11 @@ def _as_directions(dirs) -> np.ndarray:
         raise ParameterError(f"directions must have a last axis of 3, got shape {d.shape}")
     if not np.all(np.isfinite(d)):
         raise ParameterError("directions must be finite")
-    norm = np.linalg.norm(d, axis=-1)
-    if np.any(norm == 0.0):
+    big = np.abs(d).max(axis=-1, keepdims=True)  # scale first: no underflow for tiny vectors
+    if np.any(big == 0.0):
         raise ParameterError("directions must be non-zero vectors")
-    return d / norm[..., None]
+    d = d / big
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
 def real_sh(dirs, lmax: int) -> np.ndarray:
@@ -176,21 +177,27 @@ _SCRATCH = 10 * BLOCK
 def _load_block(d, i0, nb, s):
     """Normalise directions ``d[i0:i0+nb]`` into the x, y, z rows of ``s``; count the bad ones.
 
-    A direction that is zero, not finite, or whose squared norm overflows is
-    replaced by +Z and counted (the caller raises). Also sets ``cos/sin(0φ)``.
+    Each is scaled by its largest component first (no underflow or overflow
+    for any finite non-zero vector). A zero or non-finite direction is
+    replaced by +Z and counted (the caller raises).
     """
     bad = 0
     for k in range(nb):  # branch-free, so that it vectorises
         dx = np.float64(d[i0 + k, 0])
         dy = np.float64(d[i0 + k, 1])
         dz = np.float64(d[i0 + k, 2])
-        r2 = dx * dx + dy * dy + dz * dz
-        ok = r2 > 0.0 and r2 < np.inf
+        m = max(abs(dx), max(abs(dy), abs(dz)))  # scale first: no under/overflow
+        sc = 1.0 / m if m > 0.0 and m < np.inf else 0.0
+        ux = dx * sc
+        uy = dy * sc
+        uz = dz * sc
+        r2 = ux * ux + uy * uy + uz * uz  # ≈ [1, 3] when usable, NaN if any NaN
+        ok = r2 >= 0.5 and r2 <= 4.0
         bad += 0 if ok else 1
         inv = 1.0 / np.sqrt(r2 if ok else 1.0)
-        s[_X + k] = dx * inv if ok else 0.0
-        s[_Y + k] = dy * inv if ok else 0.0
-        s[_Z + k] = dz * inv if ok else 1.0
+        s[_X + k] = ux * inv if ok else 0.0
+        s[_Y + k] = uy * inv if ok else 0.0
+        s[_Z + k] = uz * inv if ok else 1.0
     return bad
 
 
@@ -393,7 +400,7 @@ def _check_out(out, shape) -> np.ndarray:
 def _raise_if_bad(bad) -> None:
     if bad.any():
         raise ParameterError(
-            f"{int(bad.sum())} directions are zero, not finite, or too long to normalise"
+            f"{int(bad.sum())} directions are zero or not finite"
         )
 
 
