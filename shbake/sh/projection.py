@@ -49,12 +49,6 @@ COLUMN_BLOCK = 128
 (4 × channels × ``COLUMN_BLOCK`` doubles) stay in L1 while every ``m`` reads them."""
 
 
-def latlong_row_weights(height: int, width: int) -> np.ndarray:
-    """Exact solid angle of one pixel of each row (SPEC §3), shape ``(height,)``, sr."""
-    edges = np.cos(np.pi * np.arange(height + 1) / height)
-    return (2.0 * np.pi / width) * (edges[:-1] - edges[1:])
-
-
 @lru_cache(maxsize=16)
 def fejer_row_weights(height: int, width: int) -> np.ndarray:
     """Fejér first-rule weight of one pixel of each row, ``(2π/W) w_i``, shape ``(height,)``.
