@@ -18,7 +18,7 @@ import pytest
 from shbake.envmap import load_environment
 from shbake.sh import projection
 from shbake.sh.projection import project_latlong
-from tests.conftest import SHARED_MAPS, map_path
+from tests.helpers import SHARED_MAPS, map_path
 from tests.test_projection import ducc0_project
 
 BEFORE = np.load(Path(__file__).parent / "data" / "projection_before.npz")

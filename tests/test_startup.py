@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tests.conftest import ROOT, map_path
+from tests.helpers import ROOT, map_path
 
 PROBE = """
 import json, sys
