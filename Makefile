@@ -11,7 +11,7 @@ OUT    ?= out
 export OMP_NUM_THREADS ?= 1
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: demo test test-all bench lint clean
+.PHONY: demo test test-all bench bench-speed lint clean
 
 $(STAMP): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -42,6 +42,10 @@ test-all: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/run_all.py
+
+# The speed tables of docs/BENCHMARKS.md alone (issue 15), rewritten in place.
+bench-speed: $(STAMP)
+	$(BIN)/python bench/speed_tables.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check shbake cli tests bench
