@@ -24,6 +24,7 @@ COMMANDS = {
     "probe-fit": "probe_fit:probe_fit",
     "split-sum": "split_sum:split_sum",
     "probe-eval": "probe_eval:probe_eval",
+    "overview": "overview:overview",
 }
 """Subcommand → ``module:attribute`` in ``shbake_cli``, imported on use."""
 
