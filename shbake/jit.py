@@ -70,6 +70,18 @@ class LazyKernel:
     def __repr__(self) -> str:
         return f"<LazyKernel {self.__qualname__}>"
 
+    def __reduce__(self):  # pickled by reference, like a function (Dask, multiprocessing)
+        return (_lookup, (self.__module__, self.__qualname__))
+
+
+def _lookup(module: str, qualname: str):
+    import importlib
+
+    obj = importlib.import_module(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part)
+    return obj
+
 
 class interpreted:
     """Context manager: kernels called inside run as plain Python (no numba import).
