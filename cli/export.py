@@ -1,0 +1,52 @@
+"""``shbake export``: env_sh assets → engine-ready files (``docs/EXPORTS.md``)."""
+
+import click
+from shbake_cli.options import emit_json, info, json_opt, quiet_opt
+
+from shbake.format.exports import TARGETS, export_assets
+from shbake.format.exports.source import FRAMES
+
+frame_opt = click.option(
+    "--frame",
+    type=click.Choice(FRAMES),
+    default="y-up",
+    show_default=True,
+    help="Up axis of the target scene (z-up: (x, y, z) -> (x, -z, y)).",
+)
+rotate_opt = click.option(
+    "--rotate",
+    "rotate_deg",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Turn the environment about the target's up axis, degrees counter-clockwise from above.",
+)
+
+
+@click.command("export")
+@click.argument("assets", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--to", "target", required=True, type=click.Choice(sorted(TARGETS)), help="Engine / format.")
+@click.option("-o", "--output", required=True, type=click.Path(), help="Output file (a directory for several assets).")
+@frame_opt
+@rotate_opt
+@click.option("--env", "env_path", type=click.Path(dir_okay=False), default=None,
+              help="Source map for cube maps [default: the path recorded in the asset].")
+@click.option("--size", type=int, default=64, show_default=True, help="Edge of the first cube mip (power of two).")
+@click.option("--floor", type=int, default=8, show_default=True, help="Edge of the last cube mip (power of two).")
+@click.option("--lod-mapping", "mapping", type=click.Choice(["gltf-ibl-sampler", "filament"]),
+              default="gltf-ibl-sampler", show_default=True, help="Roughness of each mip level.")
+@click.option("--samples", type=int, default=256, show_default=True, help="GGX samples per texel (filtered importance sampling).")
+@click.option("--sun-radius", type=float, default=10.0, show_default=True,
+              help="Radius the asset's sun was extracted with, degrees (to rebuild its residual map).")
+@json_opt
+@quiet_opt
+def export(assets, target, output, frame, rotate_deg, env_path, size, floor, mapping, samples, sun_radius, as_json, quiet):
+    """Export env_sh ASSETS to an engine format (gltf, babylon, threejs, ktx2)."""
+    written = export_assets(
+        list(assets), target, output, frame=frame, rotate_deg=rotate_deg, env_path=env_path,
+        size=size, floor=floor, mapping=mapping, samples=samples, sun_radius_deg=sun_radius,
+    )
+    if as_json:
+        emit_json({"target": target, "written": written})
+    else:
+        info(f"wrote {len(written)} file(s) for {target}: {written[0]}", quiet)
