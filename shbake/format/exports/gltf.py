@@ -157,16 +157,19 @@ def write(
         "extensionsUsed": used,
         "extensions": {"EXT_lights_image_based": {"lights": [ibl]}},
         "images": images,
+        "nodes": [{"name": f"{src.name} environment"}],
         "scene": 0,
-        "scenes": [{"name": src.name, "extensions": {"EXT_lights_image_based": {"light": 0}}}],
+        "scenes": [
+            {"name": src.name, "nodes": [0], "extensions": {"EXT_lights_image_based": {"light": 0}}}
+        ],
     }
     sun = sun_light(src)
     if sun is not None:
         light, node = sun
         used.append("KHR_lights_punctual")
         doc["extensions"]["KHR_lights_punctual"] = {"lights": [light]}
-        doc["nodes"] = [node]
-        doc["scenes"][0]["nodes"] = [0]
+        doc["nodes"].append(node)
+        doc["scenes"][0]["nodes"].append(1)
     write_text(out, json.dumps(doc, indent=1, sort_keys=True) + "\n")
     return [out, *written]
 

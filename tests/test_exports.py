@@ -1,0 +1,216 @@
+"""Engine exports checked in the engines' own code under node (tests/engines, ``npm ci``).
+
+Babylon.js's glTF loader and three.js's ObjectLoader/LightProbe evaluate the
+exported files; their irradiance must equal shbake's (SH + sun) at 300
+directions on every shared map, with and without ``--extract-sun``. Each test
+of a convention has a twin proving that the comparison fails for a flipped
+axis or a π factor.
+"""
+
+import glob
+import json
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from shbake.conventions import REC709_LUMINANCE
+from shbake.env_sh import bake_env_sh, brute_force_reference
+from shbake.envmap import load_environment
+from shbake.format.asset import write_asset
+from shbake.format.exports import export_assets, target_module
+from shbake.format.exports.source import frame_matrix, load_source, shbake_irradiance
+from shbake.sh.windows import fibonacci_sphere
+
+HERE = os.path.dirname(__file__)
+ENGINES = os.path.join(HERE, "engines")
+SHARED = os.environ.get("SHBAKE_SHARED", os.path.join(HERE, "..", "..", "shared"))
+MAPS = sorted(glob.glob(os.path.join(SHARED, "hdri", "*.exr")))
+N_DIRS = 300
+TOL = 1e-4
+SMALL = {"size": 16, "floor": 4, "samples": 32}  # specular chain kept small: these tests are about SH
+
+pytestmark = pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
+
+
+def _node(script: str, *args: str) -> dict:
+    if not os.path.isdir(os.path.join(ENGINES, "node_modules")):
+        pytest.fail("engine packages missing: run `npm ci --prefix tests/engines` (make test does)")
+    r = subprocess.run(
+        ["node", os.path.join(ENGINES, script), *args],
+        cwd=ENGINES,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def _scale(src, dirs) -> np.ndarray:
+    """Per direction and channel, ``Σ_i |E_i y_i(n)|`` (+ the sun term): the size of what is summed.
+
+    Relative errors are taken against it rather than ``|E(n)|`` alone, which
+    nears 0 where the SH terms cancel (three.js's constants have 6 digits,
+    e.g. ``0.886227``, so its absolute error is ~1e-6 of the terms).
+    """
+    from shbake.sh.basis import real_sh
+
+    s = np.abs(real_sh(dirs, 2)[..., :, None] * src.irradiance9[None]).sum(axis=-2)
+    if src.sun_direction is not None:
+        s = s + np.maximum(dirs @ src.sun_direction, 0.0)[:, None] * src.sun_irradiance
+    return s
+
+
+def _rel(got: np.ndarray, want: np.ndarray, src=None, dirs=None) -> float:
+    """Largest per-direction ``‖got − want‖∞ / ‖scale‖∞`` (scale: :func:`_scale`, or ``want``)."""
+    num = np.abs(got - want).max(axis=-1)
+    ref = _scale(src, dirs) if src is not None else want
+    den = np.maximum(np.abs(ref).max(axis=-1), 1e-12)
+    return float((num / den).max())
+
+
+@pytest.fixture(scope="module")
+def dirs_file(tmp_path_factory):
+    p = tmp_path_factory.mktemp("dirs") / "dirs.json"
+    p.write_text(json.dumps(fibonacci_sphere(N_DIRS).tolist()))
+    return str(p)
+
+
+@pytest.fixture(scope="module", params=[(m, s) for m in MAPS for s in (False, True)],
+                ids=lambda p: f"{os.path.basename(p[0])[:-4]}{'-sun' if p[1] else ''}")
+def baked(request, tmp_path_factory):
+    """An env_sh asset of a shared map (lmax 2), with or without sun extraction, and its exports."""
+    path, sun = request.param
+    d = tmp_path_factory.mktemp("exp")
+    env = load_environment(path, quiet=True)
+    asset, _ = bake_env_sh(env, lmax=2, sun=sun, provenance={"input_abspath": os.path.abspath(path)})
+    h5 = str(d / "a.h5")
+    write_asset(h5, asset)
+    gltf = export_assets([h5], "gltf", str(d / "a.gltf"), **SMALL)[0]
+    three = export_assets([h5], "threejs", str(d / "a.json"))[0]
+    name = os.path.basename(path)[:-4] + ("-sun" if sun else "")
+    return {"h5": h5, "gltf": gltf, "three": three, "env": env, "sun": sun, "dir": d, "name": name}
+
+
+class TestBabylonGltf:
+    """gltf.write: Babylon.js's loader reads shbake's irradiance (sun included)."""
+
+    def test_irradiance_equals_shbake(self, baked, dirs_file):
+        r = _node("babylon_irradiance.mjs", baked["gltf"], dirs_file)
+        got = np.array(r["irradiance"])
+        src = load_source(baked["h5"])
+        d = np.array(json.load(open(dirs_file)))
+        want = shbake_irradiance(src, d)
+        assert r["lights"] == (1 if src.sun_direction is not None else 0)
+        print(f"\n{baked['name']}: Babylon vs shbake {_rel(got, want, src, d):.2e} "
+              f"(per-direction |E|: {_rel(got, want):.2e})")
+        assert _rel(got, want, src, d) < TOL
+
+    def test_validator_reports_no_error(self, baked):
+        r = _node("validate_gltf.mjs", baked["gltf"])
+        assert r["numErrors"] == 0, r["messages"]
+
+    @pytest.mark.parametrize("fault", ["flip-x", "flip-y", "flip-z", "pi", "no-sign"])
+    def test_a_wrong_convention_fails(self, baked, dirs_file, fault):
+        """The comparison above is sensitive: a mirrored axis, a π or Babylon's sign ignored fails it."""
+        doc = json.load(open(baked["gltf"]))
+        light = doc["extensions"]["EXT_lights_image_based"]["lights"][0]
+        c = np.array(light["irradianceCoefficients"])
+        odd = {"flip-x": [3, 4, 7], "flip-y": [1, 4, 5], "flip-z": [2, 5, 7]}
+        if fault in odd:
+            c[odd[fault]] *= -1
+        elif fault == "pi":
+            c *= np.pi
+        else:
+            c *= np.array([1, -1, 1, 1, -1, -1, 1, 1, 1])[:, None]
+        light["irradianceCoefficients"] = c.tolist()
+        bad = str(baked["dir"] / "bad.gltf")
+        with open(bad, "w") as f:
+            json.dump(doc, f)
+        for png in glob.glob(str(baked["dir"] / "a_specular_*.png")):
+            shutil.copy(png, png.replace("a_specular_", "bad_specular_"))
+        for im in doc["images"]:
+            im["uri"] = im["uri"].replace("a_specular_", "bad_specular_")
+        with open(bad, "w") as f:
+            json.dump(doc, f)
+        got = np.array(_node("babylon_irradiance.mjs", bad, dirs_file)["irradiance"])
+        want = shbake_irradiance(load_source(baked["h5"]), np.array(json.load(open(dirs_file))))
+        assert _rel(got, want) > 1e-3
+
+
+class TestThreejs:
+    """threejs.write: three's ObjectLoader + LightProbe.getIrradianceAt + DirectionalLight."""
+
+    def test_irradiance_equals_shbake(self, baked, dirs_file):
+        r = _node("three_irradiance.mjs", baked["three"], dirs_file)
+        got = np.array(r["irradiance"])
+        src = load_source(baked["h5"])
+        d = np.array(json.load(open(dirs_file)))
+        want = shbake_irradiance(src, d)
+        assert r["probes"] == 1 and r["lights"] == (3 if src.sun_direction is not None else 0)
+        print(f"\n{baked['name']}: three vs shbake {_rel(got, want, src, d):.2e} "
+              f"(per-direction |E|: {_rel(got, want):.2e})")
+        assert _rel(got, want, src, d) < TOL
+
+    @pytest.mark.parametrize("fault", ["irradiance-sh", "flip-x", "pi"])
+    def test_a_wrong_convention_fails(self, baked, dirs_file, fault):
+        doc = json.load(open(baked["three"]))
+        probe = doc["object"]["children"][0]
+        c = np.array(probe["sh"]).reshape(9, 3)
+        if fault == "irradiance-sh":  # the cosine kernel applied twice
+            c *= np.array([np.pi] + [2 * np.pi / 3] * 3 + [np.pi / 4] * 5)[:, None]
+        elif fault == "flip-x":
+            c[[3, 4, 7]] *= -1
+        else:
+            c /= np.pi
+        probe["sh"] = c.reshape(-1).tolist()
+        bad = str(baked["dir"] / "bad.json")
+        with open(bad, "w") as f:
+            json.dump(doc, f)
+        got = np.array(_node("three_irradiance.mjs", bad, dirs_file)["irradiance"])
+        want = shbake_irradiance(load_source(baked["h5"]), np.array(json.load(open(dirs_file))))
+        assert _rel(got, want) > 1e-3
+
+
+class TestAgainstBruteForce:
+    """What the engines show vs brute-force quadrature of the original map (reported; SH truncation)."""
+
+    def test_report(self, baked, dirs_file):
+        ref = brute_force_reference(baked["env"], n_dirs=N_DIRS)
+        got = np.array(_node("three_irradiance.mjs", baked["three"], dirs_file)["irradiance"])
+        y = got @ REC709_LUMINANCE
+        rel = np.abs(y - ref["irradiance"]) / np.maximum(ref["irradiance"], 1e-30)
+        print(f"\n{baked['name']}: engine vs brute force "
+              f"luminance mean {rel.mean():.3%} max {rel.max():.3%}")
+        assert np.all(np.isfinite(rel))
+
+
+class TestFrameRoundTrip:
+    """--frame z-up --rotate θ: the engine's E at R d equals shbake's world E at d."""
+
+    @pytest.mark.parametrize("frame,deg", [("z-up", 30.0), ("y-up", -75.0)])
+    def test_three_and_babylon(self, baked, dirs_file, tmp_path, frame, deg):
+        R = frame_matrix(frame, deg)
+        d = np.array(json.load(open(dirs_file)))
+        dt = tmp_path / "dt.json"
+        dt.write_text(json.dumps((d @ R.T).tolist()))
+        src = load_source(baked["h5"])
+        want = shbake_irradiance(src, d)  # world frame
+        three = export_assets([baked["h5"]], "threejs", str(tmp_path / "t.json"), frame=frame, rotate_deg=deg)[0]
+        got = np.array(_node("three_irradiance.mjs", three, str(dt))["irradiance"])
+        assert _rel(got, want, src, d) < TOL
+        # and the rotation is really applied: reading the rotated export in the world frame fails
+        got_world = np.array(_node("three_irradiance.mjs", three, dirs_file)["irradiance"])
+        assert _rel(got_world, want) > 1e-3
+
+
+class TestRegistry:
+    """target_module: every target name resolves; unknown names are refused."""
+
+    def test_targets(self):
+        assert target_module("babylon") is target_module("gltf")
+        with pytest.raises(Exception, match="unknown export target"):
+            target_module("unreal")
