@@ -25,7 +25,7 @@ from shbake.envmap.layouts import latlong_directions
 from shbake.errors import OutputError
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_writable_dir
-from shbake.format.engine_export import write_gltf_json
+from shbake.format.exports import export_assets
 from shbake.format.images import HALF_MAX, write_exr
 from shbake.sh.windows import WINDOW_METHODS
 
@@ -93,9 +93,9 @@ def command_line(ctx: click.Context) -> str:
 @click.option(
     "--export",
     "exports",
-    type=click.Choice(["gltf"]),
+    type=click.Choice(["gltf", "babylon", "threejs"]),
     multiple=True,
-    help="Engine export beside the asset (gltf: EXT_lights_image_based JSON).",
+    help="Engine export beside the asset, as `shbake export --to TARGET` (docs/EXPORTS.md).",
 )
 @click.option(
     "--report",
@@ -170,8 +170,8 @@ def project_env(
             peak = float(np.abs(img).max())
             if not float_exr and peak > HALF_MAX:
                 raise OutputError(f"{name}: value {peak:.6g} overflows half float; use --float-exr")
-    if "gltf" in exports and (not irradiance or irradiance_lmax < 2):
-        raise click.UsageError("--export gltf needs --irradiance with irradiance lmax >= 2")
+    if exports and (not irradiance or irradiance_lmax < 2):
+        raise click.UsageError("--export needs --irradiance with irradiance lmax >= 2")
     if report:
         summary["report"] = truncation_report(environment, lmax, irradiance_lmax)
         summary["report"]["error_vs_brute_force"] = irradiance_errors(asset, environment)
@@ -181,10 +181,10 @@ def project_env(
         os.makedirs(exr_maps, exist_ok=True)
         for name, img in maps.items():
             write_exr(os.path.join(exr_maps, name), img, half=not float_exr, attrs={"envmap": 0})
-    if "gltf" in exports:
-        gltf_path = os.path.splitext(output)[0] + ".gltf.json"
-        write_gltf_json(gltf_path, asset["/irradiance/sh"][:9], os.path.basename(env))
-        summary["gltf"] = gltf_path
+    for target in exports:  # issue 14: the library call of `shbake export`
+        ext = ".json" if target == "threejs" else ".gltf"
+        out = os.path.splitext(output)[0] + ("." + target if target != "gltf" else "") + ext
+        summary[target] = export_assets([output], target, out, sun_radius_deg=sun_radius)[0]
 
     summary.update(
         output=output,
