@@ -25,26 +25,91 @@ rotate_opt = click.option(
 
 @click.command("export")
 @click.argument("assets", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--to", "target", required=True, type=click.Choice(sorted(TARGETS)), help="Engine / format.")
-@click.option("-o", "--output", required=True, type=click.Path(), help="Output file (a directory for several assets).")
+@click.option(
+    "--to", "target", required=True, type=click.Choice(sorted(TARGETS)), help="Engine / format."
+)
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(),
+    help="Output file (a directory for several assets).",
+)
 @frame_opt
 @rotate_opt
-@click.option("--env", "env_path", type=click.Path(dir_okay=False), default=None,
-              help="Source map for cube maps [default: the path recorded in the asset].")
-@click.option("--size", type=int, default=64, show_default=True, help="Edge of the first cube mip (power of two).")
-@click.option("--floor", type=int, default=8, show_default=True, help="Edge of the last cube mip (power of two).")
-@click.option("--lod-mapping", "mapping", type=click.Choice(["gltf-ibl-sampler", "filament"]),
-              default="gltf-ibl-sampler", show_default=True, help="Roughness of each mip level.")
-@click.option("--samples", type=int, default=256, show_default=True, help="GGX samples per texel (filtered importance sampling).")
-@click.option("--sun-radius", type=float, default=10.0, show_default=True,
-              help="Radius the asset's sun was extracted with, degrees (to rebuild its residual map).")
+@click.option(
+    "--env",
+    "env_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Source map for cube maps [default: the path recorded in the asset].",
+)
+@click.option(
+    "--size",
+    type=int,
+    default=64,
+    show_default=True,
+    help="Edge of the first cube mip (power of two).",
+)
+@click.option(
+    "--floor",
+    type=int,
+    default=8,
+    show_default=True,
+    help="Edge of the last cube mip (power of two).",
+)
+@click.option(
+    "--lod-mapping",
+    "mapping",
+    type=click.Choice(["gltf-ibl-sampler", "filament"]),
+    default="gltf-ibl-sampler",
+    show_default=True,
+    help="Roughness of each mip level.",
+)
+@click.option(
+    "--samples",
+    type=int,
+    default=256,
+    show_default=True,
+    help="GGX samples per texel (filtered importance sampling).",
+)
+@click.option(
+    "--sun-radius",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="Radius the asset's sun was extracted with, degrees (to rebuild its residual map).",
+)
 @json_opt
 @quiet_opt
-def export(assets, target, output, frame, rotate_deg, env_path, size, floor, mapping, samples, sun_radius, as_json, quiet):
+def export(
+    assets,
+    target,
+    output,
+    frame,
+    rotate_deg,
+    env_path,
+    size,
+    floor,
+    mapping,
+    samples,
+    sun_radius,
+    as_json,
+    quiet,
+):
     """Export env_sh ASSETS to an engine format (gltf, babylon, threejs, ktx2)."""
     written = export_assets(
-        list(assets), target, output, frame=frame, rotate_deg=rotate_deg, env_path=env_path,
-        size=size, floor=floor, mapping=mapping, samples=samples, sun_radius_deg=sun_radius,
+        list(assets),
+        target,
+        output,
+        frame=frame,
+        rotate_deg=rotate_deg,
+        env_path=env_path,
+        size=size,
+        floor=floor,
+        mapping=mapping,
+        samples=samples,
+        sun_radius_deg=sun_radius,
     )
     if as_json:
         emit_json({"target": target, "written": written})

@@ -45,7 +45,7 @@ import numpy as np
 
 from shbake.brdf.ggx import ggx_d
 from shbake.envmap.environment import Environment
-from shbake.envmap.layouts import cube_face_frames, cube_texels, latlong_uv
+from shbake.envmap.layouts import cube_face_frames, cube_texels
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 
@@ -61,7 +61,7 @@ GL_FACES = np.array(
     ],
     dtype=np.float64,
 )
-"""``GL_FACES[k] @ (s, t, 1)`` is the GL cube direction of face ``k`` (rows x, y, z; columns s axis, t axis, normal)."""
+"""``GL_FACES[k] @ (s, t, 1)``: GL direction on face ``k`` (columns: s axis, t axis, normal)."""
 
 WORLD_FROM_GL = np.diag([-1.0, 1.0, 1.0])
 """World direction of GL cube direction ``g``: ``d = WORLD_FROM_GL @ g`` (an x mirror)."""
@@ -239,9 +239,9 @@ def _fetch_level(level, wf, dx, dy, dz, out):
     y1 = min(y0 + 1, n - 1)
     fx, fy = x - x0, y - y0
     for c in range(3):
-        out[c] = (1 - fy) * ((1 - fx) * level[face, y0, x0, c] + fx * level[face, y0, x1, c]) + fy * (
-            (1 - fx) * level[face, y1, x0, c] + fx * level[face, y1, x1, c]
-        )
+        out[c] = (1 - fy) * (
+            (1 - fx) * level[face, y0, x0, c] + fx * level[face, y0, x1, c]
+        ) + fy * ((1 - fx) * level[face, y1, x0, c] + fx * level[face, y1, x1, c])
 
 
 @jit
@@ -310,7 +310,11 @@ def _prefilter_fis(pyr, wf, dirs, alpha, samples, omega_p, use_fis, out):
 
 
 def prefilter_level(
-    pyramid: list[np.ndarray], size: int, alpha: float, samples: int = DEFAULT_SAMPLES, fis: bool = True
+    pyramid: list[np.ndarray],
+    size: int,
+    alpha: float,
+    samples: int = DEFAULT_SAMPLES,
+    fis: bool = True,
 ) -> np.ndarray:
     """One prefiltered cube ``(6, size, size, 3)`` at GGX ``alpha`` from a source pyramid.
 
@@ -325,7 +329,14 @@ def prefilter_level(
     out = np.empty((6 * size * size, 3))
     pyr = numba.typed.List([np.ascontiguousarray(p) for p in pyramid])
     _prefilter_fis(
-        pyr, world_face_frames(), dirs.reshape(-1, 3), float(alpha), int(samples), omega_p, bool(fis), out
+        pyr,
+        world_face_frames(),
+        dirs.reshape(-1, 3),
+        float(alpha),
+        int(samples),
+        omega_p,
+        bool(fis),
+        out,
     )
     return out.reshape(6, size, size, 3)
 

@@ -17,7 +17,7 @@ TARGETS = {
     "threejs": "shbake.format.exports.threejs",
     "ktx2": "shbake.format.exports.ktx2",
 }
-"""Target name → module (``babylon`` is the glTF export: Babylon.js implements EXT_lights_image_based)."""
+"""Target name → module (``babylon`` = the glTF export: Babylon implements the extension)."""
 
 
 def target_module(name: str):

@@ -1,4 +1,4 @@
-"""glTF 2.0 export: ``EXT_lights_image_based`` (+ ``KHR_lights_punctual`` sun), as Babylon.js reads it.
+"""glTF 2.0 export: ``EXT_lights_image_based`` + ``KHR_lights_punctual`` sun, as Babylon reads it.
 
 The extension's text (KhronosGroup/glTF ``extensions/2.0/Vendor/EXT_lights_image_based/README.md``)
 defines no SH basis, sign or normalisation; Babylon.js is its implementation,
@@ -42,7 +42,7 @@ from shbake.format.exports.source import ExportSource
 
 EXTENSION = ".gltf"
 BABYLON_SIGNS = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1], dtype=np.float64)
-"""Per-coefficient sign from shbake's basis to what Babylon's loader evaluates (indices 1, 4, 5 flip)."""
+"""Per-coefficient sign from shbake's basis to Babylon's reading (indices 1, 4, 5 flip)."""
 RGBD_MAX = 255.0
 GAMMA = 2.2
 
@@ -53,7 +53,7 @@ def babylon_coefficients(irradiance9: np.ndarray, intensity: float = 1.0) -> np.
 
 
 def rgbd_encode(img: np.ndarray) -> np.ndarray:
-    """Linear HDR ``(…, 3)`` → RGBD ``uint8 (…, 4)`` as Babylon's ``toRGBD`` (helperFunctions.fx)."""
+    """Linear HDR ``(…, 3)`` → RGBD ``uint8 (…, 4)`` as Babylon's ``toRGBD``."""
     c = np.maximum(np.asarray(img, dtype=np.float64), 0.0)
     m = np.maximum(c.max(axis=-1), 1e-6)
     D = np.clip(np.floor(np.maximum(RGBD_MAX / m, 1.0)) / 255.0, 0.0, 1.0)
@@ -88,7 +88,12 @@ def sun_light(src: ExportSource) -> tuple[dict, dict] | None:
     e = np.asarray(src.sun_irradiance, dtype=np.float64)
     intensity = float(e.max())
     color = [float(v) for v in (e / intensity if intensity > 0 else np.ones(3))]
-    light = {"type": "directional", "name": f"{src.name} sun", "color": color, "intensity": intensity}
+    light = {
+        "type": "directional",
+        "name": f"{src.name} sun",
+        "color": color,
+        "intensity": intensity,
+    }
     node = {
         "name": f"{src.name} sun",
         "rotation": _quat_z_to(np.asarray(src.sun_direction, dtype=np.float64)),
@@ -138,13 +143,16 @@ def write(
         "name": src.name,
         "intensity": intensity,
         "rotation": [0.0, 0.0, 0.0, 1.0],
-        "irradianceCoefficients": [[float(v) for v in row] for row in babylon_coefficients(src.irradiance9, intensity)],
+        "irradianceCoefficients": [
+            [float(v) for v in row] for row in babylon_coefficients(src.irradiance9, intensity)
+        ],
         "specularImageSize": int(size),
         "specularImages": spec,
         "extras": {
             "shbake": {
                 "irradiance_sh_shbake_basis": [[float(v) for v in row] for row in src.irradiance9],
-                "basis": "Babylon.js: coefficient i = sign_i * E_i / intensity^2, sign = (+,-,+,+,-,-,+,+,+)",
+                "basis": "Babylon.js: coefficient i = sign_i * E_i / intensity^2, "
+                "sign = (+,-,+,+,-,-,+,+,+)",
                 "specular_roughness": [float(r) for r in rough],
                 "roughness_lod_mapping": mapping,
                 "frame": src.frame,

@@ -75,7 +75,7 @@ class ExportSource:
     meta: dict = field(default_factory=dict)
 
     def environment(self, sun_radius_deg: float = 10.0):
-        """The map the SH came from, in shbake's world frame (with the sun removed if the asset's was).
+        """The map the SH came from, world frame (its sun removed if the asset's was).
 
         Read from the asset's recorded input path (checked by SHA-256) or the
         ``env_path`` given to :func:`load_source`.
@@ -148,5 +148,8 @@ def shbake_irradiance(src: ExportSource, dirs: np.ndarray) -> np.ndarray:
 
     E = real_sh(dirs, 2) @ src.irradiance9
     if src.sun_direction is not None:
-        E = E + np.maximum(np.asarray(dirs) @ src.sun_direction, 0.0)[..., None] * src.sun_irradiance
+        E = (
+            E
+            + np.maximum(np.asarray(dirs) @ src.sun_direction, 0.0)[..., None] * src.sun_irradiance
+        )
     return E

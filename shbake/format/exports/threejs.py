@@ -1,4 +1,4 @@
-"""three.js export: an ``ObjectLoader`` JSON scene with a ``LightProbe`` (+ ``DirectionalLight`` sun).
+"""three.js export: an ``ObjectLoader`` JSON scene, ``LightProbe`` + ``DirectionalLight`` sun.
 
 three.js conventions (``docs/EXPORTS.md``; checked by ``tests/test_exports.py``
 with three's own ``ObjectLoader``, ``SphericalHarmonics3.getIrradianceAt``):
@@ -58,7 +58,9 @@ def scene_json(src: ExportSource) -> dict:
     ]
     if src.sun_direction is not None:
         d = [float(v) for v in src.sun_direction]
-        for k, (name, colour) in enumerate((("red", 0xFF0000), ("green", 0x00FF00), ("blue", 0x0000FF))):
+        for k, (name, colour) in enumerate(
+            (("red", 0xFF0000), ("green", 0x00FF00), ("blue", 0x0000FF))
+        ):
             children.append(
                 {
                     "uuid": _UUID.format(3 + k),
@@ -85,7 +87,9 @@ def scene_json(src: ExportSource) -> dict:
                 "shbake": {
                     "frame": src.frame,
                     "sh": "radiance SH L_lm (three.js LightProbe); getIrradianceAt gives E(n)",
-                    "sun_irradiance": None if src.sun_irradiance is None else [float(v) for v in src.sun_irradiance],
+                    "sun_irradiance": None
+                    if src.sun_irradiance is None
+                    else [float(v) for v in src.sun_irradiance],
                 }
             },
         },
