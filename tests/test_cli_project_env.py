@@ -44,7 +44,7 @@ class TestProjectEnv:
         assert (tmp_path / "maps" / "irradiance.exr").exists()
         gltf = json.loads((tmp_path / "sky.gltf").read_text())  # shbake export --to gltf
         light = gltf["extensions"]["EXT_lights_image_based"]["lights"][0]
-        signs = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1])[:, None]  # Babylon's basis (docs/EXPORTS.md)
+        signs = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1])[:, None]  # Babylon (docs/EXPORTS.md)
         np.testing.assert_allclose(
             light["irradianceCoefficients"], signs * a["/irradiance/sh"] / light["intensity"] ** 2
         )
