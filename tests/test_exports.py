@@ -17,9 +17,10 @@ import subprocess
 import numpy as np
 import pytest
 
+from shbake.bakers.env_sh import bake_env_sh
 from shbake.conventions import REC709_LUMINANCE
-from shbake.env_sh import bake_env_sh, brute_force_reference
 from shbake.envmap import load_environment
+from shbake.evaluation.env_sh import brute_force_reference
 from shbake.format.asset import write_asset
 from shbake.format.exports import export_assets, target_module
 from shbake.format.exports.source import frame_matrix, load_source, shbake_irradiance
@@ -288,14 +289,14 @@ class TestKtx2:
         assert np.all(lv0[..., 3] == 1.0)
 
     def test_dfg_table(self, written):
-        from shbake.probe.albedo_table import albedo_table
+        from shbake.bakers.dfg import dfg_table
 
         r = _ktx2(written["files"][1])
         assert (r["vkFormat"], r["faceCount"], r["levelCount"]) == (83, 1, 1)
         t = np.frombuffer(base64.b64decode(r["levels"][0]), "<f2").reshape(
             r["pixelHeight"], r["pixelWidth"], 2
         )
-        np.testing.assert_allclose(t, np.transpose(albedo_table(), (1, 0, 2)), rtol=2e-3, atol=1e-4)
+        np.testing.assert_allclose(t, np.transpose(dfg_table(), (1, 0, 2)), rtol=2e-3, atol=1e-4)
 
 
 def _fireflies(img: np.ndarray) -> np.ndarray:

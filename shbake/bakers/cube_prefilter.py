@@ -48,6 +48,7 @@ from shbake.envmap.environment import Environment
 from shbake.envmap.layouts import cube_face_frames, cube_texels
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
+from shbake.texture.bilinear import axis, blend
 
 # GL cube faces: columns (s axis, t axis, face normal) in GL cube space.
 GL_FACES = np.array(
@@ -110,22 +111,16 @@ def level_of_roughness(r: float, levels: int, mapping: str = "gltf-ibl-sampler")
 
 @jit
 def _bilinear_latlong(img, u, v, out):
+    """Texel-centred bilinear lat-long fetch: rows clamp to edge, columns wrap around."""
     h, w = img.shape[0], img.shape[1]
+    r0, r1, fr = axis(v * h - 0.5, h)
     x = u * w - 0.5
-    y = v * h - 0.5
-    x0 = math.floor(x)
-    y0 = math.floor(y)
-    fx, fy = x - x0, y - y0
+    xf = math.floor(x)
+    c0 = int(xf) % w
+    c1 = (c0 + 1) % w
+    fc = x - xf
     for c in range(3):
-        out[c] = 0.0
-    for dy in range(2):
-        yy = min(max(y0 + dy, 0), h - 1)
-        wy = fy if dy == 1 else 1.0 - fy
-        for dx in range(2):
-            xx = (x0 + dx) % w
-            wx = fx if dx == 1 else 1.0 - fx
-            for c in range(3):
-                out[c] += wy * wx * img[yy, xx, c]
+        out[c] = blend(img[r0, c0, c], img[r0, c1, c], img[r1, c0, c], img[r1, c1, c], fr, fc)
 
 
 @pjit
@@ -156,7 +151,7 @@ def mirror_cube(
     its texel ``d_t`` showing the map at world direction ``Rᵀ d_t``.
 
     Each texel is the mean of ``supersample²`` bilinear lat-long fetches
-    (``shbake.envmap.layouts.latlong_uv``) over the texel cell, or for cube
+    (:mod:`shbake.texture.bilinear`, SPEC §3 ``u, v``) over the texel cell, or for cube
     inputs the source texels whose centres fall in it (nearest face texel).
     """
     if size < 1 or size & (size - 1):
@@ -218,7 +213,7 @@ def cube_pyramid(cube: np.ndarray) -> list[np.ndarray]:
 
 @jit
 def _fetch_level(level, wf, dx, dy, dz, out):
-    """Bilinear fetch of one cube level at world direction d (clamped at face edges)."""
+    """Bilinear fetch of one cube level at world direction d (clamp-to-edge within the face)."""
     n = level.shape[1]
     best = -1.0
     face = 0
@@ -229,19 +224,17 @@ def _fetch_level(level, wf, dx, dy, dz, out):
             face = k
     s = (dx * wf[face, 0, 0] + dy * wf[face, 1, 0] + dz * wf[face, 2, 0]) / best
     t = (dx * wf[face, 0, 1] + dy * wf[face, 1, 1] + dz * wf[face, 2, 1]) / best
-    x = (s + 1.0) * 0.5 * n - 0.5
-    y = (t + 1.0) * 0.5 * n - 0.5
-    x = min(max(x, 0.0), n - 1.0)
-    y = min(max(y, 0.0), n - 1.0)
-    x0 = min(int(x), n - 1)
-    y0 = min(int(y), n - 1)
-    x1 = min(x0 + 1, n - 1)
-    y1 = min(y0 + 1, n - 1)
-    fx, fy = x - x0, y - y0
+    r0, r1, fr = axis((t + 1.0) * 0.5 * n - 0.5, n)
+    c0, c1, fc = axis((s + 1.0) * 0.5 * n - 0.5, n)
     for c in range(3):
-        out[c] = (1 - fy) * (
-            (1 - fx) * level[face, y0, x0, c] + fx * level[face, y0, x1, c]
-        ) + fy * ((1 - fx) * level[face, y1, x0, c] + fx * level[face, y1, x1, c])
+        out[c] = blend(
+            level[face, r0, c0, c],
+            level[face, r0, c1, c],
+            level[face, r1, c0, c],
+            level[face, r1, c1, c],
+            fr,
+            fc,
+        )
 
 
 @jit

@@ -18,7 +18,7 @@ smallest to the largest (spec §3.9), each at an 8-byte-aligned offset, faces
 
 The ``ktx2`` export target writes the GGX prefiltered cube chain of
 :mod:`shbake.bakers.cube_prefilter` (level 0 = mirror map, α = 0) and, beside
-it, the DFG table ``(A0, A1)`` of :mod:`shbake.probe.albedo_table` as a 2D
+it, the DFG table ``(A0, A1)`` of :mod:`shbake.bakers.dfg` as a 2D
 RG16F KTX2 and an EXR (what cmgen ``--ibl-dfg`` provides): column ``j`` is
 ``n·v``, row ``i`` perceptual roughness, node-centred from (1e-3, 0.02) to
 (1, 1); the axes are recorded in the key/value data and EXR attributes.
@@ -175,12 +175,13 @@ def write(
 
 def write_dfg(stem: str) -> list[str]:
     """The DFG table ``(A0, A1)`` as ``stem.ktx2`` (RG16F) and ``stem.exr`` (float32)."""
+    from shbake.bakers.dfg import dfg_axes, dfg_table
+    from shbake.conventions import DFG_MU_MIN as MU_MIN
     from shbake.format.images import write_exr
-    from shbake.probe.albedo_table import MU_MIN, albedo_table, table_axes
 
-    table = albedo_table()  # (n_mu, n_r, 2)
+    table = dfg_table()  # (n_mu, n_r, 2)
     img = np.transpose(table, (1, 0, 2))  # rows: roughness, columns: n.v
-    mu, r = table_axes(table.shape[0])
+    mu, r = dfg_axes(table.shape[0])
     axes = {
         "shbake.dfg": "R = A0 = int f_DV (n.l) dl, G = A1 = int f_DV (1 - v.h)^5 (n.l) dl; "
         "split-sum scale F0*A0 + (1-F0)*A1",
