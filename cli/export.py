@@ -97,7 +97,12 @@ def export(
     as_json,
     quiet,
 ):
-    """Export env_sh ASSETS to an engine format (gltf, babylon, threejs, ktx2)."""
+    """Export env_sh ASSETS to an engine format (docs/EXPORTS.md).
+
+    Output names: gltf/babylon FILE.gltf (+ PNGs), threejs FILE.json, ktx2 FILE.ktx2
+    (+ FILE_dfg.ktx2/.exr), filament STEM_sh.txt (+ STEM_ibl.ktx, STEM_skybox.ktx),
+    unity FILE.unity.json.
+    """
     written = export_assets(
         list(assets),
         target,

@@ -351,3 +351,111 @@ class TestFireflies:
         jump = np.abs(np.log(y / y[nb]))
         across = face != face[nb]
         assert jump[across].max() <= 1.5 * jump[~across].max()
+
+
+def _poly(d: np.ndarray) -> np.ndarray:
+    """The 9 polynomials Filament's ``irradianceSH`` and Unity's ``SHEvalLinearL0L1/L2`` sum."""
+    x, y, z = d[:, 0], d[:, 1], d[:, 2]
+    one = np.ones_like(x)
+    return np.stack([one, y, z, x, x * y, y * z, 3 * z * z - 1, x * z, x * x - y * y], -1)
+
+
+@pytest.fixture(scope="module")
+def sky_asset(tmp_path_factory):
+    d = tmp_path_factory.mktemp("eng")
+    path = os.path.join(SHARED, "hdri", "esplanade.exr")
+    env = load_environment(path, quiet=True)
+    asset, _ = bake_env_sh(
+        env, lmax=2, sun=True, provenance={"input_abspath": os.path.abspath(path)}
+    )
+    h5 = str(d / "s.h5")
+    write_asset(h5, asset)
+    return {"h5": h5, "dir": d, "env": env}
+
+
+class TestFilament:
+    """filament.write: cmgen's sh.txt / KTX ``sh`` metadata read by Filament's ``irradianceSH``.
+
+    Not Filament's own code (no CPU build of it runs here): the shader's polynomial
+    (``irradianceSH``, quoted in the module docstring) evaluated on the parsed text.
+    """
+
+    @staticmethod
+    def _parse_sh_txt(path: str) -> np.ndarray:
+        rows = []
+        for line in open(path):
+            inner = line.split("(", 1)[1].split(")", 1)[0]
+            rows.append([float(v) for v in inner.split(",")])
+        return np.array(rows)
+
+    def test_sh_txt_gives_e_over_pi(self, sky_asset):
+        out = str(sky_asset["dir"] / "f_sh.txt")
+        files = export_assets([sky_asset["h5"]], "filament", out, size=8, floor=1, samples=16)
+        sh = self._parse_sh_txt(files[0])
+        d = fibonacci_sphere(N_DIRS)
+        src = load_source(sky_asset["h5"])
+        from shbake.sh.basis import real_sh
+
+        want = real_sh(d, 2) @ src.irradiance9 / np.pi
+        got = _poly(d) @ sh
+        assert np.abs(got - want).max() < 1e-12 * np.abs(want).max() + 1e-14
+        assert np.abs(_poly(d * [-1, 1, 1]) @ sh - want).max() > 1e-3 * np.abs(want).max()
+        assert np.abs(np.pi * got - want).max() > 1e-3 * np.abs(want).max()
+        assert any(f.endswith("_sun.json") for f in files)
+
+    def test_ktx1_metadata_and_levels(self, sky_asset):
+        """A KTX 1.1 reader written from the spec (§2) reads back the sh and the mirror level."""
+        import struct
+
+        from shbake.bakers.cube_prefilter import cube_pyramid, mirror_cube
+
+        out = str(sky_asset["dir"] / "k_sh.txt")
+        export_assets([sky_asset["h5"]], "filament", out, size=8, floor=1, samples=16)
+        data = open(str(sky_asset["dir"] / "k_skybox.ktx"), "rb").read()
+        assert data[:12] == bytes.fromhex("ab4b5458203131bb0d0a1a0a")
+        h = struct.unpack_from("<13I", data, 12)
+        assert h[0] == 0x04030201 and (h[1], h[3], h[4]) == (0x140B, 0x1908, 0x881A)
+        assert (h[6], h[10], h[11]) == (8, 6, 1)
+        pos, kv = 64, {}
+        while pos < 64 + h[12]:
+            (n,) = struct.unpack_from("<I", data, pos)
+            key, value = data[pos + 4 : pos + 4 + n].split(b"\0", 1)
+            kv[key.decode()] = value.rstrip(b"\0").decode()
+            pos += 4 + n + (-n % 4)
+        sh_meta = np.array([[float(v) for v in ln.split()] for ln in kv["sh"].strip().split("\n")])
+        np.testing.assert_allclose(sh_meta, self._parse_sh_txt(out), rtol=1e-8, atol=1e-12)
+        (size,) = struct.unpack_from("<I", data, pos)
+        faces = np.frombuffer(data[pos + 4 : pos + 4 + 6 * size], "<f2").reshape(6, 8, 8, 4)
+        residual = load_source(sky_asset["h5"]).environment()
+        want = cube_pyramid(mirror_cube(residual, 16))[1]
+        np.testing.assert_allclose(faces[..., :3], want, rtol=1e-3, atol=1e-6)
+
+
+class TestUnity:
+    """unity.write: SphericalHarmonicsL2 as Unity's SRP packs it (SHA/SHB/SHC), x mirrored."""
+
+    def test_packed_probe_gives_e_over_pi(self, sky_asset):
+        out = str(sky_asset["dir"] / "u.unity.json")
+        doc = json.load(open(export_assets([sky_asset["h5"]], "unity", out)[0]))
+        sh = np.array(doc["SphericalHarmonicsL2"])  # sh[c, i]
+        # SHCoefficients.GetSHA/GetSHB/GetSHC, then SHEvalLinearL0L1 + SHEvalLinearL2
+        sha = np.stack([sh[:, 3], sh[:, 1], sh[:, 2], sh[:, 0] - sh[:, 6]], -1)
+        shb = np.stack([sh[:, 4], sh[:, 5], 3 * sh[:, 6], sh[:, 7]], -1)
+        shc = sh[:, 8]
+        d = fibonacci_sphere(N_DIRS)
+        src = load_source(sky_asset["h5"])
+        n = d * [-1, 1, 1]  # Unity's frame: x mirrored
+
+        def shade(nn):
+            x, y, z = nn[:, 0], nn[:, 1], nn[:, 2]
+            a = np.stack([x, y, z, np.ones_like(x)], -1) @ sha.T
+            b = np.stack([x * y, y * z, z * z, z * x], -1) @ shb.T
+            return a + b + (x * x - y * y)[:, None] * shc[None]
+
+        from shbake.sh.basis import real_sh
+
+        want = real_sh(d, 2) @ src.irradiance9 / np.pi
+        assert np.abs(shade(n) - want).max() < 1e-12 * np.abs(want).max()
+        assert np.abs(shade(d) - want).max() > 1e-3 * np.abs(want).max()  # frame not mirrored
+        assert np.abs(np.pi * shade(n) - want).max() > 1e-3 * np.abs(want).max()
+        assert doc["sun"]["intensity_lux"] == pytest.approx(np.pi * doc["sun"]["intensity_builtin"])

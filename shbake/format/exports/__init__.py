@@ -16,6 +16,8 @@ TARGETS = {
     "babylon": "shbake.format.exports.gltf",
     "threejs": "shbake.format.exports.threejs",
     "ktx2": "shbake.format.exports.ktx2",
+    "filament": "shbake.format.exports.filament",
+    "unity": "shbake.format.exports.unity",
 }
 """Target name → module (``babylon`` = the glTF export: Babylon implements the extension)."""
 
