@@ -80,6 +80,13 @@ rotate_opt = click.option(
     show_default=True,
     help="Radius the asset's sun was extracted with, degrees (to rebuild its residual map).",
 )
+@click.option(
+    "--babylon-scene",
+    type=click.Choice(["left-handed", "right-handed"]),
+    default="left-handed",
+    show_default=True,
+    help="gltf/babylon: the handedness of the Babylon scene that loads the file.",
+)
 @json_opt
 @quiet_opt
 def export(

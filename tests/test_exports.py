@@ -126,6 +126,19 @@ class TestBabylonGltf:
         r = _node("validate_gltf.mjs", baked["gltf"])
         assert r["numErrors"] == 0, r["messages"]
 
+    def test_right_handed_babylon_scene(self, baked, dirs_file, tmp_path):
+        """scene.useRightHandedSystem: the export made for it matches; the default one does not."""
+        src = load_source(baked["h5"])
+        d = np.array(json.load(open(dirs_file)))
+        want = shbake_irradiance(src, d)
+        rh = export_assets(
+            [baked["h5"]], "gltf", str(tmp_path / "rh.gltf"), babylon_scene="right-handed", **SMALL
+        )[0]
+        got = np.array(_node("babylon_irradiance.mjs", rh, dirs_file, "rh")["irradiance"])
+        assert _rel(got, want, src, d) < TOL
+        lh = np.array(_node("babylon_irradiance.mjs", baked["gltf"], dirs_file, "rh")["irradiance"])
+        assert _rel(lh, want) > 1e-3
+
     @pytest.mark.parametrize("fault", ["flip-x", "flip-y", "flip-z", "pi", "no-sign"])
     def test_a_wrong_convention_fails(self, baked, dirs_file, fault):
         """The comparison is sensitive: a mirrored axis, a π or Babylon's sign ignored fails."""

@@ -8,7 +8,7 @@
 // (pbrBlockReflection.fx: irradianceVector = reflectionMatrix * normalW, OPPOSITEZ / INVERTCUBICMAP
 // flips, computeEnvironmentIrradiance, *= vReflectionInfos.x) are evaluated here on those numbers;
 // the script checks that the installed shader source still contains the formula it evaluates.
-// usage: node babylon_irradiance.mjs FILE.gltf DIRS.json   (DIRS: [[x,y,z], ...] in glTF frame)
+// usage: node babylon_irradiance.mjs FILE.gltf DIRS.json [rh]   (DIRS: [[x,y,z], ...] in glTF frame)
 import fs from "node:fs";
 import path from "node:path";
 import { NullEngine } from "@babylonjs/core/Engines/nullEngine.js";
@@ -30,7 +30,7 @@ globalThis.Image = class {
   get height() { return 1; }
 };
 
-const [file, dirsFile] = process.argv.slice(2);
+const [file, dirsFile, handedness] = process.argv.slice(2); // handedness: "rh" = right-handed scene
 const doc = JSON.parse(fs.readFileSync(file, "utf8"));
 // external files -> data URIs (node's fetch has no file://); the loader then decodes them itself
 for (const img of doc.images || []) {
@@ -66,6 +66,7 @@ engine.createRawCubeTexture = function (data, size, format, type, generateMipMap
 };
 engine._uploadImageToTexture = function () {};
 const scene = new Scene(engine);
+if (handedness === "rh") scene.useRightHandedSystem = true;
 await AppendSceneAsync("data:" + JSON.stringify(doc), scene, { pluginExtension: ".gltf" });
 const tex = scene.environmentTexture;
 if (!tex) throw new Error("no environment texture after loading");

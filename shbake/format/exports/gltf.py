@@ -110,9 +110,16 @@ def write(
     mapping: str = "gltf-ibl-sampler",
     samples: int = 256,
     sun_radius_deg: float = 10.0,
+    babylon_scene: str = "left-handed",
     **_ignored,
 ) -> list[str]:
     """Write ``out`` (.gltf) and its specular PNGs beside it; returns the paths written.
+
+    ``babylon_scene``: ``left-handed`` (Babylon's default scene) or
+    ``right-handed`` (``scene.useRightHandedSystem = true``): there the loader
+    skips its x mirror and the shader flips z (``REFLECTIONMAP_OPPOSITEZ``), which
+    turns the irradiance 180° about +Y; the light's ``rotation`` is then
+    ``[0, 1, 0, 0]`` to undo it.
 
     ``size``/``floor``: edge of the first and last specular mip (powers of two);
     ``mapping``: roughness ↔ LOD of the prefiltered chain (the extension asks
@@ -120,6 +127,10 @@ def write(
     """
     if not out.endswith(".gltf"):
         raise ParameterError(f"{out}: the glTF export writes a .gltf file")
+    if babylon_scene not in ("left-handed", "right-handed"):
+        raise ParameterError(
+            f"babylon scene must be left-handed or right-handed, got {babylon_scene!r}"
+        )
     env = src.environment(sun_radius_deg)
     levels, rough = prefilter_chain(
         env, size=size, floor=floor, mapping=mapping, samples=samples, rotation=src.rotation
@@ -142,7 +153,9 @@ def write(
     ibl = {
         "name": src.name,
         "intensity": intensity,
-        "rotation": [0.0, 0.0, 0.0, 1.0],
+        "rotation": [0.0, 0.0, 0.0, 1.0]
+        if babylon_scene == "left-handed"
+        else [0.0, 1.0, 0.0, 0.0],
         "irradianceCoefficients": [
             [float(v) for v in row] for row in babylon_coefficients(src.irradiance9, intensity)
         ],
