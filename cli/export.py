@@ -47,31 +47,27 @@ rotate_opt = click.option(
 @click.option(
     "--size",
     type=int,
-    default=64,
-    show_default=True,
-    help="Edge of the first cube mip (power of two).",
+    default=None,
+    help="Edge of the first cube mip, a power of two [gltf 64, ktx2/filament 128].",
 )
 @click.option(
     "--floor",
     type=int,
-    default=8,
-    show_default=True,
-    help="Edge of the last cube mip (power of two).",
+    default=None,
+    help="Edge of the last cube mip, a power of two [gltf 8, ktx2/filament 1].",
 )
 @click.option(
     "--lod-mapping",
     "mapping",
     type=click.Choice(["gltf-ibl-sampler", "filament"]),
-    default="gltf-ibl-sampler",
-    show_default=True,
-    help="Roughness of each mip level.",
+    default=None,
+    help="Roughness of each mip level [gltf-ibl-sampler; filament for --to filament].",
 )
 @click.option(
     "--samples",
     type=int,
-    default=256,
-    show_default=True,
-    help="GGX samples per texel (filtered importance sampling).",
+    default=None,
+    help="GGX samples per texel, filtered importance sampling [gltf 256, others 512].",
 )
 @click.option(
     "--sun-radius",
@@ -101,6 +97,7 @@ def export(
     mapping,
     samples,
     sun_radius,
+    babylon_scene,
     as_json,
     quiet,
 ):
@@ -110,6 +107,7 @@ def export(
     (+ FILE_dfg.ktx2/.exr), filament STEM_sh.txt (+ STEM_ibl.ktx, STEM_skybox.ktx),
     unity FILE.unity.json.
     """
+    given = {"size": size, "floor": floor, "mapping": mapping, "samples": samples}
     written = export_assets(
         list(assets),
         target,
@@ -117,11 +115,9 @@ def export(
         frame=frame,
         rotate_deg=rotate_deg,
         env_path=env_path,
-        size=size,
-        floor=floor,
-        mapping=mapping,
-        samples=samples,
         sun_radius_deg=sun_radius,
+        babylon_scene=babylon_scene,
+        **{k: v for k, v in given.items() if v is not None},  # else each target's defaults
     )
     if as_json:
         emit_json({"target": target, "written": written})

@@ -472,3 +472,48 @@ class TestUnity:
         assert np.abs(shade(d) - want).max() > 1e-3 * np.abs(want).max()  # frame not mirrored
         assert np.abs(np.pi * shade(n) - want).max() > 1e-3 * np.abs(want).max()
         assert doc["sun"]["intensity_lux"] == pytest.approx(np.pi * doc["sun"]["intensity_builtin"])
+
+
+class TestExportCommand:
+    """``shbake export``: the CLI over export_assets, its errors and byte-identical output."""
+
+    def test_every_target_writes_and_is_deterministic(self, run_cli, sky_asset, tmp_path):
+        outs = {
+            "gltf": "a.gltf",
+            "threejs": "a.json",
+            "ktx2": "a.ktx2",
+            "filament": "a_sh.txt",
+            "unity": "a.unity.json",
+        }
+        small = ["--size", "8", "--floor", "2", "--samples", "16"]
+        for target, name in outs.items():
+            first = {}
+            for run in (1, 2):
+                d = tmp_path / f"{target}{run}"
+                d.mkdir()
+                code, stdout, err = run_cli(
+                    "export", sky_asset["h5"], "--to", target, "-o", d / name, *small, "--json"
+                )
+                assert code == 0, err
+                written = json.loads(stdout)["written"]
+                files = {os.path.basename(p): open(p, "rb").read() for p in written}
+                if run == 1:
+                    first = files
+            assert files == first, target  # same inputs -> identical bytes
+
+    def test_errors(self, run_cli, sky_asset, tmp_path):
+        code, _, err = run_cli("export", sky_asset["h5"], "--to", "unreal", "-o", tmp_path / "x")
+        assert code == 2 and "unreal" in err
+        code, _, err = run_cli(
+            "export",
+            sky_asset["h5"],
+            "--to",
+            "gltf",
+            "-o",
+            tmp_path / "x.gltf",
+            "--env",
+            tmp_path / "missing.exr",
+        )
+        assert code == 1 and err.startswith("shbake: error:")
+        code, _, err = run_cli("export", sky_asset["h5"], "--to", "gltf", "-o", tmp_path / "x.glb")
+        assert code == 1 and ".gltf" in err

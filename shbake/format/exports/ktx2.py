@@ -190,13 +190,9 @@ def write_dfg(stem: str) -> list[str]:
         f"row i: perceptual roughness = {r[0]} + i*(1-{r[0]})/{len(r) - 1}",
     }
     write_ktx2(stem + ".ktx2", [img], cube=False, kv=axes)
-    write_exr(
-        stem + ".exr",
-        img,
-        half=False,
-        channel_names=("A0", "A1"),
-        attrs={k.replace("shbake.", "shbake:"): v for k, v in axes.items()},
-    )
+    exr_attrs = {k.replace("shbake.", "shbake:"): v for k, v in axes.items()}
+    exr_attrs["DateTime"] = ""  # OpenImageIO writes no capDate then: identical bytes
+    write_exr(stem + ".exr", img, half=False, channel_names=("A0", "A1"), attrs=exr_attrs)
     return [stem + ".ktx2", stem + ".exr"]
 
 
