@@ -517,3 +517,48 @@ class TestExportCommand:
         assert code == 1 and err.startswith("shbake: error:")
         code, _, err = run_cli("export", sky_asset["h5"], "--to", "gltf", "-o", tmp_path / "x.glb")
         assert code == 1 and ".gltf" in err
+
+    def test_splitsum_probe_to_ktx2(self, run_cli, tmp_path):
+        """A split-sum probe exports its map's cube chain (--env, SHA-256 checked); not SH."""
+        path = os.path.join(SHARED, "hdri", "forest.exr")
+        probe = tmp_path / "p.h5"
+        code, _, err = run_cli(
+            "split-sum",
+            path,
+            "-o",
+            probe,
+            "--top",
+            "16",
+            "--min-size",
+            "8",
+            "--levels",
+            "2",
+            "--samples",
+            "16",
+            "-q",
+        )
+        assert code == 0, err
+        code, _, err = run_cli(
+            "export",
+            probe,
+            "--to",
+            "ktx2",
+            "-o",
+            tmp_path / "p.ktx2",
+            "--env",
+            path,
+            "--size",
+            "8",
+            "--samples",
+            "16",
+        )
+        assert code == 0, err
+        r = _ktx2(str(tmp_path / "p.ktx2"))
+        assert (r["faceCount"], r["levelCount"], r["pixelWidth"]) == (6, 4, 8)
+        code, _, err = run_cli("export", probe, "--to", "threejs", "-o", tmp_path / "p.json")
+        assert code == 1 and "env_sh" in err
+        other = os.path.join(SHARED, "hdri", "city.exr")
+        code, _, err = run_cli(
+            "export", probe, "--to", "ktx2", "-o", tmp_path / "q.ktx2", "--env", other
+        )
+        assert code == 1 and "SHA-256" in err

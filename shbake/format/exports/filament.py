@@ -41,7 +41,7 @@ import numpy as np
 from shbake.bakers.cube_prefilter import prefilter_chain
 from shbake.errors import OutputError, ParameterError
 from shbake.format.atomic import atomic_path, write_text
-from shbake.format.exports.source import ExportSource
+from shbake.format.exports.source import ExportSource, require_sh
 from shbake.sh.basis import real_sh
 
 EXTENSION = "_sh.txt"
@@ -129,6 +129,7 @@ def write(
 ) -> list[str]:
     """Write ``out`` (``<stem>_sh.txt``), and beside it ``<stem>_ibl.ktx``, ``<stem>_skybox.ktx``
     and, with a sun, ``<stem>_sun.json``."""
+    require_sh(src, "filament")
     if not out.endswith("_sh.txt"):
         raise ParameterError(f"{out}: the filament export writes <stem>_sh.txt")
     stem = out[: -len("_sh.txt")]

@@ -38,7 +38,7 @@ import numpy as np
 from shbake.bakers.cube_prefilter import prefilter_chain
 from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, write_text
-from shbake.format.exports.source import ExportSource
+from shbake.format.exports.source import ExportSource, require_sh
 
 EXTENSION = ".gltf"
 BABYLON_SIGNS = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1], dtype=np.float64)
@@ -125,6 +125,7 @@ def write(
     ``mapping``: roughness ↔ LOD of the prefiltered chain (the extension asks
     levels evenly spaced in roughness 0…1: ``gltf-ibl-sampler``).
     """
+    require_sh(src, "gltf")
     if not out.endswith(".gltf"):
         raise ParameterError(f"{out}: the glTF export writes a .gltf file")
     if babylon_scene not in ("left-handed", "right-handed"):

@@ -52,7 +52,7 @@ class ExportSource:
 
     Attributes
     ----------
-    irradiance9 : (9, 3)
+    irradiance9 : (9, 3) or None (a split-sum probe: cube targets only)
         Lambert irradiance SH ``E_i`` (``Â_l`` folded in), shbake basis, target frame:
         ``E(n) = Σ_i E_i y_i(n)`` (radiance × sr; a Lambert albedo ρ shows ``ρ E / π``).
     lighting9 : (9, 3)
@@ -84,7 +84,7 @@ class ExportSource:
         from shbake.envmap.sun import extract_sun
 
         path = self.env_path
-        if path is None or not os.path.exists(path):
+        if path is None or not os.path.exists(path) or os.path.isdir(path):
             raise InputError(
                 f"{self.name}: the source map {path!r} is not readable; pass --env PATH"
             )
@@ -114,11 +114,30 @@ class ExportSource:
 def load_source(
     path: str, frame: str = "y-up", rotate_deg: float = 0.0, env_path: str | None = None
 ) -> ExportSource:
-    """Read an ``env_sh`` asset and express its lighting in the target frame."""
+    """Read an ``env_sh`` asset and express its lighting in the target frame.
+
+    A ``splitsum_probe`` asset is read too, for the cube-map targets only: it
+    holds no SH, and its cube chain is prefiltered anew from its source map
+    (``--env``; SHA-256 checked against ``source_sha256``).
+    """
     from shbake.format.asset import read_asset
 
     R = frame_matrix(frame, rotate_deg)
-    asset = read_asset(path, kinds=("env_sh",))
+    asset = read_asset(path, kinds=("env_sh", "splitsum_probe"))
+    if asset.kind == "splitsum_probe":
+        meta = {k[len("source_") :]: v for k, v in asset.attrs.items() if k.startswith("source_")}
+        return ExportSource(
+            name=os.path.splitext(os.path.basename(path))[0],
+            irradiance9=None,
+            lighting9=None,
+            rotation=R,
+            frame=frame,
+            env_path=env_path,
+            meta={
+                "sha256": meta.get("sha256"),
+                "negative_policy": meta.get("negative_policy", "clamp"),
+            },
+        )
     if "/irradiance/sh" not in asset or asset["/irradiance/sh"].shape[0] < 9:
         raise InputError(f"{path}: exports need /irradiance/sh with irradiance lmax >= 2")
     E = rotate(np.asarray(asset["/irradiance/sh"][:9], dtype=np.float64), R)
@@ -140,6 +159,12 @@ def load_source(
         src.sun_solid_angle = omega
         src.sun_irradiance = np.asarray(asset["/sun/radiance"], dtype=np.float64) * omega
     return src
+
+
+def require_sh(src: ExportSource, target: str) -> None:
+    """Refuse a source without SH (a split-sum probe) for an SH target."""
+    if src.irradiance9 is None:
+        raise InputError(f"{src.name}: --to {target} needs an env_sh asset (SH lighting)")
 
 
 def shbake_irradiance(src: ExportSource, dirs: np.ndarray) -> np.ndarray:

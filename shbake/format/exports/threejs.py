@@ -27,7 +27,7 @@ import numpy as np
 
 from shbake.errors import ParameterError
 from shbake.format.atomic import write_text
-from shbake.format.exports.source import ExportSource
+from shbake.format.exports.source import ExportSource, require_sh
 
 EXTENSION = ".json"
 _UUID = "00000000-0000-4000-8000-{:012d}"
@@ -98,5 +98,6 @@ def scene_json(src: ExportSource) -> dict:
 
 def write(src: ExportSource, out: str, **_ignored) -> list[str]:
     """Write the three.js scene JSON to ``out``."""
+    require_sh(src, "threejs")
     write_text(out, json.dumps(scene_json(src), indent=1, sort_keys=True) + "\n")
     return [out]

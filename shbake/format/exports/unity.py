@@ -33,7 +33,7 @@ import numpy as np
 
 from shbake.format.atomic import write_text
 from shbake.format.exports.filament import basis_constants
-from shbake.format.exports.source import ExportSource
+from shbake.format.exports.source import ExportSource, require_sh
 
 EXTENSION = ".unity.json"
 UNITY_FROM_WORLD = np.diag([-1.0, 1.0, 1.0])
@@ -49,6 +49,7 @@ def unity_sh(irradiance9: np.ndarray) -> np.ndarray:
 
 def write(src: ExportSource, out: str, **_ignored) -> list[str]:
     """Write ``out``: the SH (``sh[c][i]``) and the sun for Unity, as JSON."""
+    require_sh(src, "unity")
     doc = {
         "SphericalHarmonicsL2": [[float(v) for v in row] for row in unity_sh(src.irradiance9)],
         "layout": "sh[channel][coefficient], channel R,G,B; coefficient order 1, y, z, x, xy, yz, "
