@@ -3,7 +3,8 @@
 import click
 from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 
-from shbake.format.exports import TARGETS, export_assets
+from shbake.batch.export import export_assets
+from shbake.format.exports import TARGETS
 from shbake.format.exports.source import FRAMES
 
 frame_opt = click.option(

@@ -18,11 +18,12 @@ import numpy as np
 import pytest
 
 from shbake.bakers.env_sh import bake_env_sh
+from shbake.batch.export import export_assets
 from shbake.conventions import REC709_LUMINANCE
 from shbake.envmap import load_environment
 from shbake.evaluation.env_sh import brute_force_reference
 from shbake.format.asset import write_asset
-from shbake.format.exports import export_assets, target_module
+from shbake.format.exports import target_module
 from shbake.format.exports.source import frame_matrix, load_source, shbake_irradiance
 from shbake.sh.windows import fibonacci_sphere
 

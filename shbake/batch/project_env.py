@@ -13,6 +13,7 @@ import os
 import numpy as np
 
 from shbake.bakers.env_sh import bake_env_sh, truncation_report
+from shbake.batch.export import export_assets
 from shbake.conventions import check_lmax
 from shbake.envmap import load_environment
 from shbake.envmap.layouts import latlong_directions
@@ -21,7 +22,6 @@ from shbake.errors import OutputError, ParameterError
 from shbake.evaluation.env_sh import irradiance_errors
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_writable_dir
-from shbake.format.exports import export_assets
 from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_png
 from shbake.progress import NO_PROGRESS
 from shbake.sh.point_sets import fibonacci_sphere

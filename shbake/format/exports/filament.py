@@ -38,7 +38,6 @@ import struct
 
 import numpy as np
 
-from shbake.bakers.cube_prefilter import prefilter_chain
 from shbake.errors import OutputError, ParameterError
 from shbake.format.atomic import atomic_path, write_text
 from shbake.format.exports.source import ExportSource, require_sh
@@ -117,18 +116,20 @@ def _rgba(level: np.ndarray) -> np.ndarray:
     return np.concatenate([level, np.ones(level.shape[:-1] + (1,))], axis=-1)
 
 
+CUBES = {"size": 128, "floor": 1, "samples": 512, "mapping": "filament"}
+"""The cube chain this target wants: Filament's roughness↔LOD mapping (always)."""
+
+
 def write(
     src: ExportSource,
     out: str,
-    size: int = 128,
-    floor: int = 1,
-    samples: int = 512,
-    sun_radius_deg: float = 10.0,
-    cubes: bool = True,
+    levels: list[np.ndarray] | None = None,
+    roughness: list[float] | None = None,
     **_ignored,
 ) -> list[str]:
     """Write ``out`` (``<stem>_sh.txt``), and beside it ``<stem>_ibl.ktx``, ``<stem>_skybox.ktx``
-    and, with a sun, ``<stem>_sun.json``."""
+    (given the cube chain ``levels``, made with the ``filament`` mapping) and, with a
+    sun, ``<stem>_sun.json``."""
     require_sh(src, "filament")
     if not out.endswith("_sh.txt"):
         raise ParameterError(f"{out}: the filament export writes <stem>_sh.txt")
@@ -136,11 +137,8 @@ def write(
     sh = filament_sh(src.irradiance9)
     write_text(out, sh_text(sh))
     written = [out]
-    if cubes:
-        env = src.environment(sun_radius_deg)
-        levels, rough = prefilter_chain(
-            env, size=size, floor=floor, mapping="filament", samples=samples, rotation=src.rotation
-        )
+    if levels is not None:
+        rough = roughness
         kv = {"sh": sh_metadata(sh), "shbake.roughness": json.dumps([round(r, 9) for r in rough])}
         for path, lv in ((stem + "_ibl.ktx", levels), (stem + "_skybox.ktx", levels[:1])):
             payload = encode_ktx1([_rgba(x) for x in lv], kv)

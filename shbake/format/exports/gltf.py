@@ -35,7 +35,6 @@ import os
 
 import numpy as np
 
-from shbake.bakers.cube_prefilter import prefilter_chain
 from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, write_text
 from shbake.format.exports.source import ExportSource, require_sh
@@ -102,28 +101,30 @@ def sun_light(src: ExportSource) -> tuple[dict, dict] | None:
     return light, node
 
 
+CUBES = {"size": 64, "floor": 8, "samples": 256, "mapping": "gltf-ibl-sampler"}
+"""Default specular chain (the extension spaces its levels evenly in roughness 0…1)."""
+
+
 def write(
     src: ExportSource,
     out: str,
-    size: int = 64,
-    floor: int = 8,
+    levels: list[np.ndarray],
+    roughness: list[float],
     mapping: str = "gltf-ibl-sampler",
-    samples: int = 256,
-    sun_radius_deg: float = 10.0,
     babylon_scene: str = "left-handed",
     **_ignored,
 ) -> list[str]:
     """Write ``out`` (.gltf) and its specular PNGs beside it; returns the paths written.
+
+    ``levels``/``roughness``: the GGX prefiltered cube chain in the target frame
+    (:func:`shbake.bakers.cube_prefilter.prefilter_chain`) and each level's
+    perceptual roughness; ``mapping`` names the roughness↔LOD rule it used.
 
     ``babylon_scene``: ``left-handed`` (Babylon's default scene) or
     ``right-handed`` (``scene.useRightHandedSystem = true``): there the loader
     skips its x mirror and the shader flips z (``REFLECTIONMAP_OPPOSITEZ``), which
     turns the irradiance 180° about +Y; the light's ``rotation`` is then
     ``[0, 1, 0, 0]`` to undo it.
-
-    ``size``/``floor``: edge of the first and last specular mip (powers of two);
-    ``mapping``: roughness ↔ LOD of the prefiltered chain (the extension asks
-    levels evenly spaced in roughness 0…1: ``gltf-ibl-sampler``).
     """
     require_sh(src, "gltf")
     if not out.endswith(".gltf"):
@@ -132,10 +133,8 @@ def write(
         raise ParameterError(
             f"babylon scene must be left-handed or right-handed, got {babylon_scene!r}"
         )
-    env = src.environment(sun_radius_deg)
-    levels, rough = prefilter_chain(
-        env, size=size, floor=floor, mapping=mapping, samples=samples, rotation=src.rotation
-    )
+    rough = roughness
+    size = int(levels[0].shape[1])
     peak = max(float(lv.max()) for lv in levels)
     intensity = 1.0 if peak <= RGBD_MAX else float(2.0 ** math.ceil(math.log2(peak / RGBD_MAX)))
     stem = os.path.splitext(os.path.basename(out))[0]

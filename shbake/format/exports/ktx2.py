@@ -30,7 +30,6 @@ import struct
 
 import numpy as np
 
-from shbake.bakers.cube_prefilter import WORLD_FROM_GL, prefilter_chain
 from shbake.errors import FormatError, OutputError, ParameterError
 from shbake.format.atomic import atomic_path
 from shbake.format.exports.source import ExportSource
@@ -138,50 +137,56 @@ def _rgba(level: np.ndarray) -> np.ndarray:
     return np.concatenate([level, np.ones(level.shape[:-1] + (1,))], axis=-1)
 
 
+CUBES = {"size": 128, "floor": 1, "samples": 512, "mapping": "gltf-ibl-sampler"}
+"""The cube chain this target wants by default: a full mip chain to 1×1."""
+CUBE_LOOKUP = (
+    "texel of GL cube direction g shows world direction (-g.x, g.y, g.z) "
+    "(x mirrored, as three.js samples cube textures)"
+)
+
+
 def write(
     src: ExportSource,
     out: str,
-    size: int = 128,
-    floor: int = 1,
+    levels: list[np.ndarray],
+    roughness: list[float],
     mapping: str = "gltf-ibl-sampler",
-    samples: int = 512,
-    sun_radius_deg: float = 10.0,
-    dfg: bool = True,
+    dfg_table: np.ndarray | None = None,
     **_ignored,
 ) -> list[str]:
-    """Write the prefiltered cube chain ``out`` (.ktx2) and the DFG table beside it."""
+    """Write the prefiltered cube chain ``out`` (.ktx2) and, given ``dfg_table``, the DFG beside it.
+
+    ``levels``/``roughness``: the chain in the target frame and each level's
+    perceptual roughness; ``dfg_table``: ``(n_μ, n_r, 2)`` of :mod:`shbake.bakers.dfg`.
+    """
     if not out.endswith(".ktx2"):
         raise ParameterError(f"{out}: the ktx2 export writes a .ktx2 file")
-    env = src.environment(sun_radius_deg)
-    levels, rough = prefilter_chain(
-        env, size=size, floor=floor, mapping=mapping, samples=samples, rotation=src.rotation
-    )
+    rough = roughness
     kv = {
         "shbake.roughness": json.dumps([round(r, 9) for r in rough]),
         "shbake.lodMapping": mapping,
-        "shbake.cubeLookup": "texel of GL cube direction g shows world direction "
-        + json.dumps(np.diag(WORLD_FROM_GL).tolist())
-        + " * g (x mirrored, as three.js flipEnvMap)",
+        "shbake.cubeLookup": CUBE_LOOKUP,
         "shbake.frame": src.frame,
         "shbake.content": "GGX split-sum prefiltered radiance, level 0 = mirror (alpha 0), "
         "filtered importance sampling",
     }
     write_ktx2(out, [_rgba(lv) for lv in levels], cube=True, kv=kv)
     written = [out]
-    if dfg:
-        written += write_dfg(os.path.splitext(out)[0] + "_dfg")
+    if dfg_table is not None:
+        written += write_dfg(os.path.splitext(out)[0] + "_dfg", dfg_table)
     return written
 
 
-def write_dfg(stem: str) -> list[str]:
-    """The DFG table ``(A0, A1)`` as ``stem.ktx2`` (RG16F) and ``stem.exr`` (float32)."""
-    from shbake.bakers.dfg import dfg_axes, dfg_table
+def write_dfg(stem: str, table: np.ndarray) -> list[str]:
+    """The DFG table ``(A0, A1)`` (``(n_μ, n_r, 2)``, node-centred axes of
+    ``shbake.bakers.dfg.dfg_axes``) as ``stem.ktx2`` (RG16F) and ``stem.exr`` (float32)."""
     from shbake.conventions import DFG_MU_MIN as MU_MIN
+    from shbake.conventions import ROUGHNESS_MIN
     from shbake.format.images import write_exr
 
-    table = dfg_table()  # (n_mu, n_r, 2)
-    img = np.transpose(table, (1, 0, 2))  # rows: roughness, columns: n.v
-    mu, r = dfg_axes(table.shape[0])
+    img = np.transpose(np.asarray(table, dtype=np.float64), (1, 0, 2))  # rows r, columns n.v
+    mu = np.linspace(MU_MIN, 1.0, table.shape[0])
+    r = np.linspace(ROUGHNESS_MIN, 1.0, table.shape[1])
     axes = {
         "shbake.dfg": "R = A0 = int f_DV (n.l) dl, G = A1 = int f_DV (1 - v.h)^5 (n.l) dl; "
         "split-sum scale F0*A0 + (1-F0)*A1",

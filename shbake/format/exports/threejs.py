@@ -29,6 +29,8 @@ from shbake.errors import ParameterError
 from shbake.format.atomic import write_text
 from shbake.format.exports.source import ExportSource, require_sh
 
+CUBES = None
+"""No cube maps."""
 EXTENSION = ".json"
 _UUID = "00000000-0000-4000-8000-{:012d}"
 

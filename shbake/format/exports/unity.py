@@ -35,6 +35,8 @@ from shbake.format.atomic import write_text
 from shbake.format.exports.filament import basis_constants
 from shbake.format.exports.source import ExportSource, require_sh
 
+CUBES = None
+"""No cube maps."""
 EXTENSION = ".unity.json"
 UNITY_FROM_WORLD = np.diag([-1.0, 1.0, 1.0])
 X_ODD = np.array([1, 1, 1, -1, -1, 1, 1, -1, 1], dtype=np.float64)
