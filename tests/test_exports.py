@@ -563,3 +563,13 @@ class TestExportCommand:
             "export", probe, "--to", "ktx2", "-o", tmp_path / "q.ktx2", "--env", other
         )
         assert code == 1 and "SHA-256" in err
+
+    def test_out_dir_for_several_assets(self, run_cli, sky_asset, tmp_path):
+        code, _, err = run_cli("export", sky_asset["h5"], sky_asset["h5"], "--to", "unity",
+                               "-o", tmp_path / "x.unity.json")  # fmt: skip
+        assert code == 2 and "--out-dir" in err
+        code, _, err = run_cli(
+            "export", sky_asset["h5"], "--to", "unity", "--out-dir", tmp_path / "u"
+        )
+        assert code == 0, err
+        assert (tmp_path / "u" / "s.unity.json").exists()

@@ -27,6 +27,7 @@ def export_assets(
     floor: int | None = None,
     samples: int | None = None,
     mapping: str | None = None,
+    many: bool | None = None,
     **options,
 ) -> list[str]:
     """Export each asset file in ``assets`` to ``target``; returns the files written.
@@ -34,7 +35,9 @@ def export_assets(
     Parameters
     ----------
     out : str
-        The output file for one asset, or a directory (created) for several.
+        The output file for one asset, or a folder (created) for several.
+    many : bool, optional
+        Treat ``out`` as a folder even for one asset (default: when several).
     frame, rotate_deg
         Target frame (:func:`shbake.format.exports.source.frame_matrix`).
     env_path : str, optional
@@ -53,7 +56,7 @@ def export_assets(
     written = []
     for path in assets:
         src = load_source(path, frame=frame, rotate_deg=rotate_deg, env_path=env_path)
-        if len(assets) == 1:
+        if not (many if many is not None else len(assets) > 1):
             dest = out
         else:
             os.makedirs(out, exist_ok=True)
