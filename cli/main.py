@@ -25,6 +25,7 @@ COMMANDS = {
     "split-sum": "split_sum:split_sum",
     "probe-eval": "probe_eval:probe_eval",
     "overview": "overview:overview",
+    "export": "export:export",
 }
 """Subcommand → ``module:attribute`` in ``shbake_cli``, imported on use."""
 
