@@ -33,7 +33,6 @@ and start-up), :func:`sh_eval_into` (one direction, inside other kernels),
 stored).
 """
 
-import sys
 from functools import cache
 
 import numpy as np
@@ -461,7 +460,9 @@ def _pair_coefficients(c: np.ndarray, lmax: int) -> np.ndarray:
 
 
 SMALL_EVALUATION = 1 << 20
-"""``method="auto"`` evaluates ``N × n_coeffs`` up to this with numpy while numba is not loaded."""
+"""``method="auto"`` evaluates ``N × n_coeffs`` up to this with numpy (nothing compiled or
+loaded: loading numba costs ~0.35 s), larger jobs with numba; the choice depends on the
+input alone, so the same input gives the same bytes in any process."""
 
 
 def evaluate(coeffs, dirs, out=None, method: str = "auto") -> np.ndarray:
@@ -482,9 +483,8 @@ def evaluate(coeffs, dirs, out=None, method: str = "auto") -> np.ndarray:
     method : ``"auto"``, ``"numba"`` or ``"numpy"``
         ``numba``: the fused kernel. ``numpy``: ``real_sh(dirs) @ coeffs``
         (stores the basis; nothing compiled or loaded). ``auto``: ``numpy``
-        for jobs up to :data:`SMALL_EVALUATION` basis values while numba is
-        not yet imported in this process (loading it costs ~0.35 s), else
-        ``numba``. The two agree to ~1e-15 relative, not bit for bit.
+        for jobs up to :data:`SMALL_EVALUATION` basis values, else ``numba``.
+        The two agree to ~1e-15 relative, not bit for bit.
 
     Returns
     -------
@@ -498,7 +498,7 @@ def evaluate(coeffs, dirs, out=None, method: str = "auto") -> np.ndarray:
     lmax = check_lmax(lmax_of(c.shape[0]))
     d, batch = _flat_directions(dirs)
     if method == "auto":
-        small = d.shape[0] * c.shape[0] <= SMALL_EVALUATION and "numba" not in sys.modules
+        small = d.shape[0] * c.shape[0] <= SMALL_EVALUATION
         method = "numpy" if small else "numba"
     if method == "numpy":
         res = real_sh(d, lmax) @ c
