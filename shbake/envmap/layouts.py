@@ -128,17 +128,13 @@ def row_solid_angle(row, height, width):
     return (np.cos(np.pi * row / height) - np.cos(np.pi * (row + 1) / height)) * 2.0 * np.pi / width
 
 
-@jit
-def _row_solid_angles(height, width, out):
-    for row in range(height):
-        out[row] = row_solid_angle(row, height, width)
-
-
 def latlong_row_solid_angles(height: int, width: int) -> np.ndarray:
-    """Exact solid angle of one cell of each lat-long row, ``(H,)`` (:func:`row_solid_angle`)."""
-    out = np.empty(height)
-    _row_solid_angles(height, width, out)
-    return out
+    """Exact solid angle of one cell of each lat-long row, ``(H,)`` (:func:`row_solid_angle`).
+
+    Evaluated by the kernel's Python function on all rows at once (numpy):
+    the same formula, and no numba load for a small bake.
+    """
+    return row_solid_angle.py_func(np.arange(height, dtype=np.float64), height, width)
 
 
 def latlong_solid_angles(height: int, width: int) -> np.ndarray:
@@ -169,6 +165,16 @@ def latlong_texel_point(j, f, u, height, width):
     s = np.sqrt(max(0.0, 1.0 - y * y))
     phi = 2.0 * np.pi * (col + u) / width
     return s * np.sin(phi), y, -s * np.cos(phi)
+
+
+def cube_face_frames() -> np.ndarray:
+    """``(6, 3, 3)`` frames of the cube-strip faces (+X, −X, +Y, −Y, +Z, −Z).
+
+    ``frames[f] @ (s, t, 1)`` is the (unnormalised) direction of face ``f`` at
+    face coordinates ``s`` (left → right) and ``t`` (top → bottom) in [-1, 1];
+    the columns are orthonormal (s axis, t axis, face normal).
+    """
+    return np.array([_STRIP_FACES[f] for f in _STRIP_FACES], dtype=np.float64)
 
 
 def _face_area(x, y):
