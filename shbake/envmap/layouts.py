@@ -35,6 +35,15 @@ _STRIP_FACES = {
     "+Z": ((-1, 0, 0), (0, -1, 0), (0, 0, 1)),
     "-Z": ((1, 0, 0), (0, -1, 0), (0, 0, -1)),
 }
+CUBE_FACE_NAMES = tuple(_STRIP_FACES)
+"""Cube faces in the OpenEXR strip order (+X, −X, +Y, −Y, +Z, −Z)."""
+
+
+def cube_face_axes() -> np.ndarray:
+    """``(6, 3, 3)`` matrices ``A`` of the strip faces: direction ``= A @ (s, t, 1)``."""
+    return np.array([_STRIP_FACES[f] for f in CUBE_FACE_NAMES], dtype=np.float64)
+
+
 _CROSS_POLES = {
     "+Y": ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
     "-Y": ((-1, 0, 0), (0, 0, -1), (0, -1, 0)),

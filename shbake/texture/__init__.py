@@ -1,0 +1,1 @@
+"""Texel-centre rules and filtered fetches, one module per parameterisation."""
