@@ -1,0 +1,1 @@
+"""Bakers: one module per technique (environment → asset arrays)."""

@@ -1,0 +1,1 @@
+"""What an engine shader does with each asset, one module per technique."""
