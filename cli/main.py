@@ -8,6 +8,7 @@ from shbake_cli.preview import preview
 from shbake_cli.probe_eval import probe_eval
 from shbake_cli.probe_fit import probe_fit
 from shbake_cli.project_env import project_env
+from shbake_cli.shrm import shrm
 from shbake_cli.split_sum import split_sum
 
 from shbake import __version__
@@ -26,6 +27,7 @@ cli.add_command(brdf_table)
 cli.add_command(probe_fit)
 cli.add_command(split_sum)
 cli.add_command(probe_eval)
+cli.add_command(shrm)
 
 
 def main(argv=None) -> int:

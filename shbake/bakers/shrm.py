@@ -318,7 +318,7 @@ class BRDFCoefficients:
         return np.einsum("lpqc,q->lpc", self.rho**2, u)
 
     def captured(self) -> np.ndarray:
-        """Fraction of the energy captured by ``l ≤ F``, ``p ≤ P``: ``(F+1, P+1)``, worst channel."""
+        """Energy fraction kept by ``l ≤ F``, ``p ≤ P``: ``(F+1, P+1)``, worst channel."""
         cum = np.cumsum(np.cumsum(self.band_energy(), axis=0), axis=1)
         live = self.total > 0.0
         if not np.any(live):
@@ -350,9 +350,10 @@ def brdf_coefficients(rb: ReflectionBRDF, F: int, P: int, quad: Quadrature | Non
               quad.xi, quad.xo, quad.phi, grid)  # fmt: skip
     q = np.arange(P_q + 1)
     cosq = np.cos(q[:, None] * quad.phi[None, :]) * quad.wphi[None, :]
-    step1 = 2.0 * np.pi * np.einsum("iokc,qk->qioc", grid, cosq)  # (q, i, o, c)
+    step1 = 2.0 * np.pi * np.tensordot(grid, cosq, axes=([2], [1])).transpose(3, 0, 1, 2)
     # the φ weights sum to 2π; the full-circle azimuth of ω_i gives another 2π
-    total = 2.0 * np.pi * np.einsum("iokc,i,o,k->c", grid**2, quad.wi, quad.wo, quad.wphi)
+    sq = np.tensordot(grid**2, quad.wphi, axes=([2], [0]))  # (i, o, c)
+    total = 2.0 * np.pi * np.tensordot(quad.wi, np.tensordot(sq, quad.wo, axes=([1], [0])), 1)
     po = legendre_table(quad.xo, P, P_q) * quad.wo  # (p, q, o)
     step2 = np.einsum("qioc,pqo->pqic", step1, po)
     pi = legendre_table(quad.xi, F, P_q) * quad.wi  # (l, q, i)
@@ -505,31 +506,31 @@ def _x_blocks(F: int) -> list[np.ndarray]:
 def ry_columns(cos_a, sin_a, F: int, Q: int, X=None) -> np.ndarray:
     """Columns ``|q| ≤ min(l, Q)`` of ``M^l(R_y α)`` for ``l ≤ F`` at many angles.
 
-    Returns ``(n, (F+1)², 2Q+1)``: entry ``[a, l(l+1)+k, q+Q]`` is
-    ``M^l(R_y α_a)_{k q}`` (zero for ``|q| > l``).
+    Returns ``(n, 2Q+1, (F+1)²)``: entry ``[a, q+Q, l(l+1)+k]`` is
+    ``M^l(R_y α_a)_{k q}`` (zero for ``|q| > l``). ``M(R_y α) = X M(R_z α) Xᵀ``
+    is formed as one matrix product per band over all angles.
     """
     X = X if X is not None else _x_blocks(F)
     ca = np.asarray(cos_a, float)
     sa = np.asarray(sin_a, float)
     n = ca.size
-    out = np.zeros((n, n_coeffs(F), 2 * Q + 1))
-    ck = np.ones((n, F + 1))
-    sk = np.zeros((n, F + 1))
-    if F >= 1:
-        ang = np.arctan2(sa, ca)
-        k = np.arange(F + 1)
-        ck, sk = np.cos(ang[:, None] * k), np.sin(ang[:, None] * k)
+    out = np.zeros((n, 2 * Q + 1, n_coeffs(F)))
+    ang = np.arctan2(sa, ca)
+    k = np.arange(F + 1)
+    ck, sk = np.cos(k[:, None] * ang[None, :]), np.sin(k[:, None] * ang[None, :])  # (k, n)
     for l in range(F + 1):
         qq = min(l, Q)
         Xl = X[l]
         W = Xl[l - qq : l + qq + 1, :].T  # (2l+1, 2qq+1): columns q of Xᵀ
-        Z = np.empty((n, 2 * l + 1, 2 * qq + 1))
-        Z[:, l] = W[l]
-        for k in range(1, l + 1):
-            c, s = ck[:, k, None], sk[:, k, None]
-            Z[:, l + k] = c * W[l + k] - s * W[l - k]
-            Z[:, l - k] = s * W[l + k] + c * W[l - k]
-        out[:, l * l : (l + 1) ** 2, Q - qq : Q + qq + 1] = np.matmul(Xl, Z)
+        Z = np.empty((2 * l + 1, n, 2 * qq + 1))
+        Z[l] = W[l]
+        if l:
+            c, s = ck[1 : l + 1, :, None], sk[1 : l + 1, :, None]
+            wp, wm = W[l + 1 :, None, :], W[l - 1 :: -1, None, :]
+            Z[l + 1 :] = c * wp - s * wm
+            Z[l - 1 :: -1] = s * wp + c * wm
+        Y = (Xl @ Z.reshape(2 * l + 1, -1)).reshape(2 * l + 1, n, 2 * qq + 1)
+        out[:, Q - qq : Q + qq + 1, l * l : (l + 1) ** 2] = Y.transpose(1, 2, 0)
     return out
 
 
@@ -537,8 +538,11 @@ def ry_columns(cos_a, sin_a, F: int, Q: int, X=None) -> np.ndarray:
 def _shrm_texels(aidx, cb, sb, Y, L, rho, F, P, Q, mode, out):
     """Per texel: rotate the lighting by β, contract with the ``R_y α`` columns, sum over ``l``
     with ``ρ̂`` (local SHRM), then rotate the view index (global SHRM, ``mode = 0``),
-    keep it local (``mode = 1``) or keep ``q = 0`` only (tangent, ``mode = 2``)."""
-    nq = 2 * Q + 1
+    keep it local (``mode = 1``) or keep ``q = 0`` only (tangent, ``mode = 2``).
+
+    ``M(R_y α)`` keeps the parity of the real basis (``cos`` ↔ ``cos``, ``sin`` ↔ ``sin``):
+    ``Y[a, q, k] = 0`` when ``k`` and ``q`` differ in sign, so half the sums are skipped.
+    """
     for t in numba.prange(aidx.shape[0]):
         a = aidx[t]
         ck = np.empty(F + 1)
@@ -547,58 +551,67 @@ def _shrm_texels(aidx, cb, sb, Y, L, rho, F, P, Q, mode, out):
         for k in range(1, F + 1):
             ck[k] = ck[k - 1] * cb[t] - sk[k - 1] * sb[t]
             sk[k] = sk[k - 1] * cb[t] + ck[k - 1] * sb[t]
-        G = np.zeros((F + 1, nq))
-        lr = np.empty(2 * F + 1)
-        B = np.zeros((P + 1, 2 * P + 1))
-        for c in range(3):
-            for l in range(F + 1):
-                base = l * (l + 1)
-                lr[l] = L[base, c]
+        G = np.zeros((F + 1, 2 * Q + 1, 3))
+        lr = np.empty((2 * F + 1, 3))
+        B = np.zeros((P + 1, 2 * P + 1, 3))
+        for l in range(F + 1):
+            base = l * (l + 1)
+            for c in range(3):
+                lr[l, c] = L[base, c]
                 for k in range(1, l + 1):
                     lp, lm = L[base + k, c], L[base - k, c]
-                    lr[l + k] = ck[k] * lp + sk[k] * lm
-                    lr[l - k] = -sk[k] * lp + ck[k] * lm
-                qq = min(l, Q)
-                for q in range(-qq, qq + 1):
-                    acc = 0.0
-                    for k in range(-l, l + 1):
-                        acc += lr[l + k] * Y[a, base + k, q + Q]
-                    G[l, q + Q] = acc
-            for p in range(P + 1):
-                qq = min(p, Q)
-                for q in range(-qq, qq + 1):
-                    aq = abs(q)
+                    lr[l + k, c] = ck[k] * lp + sk[k] * lm
+                    lr[l - k, c] = -sk[k] * lp + ck[k] * lm
+            qq = min(l, Q)
+            for q in range(-qq, qq + 1):
+                yq = Y[a, q + Q]
+                a0 = a1 = a2 = 0.0
+                k0, k1 = (0, l) if q >= 0 else (-l, -1)
+                for k in range(k0, k1 + 1):
+                    y = yq[base + k]
+                    a0 += lr[l + k, 0] * y
+                    a1 += lr[l + k, 1] * y
+                    a2 += lr[l + k, 2] * y
+                G[l, q + Q, 0] = a0
+                G[l, q + Q, 1] = a1
+                G[l, q + Q, 2] = a2
+        for p in range(P + 1):
+            qq = min(p, Q)
+            for q in range(-qq, qq + 1):
+                aq = abs(q)
+                for c in range(3):
                     acc = 0.0
                     for l in range(aq, F + 1):
-                        acc += rho[l, p, aq, c] * G[l, q + Q]
-                    B[p, q + P] = acc
+                        acc += rho[l, p, aq, c] * G[l, q + Q, c]
+                    B[p, q + P, c] = acc
+        for c in range(3):
             if mode == 2:
                 for p in range(P + 1):
-                    out[t, p, c] = B[p, P]
+                    out[t, p, c] = B[p, P, c]
             elif mode == 1 or Q == 0:
                 for p in range(P + 1):
                     for q in range(-p, p + 1):
-                        out[t, p * (p + 1) + q, c] = B[p, q + P] if abs(q) <= Q else 0.0
+                        out[t, p * (p + 1) + q, c] = B[p, q + P, c] if abs(q) <= Q else 0.0
             else:
                 for p in range(P + 1):
                     base = p * (p + 1)
                     for s in range(-p, p + 1):
                         acc = 0.0
                         for q in range(-p, p + 1):
-                            y_s = Y[a, base + abs(s), q + Q]
-                            y_ms = Y[a, base - abs(s), q + Q]
                             if s == 0:
-                                m = Y[a, base, q + Q]
+                                m = Y[a, q + Q, base]
                             elif s > 0:
-                                m = ck[s] * y_s - sk[s] * y_ms
+                                m = ck[s] * Y[a, q + Q, base + s] - sk[s] * Y[a, q + Q, base - s]
                             else:
-                                m = sk[-s] * y_s + ck[-s] * y_ms
-                            acc += m * B[p, q + P]
+                                m = sk[-s] * Y[a, q + Q, base - s] + ck[-s] * Y[a, q + Q, base + s]
+                            acc += m * B[p, q + P, c]
                         out[t, base + s, c] = acc
 
 
-def shrm_from_directions(dirs, L, coeffs: BRDFCoefficients, kind: str = "surface",
-                         local: bool = False, chunk_bytes: int = 48 << 20) -> np.ndarray:  # fmt: skip
+def shrm_from_directions(
+    dirs, L, coeffs: BRDFCoefficients, kind: str = "surface", local: bool = False,
+    chunk_bytes: int = 48 << 20,
+) -> np.ndarray:  # fmt: skip
     """SHRM coefficients at texel directions ``dirs (N, 3)`` (world = SH frame).
 
     Returns ``(N, (P+1)², 3)`` — the global SHRM ``B̃_ps`` (or the local
@@ -713,3 +726,139 @@ def bake_shrm(env, rb: ReflectionBRDF, eps: float = 0.03, F=None, P=None, face_s
     bound = residual_bound(L, light_energy, coeffs, orders.F, orders.P)
     timings = {"brdf": t1 - t0, "light": t2 - t1, "shrm": t3 - t2, "total": t3 - t0}
     return ShrmBake(cube.astype(np.float32), rb, orders, size, coeffs, bound, timings, L)
+
+
+# ---------------------------------------------------------------------------------------------
+# Files: the asset, the EXR cubes, the --report table
+
+
+def parse_view(text) -> np.ndarray:
+    """A view direction ``"x,y,z"`` (world, toward the viewer), normalised."""
+    try:
+        v = np.array([float(x) for x in str(text).split(",")], dtype=float)
+    except ValueError:
+        raise ParameterError(f"view must be x,y,z numbers, got {text!r}") from None
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.linalg.norm(v) == 0.0:
+        raise ParameterError(f"view must be a non-zero x,y,z vector, got {text!r}")
+    return v / np.linalg.norm(v)
+
+
+def write_exr_cubes(directory: str, bake: ShrmBake, view) -> list[str]:
+    """``shrm_p{p}.exr`` per ``p`` (channels ``q{q}.R/G/B``; tangent kind: ``R/G/B`` of
+    ``B_p0``) and ``reflection.exr`` (eq. 12 for ``view``), OpenEXR cube strips (float32)."""
+    import os
+
+    from shbake.format.images import write_exr
+    from shbake.shading.shrm import reflection_cube
+
+    os.makedirs(directory, exist_ok=True)
+    S = bake.face_size
+    written = []
+    for p in range(bake.P + 1):
+        if bake.brdf.kind == "tangent":
+            img = bake.cube[:, :, :, p, :]
+            names = ("R", "G", "B")
+        else:
+            img = bake.cube[:, :, :, p * p : (p + 1) ** 2, :].reshape(6, S, S, -1)
+            names = tuple(f"q{q}.{c}" for q in range(-p, p + 1) for c in "RGB")
+        path = os.path.join(directory, f"shrm_p{p}.exr")
+        write_exr(path, img.reshape(6 * S, S, -1), half=False, attrs={"envmap": "cube"},
+                  channel_names=names)  # fmt: skip
+        written.append(path)
+    kind = "tangent" if bake.brdf.kind == "tangent" else "surface"
+    refl = reflection_cube(bake.cube, view, kind)
+    path = os.path.join(directory, "reflection.exr")
+    write_exr(path, refl.reshape(6 * S, S, 3), half=False, attrs={"envmap": "cube"})
+    written.append(path)
+    return written
+
+
+def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32,
+                sphere: int = 24) -> list[dict]:  # fmt: skip
+    """The ``--report`` table: per ``(F, P)`` the predicted error (BRDF energy left out and
+    the appendix-B bound), the error measured against brute force on a sphere seen from
+    +Z (relative RMS; surface and lobe kinds), the bake time and the bytes."""
+    from shbake.brdf.sampling import tangent_frame as frame_of
+    from shbake.preview.sphere import sphere_geometry
+    from shbake.reference.brdf_shading import brute_force_shading
+    from shbake.shading.shrm import reflection_cube, shade
+
+    F_values, P_values = list(F_values), list(P_values)
+    if rb.radially_symmetric:
+        P_values = [0]
+    co = brdf_coefficients(rb, max(F_values), max(P_values))
+    n, _, mask = sphere_geometry(sphere)
+    n = n[mask]
+    view = np.array([0.0, 0.0, 1.0])
+    ref = None
+    dirs, om, rad = env.samples()
+    if rb.kind == "surface":
+        frames = np.array([np.array([*frame_of(*x), x]) for x in n])
+        brdf = make_brdf(rb.name, rb.source or None, **_plain(rb.values))
+        ref = brute_force_shading(dirs, om, rad, frames, np.einsum("pij,j->pi", frames, view), brdf)
+    elif rb.kind == "lobe":
+        r = 2.0 * n[:, 2:3] * n - view
+        s = rb.values["s"]
+        ref = np.zeros((len(r), 3))
+        for i in range(0, len(r), 64):
+            c = np.clip(r[i : i + 64] @ dirs.T, 0.0, None)
+            ref[i : i + 64] = ((s + 1) / (2 * np.pi) * c**s * om) @ rad / np.sqrt(4 * np.pi)
+    rows = []
+    for F in F_values:
+        for P in P_values:
+            b = bake_shrm(env, rb, eps=0.5, F=F, P=P, face_size=face_size, coeffs_full=co)
+            row = {"F": F, "P": P, "eps_brdf": b.orders.eps_brdf,
+                   "eps_bound": b.bound["eps_bound_max"], "seconds": b.timings["total"],
+                   "bytes": int(b.cube.nbytes), "measured_rel_rms": None}  # fmt: skip
+            if ref is not None:
+                img = shade(reflection_cube(b.cube, view), n, view)
+                row["measured_rel_rms"] = float(np.sqrt(np.sum((img - ref) ** 2) / np.sum(ref**2)))
+            rows.append(row)
+    return rows
+
+
+def _plain(values: dict) -> dict:
+    return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in values.items()}
+
+
+def bake_to_file(env_path: str, output: str, brdf: str = "microfacet", params: dict | None = None,
+                 merl_path: str | None = None, eps: float = 0.03, F=None, P=None,
+                 face_size=None, exr_dir: str | None = None, view="0,0,1", report: bool = False,
+                 layout=None, colorspace=None, negative: str = "clamp", fix_nonfinite=None,
+                 quiet: bool = False) -> dict:  # fmt: skip
+    """The ``shbake shrm`` command: validate everything, load the map, bake, write the asset
+    (and the EXR cubes), optionally build the report; return the summary dict.
+
+    All parameters are checked before the map is read, so a bad value leaves no file.
+    """
+    from shbake.envmap import load_environment
+    from shbake.format.atomic import check_writable_dir
+    from shbake.format.shrm import build_shrm_asset, write_shrm
+
+    check_writable_dir(output)
+    eps = check_eps(eps)
+    F, P = check_F(F), check_P(P)
+    rb = make_reflection_brdf(brdf, params, merl_path)
+    if rb.radially_symmetric and P not in (None, 0):
+        raise ParameterError(f"{rb.name} is radially symmetric: P must be 0, got {P}")
+    if face_size is not None:
+        check_face_size(face_size, P or 0, rb.kind)
+    v = parse_view(view)
+    env = load_environment(env_path, layout, colorspace, negative, fix_nonfinite, quiet)
+    bake = bake_shrm(env, rb, eps, F, P, face_size)
+    asset = build_shrm_asset(bake, env.meta)
+    write_shrm(output, asset)
+    summary = {
+        "output": output, "brdf": rb.describe(), "F": bake.F, "P": bake.P, "eps": eps,
+        "eps_brdf": bake.orders.eps_brdf, "eps_reached": bake.orders.reached,
+        "eps_bound": bake.bound["eps_bound_max"], "face_size": bake.face_size,
+        "bytes": int(bake.cube.nbytes), "seconds": bake.timings,
+    }  # fmt: skip
+    if exr_dir:
+        summary["exr"] = write_exr_cubes(exr_dir, bake, v)
+    if report:
+        Fs = sorted({max(1, bake.F // 2), max(1, (3 * bake.F) // 4), bake.F,
+                     min(F_LIMIT, bake.F + bake.F // 2)})  # fmt: skip
+        Ps = sorted({0, max(0, bake.P - 1), bake.P, min(P_LIMIT, bake.P + 1)})
+        summary["report"] = report_rows(env, rb, Fs, Ps, face_size=min(bake.face_size, 64))
+    return summary
