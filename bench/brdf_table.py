@@ -13,8 +13,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 from conftest import map_path  # noqa: E402
 from kautz_accuracy import LMAXES, MAPS, kautz_errors  # noqa: E402
 
+from shbake.bakers.kautz_report import settings_report  # noqa: E402
 from shbake.brdf import make_brdf  # noqa: E402
-from shbake.brdf.report import settings_report  # noqa: E402
 from shbake.brdf.tabulate import tabulate  # noqa: E402
 
 

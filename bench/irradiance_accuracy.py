@@ -12,8 +12,9 @@ import argparse
 import json
 from pathlib import Path
 
-from shbake.env_sh import bake_env_sh, brute_force_reference, irradiance_errors
+from shbake.bakers.env_sh import bake_env_sh
 from shbake.envmap import load_environment
+from shbake.evaluation.env_sh import brute_force_reference, irradiance_errors
 
 MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
 HDRI = Path(__file__).resolve().parent.parent.parent / "shared" / "hdri"

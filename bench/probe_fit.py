@@ -41,14 +41,14 @@ def split_sum_seconds(n: int, threads: int, tmp: Path) -> float:
     """Wall time of ``n`` split-sum bakes (read, prefilter, write) in this process."""
     import numba
 
+    from shbake.bakers.dfg import dfg_table
+    from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
     from shbake.envmap import load_environment
     from shbake.format.asset import write_asset
-    from shbake.probe.albedo_table import albedo_table
-    from shbake.probe.probe_asset import build_splitsum_asset
-    from shbake.probe.splitsum import SplitSumConfig, prefilter_chain
+    from shbake.format.splitsum import build_splitsum_asset
 
     numba.set_num_threads(threads)
-    config, dfg = SplitSumConfig(), albedo_table()
+    config, dfg = SplitSumConfig(), dfg_table()
 
     def bake(i):
         env = load_environment(str(map_path(MAPS[i % len(MAPS)])), quiet=True)

@@ -4,7 +4,7 @@ Usage: ``python bench/probe_targets.py [maps …]`` (default: the six shared map
 
 For the default fit samples (64 normals × 64 views × 4 roughness), every
 7th target is integrated with 65 536 plain visible-normal samples (the
-ground truth, :func:`shbake.probe.ggx_integrals.ggx_integrals`). Against it:
+ground truth, :func:`shbake.reference.ggx.ggx_integrals`). Against it:
 the filtered quadrature plan (1024 samples, the default targets) and the SH
 fast path (``--targets sh``) at lmax 4, 8 and 16. Error: RMS of
 ``log(E0 / truth)`` per fit roughness (the fit works in log space; values
@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from shbake.bakers.shexp import FitConfig, FitPlan
+from shbake.bakers.shexp_sh_targets import ShTargets
 from shbake.envmap import load_environment
-from shbake.probe.ggx_integrals import ggx_integrals
-from shbake.probe.sh_targets import ShTargets
-from shbake.probe.shexp import FitConfig, FitPlan
+from shbake.reference.ggx import ggx_integrals
 
 ROOT = Path(__file__).resolve().parent.parent
 MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")

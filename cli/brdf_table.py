@@ -7,15 +7,15 @@ import click
 from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 from shbake_cli.project_env import command_line
 
+from shbake.bakers.kautz_report import format_report, settings_report
 from shbake.brdf import MODELS, make_brdf
-from shbake.brdf.report import format_report, settings_report
-from shbake.brdf.sheet import write_band_exrs, write_sheet
-from shbake.brdf.table_asset import build_table_asset, table_at
-from shbake.brdf.tabulate import LMAX_LIMIT, parse_vary, tabulate_axes
-from shbake.conventions import check_lmax
+from shbake.brdf.tabulate import parse_vary, tabulate_axes
+from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
 from shbake.errors import ParameterError
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_writable_dir
+from shbake.format.kautz_images import write_band_exrs, write_sheet
+from shbake.format.kautz_table import build_table_asset, table_at
 
 
 def parse_params(items) -> dict:
@@ -79,7 +79,7 @@ def _progress(quiet):
     type=int,
     default=4,
     show_default=True,
-    help=f"Highest SH band (0…{LMAX_LIMIT}); (lmax+1)^2 coefficients.",
+    help=f"Highest SH band (0…{KAUTZ_LMAX_LIMIT}); (lmax+1)^2 coefficients.",
 )
 @click.option(
     "--resolution", default="128", show_default=True, metavar="N|HxW", help="Parabolic map size."
@@ -147,7 +147,7 @@ def brdf_table(
     quiet,
 ):
     """Tabulate MODEL's BRDF product f*(s,v) = f(s,v) max(0,s_z) as SH per view direction."""
-    lmax = check_lmax(lmax, limit=LMAX_LIMIT)
+    lmax = check_lmax(lmax, limit=KAUTZ_LMAX_LIMIT)
     res = parse_resolution(resolution)
     brdf = make_brdf(model, merl_path=merl_path, **parse_params(params))
     axes = [parse_vary(v) for v in vary]

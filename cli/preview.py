@@ -9,9 +9,9 @@ from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 from shbake.errors import FormatError, ImageReadError
 from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
+from shbake.format.shexp import probe_from_set
 from shbake.preview.glossy import PASS_OF_KIND, render_glossy
 from shbake.preview.passes import PASSES, render_pass
-from shbake.probe.probe_asset import probe_from_set
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
 ALL_PASSES = PASSES + ("shexp", "splitsum")
@@ -167,7 +167,7 @@ def preview(
     if table_path is not None:
         from shbake_cli.brdf_table import parse_params
 
-        from shbake.brdf.table_asset import table_at
+        from shbake.format.kautz_table import table_at
 
         table = table_at(
             read_asset(table_path, kinds=("brdf_table",)),

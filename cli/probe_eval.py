@@ -5,14 +5,14 @@ from pathlib import Path
 import click
 from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 
-from shbake.batch.probe_jobs import fit_plan, shared_albedo_table
+from shbake.bakers.shexp import FitConfig
+from shbake.bakers.splitsum import SplitSumConfig
+from shbake.batch.probe_eval import evaluate_map
+from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
 from shbake.envmap import load_environment
 from shbake.errors import InputError
 from shbake.format.atomic import write_text
-from shbake.probe.evaluation import evaluate_map
-from shbake.probe.probe_asset import probe_bytes
-from shbake.probe.shexp import FitConfig
-from shbake.probe.splitsum import SplitSumConfig
+from shbake.format.probe import probe_bytes
 
 
 def markdown_table(results: dict) -> str:
@@ -53,7 +53,7 @@ def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
     """
     if not 8 <= size <= 512:
         raise InputError("--size must be in [8, 512]")
-    dfg = shared_albedo_table()
+    dfg = shared_dfg_table()
     split_config = SplitSumConfig()
     results, sizes = {}, {}
     for path in maps:

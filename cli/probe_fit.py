@@ -8,10 +8,10 @@ from pathlib import Path
 import click
 from shbake_cli.options import emit_json, fix_nonfinite_opt, info, json_opt, negative_opt, quiet_opt
 
+from shbake.bakers.shexp import TARGETS, WEIGHTINGS, FitConfig
 from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
 from shbake.errors import InputError, ParameterError
 from shbake.format.atomic import check_writable_dir
-from shbake.probe.shexp import TARGETS, WEIGHTINGS, FitConfig
 
 
 def parse_range(text: str) -> tuple[float, float]:
@@ -69,9 +69,14 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_
 
 def settings_study(job: ProbeJob, config: FitConfig, report: bool, tol, quiet: bool):
     """``--tol`` and ``--report`` on the first map: (config to use, study for the summary)."""
+    from shbake.bakers.shexp_report import (
+        format_report,
+        orders_study,
+        pick_samples,
+        samples_study,
+    )
     from shbake.batch.probe_jobs import fit_plan
     from shbake.envmap import load_environment
-    from shbake.probe.fit_report import format_report, orders_study, pick_samples, samples_study
 
     if config.targets != "quadrature":
         raise ParameterError("--report and --tol study the quadrature targets")
@@ -95,12 +100,12 @@ def settings_study(job: ProbeJob, config: FitConfig, report: bool, tol, quiet: b
 
 def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
     """Write the probes of ``results`` as one set asset; return the summaries without arrays."""
-    from shbake.batch.probe_jobs import shared_albedo_table
+    from shbake.batch.probe_jobs import shared_dfg_table
     from shbake.format.asset import write_asset
-    from shbake.probe.probe_asset import build_shexp_set_asset
+    from shbake.format.shexp import build_shexp_set_asset
 
     probes = [r | {"name": Path(r["source"]).stem} for r in results]
-    write_asset(path, build_shexp_set_asset(probes, config, shared_albedo_table()))
+    write_asset(path, build_shexp_set_asset(probes, config, shared_dfg_table()))
     keep = ("source", "bytes")
     return [{k: r[k] for k in keep} | r["stats"] | {"output": path} for r in results]
 

@@ -18,16 +18,18 @@ from shbake_cli.options import (
     quiet_opt,
 )
 
+from shbake.bakers.env_sh import bake_env_sh, truncation_report
 from shbake.conventions import check_lmax
-from shbake.env_sh import bake_env_sh, irradiance_errors, sh_irradiance, truncation_report
 from shbake.envmap import load_environment
 from shbake.envmap.layouts import latlong_directions
 from shbake.errors import OutputError
+from shbake.evaluation.env_sh import irradiance_errors
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_writable_dir
 from shbake.format.engine_export import write_gltf_json
 from shbake.format.images import HALF_MAX, write_exr
 from shbake.sh.windows import WINDOW_METHODS
+from shbake.shading.env_sh import irradiance as sh_irradiance
 
 
 def command_line(ctx: click.Context) -> str:

@@ -4,13 +4,14 @@ import click
 from shbake_cli.options import emit_json, fix_nonfinite_opt, info, json_opt, negative_opt, quiet_opt
 from shbake_cli.probe_fit import parse_range
 
-from shbake.batch.probe_jobs import shared_albedo_table
+from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
+from shbake.batch.probe_jobs import shared_dfg_table
 from shbake.envmap import load_environment
 from shbake.errors import InputError
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_writable_dir
-from shbake.probe.probe_asset import build_splitsum_asset, probe_bytes
-from shbake.probe.splitsum import SplitSumConfig, prefilter_chain
+from shbake.format.probe import probe_bytes
+from shbake.format.splitsum import build_splitsum_asset
 
 
 @click.command("split-sum")
@@ -54,7 +55,7 @@ def split_sum(
     if environment.layout != "latlong":
         raise InputError(f"{env}: split-sum takes lat-long maps (2:1), got {environment.layout}")
     chain = prefilter_chain(environment.pixels, config)
-    asset = build_splitsum_asset(chain, config, shared_albedo_table(), environment.meta)
+    asset = build_splitsum_asset(chain, config, shared_dfg_table(), environment.meta)
     write_asset(output, asset)
     info(f"split-sum: {output}: {levels} levels, {probe_bytes(asset)} bytes", quiet)
     if as_json:

@@ -19,6 +19,20 @@ from shbake.errors import ParameterError
 
 LMAX_LIMIT = 128
 """Largest ``lmax`` shbake accepts anywhere."""
+KAUTZ_LMAX_LIMIT = 16
+"""Largest ``lmax`` of a BRDF table (Kautz et al. 2002 use 4–6; the quadrature grows as lmax²)."""
+SH_TARGETS_LMAX_LIMIT = 24
+"""Largest lighting ``lmax`` of the SH-exp fit's SH targets (``--targets sh``)."""
+DFG_MU_MIN = 1e-3
+"""Smallest ``n·v`` on the DFG table's axis (grazing views read this row)."""
+DFG_SIZE = 32
+"""Nodes per axis of the DFG table."""
+DFG_SAMPLES = 8192
+"""Quadrature samples per DFG table entry."""
+SHEXP_LMAX_LIMIT = 8
+"""Largest ``lmax`` of the SH-exp ``P`` and ``Q`` expansions."""
+ROUGHNESS_MIN = 0.02
+"""Smallest perceptual roughness the GGX integrals accept (GGX width 4e-4)."""
 
 FORMAT_NAME = "shbake"
 FORMAT_VERSION = 1
@@ -30,13 +44,11 @@ FRAME = "right_handed"
 UP_AXIS = "+Y"
 RADIANCE_UNITS = "linear scene-referred RGB radiance (Rec.709 primaries)"
 
+SQRT_4PI = float(np.sqrt(4.0 * np.pi))
+"""``sqrt(4π)``: ``Q = sqrt(4π) c_0`` is the white-furnace value of SH coefficients."""
+
 REC709_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 """Rec.709 luminance weights, used wherever a scalar brightness is needed."""
-
-
-def sh_index(l: int, m: int) -> int:
-    """Flat index of coefficient ``(l, m)``: ``l*(l+1) + m``."""
-    return l * (l + 1) + m
 
 
 def n_coeffs(lmax: int) -> int:
@@ -64,3 +76,27 @@ def check_lmax(lmax, name: str = "lmax", limit: int = LMAX_LIMIT) -> int:
     if not 0 <= int(lmax) <= limit:
         raise ParameterError(f"{name} must be in [0, {limit}], got {lmax}")
     return int(lmax)
+
+
+def ggx_alpha(roughness):
+    """GGX width ``α = r²`` of perceptual roughness ``r`` (Burley 2012; SPEC §1)."""
+    return np.asarray(roughness, dtype=float) ** 2
+
+
+SAMPLES_LIMIT = 1 << 20
+"""Most quadrature samples per integral any option accepts."""
+
+
+def check_roughness(r, lo: float = ROUGHNESS_MIN, hi: float = 1.0, name: str = "roughness"):
+    """Refuse perceptual roughness outside ``[lo, hi]`` (or non-finite); returns the array."""
+    a = np.asarray(r, dtype=float)
+    if not np.all(np.isfinite(a)) or np.any(a < lo - 1e-12) or np.any(a > hi + 1e-12):
+        raise ParameterError(f"{name} must lie in [{lo:g}, {hi:g}], got {np.ravel(a)[:4]}")
+    return a
+
+
+def check_samples(n, lo: int = 16, hi: int = SAMPLES_LIMIT, name: str = "samples") -> int:
+    """Validate a sample count given by a user; return it as ``int``."""
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or not lo <= n <= hi:
+        raise ParameterError(f"{name} must be an integer in [{lo}, {hi}], got {n}")
+    return int(n)

@@ -7,11 +7,11 @@ lmax 8 (no sun extraction), 64² tables at 1024 samples, 48² sphere.
 
 import numpy as np
 
+from shbake.bakers.env_sh import bake_env_sh
 from shbake.brdf import make_brdf
-from shbake.brdf.table_asset import BRDFTable
 from shbake.brdf.tabulate import tabulate
-from shbake.env_sh import bake_env_sh
 from shbake.envmap import load_environment
+from shbake.format.kautz_table import BRDFTable
 from shbake.preview.passes import render_pass
 
 MAPS = ("esplanade", "forest", "studio")

@@ -22,8 +22,9 @@ estimate uses 2^18 visible-normal samples, whose own error (< 1e-3 relative,
 import numpy as np
 import pytest
 
+from shbake.conventions import ggx_alpha
 from shbake.envmap.layouts import latlong_directions
-from shbake.probe.ggx_integrals import ggx_alpha, ggx_integrals
+from shbake.reference.ggx import ggx_integrals
 
 mi = pytest.importorskip("mitsuba")
 

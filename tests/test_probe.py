@@ -16,6 +16,9 @@ from conftest import map_path, write_test_exr
 from shbake_cli.main import main
 from test_brdf import albedo_quadrature
 
+from shbake.bakers.dfg import dfg_axes, dfg_table
+from shbake.bakers.shexp import FitConfig, FitPlan
+from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
 from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
 from shbake.brdf import make_brdf
 from shbake.brdf.sampling import tangent_frame
@@ -23,17 +26,13 @@ from shbake.envmap.image_io import read_image
 from shbake.envmap.layouts import latlong_directions
 from shbake.format.asset import read_asset
 from shbake.format.images import write_exr
-from shbake.probe.albedo_table import albedo_table, lookup, table_axes
-from shbake.probe.ggx_integrals import ggx_integrals
-from shbake.probe.shexp import FitConfig, FitPlan, evaluate_shexp
-from shbake.probe.splitsum import (
-    SplitSumConfig,
-    evaluate_splitsum,
-    oct_decode,
-    oct_encode,
-    prefilter_chain,
-)
 from shbake.reference.brdf_shading import brute_force_shading
+from shbake.reference.ggx import ggx_integrals
+from shbake.shading.dfg import dfg_lookup
+from shbake.shading.shexp import evaluate_shexp
+from shbake.shading.splitsum import evaluate_splitsum
+from shbake.texture.octahedral import decode as oct_decode
+from shbake.texture.octahedral import encode as oct_encode
 
 SMALL = FitConfig(normals=16, views=16, samples=256)
 
@@ -110,8 +109,8 @@ class TestGgxIntegrals:
 class TestQuadraturePlan:
     def test_pyramid_keeps_the_integral(self):
         """Each pyramid level integrates to the map's ``∫ L dω`` (solid-angle weights)."""
+        from shbake.envmap.importance import latlong_pyramid, level_offsets, pyramid_levels
         from shbake.envmap.layouts import latlong_solid_angles
-        from shbake.probe.ggx_integrals import latlong_pyramid, level_offsets, pyramid_levels
 
         img = smooth_map(64, sun=[50.0, 40.0, 30.0])
         shape = img.shape[:2]
@@ -146,7 +145,7 @@ class TestShTargets:
     def test_matches_quadrature_where_band_limit_suffices(self):
         """SH lighting × GGX tables against converged quadrature: rough targets agree
         (the map's SH to lmax 8 carries the lobe), sharp ones do not (band limit)."""
-        from shbake.probe.sh_targets import ShTargets
+        from shbake.bakers.shexp_sh_targets import ShTargets
 
         img = smooth_map(64, sun=[40.0, 30.0, 20.0])
         v, n = random_pairs(40, 11)
@@ -170,8 +169,8 @@ class TestShTargets:
 
 class TestAlbedoTable:
     def test_nodes_match_dense_quadrature(self):
-        table = albedo_table(size=8, samples=8192)
-        mu, r = table_axes(8)
+        table = dfg_table(size=8, samples=8192)
+        mu, r = dfg_axes(8)
         for i in (1, 4, 7):
             for j in (2, 5, 7):
                 v = np.array([np.sqrt(1 - mu[i] ** 2), 0.0, mu[i]])
@@ -181,9 +180,9 @@ class TestAlbedoTable:
                 assert table[i, j, 1] == pytest.approx(albedo_quadrature(tail, v, 768)[0], abs=3e-3)
 
     def test_lookup_is_exact_at_nodes(self):
-        table = albedo_table(size=8, samples=512)
-        mu, r = table_axes(8)
-        np.testing.assert_allclose(lookup(table, mu[3], r[5]), table[3, 5], atol=1e-12)
+        table = dfg_table(size=8, samples=512)
+        mu, r = dfg_axes(8)
+        np.testing.assert_allclose(dfg_lookup(table, mu[3], r[5]), table[3, 5], atol=1e-12)
 
 
 class TestShexpFit:
@@ -195,7 +194,7 @@ class TestShexpFit:
         probe = plan.fit_targets(e0)
         np.testing.assert_allclose(np.concatenate([probe.p, probe.q]), x, atol=1e-8)
         # the numba evaluator (independent of the numpy design rows) reproduces the targets
-        table = albedo_table(size=8, samples=256)
+        table = dfg_table(size=8, samples=256)
         est = evaluate_shexp(probe.p, probe.q, table, plan.views, plan.normals, plan.roughness)
         np.testing.assert_allclose(est, e0, rtol=1e-7)
 
@@ -214,7 +213,7 @@ class TestShexpFit:
         against the targets (re-integrated independently) is below the log fit's."""
         img = smooth_map(32, sun=(50.0, 40.0, 30.0))
         cfg = dict(normals=16, views=16, samples=256)
-        table = albedo_table(size=8, samples=256)
+        table = dfg_table(size=8, samples=256)
         errors = []
         for weighting in ("log", "linear"):
             plan = FitPlan(FitConfig(**cfg, weighting=weighting), (32, 64))
@@ -233,7 +232,7 @@ class TestShexpFit:
     def test_black_map_is_finite(self):
         probe = FitPlan(SMALL, (32, 64)).fit(np.zeros((32, 64, 3), np.float32))
         assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
-        table = albedo_table(size=8, samples=256)
+        table = dfg_table(size=8, samples=256)
         out = evaluate_shexp(probe.p, probe.q, table, [[0, 0, 1.0]], [[0, 0, 1.0]], 0.5)
         assert np.all(out < 1e-20)
 
@@ -261,10 +260,10 @@ class TestSplitSum:
         levels = prefilter_chain(np.full((16, 32, 3), 2.0, np.float32), cfg)
         for lv in levels:
             np.testing.assert_allclose(lv, 2.0, rtol=1e-6)
-        table = albedo_table(size=8, samples=512)
+        table = dfg_table(size=8, samples=512)
         v, n = random_pairs(20, 3)
         out = evaluate_splitsum(levels, cfg.roughness, table, v, n, 0.5, (0.04,) * 3)
-        a = lookup(table, np.einsum("ij,ij->i", v, n), 0.5)
+        a = dfg_lookup(table, np.einsum("ij,ij->i", v, n), 0.5)
         np.testing.assert_allclose(out[:, 0], 2.0 * (0.04 * a[:, 0] + 0.96 * a[:, 1]), rtol=1e-6)
 
 
@@ -372,13 +371,13 @@ class TestPlanCache:
         assert entry.stat().st_size > 100
 
     def test_cached_dfg_table_is_the_fresh_table(self, monkeypatch, tmp_path):
-        from shbake.batch.plan_cache import cached_albedo_table
+        from shbake.batch.plan_cache import cached_dfg_table
 
         monkeypatch.setenv("SHBAKE_CACHE_DIR", str(tmp_path))
-        first = cached_albedo_table()
+        first = cached_dfg_table()
         (entry,) = tmp_path.glob("dfg-*.npy")
-        np.testing.assert_array_equal(cached_albedo_table(), first)  # loaded
-        np.testing.assert_array_equal(first, albedo_table())
+        np.testing.assert_array_equal(cached_dfg_table(), first)  # loaded
+        np.testing.assert_array_equal(first, dfg_table())
 
     def test_off_writes_nothing(self, monkeypatch, tmp_path):
         from shbake.batch.plan_cache import cache_dir, cached_fit_plan

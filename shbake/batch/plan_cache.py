@@ -1,11 +1,11 @@
 """On-disk cache of quadrature plans and the DFG table, shared by worker processes and runs.
 
-A :class:`~shbake.probe.ggx_integrals.QuadraturePlan` depends only on the fit
+A :class:`~shbake.bakers.shexp_targets.QuadraturePlan` depends only on the fit
 configuration and the map shape, yet takes seconds to build (16 384 targets ×
 1024 samples by default) while a probe takes tens of milliseconds. A build
 pipeline that calls ``shbake probe-fit`` once per probe (``make -j``) would
 rebuild it every time; the cache builds it once per machine. The DFG table
-(:func:`~shbake.probe.albedo_table.albedo_table`, about a second) is cached
+(:func:`~shbake.bakers.dfg.dfg_table`, about a second) is cached
 the same way.
 
 Location: ``$SHBAKE_CACHE_DIR``, else ``$XDG_CACHE_HOME/shbake``, else
@@ -25,11 +25,14 @@ from pathlib import Path
 import numpy as np
 
 import shbake
+from shbake.bakers import dfg, shexp_targets
+from shbake.bakers.shexp import FitConfig, FitPlan
+from shbake.bakers.shexp_targets import QuadraturePlan
 from shbake.brdf import ggx, sampling
+from shbake.conventions import DFG_SIZE
+from shbake.envmap import importance, layouts
 from shbake.format.atomic import atomic_path
-from shbake.probe import albedo_table, ggx_integrals
-from shbake.probe.ggx_integrals import QuadraturePlan
-from shbake.probe.shexp import FitConfig, FitPlan
+from shbake.reference import ggx as reference_ggx
 
 CACHE_ENV = "SHBAKE_CACHE_DIR"
 ARRAYS = ("offsets", "index", "weight", "views", "normals", "alphas")
@@ -60,7 +63,7 @@ def plan_key(config: FitConfig, shape: tuple[int, int]) -> str:
 def _code_digest() -> str:
     """SHA-256 of the modules that build a plan: any change to them is a new key."""
     digest = hashlib.sha256()
-    for module in (ggx_integrals, ggx, sampling, albedo_table):
+    for module in (shexp_targets, importance, layouts, ggx, sampling, dfg, reference_ggx):
         digest.update(Path(module.__file__).read_bytes())
     return digest.hexdigest()
 
@@ -103,18 +106,18 @@ def cached_fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
     return plan
 
 
-def cached_albedo_table() -> np.ndarray:
-    """The shared DFG table (:func:`shbake.probe.albedo_table.albedo_table`), from the cache."""
+def cached_dfg_table() -> np.ndarray:
+    """The shared DFG table (:func:`shbake.bakers.dfg.dfg_table`), from the cache."""
     folder = cache_dir()
     if folder is None:
-        return albedo_table.albedo_table()
+        return dfg.dfg_table()
     path = folder / f"dfg-{_code_digest()[:32]}.npy"
     try:
         table = np.load(path)
-        if table.shape == (albedo_table.TABLE_SIZE, albedo_table.TABLE_SIZE, 2):
+        if table.shape == (DFG_SIZE, DFG_SIZE, 2):
             return table
     except (OSError, ValueError):
         pass
-    table = albedo_table.albedo_table()
+    table = dfg.dfg_table()
     _store(path, lambda f: np.save(f, table))
     return table

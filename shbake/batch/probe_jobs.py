@@ -5,7 +5,7 @@ it reads the map, fits the probe and writes the asset atomically. Nothing in
 the asset depends on where or when the job ran (no times, no host, no
 scheduling options), so running a job twice, locally or on a Dask worker,
 gives byte-identical files. The probe-independent state — the
-:class:`~shbake.probe.shexp.FitPlan` (sample directions, their texels and
+:class:`~shbake.bakers.shexp.FitPlan` (sample directions, their texels and
 weights, the design matrix) and the DFG table — is built once per process
 and reused by every job that shares its configuration and map shape.
 """
@@ -18,12 +18,13 @@ from dataclasses import dataclass
 
 import numba
 
-from shbake.batch.plan_cache import cached_albedo_table, cached_fit_plan
+from shbake.bakers.shexp import FitConfig, FitPlan
+from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
-from shbake.probe.probe_asset import build_shexp_asset, probe_bytes
-from shbake.probe.shexp import FitConfig, FitPlan
+from shbake.format.probe import probe_bytes
+from shbake.format.shexp import build_shexp_asset
 
 
 @dataclass(frozen=True)
@@ -46,9 +47,9 @@ def fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
 
 
 @functools.lru_cache(maxsize=1)
-def shared_albedo_table():
+def shared_dfg_table():
     """The DFG table, once per process, once per machine (:mod:`shbake.batch.plan_cache`)."""
-    return cached_albedo_table()
+    return cached_dfg_table()
 
 
 def run_probe_job(job: ProbeJob) -> dict:
@@ -61,7 +62,7 @@ def run_probe_job(job: ProbeJob) -> dict:
         raise InputError(f"{job.source}: probe-fit takes lat-long maps (2:1), got {env.layout}")
     plan = fit_plan(job.config, env.shape)
     probe = plan.fit(env.pixels)
-    asset = build_shexp_asset(probe, job.config, shared_albedo_table(), env.meta)
+    asset = build_shexp_asset(probe, job.config, shared_dfg_table(), env.meta)
     summary = {"source": job.source, "output": job.output, "bytes": probe_bytes(asset)}
     if job.output is None:
         return summary | {"p": probe.p, "q": probe.q, "stats": probe.stats, "meta": env.meta}
@@ -78,7 +79,7 @@ def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
         return
     if env.layout == "latlong":
         fit_plan(jobs[0].config, env.shape)
-    shared_albedo_table()
+    shared_dfg_table()
 
 
 def _single_thread():

@@ -18,6 +18,8 @@ import numpy as np
 
 from shbake.brdf.sampling import TWO_PI, reflect_about
 from shbake.brdf.spec import ModelSpec, Param
+from shbake.conventions import ROUGHNESS_MIN, check_roughness
+from shbake.errors import ParameterError
 from shbake.jit import jit
 
 SPEC = ModelSpec(
@@ -119,3 +121,54 @@ def pdf(prm, sx, sy, sz, vx, vy, vz):
         return 0.0
     g1 = 1.0 / (1.0 + smith_lambda(ax, ay, vx, vy, vz))
     return g1 * ggx_d(ax, ay, hx, hy, hz) / (4.0 * vz)
+
+
+@jit
+def vndf_terms(vx, vy, vz, lx, ly, lz, alpha):
+    """For local unit ``v``, ``l`` above the surface of an isotropic GGX of width ``α``: the
+    visible-normal density ``p(l) = G1(v) D(h) / (4 n·v)`` (1/sr), ``G1(l)`` and the Schlick
+    tail ``(1 − v·h)^5``. ``f_DV (n·l) = p(l) G1(l)`` (separable Smith, SPEC §4)."""
+    hx, hy, hz = vx + lx, vy + ly, vz + lz
+    hn = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / hn, hy / hn, hz / hn
+    g1v = 1.0 / (1.0 + smith_lambda(alpha, alpha, vx, vy, vz))
+    g1l = 1.0 / (1.0 + smith_lambda(alpha, alpha, lx, ly, lz))
+    tail = (1.0 - min(1.0, max(0.0, vx * hx + vy * hy + vz * hz))) ** 5
+    return g1v * ggx_d(alpha, alpha, hx, hy, hz) / (4.0 * vz), g1l, tail
+
+
+@jit
+def sample_light(t, b, n, v_loc, alpha, prm, ur, ua):
+    """One visible-normal sample in the world frame ``(t, b, n)`` of
+    :func:`shbake.brdf.sampling.surface_frame`: world ``l``, weights ``G1(l)`` and
+    ``G1(l) (1 − v·h)^5``, and the density ``p(l)`` of :func:`vndf_terms` (1/sr).
+
+    ``prm`` is a scratch GGX parameter vector with ``prm[3] = prm[4] = α``.
+    The weights are 0 when ``l`` falls below the surface.
+    """
+    sx, sy, sz = sample(prm, v_loc[0], v_loc[1], v_loc[2], ur, ua)
+    if sz <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
+    pdf, g1, tail = vndf_terms(v_loc[0], v_loc[1], v_loc[2], sx, sy, sz, alpha)
+    wx = sx * t[0] + sy * b[0] + sz * n[0]
+    wy = sx * t[1] + sy * b[1] + sz * n[1]
+    wz = sx * t[2] + sy * b[2] + sz * n[2]
+    return wx, wy, wz, g1, g1 * tail, pdf
+
+
+def check_geometry(views, normals, roughness):
+    """Validate world shading geometry: unit ``views``/``normals`` ``(T, 3)`` with ``n·v > 0``
+    and perceptual ``roughness`` (scalar or ``(T,)``) in ``[ROUGHNESS_MIN, 1]``; returns
+    contiguous float64 ``(v, n, r)``."""
+    v = np.ascontiguousarray(np.asarray(views, dtype=float).reshape(-1, 3))
+    n = np.ascontiguousarray(np.asarray(normals, dtype=float).reshape(-1, 3))
+    r = np.ascontiguousarray(np.broadcast_to(np.asarray(roughness, float), (v.shape[0],)))
+    if v.shape != n.shape:
+        raise ParameterError("views and normals must have the same number of directions")
+    for name, d in (("views", v), ("normals", n)):
+        if np.any(np.abs(np.linalg.norm(d, axis=1) - 1.0) > 1e-6):
+            raise ParameterError(f"{name} must be unit vectors")
+    if np.any(np.einsum("ij,ij->i", v, n) <= 0.0):
+        raise ParameterError("every view must lie above its surface (n·v > 0)")
+    check_roughness(r, ROUGHNESS_MIN)
+    return v, n, r

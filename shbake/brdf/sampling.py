@@ -36,6 +36,14 @@ def tangent_frame(nx, ny, nz):
 
 
 @jit
+def surface_frame(vx, vy, vz, nx, ny, nz):
+    """Tangent ``t``, bitangent ``b`` of ``n`` (:func:`tangent_frame`) and ``v`` in that frame."""
+    (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
+    v_loc = (tx * vx + ty * vy + tz * vz, bx * vx + by * vy + bz * vz, nx * vx + ny * vy + nz * vz)
+    return (tx, ty, tz), (bx, by, bz), v_loc
+
+
+@jit
 def lobe_frame_dir(ax, ay, az, ct, phi):
     """Direction at polar angle ``acos(ct)``, azimuth ``phi`` about the unit axis ``a``."""
     st = np.sqrt(max(0.0, 1.0 - ct * ct))

@@ -45,15 +45,13 @@ import numpy as np
 
 from shbake.brdf.dispatch import brdf_eval, lobe_pdf, lobe_sample
 from shbake.brdf.model import BRDF
-from shbake.brdf.parabolic import check_resolution, texel_views
 from shbake.brdf.sampling import cosine_pdf
-from shbake.conventions import check_lmax, n_coeffs
+from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, check_lmax, n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 from shbake.sh.basis import recurrence_tables, sh_eval_into
+from shbake.texture.parabolic import check_resolution, texel_views
 
-SQRT_4PI = np.sqrt(4.0 * np.pi)
-LMAX_LIMIT = 16
 MAX_SAMPLES_LIMIT = 1 << 22
 HALF_PI = 0.5 * np.pi
 TWO_PI = 2.0 * np.pi
@@ -317,7 +315,7 @@ def project_views(
     coeffs : ndarray, (V, (lmax+1)^2, 3)
     convergence : Convergence
     """
-    lmax = check_lmax(lmax, limit=LMAX_LIMIT)
+    lmax = check_lmax(lmax, limit=KAUTZ_LMAX_LIMIT)
     _check_sampling(samples, tol, max_samples)
     v = np.ascontiguousarray(np.asarray(views, dtype=float).reshape(-1, 3))
     if np.any(v[:, 2] <= 0) or np.any(np.abs(np.linalg.norm(v, axis=1) - 1) > 1e-9):

@@ -18,11 +18,6 @@ def _colour():
     return colour
 
 
-def colorspace_names() -> list[str]:
-    """Names accepted by ``--colorspace`` (colour-science's RGB colourspaces)."""
-    return sorted(_colour().RGB_COLOURSPACES.keys())
-
-
 def to_working_space(pixels: np.ndarray, name: str) -> np.ndarray:
     """Convert *linear* RGB in colourspace ``name`` to linear Rec.709 (CAT02 adaptation).
 

@@ -23,6 +23,7 @@ apart).
 import numpy as np
 
 from shbake.errors import LayoutError
+from shbake.jit import jit
 
 LAYOUTS = ("latlong", "cube-strip", "cross-h", "cross-v")
 
@@ -114,12 +115,6 @@ def check_layout(layout: str, height: int, width: int) -> str:
     return layout
 
 
-def face_size(layout: str, height: int, width: int) -> int:
-    """Edge length in texels of one cube face (cube layouts only)."""
-    cw, ch, _ = _CELLS[layout]
-    return width // cw
-
-
 def latlong_directions(height: int, width: int) -> np.ndarray:
     """World directions of lat-long cell centres, ``(H, W, 3)``."""
     theta = np.pi * (np.arange(height) + 0.5) / height
@@ -135,11 +130,54 @@ def latlong_directions(height: int, width: int) -> np.ndarray:
     )
 
 
+@jit
+def row_solid_angle(row, height, width):
+    """Exact solid angle of one cell of lat-long row ``row`` (sr):
+    ``(2π/W)(cos(π i/H) − cos(π(i+1)/H))`` (SPEC §3)."""
+    return (np.cos(np.pi * row / height) - np.cos(np.pi * (row + 1) / height)) * 2.0 * np.pi / width
+
+
+@jit
+def _row_solid_angles(height, width, out):
+    for row in range(height):
+        out[row] = row_solid_angle(row, height, width)
+
+
+def latlong_row_solid_angles(height: int, width: int) -> np.ndarray:
+    """Exact solid angle of one cell of each lat-long row, ``(H,)`` (:func:`row_solid_angle`)."""
+    out = np.empty(height)
+    _row_solid_angles(height, width, out)
+    return out
+
+
 def latlong_solid_angles(height: int, width: int) -> np.ndarray:
     """Exact solid angle of every lat-long cell, ``(H, W)``; sums to 4π."""
-    edges = np.cos(np.pi * np.arange(height + 1) / height)
-    row = (2.0 * np.pi / width) * (edges[:-1] - edges[1:])
-    return np.repeat(row[:, None], width, axis=1)
+    return np.repeat(latlong_row_solid_angles(height, width)[:, None], width, axis=1)
+
+
+@jit
+def latlong_texel(dx, dy, dz, height, width):
+    """Flat index ``row * W + col`` of the lat-long cell holding world direction ``d`` (SPEC §3)."""
+    u = np.arctan2(dx, -dz) / (2.0 * np.pi)
+    if u < 0.0:
+        u += 1.0
+    v = np.arccos(min(1.0, max(-1.0, dy))) / np.pi
+    col = min(int(u * width), width - 1)
+    row = min(int(v * height), height - 1)
+    return row * width + col
+
+
+@jit
+def latlong_texel_point(j, f, u, height, width):
+    """A point of lat-long cell ``j`` (flat index): ``f`` ∈ [0, 1] uniform in ``cos θ`` across
+    the row, ``u`` ∈ [0, 1] across the column (SPEC §3); ``f = u = ½`` is the cell centre in
+    solid angle."""
+    row, col = j // width, j % width
+    z0, z1 = np.cos(np.pi * row / height), np.cos(np.pi * (row + 1) / height)
+    y = z0 - f * (z0 - z1)
+    s = np.sqrt(max(0.0, 1.0 - y * y))
+    phi = 2.0 * np.pi * (col + u) / width
+    return s * np.sin(phi), y, -s * np.cos(phi)
 
 
 def _face_area(x, y):
@@ -186,10 +224,3 @@ def texels(layout: str, height: int, width: int):
         )
     return cube_texels(layout, height, width)
 
-
-def latlong_uv(dirs) -> tuple[np.ndarray, np.ndarray]:
-    """Lat-long texture coordinates ``(u, v)`` in [0, 1] of world directions (SPEC §3)."""
-    d = np.asarray(dirs, dtype=np.float64)
-    u = np.mod(np.arctan2(d[..., 0], -d[..., 2]) / (2.0 * np.pi), 1.0)
-    v = np.arccos(np.clip(d[..., 1], -1.0, 1.0)) / np.pi
-    return u, v

@@ -9,7 +9,7 @@ and Schlick reflectance ``F0`` (1: chrome, 0.04: dielectric):
 - ``splitsum``: prefiltered radiance at the mirror direction times
   ``F0 A0 + (1 − F0) A1`` from ``/levels`` and ``/dfg`` (Karis 2013);
 - ``reference``: the ground truth ``F0 E0 + (1 − F0) E1`` integrated over the
-  original map (:func:`shbake.probe.ggx_integrals.ggx_integrals`).
+  original map (:func:`shbake.reference.ggx.ggx_integrals`).
 
 The probe passes read nothing but the asset's arrays. Roughness outside the
 probe's fitted range is refused (:func:`check_probe_roughness`).
@@ -21,11 +21,11 @@ import numpy as np
 
 from shbake.errors import ParameterError
 from shbake.format.asset import Asset
+from shbake.format.probe import check_probe_roughness
 from shbake.preview.sphere import sphere_geometry
-from shbake.probe.ggx_integrals import ggx_integrals
-from shbake.probe.probe_asset import check_probe_roughness
-from shbake.probe.shexp import evaluate_shexp
-from shbake.probe.splitsum import evaluate_splitsum
+from shbake.reference.ggx import ggx_integrals
+from shbake.shading.shexp import evaluate_shexp
+from shbake.shading.splitsum import evaluate_splitsum
 
 GLOSSY_PASSES = ("shexp", "splitsum", "reference")
 PASS_OF_KIND = {"shexp_probe": "shexp", "splitsum_probe": "splitsum"}

@@ -43,12 +43,6 @@ FFT_MIN_LMAX = 64
 """From this ``lmax`` on, row sums use a real FFT instead of the cos/sin table."""
 
 
-def latlong_row_weights(height: int, width: int) -> np.ndarray:
-    """Exact solid angle of one pixel of each row (SPEC §3), shape ``(height,)``, sr."""
-    edges = np.cos(np.pi * np.arange(height + 1) / height)
-    return (2.0 * np.pi / width) * (edges[:-1] - edges[1:])
-
-
 @lru_cache(maxsize=16)
 def fejer_row_weights(height: int, width: int) -> np.ndarray:
     """Fejér first-rule weight of one pixel of each row, ``(2π/W) w_i``, shape ``(height,)``.

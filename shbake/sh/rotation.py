@@ -33,7 +33,8 @@ def check_rotation(R) -> np.ndarray:
     return R
 
 
-def _block_offsets(lmax: int) -> np.ndarray:
+def block_offsets(lmax: int) -> np.ndarray:
+    """Start of each band's ``(2l+1)²`` block in the flat storage, and the total, ``(lmax+2,)``."""
     sizes = (2 * np.arange(lmax + 1) + 1) ** 2
     return np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
 
@@ -51,8 +52,12 @@ def _p(i, a, b, l, r1, prev):
 
 
 @jit
-def _rotation_blocks(r1, lmax, offsets, out):
-    """Fill the flat block storage ``out`` for bands 0…lmax (check-free kernel)."""
+def rotation_blocks(r1, lmax, offsets, out):
+    """Fill the flat block storage ``out`` for bands 0…lmax (check-free kernel).
+
+    ``r1`` is the ``l = 1`` block (``R`` permuted to the basis order ``(y, z, x)``,
+    module docstring), ``offsets`` from :func:`block_offsets`.
+    """
     out[0] = 1.0
     if lmax == 0:
         return
@@ -114,11 +119,11 @@ class SHRotation:
     def __init__(self, R, lmax: int):
         self.R = check_rotation(R)
         self.lmax = check_lmax(lmax)
-        self._offsets = _block_offsets(self.lmax)
+        self._offsets = block_offsets(self.lmax)
         perm = [1, 2, 0]
         r1 = np.ascontiguousarray(self.R[np.ix_(perm, perm)])
         self._flat = np.zeros(self._offsets[-1])
-        _rotation_blocks(r1, self.lmax, self._offsets, self._flat)
+        rotation_blocks(r1, self.lmax, self._offsets, self._flat)
 
     def block(self, l: int) -> np.ndarray:
         """The ``(2l+1, 2l+1)`` block of band ``l`` (rows/cols ``m = -l … l``)."""

@@ -12,6 +12,7 @@ from scipy.optimize import minimize
 from shbake.conventions import band_of_index, check_lmax, lmax_of
 from shbake.errors import ParameterError
 from shbake.sh.basis import real_sh
+from shbake.sh.point_sets import fibonacci_sphere
 
 WINDOW_METHODS = ("none", "hann", "lanczos", "dering")
 
@@ -32,15 +33,6 @@ def window(name: str, lmax: int) -> np.ndarray:
     if name == "lanczos":
         return np.sinc(l / (lmax + 1))
     raise ParameterError(f"unknown window {name!r}; choose one of {', '.join(WINDOW_METHODS)}")
-
-
-def fibonacci_sphere(n: int) -> np.ndarray:
-    """``n`` near-uniform unit vectors (spherical Fibonacci lattice), deterministic."""
-    i = np.arange(n) + 0.5
-    z = 1.0 - 2.0 * i / n
-    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    phi = np.pi * (3.0 - np.sqrt(5.0)) * i
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
 
 
 def _dir(p):

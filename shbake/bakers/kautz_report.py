@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from shbake.brdf.lookup import lookup
 from shbake.brdf.model import BRDF
 from shbake.brdf.tabulate import SQRT_4PI, project_views, tabulate
+from shbake.texture.parabolic import fetch
 
 LMAX_STUDY = (2, 4, 6, 8)
 RESOLUTION_STUDY = (32, 64, 128, 256)
@@ -81,7 +81,7 @@ def settings_report(
         t0 = time.perf_counter()
         table, _ = tabulate(brdf, lmax, (r, r), samples=samples)
         dt = time.perf_counter() - t0
-        err = SQRT_4PI * float(np.max(np.abs(lookup(table, test_views) - direct)))
+        err = SQRT_4PI * float(np.max(np.abs(fetch(table, test_views) - direct)))
         by_res.append({"resolution": r, "lookup_error": err, "table_seconds": dt})
     return {"lmax": by_lmax, "resolution": by_res, "samples": history}
 

@@ -20,15 +20,12 @@ from dataclasses import replace
 
 import numpy as np
 
+from shbake.bakers.shexp import FitConfig, FitPlan
+from shbake.bakers.shexp_targets import QuadraturePlan
 from shbake.conventions import n_coeffs
+from shbake.envmap.importance import bright_texels, latlong_pyramid
 from shbake.errors import ParameterError
-from shbake.probe.ggx_integrals import (
-    QuadraturePlan,
-    bright_texels,
-    ggx_integrals,
-    latlong_pyramid,
-)
-from shbake.probe.shexp import FitConfig, FitPlan
+from shbake.reference.ggx import ggx_integrals
 
 SAMPLE_STUDY = (256, 512, 1024, 2048, 4096)
 ORDER_STUDY = ((2, 1), (3, 2), (4, 2), (6, 3), (8, 4))

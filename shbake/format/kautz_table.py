@@ -12,11 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from shbake.brdf.model import BRDF, make_brdf, model_spec
-from shbake.brdf.parabolic import VIEW_Z_MIN
-from shbake.brdf.tabulate import SQRT_4PI, Convergence
-from shbake.conventions import lmax_of
+from shbake.conventions import SQRT_4PI, lmax_of
 from shbake.errors import FormatError, ParameterError
 from shbake.format.asset import Asset
+from shbake.texture.parabolic import VIEW_Z_MIN
 
 ENERGY_SLACK = 1e-3
 """Measured albedo above ``1 + ENERGY_SLACK`` flags a table as not energy-conserving."""
@@ -29,7 +28,7 @@ PARAMETERISATION = (
 def build_table_asset(
     brdf: BRDF,
     tables: np.ndarray,
-    convs: list[Convergence],
+    convs: list,
     vary: list[tuple[str, np.ndarray]],
     lmax: int,
     record_time: bool = True,

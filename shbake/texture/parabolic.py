@@ -8,19 +8,25 @@ lies outside the disc hold the value of the horizon direction ``(p/|p|, 0)``,
 so bilinear filtering at the rim blends only valid values.
 """
 
+import numba
 import numpy as np
 
 from shbake.errors import ParameterError
+from shbake.jit import jit, pjit
+from shbake.texture.bilinear import axis, blend
 
 VIEW_Z_MIN = 1e-4
 """Views closer to the horizon are evaluated at ``z = VIEW_Z_MIN`` (finite tables)."""
+RESOLUTION_LIMIT = 4096
 
 
 def check_resolution(height: int, width: int) -> tuple[int, int]:
     """Parabolic maps are 2…4096 texels a side."""
     for name, n in (("height", height), ("width", width)):
-        if not isinstance(n, int | np.integer) or not 2 <= n <= 4096:
-            raise ParameterError(f"parabolic map {name} must be an integer in [2, 4096], got {n}")
+        if not isinstance(n, int | np.integer) or not 2 <= n <= RESOLUTION_LIMIT:
+            raise ParameterError(
+                f"parabolic map {name} must be an integer in [2, {RESOLUTION_LIMIT}], got {n}"
+            )
     return int(height), int(width)
 
 
@@ -40,8 +46,38 @@ def texel_views(height: int, width: int) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def view_to_texture(views) -> tuple[np.ndarray, np.ndarray]:
-    """Texture coordinates ``(u, w)`` in ``[0, 1]`` of view directions (z clamped ≥ 0)."""
+@jit
+def fetch_into(table, vx, vy, vz, out):
+    """``out (n, C) = c(v)`` by bilinear filtering of ``table (H, W, n, C)``, edges clamped.
+
+    Check-free kernel: ``v`` unit; views below the horizon read the rim.
+    """
+    h, w = table.shape[0], table.shape[1]
+    z = vz if vz > 0.0 else 0.0
+    y0, y1, fy = axis((vy / (1.0 + z) + 1.0) * 0.5 * h - 0.5, h)
+    x0, x1, fx = axis((vx / (1.0 + z) + 1.0) * 0.5 * w - 0.5, w)
+    for i in range(table.shape[2]):
+        for c in range(table.shape[3]):
+            out[i, c] = blend(
+                table[y0, x0, i, c], table[y0, x1, i, c], table[y1, x0, i, c],
+                table[y1, x1, i, c], fy, fx,
+            )  # fmt: skip
+
+
+@pjit
+def _fetch_many(table, views, out):
+    for k in numba.prange(views.shape[0]):
+        fetch_into(table, views[k, 0], views[k, 1], views[k, 2], out[k])
+
+
+def fetch(table: np.ndarray, views) -> np.ndarray:
+    """Bilinear ``c(v)`` of an ``(H, W, n, C)`` table at unit local views ``(..., 3)``.
+
+    Returns ``(..., n, C)``.
+    """
     v = np.asarray(views, dtype=float)
-    z = np.maximum(v[..., 2], 0.0)
-    return (v[..., 0] / (1.0 + z) + 1.0) / 2.0, (v[..., 1] / (1.0 + z) + 1.0) / 2.0
+    flat = np.ascontiguousarray(v.reshape(-1, 3))
+    t = np.ascontiguousarray(table, dtype=np.float64)
+    out = np.empty((flat.shape[0],) + t.shape[2:])
+    _fetch_many(t, flat, out)
+    return out.reshape(v.shape[:-1] + t.shape[2:])

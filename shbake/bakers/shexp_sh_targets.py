@@ -21,16 +21,15 @@ import numba
 import numpy as np
 
 from shbake.brdf import make_brdf
-from shbake.brdf.lookup import fetch_into
 from shbake.brdf.sampling import tangent_frame
 from shbake.brdf.tabulate import tabulate
+from shbake.conventions import SH_TARGETS_LMAX_LIMIT, ggx_alpha
 from shbake.errors import ParameterError
 from shbake.jit import pjit
-from shbake.probe.ggx_integrals import ggx_alpha
 from shbake.sh.projection import project_latlong
 from shbake.sh.rotation import rotate
+from shbake.texture.parabolic import fetch_into
 
-LMAX_LIMIT = 24
 TABLE_RESOLUTION = (32, 32)
 
 
@@ -59,8 +58,10 @@ class ShTargets:
     """
 
     def __init__(self, views, normals, roughness, lmax: int = 8, samples: int = 1024):
-        if not 1 <= lmax <= LMAX_LIMIT:
-            raise ParameterError(f"SH target lmax must be in [1, {LMAX_LIMIT}], got {lmax}")
+        if not 1 <= lmax <= SH_TARGETS_LMAX_LIMIT:
+            raise ParameterError(
+                f"SH target lmax must be in [1, {SH_TARGETS_LMAX_LIMIT}], got {lmax}"
+            )
         self.lmax = lmax
         r_values, table_of = np.unique(np.asarray(roughness, float), return_inverse=True)
         n_values, normal_of = np.unique(np.asarray(normals, float), axis=0, return_inverse=True)

@@ -14,11 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from shbake.format.probe import check_probe_roughness
 from shbake.preview.sphere import sphere_geometry
-from shbake.probe.ggx_integrals import ggx_integrals
-from shbake.probe.probe_asset import check_probe_roughness
-from shbake.probe.shexp import evaluate_shexp
-from shbake.probe.splitsum import evaluate_splitsum
+from shbake.reference.ggx import ggx_integrals
+from shbake.shading.shexp import evaluate_shexp
+from shbake.shading.splitsum import evaluate_splitsum
 
 MATERIALS = {"chrome": 1.0, "dielectric": 0.04}
 ROUGHNESS = (0.25, 0.4, 0.6, 0.8, 1.0)
@@ -79,43 +79,3 @@ def render_case(pixels, shexp_asset, splitsum_asset, roughness, f0, yaw, size, t
         views, normals, roughness, (f0,) * 3,
     )  # fmt: skip
     return ProbeRenders(truth, coarse_truth, shexp, split)
-
-
-def evaluate_map(
-    env,
-    plan,
-    split_config,
-    dfg,
-    size: int = 32,
-    truth_samples: int = 4096,
-    roughness=ROUGHNESS,
-    yaws=VIEW_YAWS,
-    materials=MATERIALS,
-):
-    """Every case of one loaded map; rows of dicts and the two probe assets."""
-    from shbake.probe.probe_asset import build_shexp_asset, build_splitsum_asset
-    from shbake.probe.splitsum import prefilter_chain
-
-    shexp_asset = build_shexp_asset(plan.fit(env.pixels), plan.config, dfg, env.meta)
-    chain = prefilter_chain(env.pixels, split_config)
-    split_asset = build_splitsum_asset(chain, split_config, dfg, env.meta)
-    rows = []
-    for material, f0 in materials.items():
-        for r in roughness:
-            for yaw in yaws:
-                renders = render_case(
-                    env.pixels, shexp_asset, split_asset, r, f0, yaw, size, truth_samples
-                )
-                m_shexp, m_split = renders.mse()
-                rows.append(
-                    {
-                        "material": material,
-                        "roughness": float(r),
-                        "yaw": float(yaw),
-                        "mse_shexp": m_shexp,
-                        "mse_splitsum": m_split,
-                        "mse_truth_estimate": renders.truth_mse(),
-                        "shexp_wins": m_shexp < m_split,
-                    }
-                )
-    return rows, shexp_asset, split_asset

@@ -1,4 +1,4 @@
-"""Spherical-harmonic exponential glossy probes (Silvennoinen et al. 2025, §4).
+"""The SH-exponential glossy probe fit (Silvennoinen et al. 2025, §4).
 
 ``E0(v, n, r) ≈ P(ρ, r) Q(h_ρ, r)`` (eq. 9–11) with ``ρ = 2(n·v)n − v`` the
 mirror direction, ``h_ρ = (n + ρ)/|n + ρ|``, and::
@@ -11,25 +11,28 @@ without its DC term (8), which ``p`` already holds (§4.1). ``r`` is the
 paper's α, read as perceptual roughness (GGX width ``r²``, CONVENTIONS).
 The fit (eq. 13–14) is linear least squares in log space over fixed
 ``(v, n, r)`` samples; everything but the right-hand side is built once
-(:class:`FitPlan`). Full radiance: ``E = F0 E0 + (1 − F0) E0 A1/A0``
-(eq. 5, 15; :mod:`shbake.probe.albedo_table`).
+(:class:`FitPlan`). Shaded by :mod:`shbake.shading.shexp`.
 """
 
 from dataclasses import asdict, dataclass
 
-import numba
 import numpy as np
 import scipy.linalg
 
+from shbake.bakers.shexp_sh_targets import ShTargets
+from shbake.bakers.shexp_targets import QuadraturePlan
 from shbake.brdf.sampling import tangent_frame
-from shbake.conventions import n_coeffs
+from shbake.conventions import (
+    SH_TARGETS_LMAX_LIMIT,
+    SHEXP_LMAX_LIMIT,
+    check_roughness,
+    n_coeffs,
+)
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
-from shbake.probe.albedo_table import table_lookup
-from shbake.probe.ggx_integrals import QuadraturePlan, check_roughness, fibonacci_square
-from shbake.probe.sh_targets import LMAX_LIMIT, ShTargets
-from shbake.sh.basis import real_sh, recurrence_tables, sh_eval_into
-from shbake.sh.windows import fibonacci_sphere
+from shbake.jit import jit
+from shbake.sh.basis import real_sh
+from shbake.sh.point_sets import fibonacci_sphere, hemisphere_fibonacci
+from shbake.shading.shexp import mirror_and_half, vmf_factors
 
 WEIGHTINGS = ("log", "relative", "linear")
 TARGETS = ("quadrature", "sh")
@@ -69,15 +72,18 @@ class FitConfig:
 
     def __post_init__(self):
         checks = [
-            (0 <= self.lmax_p <= 8, "lmax_p must be in [0, 8]"),
-            (1 <= self.lmax_q <= 8, "lmax_q must be in [1, 8]"),
+            (0 <= self.lmax_p <= SHEXP_LMAX_LIMIT, f"lmax_p must be in [0, {SHEXP_LMAX_LIMIT}]"),
+            (1 <= self.lmax_q <= SHEXP_LMAX_LIMIT, f"lmax_q must be in [1, {SHEXP_LMAX_LIMIT}]"),
             (4 <= self.normals <= 4096, "normals must be in [4, 4096]"),
             (4 <= self.views <= 4096, "views must be in [4, 4096]"),
             (1 <= self.roughness_count <= 64, "roughness_count must be in [1, 64]"),
             (self.weighting in WEIGHTINGS, f"weighting must be one of {', '.join(WEIGHTINGS)}"),
             (np.isfinite(self.floor) and 0 < self.floor < 1, "floor must be in (0, 1)"),
             (self.targets in TARGETS, f"targets must be one of {', '.join(TARGETS)}"),
-            (1 <= self.targets_lmax <= LMAX_LIMIT, f"targets_lmax must be in [1, {LMAX_LIMIT}]"),
+            (
+                1 <= self.targets_lmax <= SH_TARGETS_LMAX_LIMIT,
+                f"targets_lmax must be in [1, {SH_TARGETS_LMAX_LIMIT}]",
+            ),
         ]
         for ok, msg in checks:
             if not ok:
@@ -98,30 +104,6 @@ class FitConfig:
 
     def as_dict(self) -> dict:
         return asdict(self)
-
-
-def vmf_factors(lmax: int, roughness) -> np.ndarray:
-    """``vMF_l(1/r)`` per coefficient index, shape ``(…, (lmax+1)^2)`` (eq. 12)."""
-    l = np.repeat(np.arange(lmax + 1), 2 * np.arange(lmax + 1) + 1)
-    r = np.asarray(roughness, dtype=float)[..., None]
-    return np.exp(-l * (l + 1) * r / 2.0)
-
-
-def hemisphere_fibonacci(n: int) -> np.ndarray:
-    """``n`` local directions spread uniformly over the upper hemisphere (``z`` uniform)."""
-    u = fibonacci_square(n)
-    z = 1.0 - u[:, 0]
-    s = np.sqrt(1.0 - z * z)
-    phi = 2.0 * np.pi * u[:, 1]
-    return np.stack([s * np.cos(phi), s * np.sin(phi), z], 1)
-
-
-def mirror_and_half(views, normals) -> tuple[np.ndarray, np.ndarray]:
-    """``ρ = 2(n·v)n − v`` and ``h_ρ = (n + ρ)/|n + ρ|`` (eq. 10)."""
-    nv = np.einsum("...i,...i->...", normals, views)[..., None]
-    rho = 2.0 * nv * normals - views
-    h = normals + rho
-    return rho, h / np.linalg.norm(h, axis=-1, keepdims=True)
 
 
 def design_rows(views, normals, roughness, lmax_p: int, lmax_q: int) -> np.ndarray:
@@ -264,53 +246,3 @@ def _scaled_cost(A, x, b, s) -> float:
     """``Σ s² (exp(A x − b) − 1)²`` (overflow reads as +inf: the step is refused)."""
     with np.errstate(over="ignore"):
         return float(np.sum((s * np.expm1(A @ x - b)) ** 2))
-
-
-@pjit
-def _evaluate(views, normals, roughness, f0, p, q, lmax_p, lmax_q, qmm, a, b, table, out):
-    for k in numba.prange(views.shape[0]):
-        yp = np.empty((lmax_p + 1) ** 2)
-        yq = np.empty((lmax_q + 1) ** 2)
-        vx, vy, vz = views[k, 0], views[k, 1], views[k, 2]
-        nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
-        nv = nx * vx + ny * vy + nz * vz
-        rx, ry, rz = 2 * nv * nx - vx, 2 * nv * ny - vy, 2 * nv * nz - vz
-        hx, hy, hz = nx + rx, ny + ry, nz + rz
-        hn = np.sqrt(hx * hx + hy * hy + hz * hz)
-        sh_eval_into(rx, ry, rz, lmax_p, qmm, a, b, yp)
-        sh_eval_into(hx / hn, hy / hn, hz / hn, lmax_q, qmm, a, b, yq)
-        r = roughness[k]
-        a0, a1 = table_lookup(table, nv, r)
-        tail = a1 / a0 if a0 > 0.0 else 0.0
-        for c in range(3):
-            s = 0.0
-            for l in range(lmax_p + 1):
-                g = np.exp(-l * (l + 1) * r / 2.0)
-                for i in range(l * l, (l + 1) * (l + 1)):
-                    s += g * yp[i] * p[i, c]
-            for l in range(1, lmax_q + 1):
-                g = np.exp(-l * (l + 1) * r / 2.0)
-                for i in range(l * l, (l + 1) * (l + 1)):
-                    s += g * yq[i] * q[i - 1, c]
-            e0 = np.exp(s)
-            out[k, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
-
-
-def evaluate_shexp(p, q, table, views, normals, roughness, f0=(1.0, 1.0, 1.0)) -> np.ndarray:
-    """Outgoing radiance ``(T, 3)`` of an SH-exp probe at world ``(v, n, r)``.
-
-    ``f0``: Schlick reflectance per channel (1 = chrome: ``E0`` alone).
-    Roughness must lie in the probe's fitted range; the caller checks it.
-    """
-    p = np.asarray(p, float)
-    q = np.asarray(q, float)
-    lmax_p = int(round(np.sqrt(p.shape[0]))) - 1
-    lmax_q = int(round(np.sqrt(q.shape[0] + 1))) - 1
-    v = np.ascontiguousarray(np.asarray(views, float).reshape(-1, 3))
-    n = np.ascontiguousarray(np.asarray(normals, float).reshape(-1, 3))
-    r = np.ascontiguousarray(np.broadcast_to(np.asarray(roughness, float), (v.shape[0],)))
-    out = np.empty((v.shape[0], 3))
-    f0 = np.broadcast_to(np.asarray(f0, float), (3,)).copy()
-    qmm, a, b = recurrence_tables(max(lmax_p, lmax_q))
-    _evaluate(v, n, r, f0, p, q, lmax_p, lmax_q, qmm, a, b, np.asarray(table, float), out)
-    return out

@@ -1,25 +1,23 @@
-"""The ``env_sh`` asset: SH lighting, Lambert and Kajiya–Kay irradiance of an environment.
+"""The ``env_sh`` baker: SH lighting, Lambert and Kajiya–Kay irradiance of an environment.
 
 ``bake_env_sh`` turns an :class:`~shbake.envmap.Environment` into an
-:class:`~shbake.format.asset.Asset` (``docs/FORMAT.md`` §3);
-``irradiance_errors`` measures what the chosen settings cost in accuracy
-against brute-force quadrature of the original map.
+``env_sh`` :class:`~shbake.format.asset.Asset` (``docs/FORMAT.md`` §3);
+``truncation_report`` says what the chosen ``lmax`` loses (RH02 §5.1).
+Shaded by :mod:`shbake.shading.env_sh`, measured by :mod:`shbake.evaluation.env_sh`.
 """
 
 import time
 
 import numpy as np
 
-from shbake.conventions import REC709_LUMINANCE, band_of_index, check_lmax
+from shbake.conventions import band_of_index, check_lmax
 from shbake.envmap.environment import Environment
-from shbake.envmap.sun import Sun, extract_sun
+from shbake.envmap.sun import extract_sun
 from shbake.errors import ParameterError
 from shbake.format.asset import Asset
-from shbake.reference.irradiance import brute_force_irradiance
-from shbake.sh.basis import real_sh
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 from shbake.sh.tangent_irradiance import matrix_form
-from shbake.sh.windows import WINDOW_METHODS, dering_window, fibonacci_sphere, window
+from shbake.sh.windows import WINDOW_METHODS, dering_window, window
 
 REPORT_LMAX = 64
 """Band up to which ``--report`` projects to estimate what truncation loses."""
@@ -133,53 +131,6 @@ def _jsonable(d: dict) -> dict:
     return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}
 
 
-def sh_irradiance(asset: Asset, dirs: np.ndarray, tangent: bool = False) -> np.ndarray:
-    """Irradiance from an ``env_sh`` asset at unit ``dirs`` (…, 3): SH plus the sun if present."""
-    key = "/tangent_irradiance/sh" if tangent else "/irradiance/sh"
-    coeffs = asset[key]
-    lmax = int(round(np.sqrt(coeffs.shape[0]))) - 1
-    E = real_sh(dirs, lmax) @ coeffs
-    if "/sun/direction" in asset:
-        energy = asset["/sun/radiance"] * float(asset["/sun/solid_angle"])
-        c = np.asarray(dirs) @ asset["/sun/direction"]
-        k = np.sqrt(np.maximum(0.0, 1.0 - c * c)) / np.pi**2 if tangent else np.maximum(c, 0.0)
-        E = E + k[..., None] * energy
-    return E
-
-
-def brute_force_reference(env: Environment, n_dirs: int = 2048) -> dict:
-    """Brute-force luminance of irradiance and tangent irradiance of ``env``.
-
-    Queries: ``n_dirs`` spherical-Fibonacci directions. Returns
-    ``{"dirs": (n, 3), "irradiance": (n,), "tangent_irradiance": (n,)}``.
-    """
-    dirs, omega, radiance = env.samples()
-    q = fibonacci_sphere(n_dirs)
-    out = {"dirs": q}
-    for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
-        out[name] = brute_force_irradiance(dirs, omega, radiance, q, tangent) @ REC709_LUMINANCE
-    return out
-
-
-def irradiance_errors(asset: Asset, env: Environment, reference: dict | None = None) -> dict:
-    """Luminance relative error of the asset's irradiance vs brute force of ``env``.
-
-    ``env`` is the original map (before sun extraction); ``reference`` a
-    :func:`brute_force_reference` of it, computed here when omitted. Returns,
-    for ``irradiance`` and ``tangent_irradiance`` when present,
-    ``{"mean": …, "max": …}`` of ``|Y(E) - Y(E_ref)| / Y(E_ref)``.
-    """
-    ref = reference if reference is not None else brute_force_reference(env)
-    out = {}
-    for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
-        if f"/{name}/sh" not in asset:
-            continue
-        got = sh_irradiance(asset, ref["dirs"], tangent=tangent) @ REC709_LUMINANCE
-        rel = np.abs(got - ref[name]) / np.maximum(ref[name], 1e-30)
-        out[name] = {"mean": float(rel.mean()), "max": float(rel.max())}
-    return out
-
-
 def truncation_report(env: Environment, lmax: int, irradiance_lmax: int) -> dict:
     """Energy per band and the error the chosen ``lmax`` implies (RH02 §5.1).
 
@@ -205,13 +156,3 @@ def truncation_report(env: Environment, lmax: int, irradiance_lmax: int) -> dict
         lost = k2[irradiance_lmax + 1 :].sum(axis=0) / np.maximum(k2.sum(axis=0), 1e-300)
         rep[f"{name}_energy_lost"] = lost.tolist()
     return rep
-
-
-__all__ = [
-    "Sun",
-    "bake_env_sh",
-    "brute_force_reference",
-    "irradiance_errors",
-    "sh_irradiance",
-    "truncation_report",
-]
