@@ -27,6 +27,7 @@ import numpy as np
 from shbake.envmap.layouts import cube_face_axes, cube_texels
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
+from shbake.texture.bilinear import axis, blend
 
 FACE_AXES = np.ascontiguousarray(cube_face_axes())
 """``(6, 3, 3)`` face matrices (read-only)."""
@@ -63,15 +64,10 @@ def cube_address(axes, dx, dy, dz, size):
 def _clamped_bilinear(cube, face, x, y, c):
     """Bilinear fetch inside one face, coordinates clamped to its texel centres."""
     size = cube.shape[1]
-    x = min(max(x, 0.0), size - 1.0)
-    y = min(max(y, 0.0), size - 1.0)
-    j = min(int(x), max(size - 2, 0))
-    i = min(int(y), max(size - 2, 0))
-    fx, fy = x - j, y - i
-    j1, i1 = min(j + 1, size - 1), min(i + 1, size - 1)
-    return (1.0 - fy) * ((1.0 - fx) * cube[face, i, j, c] + fx * cube[face, i, j1, c]) + fy * (
-        (1.0 - fx) * cube[face, i1, j, c] + fx * cube[face, i1, j1, c]
-    )
+    i0, i1, fy = axis(y, size)
+    j0, j1, fx = axis(x, size)
+    return blend(cube[face, i0, j0, c], cube[face, i0, j1, c], cube[face, i1, j0, c],
+                 cube[face, i1, j1, c], fy, fx)  # fmt: skip
 
 
 @jit
