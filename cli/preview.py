@@ -14,7 +14,7 @@ from shbake.preview.glossy import PASS_OF_KIND, render_glossy
 from shbake.preview.passes import PASSES, render_pass
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
-ALL_PASSES = PASSES + ("shexp", "splitsum")
+ALL_PASSES = PASSES + ("shexp", "splitsum", "shrm")
 
 
 def load_source(asset, source_path):
@@ -151,7 +151,10 @@ def preview(
     assets (shexp_probe, shexp_probe_set with --index, splitsum_probe): a GGX
     sphere of --roughness and --f0 shaded by the probe, or the glossy reference.
     """
-    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", *PASS_OF_KIND))
+    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", "shrm", *PASS_OF_KIND))
+    if asset.kind == "shrm":  # SHRM hook (issue 13): shbake.preview.shrm
+        preview_shrm(asset, pass_name, output, size, diff, source, as_json, quiet)
+        return
     if asset.kind == "shexp_probe_set":
         asset = probe_from_set(asset, index)
     if asset.kind in PASS_OF_KIND:
@@ -212,6 +215,31 @@ def preview_probe(asset, asset_path, pass_name, output, size, diff, source, roug
     if diff:
         reference, ref_timing = render_glossy(asset, "reference", size, roughness, f0, src, samples)
         summary["reference_seconds"] = ref_timing["seconds"]
+    write_outputs(output, img, reference, summary, as_json, quiet, src)
+
+
+def preview_shrm(asset, pass_name, output, size, diff, source, as_json, quiet):
+    """The ``shrm`` pass (eq. 12 + cube lookup, timed) and its brute-force reference."""
+    from shbake.format.shrm import shrm_from_asset
+    from shbake.preview.shrm import render_reference, render_shrm
+
+    pass_name = pass_name or "shrm"
+    if pass_name not in ("shrm", "reference") or (diff and pass_name == "reference"):
+        raise click.UsageError("an shrm asset has passes shrm and reference (--diff: shrm)")
+    shrm = shrm_from_asset(asset)
+    src = load_source(asset, source) if (diff or pass_name == "reference") else None
+    if pass_name == "reference":
+        img, timing = render_reference(shrm, src, size)
+    else:
+        img, timing = render_shrm(shrm, size)
+    summary = {"pass": pass_name, "size": size, **timing}
+    reference = None
+    if diff:
+        reference, ref_timing = render_reference(shrm, src, size)
+        summary["reference_seconds"] = ref_timing["seconds"]
+    if pass_name == "shrm":
+        info(f"shrm: eq. 12 update {timing['eq12_fps']:.1f}/s at {shrm.face_size}²×6, "
+             f"frame {timing['fps']:.1f}/s", quiet)  # fmt: skip
     write_outputs(output, img, reference, summary, as_json, quiet, src)
 
 
