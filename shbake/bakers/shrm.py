@@ -333,6 +333,11 @@ class BRDFCoefficients:
 def brdf_coefficients(rb: ReflectionBRDF, F: int, P: int, quad: Quadrature | None = None):
     """``ρ̂_lpq`` for ``l ≤ F``, ``p ≤ P`` by the three-step algorithm of appendix C.
 
+    Default quadrature: ``clip(4F+64, 128, 320)`` nodes in ``θ_i``,
+    ``clip(4P+24, 32, 64)`` in ``θ_o``, ``clip(4P+16, 24, 64)`` in ``φ``
+    (measured against 640 × 128 × 128 nodes: ≤ 1e-4 of the largest
+    coefficient for the microfacet σ = 0.1 and Lafortune skin, ≤ 2e-3 for GGX
+    α = 0.0625).
     Step 1 ``ρ̂_q(θ_i, θ_o) = 2π ∫ ρ̂ cos qφ dφ``; step 2
     ``ρ̂_pq(θ_i) = ∫ ρ̂_q P̄_p^q(cos θ_o) d cos θ_o``; step 3
     ``ρ̂_lpq = ∫ ρ̂_pq P̄_l^q(cos θ_i) d cos θ_i``. Cost ``O(P S T²)``.
@@ -344,7 +349,11 @@ def brdf_coefficients(rb: ReflectionBRDF, F: int, P: int, quad: Quadrature | Non
         P_q = P
     if rb.kind == "lobe":
         P = 0
-    quad = quad or default_quadrature(rb.kind)
+    if quad is None:
+        quad = default_quadrature(
+            rb.kind, int(np.clip(4 * F + 64, 128, 320)), int(np.clip(4 * P + 24, 32, 64)),
+            int(np.clip(4 * P + 16, 24, 64)),
+        )  # fmt: skip
     grid = np.zeros(quad.shape + (3,))
     _rho_grid(rb.kind_id, rb.model_id, np.ascontiguousarray(rb.prm, dtype=float), rb.data,
               quad.xi, quad.xo, quad.phi, grid)  # fmt: skip
