@@ -52,6 +52,8 @@ def _params(values) -> dict:
 )
 @click.option(
     "--eps",
+    "--tol",
+    "eps",
     type=float,
     default=0.03,
     show_default=True,
@@ -131,12 +133,13 @@ def shrm(env, output, brdf, params, merl_path, eps, F, P, face_size, exr_dir, vi
         quiet,
     )
     if report and not as_json:
-        click.echo("F\tP\tpredicted\tbound\tmeasured_rel_rms\tseconds\tbytes")
+        click.echo("F\tP\tpredicted\tbound\tmeasured_rel_rms\tseconds\tbytes", err=True)
         for r in summary["report"]:
             m = "-" if r["measured_rel_rms"] is None else f"{r['measured_rel_rms']:.4f}"
             click.echo(
                 f"{r['F']}\t{r['P']}\t{r['eps_brdf']:.4f}\t{r['eps_bound']:.2e}\t{m}\t"
-                f"{r['seconds']:.3f}\t{r['bytes']}"
+                f"{r['seconds']:.3f}\t{r['bytes']}",
+                err=True,
             )
     if as_json:
         emit_json(summary)
