@@ -521,10 +521,14 @@ def ry_columns(cos_a, sin_a, F: int, Q: int, X=None) -> np.ndarray:
     ``M^l(R_y α_a)_{k q}`` (zero for ``|q| > l``). ``M(R_y α) = X M(R_z α) Xᵀ``
     is formed as one matrix product per band over all angles.
     """
-    X = X if X is not None else _x_blocks(F)
     ca = np.asarray(cos_a, float)
     sa = np.asarray(sin_a, float)
     n = ca.size
+    if Q == 0:  # M^l(R_y α)_{k0} = Λ_l y_lk(R_y ẑ), R_y ẑ = (sin α, 0, cos α): O(F²) per angle
+        lam = np.sqrt(4.0 * np.pi / (2.0 * np.arange(F + 1) + 1.0))
+        y = real_sh(np.stack([sa, np.zeros_like(sa), ca], axis=-1), F)
+        return (y * np.repeat(lam, 2 * np.arange(F + 1) + 1))[:, None, :]
+    X = X if X is not None else _x_blocks(F)
     out = np.zeros((n, 2 * Q + 1, n_coeffs(F)))
     ang = np.arctan2(sa, ca)
     k = np.arange(F + 1)
@@ -659,7 +663,7 @@ def shrm_from_directions(
     inv = inv.ravel()
     n_out = P + 1 if kind == "tangent" else n_coeffs(P)
     out = np.zeros((d.shape[0], n_out, 3))
-    X = _x_blocks(F)
+    X = _x_blocks(F) if Q > 0 else None
     Lc = np.ascontiguousarray(np.asarray(L, float)[: n_coeffs(F)])
     rho = np.ascontiguousarray(coeffs.rho)
     row_bytes = n_coeffs(F) * (2 * Q + 1) * 8
