@@ -1,26 +1,26 @@
 """``shbake probe-fit``: lat-long maps → SH-exponential glossy probes, in batch."""
 
 import os
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import click
-from shbake_cli.options import emit_json, fix_nonfinite_opt, info, json_opt, negative_opt, quiet_opt
+from shbake_cli.options import (
+    emit_json,
+    fix_nonfinite_opt,
+    info,
+    json_opt,
+    negative_opt,
+    parse_range,
+    quiet_opt,
+)
 
 from shbake.bakers.shexp import TARGETS, WEIGHTINGS, FitConfig
 from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
 from shbake.errors import InputError, ParameterError
 from shbake.format.atomic import check_writable_dir
-
-
-def parse_range(text: str) -> tuple[float, float]:
-    """``"lo:hi"`` → ``(lo, hi)``."""
-    try:
-        lo, hi = (float(x) for x in text.split(":"))
-    except ValueError:
-        raise ParameterError(f"--roughness-range {text!r}: expected lo:hi, e.g. 0.2:1") from None
-    return lo, hi
 
 
 def read_probe_list(path: str) -> list[tuple[str, str | None]]:
@@ -254,7 +254,7 @@ def probe_fit(
     idempotent file; the same inputs give byte-identical files with --jobs,
     --scheduler or neither.
     """
-    lo, hi = parse_range(roughness_range)
+    lo, hi = parse_range(roughness_range, "--roughness-range")
     config = FitConfig(lmax_p, lmax_q, normals, views, roughness_count, lo, hi, samples,
                        weighting, floor, targets, targets_lmax)  # fmt: skip
     jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_set)
@@ -264,7 +264,7 @@ def probe_fit(
         jobs = [replace(job, config=config) for job in jobs]
     if scheduler and n_jobs != 1:
         raise ParameterError("use --jobs or --scheduler, not both")
-    show = not quiet and click.get_text_stream("stderr").isatty()
+    show = not quiet and sys.stderr.isatty()
 
     def progress(done, total):
         if show:

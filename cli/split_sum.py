@@ -1,8 +1,15 @@
 """``shbake split-sum``: the split-sum baseline probe (prefiltered octahedral mip chain + DFG)."""
 
 import click
-from shbake_cli.options import emit_json, fix_nonfinite_opt, info, json_opt, negative_opt, quiet_opt
-from shbake_cli.probe_fit import parse_range
+from shbake_cli.options import (
+    emit_json,
+    fix_nonfinite_opt,
+    info,
+    json_opt,
+    negative_opt,
+    parse_range,
+    quiet_opt,
+)
 
 from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
 from shbake.batch.probe_jobs import shared_dfg_table
@@ -48,7 +55,7 @@ def split_sum(
     quiet,
 ):
     """Bake the split-sum baseline of ENV (Karis 2013) as a probe asset of its own."""
-    lo, hi = parse_range(roughness_range)
+    lo, hi = parse_range(roughness_range, "--roughness-range")
     config = SplitSumConfig(top, min_size, levels, lo, hi, samples)
     check_writable_dir(output)
     environment = load_environment(env, negative=negative, fix_nonfinite=fix_nonfinite, quiet=quiet)

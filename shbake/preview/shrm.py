@@ -116,3 +116,31 @@ def _chunked(r, dirs, om, rad, kernel):
     for i in range(0, len(r), 64):
         res[i : i + 64] = (kernel(r[i : i + 64] @ dirs.T) * om) @ rad
     return res
+
+
+def preview_shrm(asset, pass_name, size: int, diff: bool, source):
+    """The preview of an ``shrm`` asset: ``(image, reference or None, summary, settings)``.
+
+    Passes ``shrm`` (default) and ``reference``; ``diff`` adds the reference to ``shrm``.
+    ``source``: the original Environment (needed by ``reference`` and ``diff``).
+    """
+    from shbake.format.shrm import shrm_from_asset
+
+    pass_name = pass_name or "shrm"
+    if pass_name not in ("shrm", "reference") or (diff and pass_name == "reference"):
+        raise ParameterError("an shrm asset has passes shrm and reference (--diff: shrm)")
+    shrm = shrm_from_asset(asset)
+    if pass_name == "reference":
+        img, timing = render_reference(shrm, source, size)
+    else:
+        img, timing = render_shrm(shrm, size)
+    summary = {"pass": pass_name, "size": size, **timing}
+    reference = None
+    if diff:
+        reference, ref_timing = render_reference(shrm, source, size)
+        summary["reference_seconds"] = ref_timing["seconds"]
+    settings = (f"{shrm.attrs['brdf_model']} F {shrm.F} P {shrm.P}, face {shrm.face_size}, "
+                f"size {size}")  # fmt: skip
+    if pass_name == "shrm":
+        settings += f", eq. 12 {timing['eq12_fps']:.0f}/s"
+    return img, reference, summary, settings
