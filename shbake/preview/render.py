@@ -22,8 +22,8 @@ from shbake.format.kautz_table import table_at
 from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.glossy import PASS_OF_KIND, render_glossy
-from shbake.preview.shrm import preview_shrm
 from shbake.preview.passes import PASSES, render_pass
+from shbake.preview.shrm import preview_shrm
 from shbake.progress import NO_PROGRESS
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
