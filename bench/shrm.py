@@ -82,7 +82,7 @@ def env_at(name, height):
 
 def section_phong(lines):
     env = env_at("city", 128)
-    R, _ = cube_directions(64)
+    R = cube_directions(64)
     R = R.reshape(-1, 3)
     rows = []
     for s, paper in TABLE4.items():
@@ -125,7 +125,7 @@ def grid_views(n=10):
 
 def section_micro(lines):
     env = env_at("city", 128)
-    R, _ = cube_directions(32)
+    R = cube_directions(32)
     R = R.reshape(-1, 3)
     views = grid_views(10)
     rows = []

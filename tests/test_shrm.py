@@ -11,6 +11,7 @@ import os
 
 import numpy as np
 import pytest
+from helpers import map_path, write_merl
 from scipy import integrate, special
 
 from shbake.bakers.shrm import (
@@ -34,7 +35,6 @@ from shbake.sh.basis import real_sh
 from shbake.sh.rotation import SHRotation
 from shbake.shading.shrm import evaluate_shrm, reflection_cube, shade
 from shbake.texture.cube import cube_directions, sample_cube
-from tests.conftest import map_path
 
 
 def small_env(name="city", height=128):
@@ -59,9 +59,12 @@ def rel_rms(a, b):
 
 
 class TestSampleCube:
-    def test_texel_centres_exact_and_solid_angles(self):
-        d, om = cube_directions(8)
-        assert om.sum() == pytest.approx(4 * np.pi, abs=1e-12)
+    def test_texel_centres_exact_and_same_as_the_input_layout(self):
+        from shbake.envmap.layouts import cube_texels
+
+        d = cube_directions(8)
+        ref = cube_texels("cube-strip", 48, 8)[0].reshape(-1, 3)
+        np.testing.assert_allclose(d.reshape(-1, 3), ref, atol=1e-15)
         cube = np.random.default_rng(0).normal(size=(6, 8, 8, 2))
         np.testing.assert_allclose(sample_cube(cube, d), cube, atol=1e-14)
 
@@ -75,7 +78,7 @@ class TestSampleCube:
         srt = np.sort(np.abs(q), 1)
         errs = []
         for size in (16, 32, 64):
-            d, _ = cube_directions(size)
+            d = cube_directions(size)
             err = np.abs(sample_cube(f(d), q) - f(q)).max(1)
             corner = srt[:, 0] / srt[:, 2] > 1 - 2 / size
             errs.append(err[~corner].max())
@@ -170,7 +173,7 @@ class TestPhongAgainstBruteForce:
         dirs, om, rad = env.samples()
         bake = bake_shrm(env, make_reflection_brdf("phong-lobe", {"s": s}), eps=1e-6, face_size=8)
         assert bake.P == 0
-        R, _ = cube_directions(8)
+        R = cube_directions(8)
         R = R.reshape(-1, 3)
         ref = np.zeros((len(R), 3))
         for i in range(0, len(R), 64):
@@ -288,7 +291,7 @@ class TestAngularBaseline:
 
         env = small_env("city", 64)
         dirs, om, rad = env.samples()
-        R, _ = cube_directions(8)
+        R = cube_directions(8)
         R = R.reshape(-1, 3)
         s, eps = 128.0, 1e-12
         ct = eps ** (1 / (s + 1))  # appendix D: cos θ* = ε^{1/(s+1)}
@@ -304,7 +307,7 @@ class TestAngularBaseline:
 
         env = small_env("city", 64)
         rb = make_reflection_brdf("microfacet", {"sigma": 0.3})
-        R, _ = cube_directions(8)
+        R = cube_directions(8)
         R = R.reshape(-1, 3)
         views = np.array([[0.0, 0.0, 1.0], [0.6, 0.8, 0.0]])
         full = angular_reflection_maps(env.pixels, rb, R, views, eps=0.0)
@@ -315,3 +318,63 @@ class TestAngularBaseline:
                 views[k], 6
             )
             assert rel_rms(fr[keep], full[k][keep]) < 0.01
+
+
+class TestMeasuredAndTangent:
+    def test_merl_through_the_same_path(self, tmp_path):
+
+        from shbake.brdf.merl import half_diff_grid
+
+        ggx = make_brdf("ggx", F0="0.9,0.5,0.2", alpha=0.4)
+        s, v = half_diff_grid()
+        vals = ggx.evaluate(s, v)
+        vals[(s[..., 2] <= 0) | (v[..., 2] <= 0)] = -1.0
+        path = tmp_path / "ggx04.binary"
+        write_merl(path, np.moveaxis(vals, -1, 0).clip(0))
+        env = small_env("forest", 64)
+        dirs, om, rad = env.samples()
+        n, view, frames, vl = sphere_case(24)
+        rb = make_reflection_brdf("merl", {}, str(path))
+        ref = brute_force_shading(dirs, om, rad, frames, vl, make_brdf("merl", str(path)))
+        bake = bake_shrm(env, rb, F=20, P=5, face_size=32)
+        img = evaluate_shrm(bake.cube, np.broadcast_to(view, n.shape), n)
+        assert rel_rms(img, ref) < 0.03
+
+    def test_kajiya_kay_tangent_q0(self):
+        env = small_env("city", 64)
+        dirs, om, rad = env.samples()
+        nrm, tan, mask = sphere_geometry(24)
+        t = tan[mask]
+        view = np.array([0.0, 0.0, 1.0])
+        kd, ks, p = 0.3, 0.7, 32.0
+        rb = make_reflection_brdf("kajiya-kay", {"kd": kd, "ks": ks, "p": p})
+        bake = bake_shrm(env, rb, eps=0.01, face_size=32)
+        assert bake.cube.shape[3] == bake.P + 1  # q = 0: P + 1 terms
+        img = evaluate_shrm(bake.cube, np.broadcast_to(view, t.shape), None, "tangent", t)
+        co, ci = t @ view, t @ dirs.T  # direct texel sum of the tangent-parameterised lobe
+        so, si = np.sqrt(1 - co**2), np.sqrt(np.clip(1 - ci**2, 0, None))
+        f = (
+            kd * si / np.pi
+            + ks
+            * (p + 2)
+            / (2 * np.pi)
+            * np.clip(si * so[:, None] - ci * co[:, None], 0, None) ** p
+        )
+        ref = (f * om) @ rad
+        assert rel_rms(img, ref) < 0.03
+
+
+class TestPreviewPass:
+    def test_shrm_pass_and_diff(self, run_cli, tmp_path):
+        import json
+
+        out = tmp_path / "m.h5"
+        src = str(map_path("city"))
+        rc, _, err = run_cli("shrm", src, "-o", out, "-p", "sigma=0.4", "--face-size", "16", "-q")
+        assert rc == 0, err
+        rc, stdout, err = run_cli("preview", out, "-o", tmp_path / "p.exr", "--size", "32",
+                                  "--diff", "--source", src, "--json", "-q")  # fmt: skip
+        assert rc == 0, err
+        summary = json.loads(stdout)
+        assert summary["pass"] == "shrm" and summary["eq12_fps"] > 0
+        assert summary["relative_rms_error"] < 0.05

@@ -688,7 +688,7 @@ def shrm_from_directions(
 def shrm_cube(L, coeffs: BRDFCoefficients, face_size: int, kind: str = "surface",
               local: bool = False) -> np.ndarray:  # fmt: skip
     """The SHRM on a cube map: ``(6, S, S, (P+1)², 3)`` (``(6, S, S, P+1, 3)`` tangent)."""
-    dirs, _ = cube_directions(face_size)
+    dirs = cube_directions(face_size)
     flat = shrm_from_directions(dirs.reshape(-1, 3), L, coeffs, kind, local)
     return flat.reshape(6, face_size, face_size, *flat.shape[1:])
 
@@ -810,7 +810,6 @@ def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32
     the appendix-B bound), the error measured against brute force on a sphere seen from
     +Z (relative RMS; surface and lobe kinds), the bake time and the bytes."""
     from shbake.brdf.sampling import tangent_frame as frame_of
-    from shbake.preview.sphere import sphere_geometry
     from shbake.reference.brdf_shading import brute_force_shading
     from shbake.shading.shrm import reflection_cube, shade
 
@@ -818,8 +817,10 @@ def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32
     if rb.radially_symmetric:
         P_values = [0]
     co = brdf_coefficients(rb, max(F_values), max(P_values))
-    n, _, mask = sphere_geometry(sphere)
-    n = n[mask]
+    c = 2.0 * (np.arange(sphere) + 0.5) / sphere - 1.0
+    x, y = np.meshgrid(c, -c)  # the preview's orthographic sphere seen from +Z
+    inside = x * x + y * y < 1.0
+    n = np.stack([x[inside], y[inside], np.sqrt(1.0 - x[inside] ** 2 - y[inside] ** 2)], -1)
     view = np.array([0.0, 0.0, 1.0])
     ref = None
     dirs, om, rad = env.samples()

@@ -22,29 +22,14 @@ apart).
 
 import numpy as np
 
+from shbake.conventions import CUBE_FACES
 from shbake.errors import LayoutError
 from shbake.jit import jit
 
 LAYOUTS = ("latlong", "cube-strip", "cross-h", "cross-v")
 
 # Per face: direction = A @ (s, t, 1), s = left→right, t = top→bottom in [-1, 1].
-_STRIP_FACES = {
-    "+X": ((0, 0, 1), (0, -1, 0), (1, 0, 0)),
-    "-X": ((0, 0, -1), (0, -1, 0), (-1, 0, 0)),
-    "+Y": ((1, 0, 0), (0, 0, 1), (0, -1, 0)),
-    "-Y": ((1, 0, 0), (0, 0, -1), (0, 1, 0)),
-    "+Z": ((-1, 0, 0), (0, -1, 0), (0, 0, 1)),
-    "-Z": ((1, 0, 0), (0, -1, 0), (0, 0, -1)),
-}
-CUBE_FACE_NAMES = tuple(_STRIP_FACES)
-"""Cube faces in the OpenEXR strip order (+X, −X, +Y, −Y, +Z, −Z)."""
-
-
-def cube_face_axes() -> np.ndarray:
-    """``(6, 3, 3)`` matrices ``A`` of the strip faces: direction ``= A @ (s, t, 1)``."""
-    return np.array([_STRIP_FACES[f] for f in CUBE_FACE_NAMES], dtype=np.float64)
-
-
+_STRIP_FACES = dict(CUBE_FACES)  # the one table of face orientations (shbake.conventions)
 _CROSS_POLES = {
     "+Y": ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
     "-Y": ((-1, 0, 0), (0, 0, -1), (0, -1, 0)),

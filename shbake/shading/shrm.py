@@ -55,7 +55,7 @@ def reflection_cube(shrm, view, kind: str = "surface") -> np.ndarray:
     P = _terms(shrm, kind)
     v = _unit(view, "view")
     if kind == "tangent":
-        dirs, _ = cube_directions(shrm.shape[1])
+        dirs = cube_directions(shrm.shape[1])
         x = np.clip(dirs @ v, -1.0, 1.0)
         d = np.stack([np.sqrt(1.0 - x * x), np.zeros_like(x), x], axis=-1)
         y = real_sh(d, P)[..., [p * (p + 1) for p in range(P + 1)]]  # y_p0(T·V)

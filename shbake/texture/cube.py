@@ -1,7 +1,7 @@
 """Cube maps in the OpenEXR ``envmap = cube`` convention (SPEC §3): addressing and bilinear fetch.
 
 A cube map is an array ``(6, S, S, C)``: faces +X, −X, +Y, −Y, +Z, −Z in the
-strip order of :func:`shbake.envmap.layouts.cube_face_axes`, row ``i`` and
+strip order of :data:`shbake.conventions.CUBE_FACES`, row ``i`` and
 column ``j`` of a face at ``t = 2(i+½)/S − 1`` (top → bottom) and
 ``s = 2(j+½)/S − 1`` (left → right), direction ``∝ A_face @ (s, t, 1)``.
 Texels are cells (GPU rule), the same geometry as the cube-strip input layout.
@@ -24,22 +24,25 @@ within half a texel of the eight corners.
 import numba
 import numpy as np
 
-from shbake.envmap.layouts import cube_face_axes, cube_texels
+from shbake.conventions import CUBE_FACES
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 from shbake.texture.bilinear import axis, blend
 
-FACE_AXES = np.ascontiguousarray(cube_face_axes())
+FACE_AXES = np.array([a for _, a in CUBE_FACES], dtype=np.float64)
 """``(6, 3, 3)`` face matrices (read-only)."""
 FACE_AXES.flags.writeable = False
 
 
-def cube_directions(size: int) -> tuple[np.ndarray, np.ndarray]:
-    """Unit texel-centre directions ``(6, S, S, 3)`` and exact solid angles ``(6, S, S)``."""
+def cube_directions(size: int) -> np.ndarray:
+    """Unit texel-centre directions ``(6, S, S, 3)`` (the cube-strip layout's, face by face)."""
     if not isinstance(size, int | np.integer) or size < 1:
         raise ParameterError(f"cube face size must be a positive integer, got {size!r}")
-    dirs, omega, _ = cube_texels("cube-strip", 6 * size, size)
-    return dirs.reshape(6, size, size, 3), omega.reshape(6, size, size)
+    c = 2.0 * (np.arange(size) + 0.5) / size - 1.0
+    s, t = np.meshgrid(c, c)  # s along columns, t along rows
+    st1 = np.stack([s, t, np.ones_like(s)], axis=-1)
+    d = np.einsum("fij,abj->fabi", FACE_AXES, st1)
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
 @jit
