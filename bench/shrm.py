@@ -63,12 +63,14 @@ TABLE5 = {0.1: (24, 3, 923, 2.70, 1.55), 0.2: (12, 2, 2744, 1.55, 0.72),
 
 
 def best_of(f, n):
-    best = np.inf
-    out = None
+    """Shortest of ``n`` runs and that run's result."""
+    best, out = np.inf, None
     for _ in range(n):
         t0 = time.perf_counter()
-        out = f()
-        best = min(best, time.perf_counter() - t0)
+        res = f()
+        dt = time.perf_counter() - t0
+        if dt < best:
+            best, out = dt, res
     return best, out
 
 

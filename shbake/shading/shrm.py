@@ -60,8 +60,13 @@ def reflection_cube(shrm, view, kind: str = "surface") -> np.ndarray:
         d = np.stack([np.sqrt(1.0 - x * x), np.zeros_like(x), x], axis=-1)
         y = real_sh(d, P)[..., [p * (p + 1) for p in range(P + 1)]]  # y_p0(T·V)
         return np.einsum("fijnc,fijn->fijc", shrm, y)
-    y = real_sh(v, P)
-    return np.tensordot(np.asarray(shrm, dtype=np.float64), y, axes=([3], [0]))
+    s = np.asarray(shrm)
+    if s.dtype not in (np.float32, np.float64):
+        s = s.astype(np.float64)
+    # in the asset's precision (float32, as a GPU would), one small product per texel
+    y = real_sh(v, P).astype(s.dtype)
+    out = np.matmul(y, s.reshape(-1, s.shape[3], 3))
+    return out.reshape(s.shape[:3] + (3,)).astype(np.float64)
 
 
 def reflect(normals, view) -> np.ndarray:
