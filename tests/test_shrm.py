@@ -131,6 +131,12 @@ class TestSelectOrders:
             assert o.P == 0
             assert abs(o.F - np.sqrt(-s * np.log(0.01))) <= 2
 
+    def test_kajiya_kay_paper_P(self):
+        # §7.1: "we found P = 8 for s = 32 and ε < .03"
+        rb = make_reflection_brdf("kajiya-kay", {"kd": 0.0, "ks": 1.0, "p": 32.0})
+        o = select_orders(brdf_coefficients(rb, F_LIMIT, 16), 0.03)
+        assert o.P == 8 and o.reached
+
     def test_face_size(self):
         assert auto_face_size(12) == 64 and auto_face_size(24) == 128 and auto_face_size(1) == 16
 
