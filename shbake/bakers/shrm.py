@@ -68,7 +68,7 @@ from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
-from shbake.sh.basis import real_sh
+from shbake.sh.basis import real_sh_numba
 from shbake.sh.rotation import SHRotation
 from shbake.texture.cube import cube_directions
 
@@ -240,7 +240,7 @@ def legendre_table(x, lmax: int, qmax: int) -> np.ndarray:
     """
     x = np.asarray(x, dtype=float)
     d = np.stack([np.sqrt(np.maximum(0.0, 1.0 - x * x)), np.zeros_like(x), x], axis=-1)
-    y = real_sh(d, lmax)
+    y = real_sh_numba(d, lmax)
     out = np.zeros((lmax + 1, qmax + 1, x.size))
     for l in range(lmax + 1):
         for q in range(min(l, qmax) + 1):
@@ -526,7 +526,7 @@ def ry_columns(cos_a, sin_a, F: int, Q: int, X=None) -> np.ndarray:
     n = ca.size
     if Q == 0:  # M^l(R_y α)_{k0} = Λ_l y_lk(R_y ẑ), R_y ẑ = (sin α, 0, cos α): O(F²) per angle
         lam = np.sqrt(4.0 * np.pi / (2.0 * np.arange(F + 1) + 1.0))
-        y = real_sh(np.stack([sa, np.zeros_like(sa), ca], axis=-1), F)
+        y = real_sh_numba(np.stack([sa, np.zeros_like(sa), ca], axis=-1), F)
         return (y * np.repeat(lam, 2 * np.arange(F + 1) + 1))[:, None, :]
     X = X if X is not None else _x_blocks(F)
     out = np.zeros((n, 2 * Q + 1, n_coeffs(F)))
@@ -567,74 +567,89 @@ def _shrm_texels(aidx, flip, cb, sb, Y, L, rho, F, P, Q, mode, out):
     ``M(R_y α)`` keeps the parity of the real basis (``cos`` ↔ ``cos``, ``sin`` ↔ ``sin``):
     ``Y[a, q, k] = 0`` when ``k`` and ``q`` differ in sign, so half the sums are skipped.
     Texels with ``flip[t]`` read the columns of ``π − α`` and apply :func:`_ysign`.
+    Texels are processed in blocks that share their scratch arrays.
     """
-    for t in numba.prange(aidx.shape[0]):
-        a = aidx[t]
-        fl = flip[t]
+    n = aidx.shape[0]
+    block = 64
+    for b0 in numba.prange((n + block - 1) // block):
         ck = np.empty(F + 1)
         sk = np.empty(F + 1)
-        ck[0], sk[0] = 1.0, 0.0
-        for k in range(1, F + 1):
-            ck[k] = ck[k - 1] * cb[t] - sk[k - 1] * sb[t]
-            sk[k] = sk[k - 1] * cb[t] + ck[k - 1] * sb[t]
-        G = np.zeros((F + 1, 2 * Q + 1, 3))
-        lr = np.empty((2 * F + 1, 3))
+        G = np.empty((F + 1, 2 * Q + 1, 3))
         B = np.zeros((P + 1, 2 * P + 1, 3))
-        for l in range(F + 1):
-            base = l * (l + 1)
-            for c in range(3):
-                lr[l, c] = L[base, c]
-                for k in range(1, l + 1):
-                    lp, lm = L[base + k, c], L[base - k, c]
-                    lr[l + k, c] = ck[k] * lp + sk[k] * lm
-                    lr[l - k, c] = -sk[k] * lp + ck[k] * lm
-            qq = min(l, Q)
-            for q in range(-qq, qq + 1):
-                yq = Y[a, q + Q]
-                a0 = a1 = a2 = 0.0
-                k0, k1 = (0, l) if q >= 0 else (-l, -1)
-                for k in range(k0, k1 + 1):
-                    y = yq[base + k] * _ysign(fl, l, k, q)
-                    a0 += lr[l + k, 0] * y
-                    a1 += lr[l + k, 1] * y
-                    a2 += lr[l + k, 2] * y
-                G[l, q + Q, 0] = a0
-                G[l, q + Q, 1] = a1
-                G[l, q + Q, 2] = a2
-        for p in range(P + 1):
-            qq = min(p, Q)
-            for q in range(-qq, qq + 1):
-                aq = abs(q)
-                for c in range(3):
-                    acc = 0.0
-                    for l in range(aq, F + 1):
-                        acc += rho[l, p, aq, c] * G[l, q + Q, c]
-                    B[p, q + P, c] = acc
-        for c in range(3):
-            if mode == 2:
-                for p in range(P + 1):
-                    out[t, p, c] = B[p, P, c]
-            elif mode == 1 or Q == 0:
-                for p in range(P + 1):
-                    for q in range(-p, p + 1):
-                        out[t, p * (p + 1) + q, c] = B[p, q + P, c] if abs(q) <= Q else 0.0
+        for t in range(b0 * block, min(n, (b0 + 1) * block)):
+            _texel(t, aidx[t], flip[t], cb[t], sb[t], Y, L, rho, F, P, Q, mode, ck, sk, G, B,
+                   out)  # fmt: skip
+
+
+@jit
+def _texel(t, a, fl, cbt, sbt, Y, L, rho, F, P, Q, mode, ck, sk, G, B, out):
+    ck[0], sk[0] = 1.0, 0.0
+    for k in range(1, F + 1):
+        ck[k] = ck[k - 1] * cbt - sk[k - 1] * sbt
+        sk[k] = sk[k - 1] * cbt + ck[k - 1] * sbt
+    G[:] = 0.0
+    for l in range(F + 1):
+        base = l * (l + 1)
+        qq = min(l, Q)
+        for k in range(0, l + 1):  # cos-type: (M(R_z β)ᵀ L)_k, k ≥ 0, meets q ≥ 0
+            if k == 0:
+                r0, r1, r2 = L[base, 0], L[base, 1], L[base, 2]
             else:
-                for p in range(P + 1):
-                    base = p * (p + 1)
-                    for s in range(-p, p + 1):
-                        acc = 0.0
-                        for q in range(-p, p + 1):
-                            ys = abs(s)
-                            yp = Y[a, q + Q, base + ys] * _ysign(fl, p, ys, q)
-                            ym = Y[a, q + Q, base - ys] * _ysign(fl, p, -ys, q)
-                            if s == 0:
-                                m = yp
-                            elif s > 0:
-                                m = ck[s] * yp - sk[s] * ym
-                            else:
-                                m = sk[-s] * yp + ck[-s] * ym
-                            acc += m * B[p, q + P, c]
-                        out[t, base + s, c] = acc
+                c, s = ck[k], sk[k]
+                r0 = c * L[base + k, 0] + s * L[base - k, 0]
+                r1 = c * L[base + k, 1] + s * L[base - k, 1]
+                r2 = c * L[base + k, 2] + s * L[base - k, 2]
+            for q in range(0, qq + 1):
+                y = Y[a, q + Q, base + k] * _ysign(fl, l, k, q)
+                G[l, q + Q, 0] += y * r0
+                G[l, q + Q, 1] += y * r1
+                G[l, q + Q, 2] += y * r2
+        if qq == 0:
+            continue
+        for k in range(1, l + 1):  # sin-type: index −k, meets q < 0
+            c, s = ck[k], sk[k]
+            r0 = -s * L[base + k, 0] + c * L[base - k, 0]
+            r1 = -s * L[base + k, 1] + c * L[base - k, 1]
+            r2 = -s * L[base + k, 2] + c * L[base - k, 2]
+            for q in range(-qq, 0):
+                y = Y[a, q + Q, base - k] * _ysign(fl, l, -k, q)
+                G[l, q + Q, 0] += y * r0
+                G[l, q + Q, 1] += y * r1
+                G[l, q + Q, 2] += y * r2
+    for p in range(P + 1):
+        qq = min(p, Q)
+        for q in range(-qq, qq + 1):
+            aq = abs(q)
+            for c in range(3):
+                acc = 0.0
+                for l in range(aq, F + 1):
+                    acc += rho[l, p, aq, c] * G[l, q + Q, c]
+                B[p, q + P, c] = acc
+    for c in range(3):
+        if mode == 2:
+            for p in range(P + 1):
+                out[t, p, c] = B[p, P, c]
+        elif mode == 1 or Q == 0:
+            for p in range(P + 1):
+                for q in range(-p, p + 1):
+                    out[t, p * (p + 1) + q, c] = B[p, q + P, c] if abs(q) <= Q else 0.0
+        else:
+            for p in range(P + 1):
+                base = p * (p + 1)
+                for s in range(-p, p + 1):
+                    acc = 0.0
+                    for q in range(-p, p + 1):
+                        ys = abs(s)
+                        yp = Y[a, q + Q, base + ys] * _ysign(fl, p, ys, q)
+                        ym = Y[a, q + Q, base - ys] * _ysign(fl, p, -ys, q)
+                        if s == 0:
+                            m = yp
+                        elif s > 0:
+                            m = ck[s] * yp - sk[s] * ym
+                        else:
+                            m = sk[-s] * yp + ck[-s] * ym
+                        acc += m * B[p, q + P, c]
+                    out[t, base + s, c] = acc
 
 
 def shrm_from_directions(
