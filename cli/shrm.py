@@ -133,9 +133,13 @@ def shrm(env, output, brdf, params, merl_path, eps, F, P, face_size, exr_dir, vi
         quiet,
     )
     if report and not as_json:
-        click.echo("F\tP\tpredicted\tbound\tmeasured_rel_rms\tseconds\tbytes", err=True)
+        click.echo(
+            "F\tP\tpredicted\tbound\tmeasured_energy\tmeasured_rel_rms\tseconds\tbytes", err=True
+        )
         for r in summary["report"]:
-            m = "-" if r["measured_rel_rms"] is None else f"{r['measured_rel_rms']:.4f}"
+            m = "-\t-"
+            if r["measured_rel_rms"] is not None:
+                m = f"{r['measured_rel_energy']:.2e}\t{r['measured_rel_rms']:.4f}"
             click.echo(
                 f"{r['F']}\t{r['P']}\t{r['eps_brdf']:.4f}\t{r['eps_bound']:.2e}\t{m}\t"
                 f"{r['seconds']:.3f}\t{r['bytes']}",

@@ -822,8 +822,9 @@ def write_exr_cubes(directory: str, bake: ShrmBake, view) -> list[str]:
 def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32,
                 sphere: int = 24) -> list[dict]:  # fmt: skip
     """The ``--report`` table: per ``(F, P)`` the predicted error (BRDF energy left out and
-    the appendix-B bound), the error measured against brute force on a sphere seen from
-    +Z (relative RMS; surface and lobe kinds), the bake time and the bytes."""
+    the appendix-B bound, both energy fractions), the error measured against brute force on
+    a sphere seen from +Z (relative RMS, and its square, the relative energy; surface and
+    lobe kinds), the bake time and the bytes."""
     from shbake.brdf.sampling import tangent_frame as frame_of
     from shbake.reference.brdf_shading import brute_force_shading
     from shbake.shading.shrm import reflection_cube, shade
@@ -856,10 +857,13 @@ def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32
             b = bake_shrm(env, rb, eps=0.5, F=F, P=P, face_size=face_size, coeffs_full=co)
             row = {"F": F, "P": P, "eps_brdf": b.orders.eps_brdf,
                    "eps_bound": b.bound["eps_bound_max"], "seconds": b.timings["total"],
-                   "bytes": int(b.cube.nbytes), "measured_rel_rms": None}  # fmt: skip
+                   "bytes": int(b.cube.nbytes), "measured_rel_rms": None,
+                   "measured_rel_energy": None}  # fmt: skip
             if ref is not None:
                 img = shade(reflection_cube(b.cube, view), n, view)
-                row["measured_rel_rms"] = float(np.sqrt(np.sum((img - ref) ** 2) / np.sum(ref**2)))
+                e2 = float(np.sum((img - ref) ** 2) / np.sum(ref**2))
+                row["measured_rel_rms"] = float(np.sqrt(e2))
+                row["measured_rel_energy"] = e2  # comparable with eps_brdf and the bound
             rows.append(row)
     return rows
 
