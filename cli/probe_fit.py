@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 from shbake_cli.options import (
+    deprecated,
     emit_json,
     fix_nonfinite_opt,
     info,
@@ -119,18 +120,19 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
     help="Probe list: lines 'MAP [OUTPUT]'.",
 )
 @click.option(
-    "--set",
+    "-o",
+    "--output",
     "probe_set",
     type=click.Path(dir_okay=False),
-    help="Write all probes into this one shexp_probe_set asset (list order) instead.",
+    help="All probes in this one shexp_probe_set asset, list order (a file; written "
+    "atomically, all or nothing). Without it: one file per probe in --out-dir.",
 )
 @click.option(
-    "-o",
     "--out-dir",
     default=".",
     show_default=True,
     type=click.Path(file_okay=False),
-    help="Folder for <map stem>.h5 outputs.",
+    help="Folder for one <map stem>.h5 per probe (each written atomically).",
 )
 @click.option(
     "--lmax-p", type=int, default=4, show_default=True, help="Highest band of P (mirror direction)."
@@ -163,10 +165,10 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 )
 @click.option(
     "--samples",
-    type=int,
+    type=click.IntRange(16, 1 << 20),
     default=1024,
     show_default=True,
-    help="Visible-normal samples per E0 target.",
+    help="Quadrature samples per E0 fit target (filtered visible-normal samples).",
 )
 @click.option(
     "--weighting",
@@ -205,10 +207,10 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 )
 @click.option(
     "--tol",
-    type=float,
+    type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
     default=None,
-    help="Use the fewest samples (256-4096) whose E0 target error (log RMS, first map) is "
-    "at most this.",
+    help="Error tolerance in (0, 1): use the fewest --samples (256-4096) whose E0 target "
+    "error (log RMS against a converged truth, first map) is at most TOL.",
 )
 @click.option(
     "--jobs", "n_jobs", type=int, default=1, show_default=True, help="Local worker processes."
@@ -223,6 +225,7 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
+@deprecated("--set", "probe_set", "-o/--output", type=click.Path(dir_okay=False))
 def probe_fit(
     maps,
     probe_list,
