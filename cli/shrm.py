@@ -4,12 +4,15 @@ import click
 from shbake_cli.options import (
     colorspace_opt,
     emit_json,
+    exr_dir_opt,
     fix_nonfinite_opt,
     info,
     json_opt,
     layout_opt,
     negative_opt,
+    output_opt,
     quiet_opt,
+    report_opt,
 )
 
 from shbake.bakers.shrm import bake_to_file
@@ -27,7 +30,7 @@ def _params(values) -> dict:
 
 @click.command("shrm")
 @click.argument("env", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Asset (.h5).")
+@output_opt("The SHRM asset (.h5)")
 @click.option(
     "--brdf",
     default="microfacet",
@@ -57,7 +60,8 @@ def _params(values) -> dict:
     type=float,
     default=0.03,
     show_default=True,
-    help="Tolerated fraction of BRDF energy left out; chooses F and P (RH02 §5.1).",
+    help="Error tolerance in (0, 1): the fraction of BRDF energy left out; chooses F and P "
+    "(RH02 §5.1).",
 )
 @click.option(
     "--F",
@@ -79,12 +83,7 @@ def _params(values) -> dict:
     default=None,
     help="Cube face size in texels (4…1024) [default: power of two nearest 5F, 16…256].",
 )
-@click.option(
-    "--exr-dir",
-    type=click.Path(file_okay=False),
-    default=None,
-    help="Also write the B_pq cubes (shrm_p<p>.exr) and reflection.exr (eq. 12).",
-)
+@exr_dir_opt("the B_pq cubes shrm_p<p>.exr and reflection.exr (eq. 12 for --view)")
 @click.option(
     "--view",
     default="0,0,1",
@@ -92,12 +91,7 @@ def _params(values) -> dict:
     metavar="X,Y,Z",
     help="World view direction (toward the viewer) of reflection.exr.",
 )
-@click.option(
-    "--report",
-    is_flag=True,
-    help="Print predicted error, measured error vs brute force, time and bytes over a "
-    "range of F and P.",
-)
+@report_opt
 @layout_opt
 @colorspace_opt
 @negative_opt
