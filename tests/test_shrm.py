@@ -384,3 +384,18 @@ class TestPreviewPass:
         summary = json.loads(stdout)
         assert summary["pass"] == "shrm" and summary["eq12_fps"] > 0
         assert summary["relative_rms_error"] < 0.05
+
+
+class TestRyColumns:
+    def test_against_shrotation_to_l64(self):
+        from shbake.bakers.shrm import ry_columns
+
+        for alpha in (0.3, 1.9):
+            ry = np.array([[np.cos(alpha), 0, np.sin(alpha)], [0, 1, 0],
+                           [-np.sin(alpha), 0, np.cos(alpha)]])  # fmt: skip
+            M = SHRotation(ry, 64)
+            Y = ry_columns([np.cos(alpha)], [np.sin(alpha)], 64, 3)[0]
+            for l in (0, 1, 5, 30, 64):
+                for q in range(-min(l, 3), min(l, 3) + 1):
+                    col = M.block(l)[:, q + l]
+                    np.testing.assert_allclose(Y[q + 3, l * l : (l + 1) ** 2], col, atol=1e-9)
