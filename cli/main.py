@@ -26,6 +26,7 @@ COMMANDS = {
     "probe-eval": "probe_eval:probe_eval",
     "overview": "overview:overview",
     "export": "export:export",
+    "shrm": "shrm:shrm",
 }
 """Subcommand → ``module:attribute`` in ``shbake_cli``, imported on use."""
 

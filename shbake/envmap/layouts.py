@@ -22,20 +22,14 @@ apart).
 
 import numpy as np
 
+from shbake.conventions import CUBE_FACES
 from shbake.errors import LayoutError
 from shbake.jit import jit
 
 LAYOUTS = ("latlong", "cube-strip", "cross-h", "cross-v")
 
 # Per face: direction = A @ (s, t, 1), s = left→right, t = top→bottom in [-1, 1].
-_STRIP_FACES = {
-    "+X": ((0, 0, 1), (0, -1, 0), (1, 0, 0)),
-    "-X": ((0, 0, -1), (0, -1, 0), (-1, 0, 0)),
-    "+Y": ((1, 0, 0), (0, 0, 1), (0, -1, 0)),
-    "-Y": ((1, 0, 0), (0, 0, -1), (0, 1, 0)),
-    "+Z": ((-1, 0, 0), (0, -1, 0), (0, 0, 1)),
-    "-Z": ((1, 0, 0), (0, -1, 0), (0, 0, -1)),
-}
+_STRIP_FACES = dict(CUBE_FACES)  # the one table of face orientations (shbake.conventions)
 _CROSS_POLES = {
     "+Y": ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
     "-Y": ((-1, 0, 0), (0, 0, -1), (0, -1, 0)),

@@ -16,7 +16,7 @@ from shbake import __version__, conventions
 from shbake.errors import FormatError
 from shbake.format.atomic import atomic_path
 
-KINDS = ("env_sh", "brdf_table", "shexp_probe", "shexp_probe_set", "splitsum_probe")
+KINDS = ("env_sh", "brdf_table", "shexp_probe", "shexp_probe_set", "splitsum_probe", "shrm")
 """Asset kinds this version of shbake reads and writes."""
 
 

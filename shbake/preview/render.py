@@ -23,10 +23,11 @@ from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.glossy import PASS_OF_KIND, render_glossy
 from shbake.preview.passes import PASSES, render_pass
+from shbake.preview.shrm import preview_shrm
 from shbake.progress import NO_PROGRESS
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
-ALL_PASSES = PASSES + tuple(PASS_OF_KIND.values())
+ALL_PASSES = PASSES + tuple(PASS_OF_KIND.values()) + ("shrm",)
 
 
 def load_source(asset, source_path):
@@ -135,11 +136,14 @@ def preview_asset(
     """
     if pass_name is not None and pass_name not in ALL_PASSES:
         raise ParameterError(f"unknown pass {pass_name!r}; choose one of {', '.join(ALL_PASSES)}")
-    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", *PASS_OF_KIND))
+    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", "shrm", *PASS_OF_KIND))
     if asset.kind == "shexp_probe_set":
         asset = probe_from_set(asset, index)
     with progress.task(f"preview {os.path.basename(asset_path)}", total=None, unit="pass"):
-        if asset.kind in PASS_OF_KIND:
+        if asset.kind == "shrm":  # SHRM hook (issue 13): shbake.preview.shrm.preview_shrm
+            src = load_source(asset, source) if (diff or pass_name == "reference") else None
+            img, reference, summary, settings = preview_shrm(asset, pass_name, size, diff, src)
+        elif asset.kind in PASS_OF_KIND:
             img, reference, summary, settings, src = _render_probe(
                 asset, asset_path, pass_name, size, diff, source, roughness, f0, samples
             )
