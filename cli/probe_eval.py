@@ -23,9 +23,15 @@ from shbake.format.atomic import write_text
 @samples_opt(4096, "per pixel of the ground truth (visible-normal + map samples)")
 @deprecated("--truth-samples", "samples", "--samples", type=int)
 @deprecated("--markdown", "output", "-o/--output", type=click.Path(dir_okay=False))
+@click.option(
+    "--sheet-dir",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Folder for one labelled contact sheet per case (SH-exp v2 | ground truth | error).",
+)
 @json_opt
 @quiet_opt
-def probe_eval(maps, output, size, samples, as_json, quiet):
+def probe_eval(maps, output, size, samples, sheet_dir, as_json, quiet):
     """Measure the probes of MAPS against ground truth.
 
     Cases: chrome (F0 1) and dielectric (F0 0.04) × the paper's GGX widths
@@ -39,7 +45,7 @@ def probe_eval(maps, output, size, samples, as_json, quiet):
         wins = sum(r["mse"]["shexp_v2"] < r["mse"]["splitsum_plain"] for r in rows)
         info(f"probe-eval: {name}: SH-exp v2 beats plain split-sum in {wins}/{len(rows)}", quiet)
 
-    result = evaluate_maps(maps, size, samples, progress)
+    result = evaluate_maps(maps, size, samples, progress, sheet_dir=sheet_dir)
     totals = {f"{m} vs {b}": win_table(result, m, b)["total"] for m, b in COMPARISONS}
     for k, (w, n) in totals.items():
         info(f"probe-eval: {k}: {w}/{n} ({w / n:.0%})", quiet)

@@ -31,17 +31,17 @@ def bake_probes(env, plans: dict, split_config: SplitSumConfig, dfg) -> dict:
 
 def evaluate_map(env, plans: dict, split_config: SplitSumConfig, dfg, size: int = 32,
                  truth_samples: int = 4096, alphas=ALPHAS, yaws=VIEW_YAWS,
-                 materials=MATERIALS, cache_dir=None):  # fmt: skip
+                 materials=MATERIALS, cache_dir=None, sheet_dir=None, label="map"):  # fmt: skip
     """Every case of one loaded map: rows (:func:`evaluate_cases`), the assets and their
-    bytes per probe."""
+    bytes per probe; ``sheet_dir``: one contact sheet per case, named after ``label``."""
     assets = bake_probes(env, plans, split_config, dfg)
     rows = evaluate_cases(env.pixels, assets, size, truth_samples, alphas, yaws, materials,
-                          cache_dir)  # fmt: skip
+                          cache_dir, sheet_dir, label)  # fmt: skip
     return rows, assets, {name: probe_bytes(a) for name, a in assets.items()}
 
 
 def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=None,
-                  cache_dir=None) -> dict:  # fmt: skip
+                  cache_dir=None, sheet_dir=None) -> dict:  # fmt: skip
     """Every case of every map (lat-long files): ``{"maps": {stem: rows}, "bytes": {name:
     bytes per probe}, "configs": …}``; SH-exp v2 is :class:`FitConfig` ``()``, the paper's
     fit :meth:`FitConfig.paper`, both split-sums :class:`SplitSumConfig` ``()`` (plain and
@@ -64,8 +64,11 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
         if env.layout != "latlong":
             raise InputError(f"{path}: probe-eval takes lat-long maps (2:1)")
         plans = {k: fit_plan(c, env.shape) for k, c in configs.items()}
+        if sheet_dir is not None:
+            Path(sheet_dir).mkdir(parents=True, exist_ok=True)
         rows, _, nbytes = evaluate_map(env, plans, split, dfg, size, truth_samples,
-                                       cache_dir=cache_dir)  # fmt: skip
+                                       cache_dir=cache_dir, sheet_dir=sheet_dir,
+                                       label=Path(path).stem)  # fmt: skip
         out["maps"][Path(path).stem] = rows
         out["bytes"] = nbytes
         if progress:

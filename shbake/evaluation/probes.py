@@ -24,6 +24,7 @@ import numpy as np
 
 from shbake.errors import ParameterError
 from shbake.format.probe import check_probe_alpha
+from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.sphere import sphere_geometry
 from shbake.reference.ggx import ggx_integrals
 from shbake.shading.shexp import evaluate_shexp
@@ -105,23 +106,44 @@ def case_truth(pixels, alpha: float, yaw: float, size: int, truth_samples: int,
     return CaseTruth(normals, views, e0, e1, c0, c1)
 
 
+def write_case_sheet(sheet_dir, label: str, material: str, alpha: float, yaw: float,
+                     size: int, shaded: dict, ref: np.ndarray, mse: dict) -> str:  # fmt: skip
+    """A labelled contact sheet of one case: the first probe of ``shaded`` (name → radiance
+    ``(P, 3)`` on the visible sphere pixels) | the ground truth | the signed error; the
+    title names the case, the subtitle every probe's MSE."""
+    _, _, mask = sphere_views(size, yaw)
+    name = next(iter(shaded))
+
+    def image(values):
+        img = np.zeros((size, size, 3))
+        img[mask] = values
+        return img
+
+    title = f"{label}: {material}, α {alpha:.4g}, view yaw {yaw:.0f}°; result = {name}"
+    subtitle = "MSE " + ", ".join(f"{k} {v:.3g}" for k, v in mse.items())
+    path = str(Path(sheet_dir) / f"{label}-{material}-a{alpha:.4g}-yaw{yaw:.0f}-sheet.png")
+    return write_contact_sheet(path, image(shaded[name]), mask, title, image(ref), subtitle,
+                               labels=(name, "ground truth (MIS)"))  # fmt: skip
+
+
 def evaluate_cases(pixels, assets: dict, size: int = 32, truth_samples: int = 4096,
                    alphas=ALPHAS, yaws=VIEW_YAWS, materials=MATERIALS,
-                   cache_dir=None) -> list[dict]:  # fmt: skip
+                   cache_dir=None, sheet_dir=None, label: str = "map") -> list[dict]:  # fmt: skip
     """Rows ``{material, alpha, yaw, mse: {name: MSE}, mse_truth_estimate}`` for every case
-    of one map; ``assets``: name → probe asset; ``cache_dir``: :func:`case_truth`."""
+    of one map; ``assets``: name → probe asset; ``cache_dir``: :func:`case_truth`;
+    ``sheet_dir``: also write one contact sheet per case (:func:`write_case_sheet`)."""
     rows = []
     for a in alphas:
         for yaw in yaws:
             truth = case_truth(pixels, a, yaw, size, truth_samples, cache_dir)
             for material, f0 in materials.items():
                 ref = truth.radiance(f0)
-                mse = {
-                    name: float(np.mean(
-                        (shade_probe(asset, truth.views, truth.normals, a, f0) - ref) ** 2))
-                    for name, asset in assets.items()
-                }  # fmt: skip
+                shaded = {name: shade_probe(asset, truth.views, truth.normals, a, f0)
+                          for name, asset in assets.items()}  # fmt: skip
+                mse = {name: float(np.mean((s - ref) ** 2)) for name, s in shaded.items()}
                 err = float(np.mean((truth.radiance(f0, coarse=True) - ref) ** 2)) / 5.0
                 rows.append({"material": material, "alpha": float(a), "yaw": float(yaw),
                              "mse": mse, "mse_truth_estimate": err})  # fmt: skip
+                if sheet_dir is not None:
+                    write_case_sheet(sheet_dir, label, material, a, yaw, size, shaded, ref, mse)
     return rows
