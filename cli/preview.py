@@ -6,7 +6,6 @@ import click
 import numpy as np
 from shbake_cli.options import emit_json, info, json_opt, quiet_opt
 
-from shbake.errors import FormatError, ImageReadError
 from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
 from shbake.format.shexp import probe_from_set
@@ -17,42 +16,24 @@ REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kaut
 ALL_PASSES = PASSES + ("shexp", "splitsum")
 
 
-def load_source(asset, source_path):
-    """The original map of an asset (its recorded path, or ``source_path``), hash-checked."""
+def load_source(asset, asset_path, source_path):
+    """The map an asset was baked from: ``--source``, else its ``source_path`` relative to
+    the asset; SHA-256-checked, loaded with the asset's recorded policies."""
     from shbake.envmap import load_environment
-    from shbake.envmap.image_io import sha256_of
+    from shbake.format.provenance import resolve_source
 
-    path = source_path or asset.attrs.get("input_abspath") or asset.attrs.get("input_path")
-    if not path or not os.path.exists(path):
-        raise ImageReadError(f"original map {path!r} not found; give it with --source")
-    if sha256_of(path) != asset.attrs.get("input_sha256"):
-        raise FormatError(f"{path}: SHA-256 differs from the one recorded in the asset")
     a = asset.attrs
+    path = resolve_source(a, asset_path, source_path)
+    cs_in = a.get("source_colorspace_in")
+    nonfinite = a.get("source_nonfinite_policy")
     return load_environment(
         path,
-        a.get("input_layout"),
-        None
-        if a.get("input_colorspace_in") == a.get("input_colorspace")
-        else a.get("input_colorspace_in"),
-        a.get("input_negative_policy", "clamp"),
-        None if a.get("input_nonfinite_policy") == "error" else a.get("input_nonfinite_policy"),
+        a.get("source_layout"),
+        None if cs_in in (None, a.get("source_colorspace")) else cs_in,
+        a.get("source_negative_policy") or "clamp",
+        None if nonfinite in (None, "", "error") else nonfinite,
         quiet=True,
     )
-
-
-def load_probe_source(asset, asset_path, source_path):
-    """The map a probe was fitted to: ``--source``, or its recorded name beside the asset."""
-    from shbake.envmap import load_environment
-    from shbake.envmap.image_io import sha256_of
-
-    name = asset.attrs.get("source_name", "")
-    path = source_path or os.path.join(os.path.dirname(os.path.abspath(asset_path)), name)
-    if not os.path.isfile(path):
-        raise ImageReadError(f"original map {name!r} not found beside the asset; give --source")
-    if sha256_of(path) != asset.attrs.get("source_sha256"):
-        raise FormatError(f"{path}: SHA-256 differs from the one recorded in the probe")
-    return load_environment(path, negative=asset.attrs.get("source_negative_policy", "clamp"),
-                            quiet=True)  # fmt: skip
 
 
 @click.command("preview")
@@ -88,7 +69,7 @@ def load_probe_source(asset, asset_path, source_path):
     "--source",
     type=click.Path(dir_okay=False),
     default=None,
-    help="Original map (default: the path recorded in the asset).",
+    help="Original map (default: the source_path recorded in the asset, relative to it).",
 )
 @click.option(
     "--table",
@@ -176,7 +157,7 @@ def preview(
     needs_source = pass_name.startswith("reference") or diff
     if table is not None and needs_source:
         brdf = table.make_brdf(merl_path)
-    src = load_source(asset, source) if needs_source else None
+    src = load_source(asset, asset_path, source) if needs_source else None
     img, timing = render_pass(asset, pass_name, size, src, table, brdf)
     summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
     if "modes" in timing:
@@ -204,7 +185,7 @@ def preview_probe(asset, asset_path, pass_name, output, size, diff, source, roug
     if diff and pass_name == "reference":
         raise click.UsageError("--diff compares a probe pass with the reference")
     needs_source = pass_name == "reference" or diff
-    src = load_probe_source(asset, asset_path, source) if needs_source else None
+    src = load_source(asset, asset_path, source) if needs_source else None
     img, timing = render_glossy(asset, pass_name, size, roughness, f0, src, samples)
     summary = {"pass": pass_name, "size": size, "roughness": roughness, "f0": f0,
                "seconds": timing["seconds"], "fps": timing["fps"]}  # fmt: skip

@@ -146,10 +146,7 @@ def project_env(
     if exr_maps is not None and os.path.exists(exr_maps) and not os.path.isdir(exr_maps):
         raise OutputError(f"{exr_maps}: exists and is not a directory")
     environment = load_environment(env, layout, colorspace, negative, fix_nonfinite, quiet)
-    provenance = {
-        "command_line": command_line(ctx),
-        "input_abspath": os.path.abspath(env),
-    }
+    provenance = {"command_line": command_line(ctx)}
     asset, summary = bake_env_sh(
         environment,
         lmax=lmax,

@@ -1,5 +1,6 @@
 """An environment map loaded, validated and ready to integrate."""
 
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -91,6 +92,7 @@ def load_environment(
     meta = {
         "path": str(path),
         "sha256": sha256_of(path),
+        "size": os.stat(path).st_size,
         "width": w,
         "height": h,
         "layout": layout,

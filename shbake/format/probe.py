@@ -10,9 +10,11 @@ import json
 
 import numpy as np
 
-from shbake.conventions import DFG_MU_MIN, DFG_SAMPLES, ROUGHNESS_MIN
-from shbake.errors import ParameterError
+from shbake.conventions import DFG_MU_MIN, DFG_SAMPLES, DFG_SIZE, ROUGHNESS_MIN
+from shbake.errors import FormatError, ParameterError
 from shbake.format.asset import Asset
+from shbake.format.provenance import map_source
+from shbake.format.registry import Attr, Data
 
 ROUGHNESS_CONVENTION = "perceptual roughness r; GGX width alpha = r^2 (Burley 2012)"
 DFG_ATTRS = {
@@ -25,11 +27,37 @@ DFG_ATTRS = {
 
 
 def source_attrs(meta: dict) -> dict:
-    """The ``source_*`` attributes of a probe from an environment's ``meta``."""
-    keep = ("sha256", "width", "height", "layout", "colorspace", "negative_policy")
-    return {f"source_{k}": meta[k] for k in keep if k in meta} | {
-        "source_name": str(meta.get("path", "")).rsplit("/", 1)[-1]
-    }
+    """The provenance block of a probe from an environment's ``meta`` (FORMAT §3)."""
+    return map_source(meta)
+
+
+def _check_range(value):
+    lo, hi = value
+    if not (isinstance(lo, int | float) and isinstance(hi, int | float)
+            and ROUGHNESS_MIN - 1e-9 <= lo <= hi <= 1.0 + 1e-9):  # fmt: skip
+        raise FormatError(f"attribute roughness_range {value!r:.60} must be [lo, hi] with "
+                          f"{ROUGHNESS_MIN} ≤ lo ≤ hi ≤ 1")  # fmt: skip
+
+
+DFG_DATA = Data(
+    "/dfg", (DFG_SIZE, DFG_SIZE, 2), "float32",
+    "`A0`, `A1` over node-centred `n·v ∈ [1e-3, 1]` × roughness `∈ [0.02, 1]` (attributes say "
+    "so); bilinear, clamped",
+)  # fmt: skip
+"""The DFG table every probe kind carries."""
+
+PROBE_ATTRS = (
+    Attr("technique", "str", "the technique and its paper"),
+    Attr("roughness_convention", "str", "perceptual `r`, GGX `α = r²`"),
+    Attr("roughness_range", "json", "`[lo, hi]` fitted; readers MUST refuse roughness outside it "
+         "unless they document extrapolation (shbake's refuse it)", json_type=list, length=2),
+)  # fmt: skip
+"""Root attributes every probe kind shares."""
+
+
+def check_roughness_range(attrs: dict) -> None:
+    """The kind check shared by probes: a sane ``roughness_range``."""
+    _check_range(attrs["roughness_range"])
 
 
 def probe_bytes(asset: Asset, bytes_per_value: int = 4) -> int:
