@@ -161,15 +161,18 @@ def read_asset(path: str, kinds: tuple[str, ...] | None = None,
                 try:
                     raw[k] = registry.decode_attr(f.attrs[k])
                 except (OSError, TypeError, ValueError) as e:
-                    raise FormatError(f"{where}unreadable attribute {k} ({_first_line(e)})") from None
+                    msg = f"{where}unreadable attribute {k} ({_first_line(e)})"
+                    raise FormatError(msg) from None
             fmt = raw.get("format")
             if not (isinstance(fmt, str) and fmt == conventions.FORMAT_NAME):
                 raise FormatError(f"{where}not a shbake asset (format attribute is "
                                   f"{registry.short(fmt)}, expected 'shbake')")  # fmt: skip
             kind_name = raw.get("kind")
             if not isinstance(kind_name, str) or kind_name not in registry.kinds():
-                raise FormatError(f"{where}asset kind {registry.short(kind_name)} is unknown to "
-                                  f"shbake {__version__} (knows: {', '.join(registry.kinds())})")
+                raise FormatError(
+                    f"{where}asset kind {registry.short(kind_name)} is unknown to "
+                    f"shbake {__version__} (knows: {', '.join(registry.kinds())})"
+                )
             if kinds is not None and kind_name not in kinds:
                 raise FormatError(f"{where}asset kind {kind_name!r} is not one of: "
                                   f"{', '.join(kinds)}")  # fmt: skip
@@ -180,7 +183,7 @@ def read_asset(path: str, kinds: tuple[str, ...] | None = None,
                     f"{where}format_version {registry.short(version)} of kind {kind_name} is not "
                     f"supported by shbake {__version__} (reads version {kind.version})"
                 )
-            shapes, dattrs = {}, {}
+            shapes = {}
 
             def visit(name, obj):
                 if isinstance(obj, h5py.Dataset):
@@ -194,8 +197,11 @@ def read_asset(path: str, kinds: tuple[str, ...] | None = None,
             except (OSError, RuntimeError, KeyError) as e:
                 raise FormatError(f"{where}corrupt asset ({_first_line(e)})") from None
             if datasets is not None:
-                selected = [(s, p) for s, p in selected
-                            if any(p == d or p.startswith(d.rstrip("/") + "/") for d in datasets)]
+                selected = [
+                    (s, p)
+                    for s, p in selected
+                    if any(p == d or p.startswith(d.rstrip("/") + "/") for d in datasets)
+                ]
             nbytes = sum(int(np.prod(shapes[p][0], dtype=np.float64)) * shapes[p][1].itemsize
                          for _, p in selected)  # fmt: skip
             resources.check_memory(2 * nbytes, f"reading {path}")

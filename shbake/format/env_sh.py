@@ -17,8 +17,10 @@ def _check(attrs, shapes, dattrs, symbols):
     lmax, lmax_irr = symbols.get("lmax"), symbols.get("lmax_irr")
     if lmax_irr is not None and lmax is not None and lmax_irr > lmax:
         raise FormatError(f"irradiance lmax {lmax_irr} exceeds the lighting lmax {lmax}")
-    if "/tangent_irradiance/sh" in shapes and lmax_irr >= 2 and (
-        "/tangent_irradiance/matrix" not in shapes
+    if (
+        "/tangent_irradiance/sh" in shapes
+        and lmax_irr >= 2
+        and ("/tangent_irradiance/matrix" not in shapes)
     ):
         raise FormatError("missing dataset /tangent_irradiance/matrix (required with "
                           "/tangent_irradiance/sh of lmax >= 2)")  # fmt: skip

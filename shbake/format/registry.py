@@ -484,4 +484,3 @@ def kinds() -> dict[str, Kind]:
 def versions() -> dict[str, int]:
     """``kind → format version``."""
     return {k: v.version for k, v in kinds().items()}
-
