@@ -4,6 +4,7 @@ import sys
 
 import click
 from shbake_cli.brdf_table import brdf_table
+from shbake_cli.guard import guarded_invoke, run
 from shbake_cli.preview import preview
 from shbake_cli.probe_eval import probe_eval
 from shbake_cli.probe_fit import probe_fit
@@ -11,11 +12,33 @@ from shbake_cli.project_env import project_env
 from shbake_cli.split_sum import split_sum
 
 from shbake import __version__
-from shbake.errors import ShbakeError
+from shbake.resources import forget_inputs, parse_size, set_memory_budget
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class ShbakeGroup(click.Group):
+    """The command group: each subcommand runs as one output transaction (guard.py)."""
+
+    def invoke(self, ctx):
+        return guarded_invoke(lambda: super(ShbakeGroup, self).invoke(ctx))
+
+
+def _max_memory(ctx, param, value):
+    if value is not None:
+        set_memory_budget(parse_size(value))
+    return value
+
+
+@click.group(cls=ShbakeGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="shbake")
+@click.option(
+    "--max-memory",
+    metavar="SIZE",
+    default=None,
+    expose_value=False,
+    callback=_max_memory,
+    help="Memory budget (e.g. 4G): runs whose estimate is larger are refused "
+    "[default: $SHBAKE_MAX_MEMORY, else 80% of the available memory].",
+)
 def cli():
     """Bake spherical-harmonic lighting assets for real-time renderers."""
 
@@ -29,28 +52,20 @@ cli.add_command(probe_eval)
 
 
 def main(argv=None) -> int:
-    """Run the CLI; every error is one line on stderr and a non-zero exit.
+    """Run the CLI; every failure is one line on stderr and a non-zero exit.
 
-    Exit status: 0 success, 1 bad input or failed output (ShbakeError), 2
-    usage error (unknown option, invalid choice).
+    Exit status: 0 success, 1 bad input or failed output, 2 usage error, 130/143
+    interrupted by SIGINT/SIGTERM (:mod:`shbake_cli.guard`).
     """
-    try:
-        if argv is None:
-            argv = sys.argv[1:]
-        cli.main(args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": list(argv)})
-    except click.exceptions.Abort:
-        click.echo("shbake: error: aborted", err=True)
-        return 1
-    except click.exceptions.UsageError as e:
-        click.echo(f"shbake: error: {e.format_message()}", err=True)
-        return 2
-    except click.exceptions.ClickException as e:
-        click.echo(f"shbake: error: {e.format_message()}", err=True)
-        return 1
-    except ShbakeError as e:
-        click.echo(f"shbake: error: {e}", err=True)
-        return 1
-    return 0
+    if argv is None:
+        argv = sys.argv[1:]
+    argv = list(argv)
+    set_memory_budget(None)
+    forget_inputs()
+    return run(
+        lambda: cli.main(args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": argv}),
+        argv,
+    )
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ FALLBACK_BUDGET = 8 << 30
 """Budget where the available memory cannot be read (bytes)."""
 
 _budget_override: int | None = None
+_inputs: list[str] = []
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 
@@ -83,11 +84,29 @@ def check_memory(nbytes: float, what: str) -> None:
         )
 
 
+def note_input(path: str) -> None:
+    """Record that this process reads ``path``: no output may then replace it
+    (:func:`shbake.format.atomic.check_not_input`)."""
+    p = os.path.abspath(os.fspath(path))
+    if p not in _inputs:
+        _inputs.append(p)
+
+
+def inputs() -> list[str]:
+    """Every input file this process has read (absolute paths, first-read order)."""
+    return list(_inputs)
+
+
+def forget_inputs() -> None:
+    """Start a new run: forget the recorded inputs."""
+    _inputs.clear()
+
+
 def check_regular_file(path: str, what: str = "input") -> os.stat_result:
     """``os.stat`` of ``path`` after refusing folders, FIFOs, sockets and devices.
 
     Called before a file is opened, so that reading it cannot block (FIFO) or run
-    forever (``/dev/zero``).
+    forever (``/dev/zero``). Records ``path`` as an input (:func:`note_input`).
     """
     try:
         st = os.stat(path)
@@ -106,6 +125,7 @@ def check_regular_file(path: str, what: str = "input") -> os.stat_result:
             else "not a regular file"
         )  # fmt: skip
         raise ResourceError(f"{path}: is {kind}, not a regular file ({what})")
+    note_input(path)
     return st
 
 

@@ -16,9 +16,10 @@ import os
 
 import numpy as np
 
+from shbake import resources
 from shbake.brdf.phong import mirror_lobe_pdf, mirror_lobe_sample
 from shbake.brdf.spec import ModelSpec, Param
-from shbake.errors import InputError
+from shbake.errors import InputError, ResourceError
 from shbake.format.atomic import atomic_path
 from shbake.jit import jit
 
@@ -51,8 +52,11 @@ def read_merl(path: str) -> np.ndarray:
     Raises :class:`~shbake.errors.InputError` for a missing, truncated or
     malformed file, or non-finite values.
     """
-    try:
-        raw = open(path, "rb").read()
+    expected = 12 + 3 * 8 * N_TH * N_TD * N_PD
+    try:  # special files refused before opening; never more than the format's size read
+        raw = resources.read_bounded(os.fspath(path), expected, "MERL file (--merl)")
+    except ResourceError as e:
+        raise InputError(str(e)) from None
     except OSError as e:
         raise InputError(f"{path}: cannot read MERL file ({e.strerror})") from None
     if len(raw) < 12:

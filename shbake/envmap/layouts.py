@@ -214,4 +214,3 @@ def texels(layout: str, height: int, width: int):
             np.ones((height, width), dtype=bool),
         )
     return cube_texels(layout, height, width)
-
