@@ -11,7 +11,7 @@ OUT    ?= out
 export OMP_NUM_THREADS ?= 1
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: demo test test-all bench lint clean
+.PHONY: demo test test-all bench lint clean format-doc
 
 $(STAMP): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -48,3 +48,7 @@ lint: $(STAMP)
 
 clean:
 	rm -rf $(VENV) $(OUT) build *.egg-info
+
+# docs/FORMAT.md: regenerate the per-kind tables from the registry (tests/test_registry.py checks)
+format-doc: $(STAMP)
+	$(BIN)/python -m shbake.format.registry docs/FORMAT.md

@@ -113,6 +113,17 @@ def die_with_parent() -> None:
             pass
 
 
+def worker_init() -> None:
+    """Initialiser of pool worker processes: the parent handles SIGINT (a terminal sends
+    it to the whole process group), SIGTERM ends the worker at once, and the worker dies
+    with its parent. Does nothing in a thread (a Dask worker's task thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    die_with_parent()
+
+
 def install() -> bool:
     """Install the handlers and the watcher (main thread only; once per process)."""
     global _installed

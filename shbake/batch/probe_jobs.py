@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numba
 
+from shbake import signals
 from shbake.bakers.shexp import FitConfig, FitPlan
 from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
 from shbake.envmap import load_environment
@@ -83,6 +84,7 @@ def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
 
 
 def _single_thread():
+    signals.worker_init()
     numba.set_num_threads(1)
 
 

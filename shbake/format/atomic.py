@@ -288,11 +288,23 @@ def transaction():
 
 
 @contextmanager
-def atomic_path(path: str):
+def _own_transaction():
+    t = Transaction()
+    try:
+        yield t
+        t.commit()
+    except BaseException:
+        t.abort()
+        raise
+
+
+@contextmanager
+def atomic_path(path: str, independent: bool = False):
     """Yield a temporary path beside ``path`` (same suffix) that replaces ``path`` when the
-    run's transaction commits (at once outside a transaction). OSErrors while writing it
-    become one-line :class:`OutputError`s (``no space left on device writing X``)."""
-    with transaction() as t:
+    run's transaction commits (at once outside a transaction, or with ``independent``:
+    caches). OSErrors while writing it become one-line :class:`OutputError`s
+    (``no space left on device writing X``)."""
+    with _own_transaction() if independent else transaction() as t:
         tmp = t.stage(path)
         try:
             yield tmp

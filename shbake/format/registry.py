@@ -441,7 +441,7 @@ def markdown(kind: Kind) -> str:
              f"### Kind `{kind.name}`, version {kind.version}: {kind.title}", ""]  # fmt: skip
     if kind.doc:
         lines += [kind.doc, ""]
-    lines += ["Root attributes (besides §2" + (" and the provenance block of §3" if kind.provenance
+    lines += ["Root attributes (besides §2" + (" with the provenance block" if kind.provenance
               else "") + "):", ""]  # fmt: skip
     lines += _attr_rows(kind.attrs) if kind.attrs else ["(none)"]
     lines += ["", "| dataset | shape | dtype | MUST/MAY | finite | meaning |",
@@ -484,3 +484,44 @@ def kinds() -> dict[str, Kind]:
 def versions() -> dict[str, int]:
     """``kind → format version``."""
     return {k: v.version for k, v in kinds().items()}
+
+
+def render_doc(text: str) -> str:
+    """``docs/FORMAT.md`` text with every generated block replaced by the registry's.
+
+    Blocks are delimited by ``<!-- registry:NAME begin … -->`` and ``<!-- registry:NAME end
+    -->``; a kind without a block is appended before the ``Companion files`` section.
+    """
+    blocks = {"common": markdown_common()} | {k.name: markdown(k) for k in kinds().values()}
+    for name, block in blocks.items():
+        pat = re.compile(
+            rf"<!-- registry:{re.escape(name)} begin.*?<!-- registry:{re.escape(name)} end -->",
+            re.S,
+        )
+        if pat.search(text):
+            text = pat.sub(lambda m, b=block: b, text)
+        else:
+            i = text.find("\n## Companion files")
+            i = len(text) if i < 0 else i
+            text = text[:i] + "\n" + block + "\n" + text[i:]
+    return text
+
+
+def main(argv=None) -> int:
+    """``python -m shbake.format.registry [docs/FORMAT.md]``: regenerate the blocks in place."""
+    import sys
+
+    from shbake.format import registry  # not __main__: the kinds register there
+
+    path = (argv or sys.argv[1:] or ["docs/FORMAT.md"])[0]
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    new = registry.render_doc(text)
+    if new != text:
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(new)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
