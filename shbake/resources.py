@@ -21,6 +21,7 @@ FALLBACK_BUDGET = 8 << 30
 
 _budget_override: int | None = None
 _inputs: list[str] = []
+_outputs: list[str] = []
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 
@@ -86,10 +87,41 @@ def check_memory(nbytes: float, what: str) -> None:
 
 def note_input(path: str) -> None:
     """Record that this process reads ``path``: no output may then replace it
-    (:func:`shbake.format.atomic.check_not_input`)."""
+    (:func:`shbake.format.atomic.check_not_input`). Refuses at once an input that is a
+    declared output (:func:`declare_output`), before any work is done on it."""
     p = os.path.abspath(os.fspath(path))
+    for out in _outputs:
+        if _same(out, p):
+            from shbake.errors import OutputError
+
+            raise OutputError(
+                f"{out}: is the input {path}; writing it would destroy the input "
+                "(choose another output)"
+            )
     if p not in _inputs:
         _inputs.append(p)
+
+
+def declare_output(path: str) -> None:
+    """Record an output path checked before the run (inputs read later are compared)."""
+    p = os.path.abspath(os.fspath(path))
+    for src in _inputs:
+        if _same(p, src):
+            from shbake.errors import OutputError
+
+            raise OutputError(
+                f"{path}: is the input {src}; writing it would destroy the input "
+                "(choose another output)"
+            )
+    if p not in _outputs:
+        _outputs.append(p)
+
+
+def _same(a: str, b: str) -> bool:
+    try:
+        return os.path.exists(a) and os.path.exists(b) and os.path.samefile(a, b)
+    except OSError:
+        return False
 
 
 def inputs() -> list[str]:
@@ -98,8 +130,9 @@ def inputs() -> list[str]:
 
 
 def forget_inputs() -> None:
-    """Start a new run: forget the recorded inputs."""
+    """Start a new run: forget the recorded inputs and declared outputs."""
     _inputs.clear()
+    _outputs.clear()
 
 
 def check_regular_file(path: str, what: str = "input") -> os.stat_result:

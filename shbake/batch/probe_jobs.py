@@ -13,6 +13,7 @@ and reused by every job that shares its configuration and map shape.
 import functools
 import multiprocessing
 import os
+import re
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
@@ -119,8 +120,16 @@ def _dask_job(job: ProbeJob) -> dict:
     return run_probe_job(job)
 
 
+SCHEDULER_ADDRESS = re.compile(r"((tcp|tls|inproc|ucx|ws|wss)://)?[A-Za-z0-9_.\-\[\]:]+:\d+/?")
+"""What a Dask scheduler address looks like (checked before connecting, which can take 20 s)."""
+
+
 def run_dask(jobs: list[ProbeJob], address: str, progress=None) -> list[dict]:
     """Run jobs on the Dask distributed scheduler at ``address``; results keep job order."""
+    if not SCHEDULER_ADDRESS.fullmatch(str(address)):
+        raise ParameterError(
+            f"--scheduler {address!r}: expected an address such as tcp://host:8786"
+        )
     try:
         from distributed import Client, as_completed
     except ImportError:  # pragma: no cover - dask is an install requirement

@@ -91,7 +91,11 @@ def check_output_path(path, option: str = "-o/--output") -> str:
     if path.endswith(os.sep) or os.path.isdir(path):
         raise OutputError(f"{path}: is a directory ({option} must name a file)")
     folder = os.path.dirname(os.path.abspath(path))
-    return check_output_dir(folder, option, missing_ok=False, shown=path)
+    check_output_dir(folder, option, missing_ok=False, shown=path)
+    from shbake import resources
+
+    resources.declare_output(path)
+    return folder
 
 
 def check_output_dir(folder, option: str, missing_ok: bool = True, shown=None) -> str:
