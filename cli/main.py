@@ -12,7 +12,7 @@ from shbake_cli.project_env import project_env
 from shbake_cli.split_sum import split_sum
 
 from shbake import __version__
-from shbake.resources import forget_inputs, parse_size, set_memory_budget
+from shbake.resources import parse_size, set_memory_budget, start_run
 
 
 class ShbakeGroup(click.Group):
@@ -61,7 +61,7 @@ def main(argv=None) -> int:
         argv = sys.argv[1:]
     argv = list(argv)
     set_memory_budget(None)
-    forget_inputs()
+    start_run()
     return run(
         lambda: cli.main(args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": argv}),
         argv,

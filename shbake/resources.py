@@ -22,6 +22,7 @@ FALLBACK_BUDGET = 8 << 30
 _budget_override: int | None = None
 _inputs: list[str] = []
 _outputs: list[str] = []
+_tracking = False
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 
@@ -89,6 +90,8 @@ def note_input(path: str) -> None:
     """Record that this process reads ``path``: no output may then replace it
     (:func:`shbake.format.atomic.check_not_input`). Refuses at once an input that is a
     declared output (:func:`declare_output`), before any work is done on it."""
+    if not _tracking:
+        return
     p = os.path.abspath(os.fspath(path))
     for out in _outputs:
         if _same(out, p):
@@ -104,6 +107,8 @@ def note_input(path: str) -> None:
 
 def declare_output(path: str) -> None:
     """Record an output path checked before the run (inputs read later are compared)."""
+    if not _tracking:
+        return
     p = os.path.abspath(os.fspath(path))
     for src in _inputs:
         if _same(p, src):
@@ -129,10 +134,13 @@ def inputs() -> list[str]:
     return list(_inputs)
 
 
-def forget_inputs() -> None:
-    """Start a new run: forget the recorded inputs and declared outputs."""
+def start_run() -> None:
+    """Start a command run: forget earlier inputs and outputs, and track them from now on
+    (library calls outside a run are not tracked: a program may write then read a file)."""
+    global _tracking
     _inputs.clear()
     _outputs.clear()
+    _tracking = True
 
 
 def check_regular_file(path: str, what: str = "input") -> os.stat_result:

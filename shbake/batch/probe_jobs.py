@@ -25,6 +25,7 @@ from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
+from shbake.format.atomic import refuse_same_file
 from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
 
@@ -89,11 +90,17 @@ def _single_thread():
     numba.set_num_threads(1)
 
 
+def check_jobs(jobs: list[ProbeJob]) -> None:
+    """Refuse, before any work, a job whose output is any job's map (same file)."""
+    refuse_same_file([j.output for j in jobs if j.output], [j.source for j in jobs])
+
+
 def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict]:
     """Run jobs in this process (``n_jobs = 1``) or ``n_jobs`` worker processes.
 
     Worker processes (spawned) run numba on one thread each. Results keep the job order.
     """
+    check_jobs(jobs)
     if not 1 <= n_jobs <= (os.cpu_count() or 1) * 4:
         raise ParameterError(f"--jobs must be in [1, {(os.cpu_count() or 1) * 4}], got {n_jobs}")
     results = []
@@ -126,6 +133,7 @@ SCHEDULER_ADDRESS = re.compile(r"((tcp|tls|inproc|ucx|ws|wss)://)?[A-Za-z0-9_.\-
 
 def run_dask(jobs: list[ProbeJob], address: str, progress=None) -> list[dict]:
     """Run jobs on the Dask distributed scheduler at ``address``; results keep job order."""
+    check_jobs(jobs)
     if not SCHEDULER_ADDRESS.fullmatch(str(address)):
         raise ParameterError(
             f"--scheduler {address!r}: expected an address such as tcp://host:8786"
