@@ -26,7 +26,7 @@ demo: $(STAMP)
 	  n=$$(basename $$m .exr); \
 	  echo "== $$n" >&2; \
 	  $(BIN)/shbake project-env $$m -o $(OUT)/$$n.h5 --lmax 8 --extract-sun \
-	      --exr-maps $(OUT)/$$n-maps --export gltf --report || exit 1; \
+	      --exr-dir $(OUT)/$$n-maps --export gltf --report || exit 1; \
 	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass irradiance -o $(OUT)/$$n-irradiance.exr --diff || exit 1; \
 	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass tangent -o $(OUT)/$$n-tangent.exr --diff || exit 1; \
 	  $(BIN)/shbake preview $(OUT)/probes/$$n.h5 --roughness 0.6 --f0 0.04 --size 128 \

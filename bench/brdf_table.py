@@ -10,7 +10,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from conftest import map_path  # noqa: E402
+from helpers import map_path  # noqa: E402
 from kautz_accuracy import LMAXES, MAPS, kautz_errors  # noqa: E402
 
 from shbake.bakers.kautz_report import settings_report  # noqa: E402

@@ -1,71 +1,64 @@
 """``shbake brdf-table``: tabulate a BRDF's SH product-function coefficients (Kautz et al. 2002)."""
 
-import os
-import sys
-
 import click
-from shbake_cli.options import emit_json, info, json_opt, quiet_opt
-from shbake_cli.project_env import command_line
+from shbake_cli.options import (
+    BarProgress,
+    NameValue,
+    SizeHW,
+    command_line,
+    deprecated,
+    emit_json,
+    exr_dir_opt,
+    info,
+    json_opt,
+    output_opt,
+    quiet_opt,
+    report_opt,
+    samples_opt,
+    tol_opt,
+    warn,
+)
 
-from shbake.bakers.kautz_report import format_report, settings_report
-from shbake.brdf import MODELS, make_brdf
-from shbake.brdf.tabulate import parse_vary, tabulate_axes
-from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
-from shbake.errors import ParameterError
-from shbake.format.asset import write_asset
-from shbake.format.atomic import check_writable_dir
-from shbake.format.kautz_images import write_band_exrs, write_sheet
-from shbake.format.kautz_table import build_table_asset, table_at
-
-
-def parse_params(items) -> dict:
-    """``("nu=24", "Rs=0.9,0.8,0.7")`` → ``{"nu": "24", "Rs": "0.9,0.8,0.7"}``."""
-    out = {}
-    for item in items:
-        if "=" not in item:
-            raise ParameterError(f"-p {item!r}: expected NAME=VALUE")
-        k, v = item.split("=", 1)
-        out[k.strip()] = v.strip()
-    return out
-
-
-def parse_resolution(text: str) -> tuple[int, int]:
-    """``"128"`` or ``"128x64"`` (height x width)."""
-    try:
-        parts = [int(p) for p in text.lower().split("x")]
-    except ValueError:
-        raise ParameterError(f"--resolution {text!r}: expected N or HxW") from None
-    if len(parts) == 1:
-        parts *= 2
-    if len(parts) != 2 or not all(2 <= p <= 4096 for p in parts):
-        raise ParameterError(f"--resolution {text!r}: sides must be in [2, 4096]")
-    return parts[0], parts[1]
+from shbake.bakers.kautz_report import format_report
+from shbake.batch.brdf_table import bake_brdf_table
+from shbake.brdf import MODELS, model_spec
+from shbake.conventions import KAUTZ_LMAX_LIMIT
 
 
-def _progress(quiet):
-    if quiet or not sys.stderr.isatty():
-        return None
-
-    def show(point, points, samples, err):
-        click.echo(
-            f"\rtable {point + 1}/{points}: {samples} samples, error estimate {err:.2e}   ",
-            err=True,
-            nl=False,
-        )
-
-    return show
+def list_params(ctx, _param, value):
+    """``--list-params``: print MODEL's parameters (name, default, range, meaning) and exit."""
+    if not value or ctx.resilient_parsing:
+        return
+    model = ctx.params.get("model")
+    names = [model] if model else list(MODELS)
+    for name in names:
+        spec = model_spec(name)
+        click.echo(f"{name}: {spec.summary}")
+        for p in spec.params:
+            colour = " (v or r,g,b)" if p.colour else ""
+            click.echo(f"  {p.name}={p.default:g}  [{p.lo:g}, {p.hi:g}]{colour}  {p.doc}")
+        for alias, targets in spec.aliases.items():
+            click.echo(f"  {alias}: sets {', '.join(targets)}")
+    ctx.exit(0)
 
 
 @click.command("brdf-table")
 @click.argument("model", type=click.Choice(list(MODELS)))
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Asset (.h5).")
+@output_opt("The brdf_table asset (.h5)")
 @click.option(
     "-p",
     "--param",
     "params",
+    type=NameValue(),
     multiple=True,
-    metavar="NAME=VALUE",
     help="Model parameter (repeatable); colours take v or r,g,b. See --list-params.",
+)
+@click.option(
+    "--list-params",
+    is_flag=True,
+    expose_value=False,
+    callback=list_params,
+    help="List MODEL's parameters (name, default, range, meaning) and exit.",
 )
 @click.option(
     "--merl",
@@ -76,33 +69,29 @@ def _progress(quiet):
 )
 @click.option(
     "--lmax",
-    type=int,
+    type=click.IntRange(0, KAUTZ_LMAX_LIMIT),
     default=4,
     show_default=True,
-    help=f"Highest SH band (0…{KAUTZ_LMAX_LIMIT}); (lmax+1)^2 coefficients.",
+    help=f"Highest SH band (0…{KAUTZ_LMAX_LIMIT}); (lmax+1)^2 coefficients per view.",
 )
 @click.option(
-    "--resolution", default="128", show_default=True, metavar="N|HxW", help="Parabolic map size."
-)
-@click.option(
-    "--samples",
-    type=int,
-    default=1024,
+    "--size",
+    type=SizeHW(),
+    default="128",
     show_default=True,
-    help="Quadrature points per strategy (ignored with --tol).",
+    help="Parabolic map texels: N (square) or HxW, each side 2…4096.",
 )
-@click.option(
-    "--tol",
-    type=float,
-    default=None,
-    help="Refine each texel until its error estimate is below TOL.",
+@samples_opt(1024, "per strategy per view texel (ignored with --tol)", hi=1 << 22)
+@tol_opt(
+    "refine each view texel until its error estimate (sqrt(4π) × the largest coefficient "
+    "change between sample doublings) is at most TOL"
 )
 @click.option(
     "--max-samples",
-    type=int,
+    type=click.IntRange(16, 1 << 22),
     default=1 << 18,
     show_default=True,
-    help="Refinement stops here even if --tol is not met (reported).",
+    help="Refinement stops here even if --tol is not met (reported, per texel in /error).",
 )
 @click.option(
     "--vary",
@@ -110,16 +99,8 @@ def _progress(quiet):
     metavar="PARAM=lo:hi:N",
     help="Add a parameter axis (spatially varying BRDFs; repeatable).",
 )
-@click.option(
-    "--exr",
-    "exr_dir",
-    type=click.Path(file_okay=False),
-    default=None,
-    help="Write band{l}.exr component textures and sheet.png here.",
-)
-@click.option(
-    "--report", is_flag=True, help="Measure error and time vs lmax, resolution and samples."
-)
+@exr_dir_opt("band{l}.exr coefficient textures and the Fig. 2 sheet.png")
+@report_opt
 @click.option(
     "--reproducible",
     is_flag=True,
@@ -127,96 +108,28 @@ def _progress(quiet):
 )
 @json_opt
 @quiet_opt
+@deprecated("--resolution", "size", "--size", type=SizeHW())
+@deprecated("--exr", "exr_dir", "--exr-dir", type=click.Path(file_okay=False))
 @click.pass_context
-def brdf_table(
-    ctx,
-    model,
-    output,
-    params,
-    merl_path,
-    lmax,
-    resolution,
-    samples,
-    tol,
-    max_samples,
-    vary,
-    exr_dir,
-    report,
-    reproducible,
-    as_json,
-    quiet,
-):
+def brdf_table(ctx, model, output, params, as_json, quiet, **settings):
     """Tabulate MODEL's BRDF product f*(s,v) = f(s,v) max(0,s_z) as SH per view direction."""
-    lmax = check_lmax(lmax, limit=KAUTZ_LMAX_LIMIT)
-    res = parse_resolution(resolution)
-    brdf = make_brdf(model, merl_path=merl_path, **parse_params(params))
-    axes = [parse_vary(v) for v in vary]
-    check_writable_dir(output)
-    if exr_dir:
-        os.makedirs(exr_dir, exist_ok=True)
-    tables, convs = tabulate_axes(
-        brdf,
-        axes,
-        progress=_progress(quiet),
-        lmax=lmax,
-        resolution=res,
-        samples=None if tol is not None else samples,
-        tol=tol,
-        max_samples=max_samples,
+    summary = bake_brdf_table(
+        model,
+        output,
+        params=dict(params),
+        command_line=command_line(ctx),
+        progress=BarProgress(quiet),
+        **settings,
     )
-    if _progress(quiet):
-        click.echo("", err=True)
-    asset = build_table_asset(brdf, tables, convs, axes, lmax, record_time=not reproducible)
-    asset.attrs["command_line"] = command_line(ctx)
-    write_asset(output, asset)
-    tattrs = asset.dataset_attrs["/table"]
-    err = tattrs["error_estimate"]
-    seconds = sum(c.seconds for c in convs)
-    if tol is not None and err > tol:
-        bad = int(sum((c.view_errors > tol).sum() for c in convs))
-        info(
-            f"warning: {bad} texels did not reach --tol {tol:g} by {max_samples} samples "
-            f"(largest error estimate {err:.2e}; see /error)",
-            quiet,
-        )
-    if not tattrs["energy_conserving"]:
-        info(
-            f"warning: measured albedo up to {max(tattrs['max_albedo']):.4f} > 1: these "
-            "parameters do not conserve energy (flagged in the asset)",
-            quiet,
-        )
-    summary = {
-        "output": output,
-        "model": model,
-        "parameters": brdf.describe()["parameters"],
-        "lmax": lmax,
-        "resolution": list(res),
-        "shape": list(asset["/table"].shape),
-        "error_estimate": err,
-        "samples_max": tattrs["samples_max"],
-        "seconds": seconds,
-        "max_albedo": tattrs["max_albedo"],
-        "energy_conserving": tattrs["energy_conserving"],
-    }
-    if exr_dir:
-        written = []
-        point = table_at(asset)
-        written += write_band_exrs(exr_dir, point.coeffs, lmax, brdf.coloured)
-        sheet_path = os.path.join(exr_dir, "sheet.png")
-        write_sheet(sheet_path, point.coeffs, lmax)
-        summary["images"] = written + [sheet_path]
-    if report:
-        rep = settings_report(
-            brdf, lmax, res, samples if tol is None else convs[0].samples, convs[0].history
-        )
-        summary["report"] = rep
-        if not as_json:
-            click.echo(format_report(rep), err=True)
+    for w in summary["warnings"]:
+        warn(w, quiet)
+    if "report" in summary and not as_json:
+        info(format_report(summary["report"]), quiet)
     if as_json:
         emit_json(summary)
     else:
         info(
-            f"wrote {output}: {model} {tuple(asset['/table'].shape)}, error estimate "
-            f"{err:.2e}, {seconds:.1f} s",
+            f"wrote {output}: {model} {tuple(summary['shape'])}, error estimate "
+            f"{summary['error_estimate']:.2e}, {summary['seconds']:.1f} s",
             quiet,
         )

@@ -1,27 +1,98 @@
-"""Options shared by several subcommands, and helpers for output."""
+"""Options and parameter types shared by the subcommands (``docs/CLI.md``), and output helpers.
 
+Every command takes its common options from here so that one word means one
+thing everywhere: ``-o/--output`` is a file, ``--out-dir``/``--exr-dir`` are
+folders, ``--size``, ``--samples`` and ``--tol`` are the one name of an image
+size, a sample count and a tolerance, ``--roughness`` is perceptual and
+``--alpha`` the GGX width. Old spellings are :func:`deprecated` hidden aliases.
+"""
+
+import functools
 import json
+import shlex
 import sys
 
 import click
 import numpy as np
 
+from shbake.errors import ParameterError
+from shbake.progress import Progress
+
+LAYOUT_CHOICES = ("latlong", "cube-strip", "cross-h", "cross-v")
+
+
+def output_opt(help_text: str, required: bool = True):
+    """``-o/--output FILE``: the command's main output, always a file."""
+    return click.option(
+        "-o",
+        "--output",
+        required=required,
+        type=click.Path(dir_okay=False, writable=False),
+        help=f"{help_text} (a file; written atomically).",
+    )
+
+
+def exr_dir_opt(help_text: str):
+    """``--exr-dir DIR``: companion OpenEXR images go into this folder."""
+    return click.option(
+        "--exr-dir",
+        type=click.Path(file_okay=False),
+        default=None,
+        help=f"Folder for OpenEXR images: {help_text}.",
+    )
+
+
+def size_opt(default: int, help_text: str, lo: int = 2, hi: int = 4096):
+    """``--size N``: pixels or texels per side of the main image the command makes."""
+    return click.option(
+        "--size",
+        type=click.IntRange(lo, hi),
+        default=default,
+        show_default=True,
+        help=f"{help_text}, pixels per side ({lo}…{hi}).",
+    )
+
+
+def samples_opt(default: int | None, help_text: str, lo: int = 16, hi: int = 1 << 20):
+    """``--samples N``: quadrature samples per integral; the help says per what."""
+    return click.option(
+        "--samples",
+        type=click.IntRange(lo, hi),
+        default=default,
+        show_default=default is not None,
+        help=f"Quadrature samples {help_text} ({lo}…{hi}).",
+    )
+
+
+def tol_opt(help_text: str):
+    """``--tol X``: the cheapest setting whose measured error is at most ``X``."""
+    return click.option(
+        "--tol",
+        type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
+        default=None,
+        help=f"Error tolerance in (0, 1): {help_text}.",
+    )
+
+
 json_opt = click.option(
     "--json", "as_json", is_flag=True, help="Print a machine-readable summary on stdout."
 )
-quiet_opt = click.option("-q", "--quiet", is_flag=True, help="No warnings or progress on stderr.")
-lmax_opt = click.option(
-    "--lmax",
-    type=int,
-    default=2,
-    show_default=True,
-    help="Highest SH band l (0…128); (lmax+1)^2 coefficients.",
+quiet_opt = click.option(
+    "-q", "--quiet", is_flag=True, help="No progress bar, warnings or notes on stderr."
+)
+report_opt = click.option(
+    "--report",
+    is_flag=True,
+    help="Print what the chosen settings cost and how accurate they are (stderr; in --json).",
+)
+png_opt = click.option(
+    "--png", is_flag=True, help="Also write a tone-mapped PNG beside every EXR image."
 )
 layout_opt = click.option(
     "--layout",
-    type=click.Choice(["latlong", "cube-strip", "cross-h", "cross-v"]),
+    type=click.Choice(LAYOUT_CHOICES),
     default=None,
-    help="Input layout; detected from the image shape when omitted.",
+    help="Input layout; detected from the image shape (and EXR envmap attribute) when omitted.",
 )
 negative_opt = click.option(
     "--negative",
@@ -34,7 +105,8 @@ fix_nonfinite_opt = click.option(
     "--fix-nonfinite",
     type=click.Choice(["black", "box3"]),
     default=None,
-    help="Repair NaN/Inf pixels (default: refuse the input).",
+    help="Repair NaN/Inf pixels: black, or the mean of finite 3x3 neighbours "
+    "(default: refuse the input).",
 )
 colorspace_opt = click.option(
     "--colorspace",
@@ -44,10 +116,153 @@ colorspace_opt = click.option(
 )
 
 
+def input_policy_opts(f):
+    """``--layout``, ``--negative``, ``--fix-nonfinite``, ``--colorspace``: how a map is read."""
+    for opt in (colorspace_opt, fix_nonfinite_opt, negative_opt, layout_opt):
+        f = opt(f)
+    return f
+
+
+def roughness_opts(default_roughness: float | None, what: str):
+    """``--roughness R`` (perceptual) or ``--alpha A`` (GGX width ``α = r²``), exclusive.
+
+    The command receives ``roughness`` (perceptual, ``None`` if neither was given
+    and there is no default).
+    """
+
+    def deco(f):
+        @functools.wraps(f)
+        def wrapper(*args, **kwargs):
+            r, a = kwargs.pop("roughness"), kwargs.pop("alpha")
+            if r is not None and a is not None:
+                raise click.UsageError("give --roughness or --alpha, not both")
+            if a is not None:
+                r = float(np.sqrt(a))
+            kwargs["roughness"] = default_roughness if r is None else r
+            return f(*args, **kwargs)
+
+        wrapper = click.option(
+            "--alpha",
+            type=click.FloatRange(0.0, 1.0),
+            default=None,
+            help=f"{what}: GGX width α (Walter et al. 2007); same as --roughness sqrt(α).",
+        )(wrapper)
+        default = f" [default: {default_roughness}]" if default_roughness is not None else ""
+        return click.option(
+            "--roughness",
+            type=click.FloatRange(0.0, 1.0),
+            default=None,
+            help=f"{what}: perceptual roughness r (GGX width α = r²){default}.",
+        )(wrapper)
+
+    return deco
+
+
+def deprecated(old: str, target: str, new: str, **option_kwargs):
+    """A hidden alias ``old`` of the option whose parameter is ``target`` (spelled ``new``).
+
+    Given on the command line, it warns once on stderr and its value replaces
+    the target's. Kept for one release (``docs/CLI.md``).
+    """
+    dest = "deprecated_" + old.lstrip("-").replace("-", "_")
+
+    def deco(f):
+        @functools.wraps(f)
+        def wrapper(*args, **kwargs):
+            value = kwargs.pop(dest, None)
+            if value is not None:
+                click.echo(f"shbake: warning: {old} is deprecated; use {new}", err=True)
+                kwargs[target] = value
+            return f(*args, **kwargs)
+
+        return click.option(old, dest, hidden=True, default=None, **option_kwargs)(wrapper)
+
+    return deco
+
+
+class SizeHW(click.ParamType):
+    """``N`` or ``HxW`` (height × width), each side in ``[lo, hi]``."""
+
+    name = "N|HxW"
+
+    def __init__(self, lo: int = 2, hi: int = 4096):
+        self.lo, self.hi = lo, hi
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        try:
+            parts = [int(p) for p in str(value).lower().split("x")]
+        except ValueError:
+            self.fail(f"{value!r}: expected N or HxW", param, ctx)
+        if len(parts) == 1:
+            parts *= 2
+        if len(parts) != 2 or not all(self.lo <= p <= self.hi for p in parts):
+            self.fail(f"{value!r}: sides must be in [{self.lo}, {self.hi}]", param, ctx)
+        return parts[0], parts[1]
+
+
+class NameValue(click.ParamType):
+    """``NAME=VALUE`` → ``(NAME, VALUE)`` (values stay strings; the model parses them)."""
+
+    name = "NAME=VALUE"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        if "=" not in value:
+            self.fail(f"{value!r}: expected NAME=VALUE", param, ctx)
+        k, v = value.split("=", 1)
+        return k.strip(), v.strip()
+
+
+def parse_range(text: str, option: str) -> tuple[float, float]:
+    """``"lo:hi"`` → ``(lo, hi)``."""
+    try:
+        lo, hi = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise ParameterError(f"{option} {text!r}: expected lo:hi, e.g. 0.2:1") from None
+    return lo, hi
+
+
+def command_line(ctx: click.Context) -> str:
+    """The command line as typed (``main`` passes argv), for provenance."""
+    argv = (ctx.find_root().obj or {}).get("argv")
+    if argv is None:
+        argv = sys.argv[1:]
+    return shlex.join(["shbake", *argv])
+
+
 def info(msg: str, quiet: bool = False) -> None:
     """A message for people: stderr."""
     if not quiet:
         click.echo(msg, err=True)
+
+
+def warn(msg: str, quiet: bool = False) -> None:
+    """``shbake: warning: …`` on stderr."""
+    info(f"shbake: warning: {msg}", quiet)
+
+
+class BarProgress(Progress):
+    """:class:`shbake.progress.Progress` drawn as tqdm bars on stderr (TTY only, not --quiet)."""
+
+    def __init__(self, quiet: bool = False):
+        self.enabled = not quiet and sys.stderr.isatty()
+
+    def _open(self, description, total, unit):
+        if not self.enabled:
+            return None
+        from tqdm import tqdm
+
+        return tqdm(total=total, desc=description, unit=unit, file=sys.stderr, leave=False,
+                    dynamic_ncols=True)  # fmt: skip
+
+    def _advance(self, handle, n):
+        handle.update(n)
+
+    def _close(self, handle):
+        handle.close()
 
 
 def _default(o):

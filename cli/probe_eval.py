@@ -11,7 +11,7 @@ from shbake.batch.probe_eval import evaluate_map
 from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
 from shbake.envmap import load_environment
 from shbake.errors import InputError
-from shbake.format.atomic import write_text
+from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 from shbake.format.probe import probe_bytes
 
 
@@ -53,6 +53,9 @@ def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
     """
     if not 8 <= size <= 512:
         raise InputError("--size must be in [8, 512]")
+    if markdown is not None:  # checked (and compared with every map read) before any work
+        check_output_path(markdown, "--markdown")
+        refuse_same_file([markdown], maps)
     dfg = shared_dfg_table()
     split_config = SplitSumConfig()
     results, sizes = {}, {}
@@ -77,7 +80,7 @@ def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
     info(f"probe-eval: SH-exp wins {wins}/{total} ({wins / total:.0%}); {ties} cases differ by "
          f"less than the truth's own error; bytes per probe {sizes['shexp_bytes']} vs "
          f"{sizes['splitsum_bytes']}", quiet)  # fmt: skip
-    if markdown:
+    if markdown is not None:
         write_text(markdown, markdown_table(results))
     if as_json:
         emit_json({"cases": results, "wins": wins, "total": total, "ties": ties, **sizes})

@@ -1,26 +1,30 @@
 """``shbake probe-fit``: lat-long maps → SH-exponential glossy probes, in batch."""
 
 import os
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import click
-from shbake_cli.options import emit_json, fix_nonfinite_opt, info, json_opt, negative_opt, quiet_opt
+from shbake_cli.options import (
+    emit_json,
+    fix_nonfinite_opt,
+    info,
+    json_opt,
+    negative_opt,
+    parse_range,
+    quiet_opt,
+)
 
 from shbake.bakers.shexp import TARGETS, WEIGHTINGS, FitConfig
 from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
 from shbake.errors import InputError, ParameterError
-from shbake.format.atomic import check_writable_dir
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs
+from shbake.resources import read_bounded
 
-
-def parse_range(text: str) -> tuple[float, float]:
-    """``"lo:hi"`` → ``(lo, hi)``."""
-    try:
-        lo, hi = (float(x) for x in text.split(":"))
-    except ValueError:
-        raise ParameterError(f"--roughness-range {text!r}: expected lo:hi, e.g. 0.2:1") from None
-    return lo, hi
+PROBE_LIST_MAX_BYTES = 16 << 20
+"""Largest probe list read (bytes)."""
 
 
 def read_probe_list(path: str) -> list[tuple[str, str | None]]:
@@ -28,7 +32,10 @@ def read_probe_list(path: str) -> list[tuple[str, str | None]]:
     are relative to the list's folder."""
     base = Path(path).parent
     try:
-        lines = Path(path).read_text().splitlines()
+        raw = read_bounded(path, PROBE_LIST_MAX_BYTES, "probe list (--list)")
+        lines = raw.decode("utf-8").splitlines()
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: the probe list is not UTF-8 text (byte {e.start})") from None
     except OSError as e:
         raise InputError(f"{path}: cannot read the probe list ({e.strerror})") from None
     out = []
@@ -47,8 +54,8 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_
     entries = [(m, None) for m in maps] + (read_probe_list(probe_list) if probe_list else [])
     if not entries:
         raise ParameterError("give maps as arguments or a --list file")
-    if probe_set:
-        check_writable_dir(probe_set)
+    if probe_set is not None:
+        check_output_path(probe_set, "--set")
         return [
             ProbeJob(os.path.abspath(src), None, config, negative, fix_nonfinite)
             for src, _ in entries
@@ -56,13 +63,14 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_
     jobs, seen = [], set()
     for src, out in entries:
         if out is None:
-            os.makedirs(out_dir, exist_ok=True)
+            check_output_dir(out_dir, "--out-dir")
+            makedirs(out_dir)
             out = os.path.join(out_dir, Path(src).stem + ".h5")
         out = os.path.abspath(out)
         if out in seen:
             raise ParameterError(f"two probes would write {out}; name outputs in a --list file")
         seen.add(out)
-        check_writable_dir(out)
+        check_output_path(out)
         jobs.append(ProbeJob(os.path.abspath(src), out, config, negative, fix_nonfinite))
     return jobs
 
@@ -254,7 +262,7 @@ def probe_fit(
     idempotent file; the same inputs give byte-identical files with --jobs,
     --scheduler or neither.
     """
-    lo, hi = parse_range(roughness_range)
+    lo, hi = parse_range(roughness_range, "--roughness-range")
     config = FitConfig(lmax_p, lmax_q, normals, views, roughness_count, lo, hi, samples,
                        weighting, floor, targets, targets_lmax)  # fmt: skip
     jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_set)
@@ -264,7 +272,7 @@ def probe_fit(
         jobs = [replace(job, config=config) for job in jobs]
     if scheduler and n_jobs != 1:
         raise ParameterError("use --jobs or --scheduler, not both")
-    show = not quiet and click.get_text_stream("stderr").isatty()
+    show = not quiet and sys.stderr.isatty()
 
     def progress(done, total):
         if show:
@@ -275,7 +283,7 @@ def probe_fit(
         results = run_dask(jobs, scheduler, progress)
     else:
         results = run_local(jobs, n_jobs, progress)
-    if probe_set:
+    if probe_set is not None:
         results = write_set(probe_set, results, config)
     seconds = time.perf_counter() - t0
     rate = len(jobs) / seconds if seconds > 0 else float("inf")

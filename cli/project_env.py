@@ -1,55 +1,44 @@
 """``shbake project-env``: HDR environment map → SH lighting, irradiance, tangent irradiance."""
 
-import os
-import shlex
-import sys
-
 import click
-import numpy as np
 from shbake_cli.options import (
-    colorspace_opt,
+    BarProgress,
+    command_line,
+    deprecated,
     emit_json,
-    fix_nonfinite_opt,
+    exr_dir_opt,
     info,
+    input_policy_opts,
     json_opt,
-    layout_opt,
-    lmax_opt,
-    negative_opt,
+    output_opt,
+    png_opt,
     quiet_opt,
+    report_opt,
+    size_opt,
+    warn,
 )
 
-from shbake.bakers.env_sh import bake_env_sh, truncation_report
-from shbake.conventions import check_lmax
-from shbake.envmap import load_environment
-from shbake.envmap.layouts import latlong_directions
-from shbake.errors import OutputError
-from shbake.evaluation.env_sh import irradiance_errors
-from shbake.format.asset import write_asset
-from shbake.format.atomic import check_writable_dir
-from shbake.format.engine_export import write_gltf_json
-from shbake.format.images import HALF_MAX, write_exr
+from shbake.batch.project_env import project_environment
+from shbake.conventions import LMAX_LIMIT
 from shbake.sh.windows import WINDOW_METHODS
-from shbake.shading.env_sh import irradiance as sh_irradiance
-
-
-def command_line(ctx: click.Context) -> str:
-    """The command line as typed (``main`` passes argv), for provenance."""
-    argv = (ctx.find_root().obj or {}).get("argv")
-    if argv is None:
-        argv = sys.argv[1:]
-    return shlex.join(["shbake", *argv])
 
 
 @click.command("project-env")
 @click.argument("env", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Asset (.h5).")
-@lmax_opt
+@output_opt("The env_sh asset (.h5)")
+@click.option(
+    "--lmax",
+    type=click.IntRange(0, LMAX_LIMIT),
+    default=2,
+    show_default=True,
+    help=f"Highest SH band l of /lighting/sh (0…{LMAX_LIMIT}); (lmax+1)^2 coefficients.",
+)
 @click.option(
     "--window",
     type=click.Choice(WINDOW_METHODS),
     default="none",
     show_default=True,
-    help="Band window before the irradiance kernels; 'dering' = weakest window "
+    help="Band window before the irradiance kernels; 'dering' = the weakest window "
     "that makes the reconstructions non-negative.",
 )
 @click.option(
@@ -66,32 +55,26 @@ def command_line(ctx: click.Context) -> str:
 )
 @click.option(
     "--irradiance-lmax",
-    type=int,
+    type=click.IntRange(0, LMAX_LIMIT),
     default=None,
-    help="Highest band of the irradiance SH [default: min(lmax, 2)].",
+    help="Highest band of the irradiance SH (≤ --lmax) [default: min(lmax, 2)].",
 )
-@click.option("--extract-sun", is_flag=True, help="Extract the dominant compact light first.")
+@click.option(
+    "--extract-sun",
+    is_flag=True,
+    help="Take the dominant compact light out as a directional light before projecting.",
+)
 @click.option(
     "--sun-radius",
-    type=float,
+    type=click.FloatRange(0.0, 45.0, min_open=True),
     default=10.0,
     show_default=True,
-    help="Largest angular radius of the extracted light, degrees.",
+    help="Largest angular radius of the extracted light, degrees (0…45].",
 )
-@click.option(
-    "--exr-maps",
-    type=click.Path(file_okay=False),
-    default=None,
-    help="Write irradiance / tangent-irradiance lat-long EXRs into this directory.",
-)
-@click.option(
-    "--map-height",
-    type=click.IntRange(2, 4096),
-    default=128,
-    show_default=True,
-    help="Height of the --exr-maps images (width = 2 × height).",
-)
-@click.option("--float-exr", is_flag=True, help="Write float32 EXRs instead of half.")
+@exr_dir_opt("irradiance.exr and tangent_irradiance.exr, lat-long")
+@size_opt(128, "Height of the --exr-dir lat-long maps (width = 2 × height)")
+@click.option("--float-exr", is_flag=True, help="Write float32 EXRs instead of half floats.")
+@png_opt
 @click.option(
     "--export",
     "exports",
@@ -99,132 +82,78 @@ def command_line(ctx: click.Context) -> str:
     multiple=True,
     help="Engine export beside the asset (gltf: EXT_lights_image_based JSON).",
 )
-@click.option(
-    "--report",
-    is_flag=True,
-    help="Energy per band, truncation error, and error vs brute force on stderr.",
-)
-@layout_opt
-@negative_opt
-@fix_nonfinite_opt
-@colorspace_opt
+@report_opt
+@input_policy_opts
 @json_opt
 @quiet_opt
+@deprecated("--exr-maps", "exr_dir", "--exr-dir", type=click.Path(file_okay=False))
+@deprecated("--map-height", "size", "--size", type=click.IntRange(2, 4096))
 @click.pass_context
-def project_env(
-    ctx,
-    env,
-    output,
-    lmax,
-    window,
-    irradiance,
-    tangent_irradiance,
-    irradiance_lmax,
-    extract_sun,
-    sun_radius,
-    exr_maps,
-    map_height,
-    float_exr,
-    exports,
-    report,
-    layout,
-    negative,
-    fix_nonfinite,
-    colorspace,
-    as_json,
-    quiet,
-):
-    """Project the environment map ENV onto SH and write the asset OUTPUT.
+def project_env(ctx, env, output, exr_dir, size, as_json, quiet, **settings):
+    """Project the environment map ENV onto SH and write the env_sh asset OUTPUT.
 
     ENV: lat-long, cube strip or cross; EXR, HDR or any format OpenImageIO reads.
     """
-    check_lmax(lmax)
-    if irradiance_lmax is None:
-        irradiance_lmax = min(lmax, 2)
-    check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
-    check_writable_dir(output)
-    if exr_maps is not None and os.path.exists(exr_maps) and not os.path.isdir(exr_maps):
-        raise OutputError(f"{exr_maps}: exists and is not a directory")
-    environment = load_environment(env, layout, colorspace, negative, fix_nonfinite, quiet)
-    provenance = {"command_line": command_line(ctx)}
-    asset, summary = bake_env_sh(
-        environment,
-        lmax=lmax,
-        window_name=window,
-        irradiance_lmax=irradiance_lmax,
-        irradiance=irradiance,
-        tangent=tangent_irradiance,
-        sun=extract_sun,
-        sun_radius_deg=sun_radius,
-        provenance=provenance,
+    summary = project_environment(
+        env,
+        output,
+        lmax=settings["lmax"],
+        window=settings["window"],
+        irradiance_lmax=settings["irradiance_lmax"],
+        with_irradiance=settings["irradiance"],
+        with_tangent=settings["tangent_irradiance"],
+        extract=settings["extract_sun"],
+        sun_radius=settings["sun_radius"],
+        exr_dir=exr_dir,
+        map_size=size,
+        float_exr=settings["float_exr"],
+        png=settings["png"],
+        exports=settings["exports"],
+        report=settings["report"],
+        layout=settings["layout"],
+        negative=settings["negative"],
+        fix_nonfinite=settings["fix_nonfinite"],
+        colorspace=settings["colorspace"],
+        command_line=command_line(ctx),
+        quiet=quiet,
+        progress=BarProgress(quiet),
     )
-    maps = {}
-    if exr_maps is not None:
-        dirs = latlong_directions(map_height, 2 * map_height)
-        if irradiance:
-            maps["irradiance.exr"] = sh_irradiance(asset, dirs)
-        if tangent_irradiance:
-            maps["tangent_irradiance.exr"] = sh_irradiance(asset, dirs, tangent=True)
-        for name, img in maps.items():
-            peak = float(np.abs(img).max())
-            if not float_exr and peak > HALF_MAX:
-                raise OutputError(f"{name}: value {peak:.6g} overflows half float; use --float-exr")
-    if "gltf" in exports and (not irradiance or irradiance_lmax < 2):
-        raise click.UsageError("--export gltf needs --irradiance with irradiance lmax >= 2")
-    if report:
-        summary["report"] = truncation_report(environment, lmax, irradiance_lmax)
-        summary["report"]["error_vs_brute_force"] = irradiance_errors(asset, environment)
-
-    write_asset(output, asset)
-    if maps:
-        os.makedirs(exr_maps, exist_ok=True)
-        for name, img in maps.items():
-            write_exr(os.path.join(exr_maps, name), img, half=not float_exr, attrs={"envmap": 0})
-    if "gltf" in exports:
-        gltf_path = os.path.splitext(output)[0] + ".gltf.json"
-        write_gltf_json(gltf_path, asset["/irradiance/sh"][:9], os.path.basename(env))
-        summary["gltf"] = gltf_path
-
-    summary.update(
-        output=output,
-        input=env,
-        layout=environment.layout,
-        negative_count=environment.meta["negative_count"],
-        lighting_L00=asset["/lighting/sh"][0].tolist(),
-    )
-    if report:
-        _print_report(summary, quiet)
+    if settings["report"]:
+        print_report(summary, quiet)
+    for w in summary["warnings"]:
+        warn(w, quiet)
     if as_json:
         emit_json(summary)
     else:
-        info(f"wrote {output} (lmax {lmax}, {environment.layout})", quiet)
+        info(f"wrote {output} (lmax {settings['lmax']}, {summary['layout']})", quiet)
 
 
-def _print_report(summary: dict, quiet: bool) -> None:
+def print_report(summary: dict, quiet: bool) -> None:
+    """The ``--report`` tables on stderr, every fraction labelled."""
     rep = summary["report"]
-    info("band  energy (R, G, B)", quiet)
+    sun = summary.get("sun", {})
+    after = " (after the sun was extracted)" if sun.get("extracted") else ""
+    info("band  energy Σ_m L_lm² (R, G, B)", quiet)
     for l, e in enumerate(rep["band_energy"]):
         info(f"{l:4d}  " + "  ".join(f"{v:.4g}" for v in e), quiet)
     info(
-        "lighting energy captured: "
+        f"fraction of ∫L² dω captured by lmax {summary['lmax']}{after} (R, G, B): "
         + ", ".join(f"{v:.6f}" for v in rep["lighting_energy_captured"]),
         quiet,
     )
     for k in ("irradiance", "tangent_irradiance"):
         info(
-            f"{k} energy lost beyond its lmax: "
-            + ", ".join(f"{v:.3e}" for v in rep[f"{k}_energy_lost"]),
+            f"fraction of the {k} energy lost beyond lmax {summary['irradiance_lmax']} "
+            "(R, G, B): " + ", ".join(f"{v:.3e}" for v in rep[f"{k}_energy_lost"]),
             quiet,
         )
     for k, v in rep["error_vs_brute_force"].items():
-        info(f"{k} vs brute force: mean {v['mean']:.4%}, max {v['max']:.4%}", quiet)
-    if "sun" in summary:
-        s = summary["sun"]
-        if s.get("extracted"):
-            info(
-                f"sun: contrast {s['contrast']:.1f}, energy fraction "
-                + ", ".join(f"{v:.3f}" for v in s["energy_fraction"]),
-                quiet,
-            )
-        else:
-            info(f"sun: none extracted (peak/background contrast {s['contrast']:.1f})", quiet)
+        info(f"{k} vs brute force, relative: mean {v['mean']:.4%}, max {v['max']:.4%}", quiet)
+    if sun.get("extracted"):
+        info(
+            f"sun: peak/background contrast {sun['contrast']:.1f}, fraction of ∫L dω moved "
+            "into the light (R, G, B): " + ", ".join(f"{v:.3f}" for v in sun["energy_fraction"]),
+            quiet,
+        )
+    elif sun:
+        info(f"sun: none extracted (peak/background contrast {sun['contrast']:.1f})", quiet)

@@ -1,15 +1,22 @@
 """``shbake split-sum``: the split-sum baseline probe (prefiltered octahedral mip chain + DFG)."""
 
 import click
-from shbake_cli.options import emit_json, fix_nonfinite_opt, info, json_opt, negative_opt, quiet_opt
-from shbake_cli.probe_fit import parse_range
+from shbake_cli.options import (
+    emit_json,
+    fix_nonfinite_opt,
+    info,
+    json_opt,
+    negative_opt,
+    parse_range,
+    quiet_opt,
+)
 
 from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
 from shbake.batch.probe_jobs import shared_dfg_table
 from shbake.envmap import load_environment
 from shbake.errors import InputError
 from shbake.format.asset import write_asset
-from shbake.format.atomic import check_writable_dir
+from shbake.format.atomic import check_output_path
 from shbake.format.probe import probe_bytes
 from shbake.format.splitsum import build_splitsum_asset
 
@@ -48,9 +55,9 @@ def split_sum(
     quiet,
 ):
     """Bake the split-sum baseline of ENV (Karis 2013) as a probe asset of its own."""
-    lo, hi = parse_range(roughness_range)
+    lo, hi = parse_range(roughness_range, "--roughness-range")
     config = SplitSumConfig(top, min_size, levels, lo, hi, samples)
-    check_writable_dir(output)
+    check_output_path(output)
     environment = load_environment(env, negative=negative, fix_nonfinite=fix_nonfinite, quiet=quiet)
     if environment.layout != "latlong":
         raise InputError(f"{env}: split-sum takes lat-long maps (2:1), got {environment.layout}")

@@ -8,9 +8,10 @@ MERL file written from an analytic model.
 
 import numpy as np
 import pytest
+from helpers import write_merl
 
 from shbake.brdf import make_brdf
-from shbake.brdf.merl import half_diff_grid, write_merl
+from shbake.brdf.merl import half_diff_grid
 from shbake.brdf.tabulate import SQRT_4PI, project_views, tabulate
 from shbake.errors import InputError, ParameterError
 from shbake.sh.basis import real_sh

@@ -6,9 +6,9 @@ import os
 import h5py
 import numpy as np
 import pytest
+from helpers import map_path, write_test_exr
 
 from shbake.format.asset import read_asset
-from tests.conftest import map_path, write_test_exr
 
 ESPLANADE = map_path("esplanade")
 
@@ -24,7 +24,7 @@ class TestProjectEnv:
             "--lmax",
             "8",
             "--extract-sun",
-            "--exr-maps",
+            "--exr-dir",
             tmp_path / "maps",
             "--float-exr",
             "--export",
@@ -186,7 +186,7 @@ class TestBadInput:
         img = np.ones((32, 64, 3))
         img[10, 10] = 1e9  # a 1-pixel light: its irradiance overflows half floats
         src = write_test_exr(tmp_path / "hot.exr", img)
-        err = self.case(run_cli, tmp_path, src, "--exr-maps", tmp_path / "maps")
+        err = self.case(run_cli, tmp_path, src, "--exr-dir", tmp_path / "maps")
         assert "half" in err and not (tmp_path / "maps").exists()
 
     def test_unwritable_output(self, run_cli, tmp_path):

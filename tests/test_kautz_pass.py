@@ -6,7 +6,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from conftest import map_path
+from helpers import map_path
 from kautz_accuracy import LMAXES, MAPS, kautz_errors
 
 EXPECTED = json.loads((Path(__file__).parent / "kautz_accuracy_expected.json").read_text())
@@ -36,13 +36,13 @@ class TestBrdfTableCli:
             "Rs=0.9,0.8,0.5",
             "--lmax",
             2,
-            "--resolution",
+            "--size",
             16,
             "--samples",
             256,
             "--vary",
             "nu=10:40:3",
-            "--exr",
+            "--exr-dir",
             tmp_path / "img",
             "-o",
             out,
@@ -72,7 +72,7 @@ class TestBrdfTableCli:
             "alpha=0.4",
             "--lmax",
             2,
-            "--resolution",
+            "--size",
             8,
             "--samples",
             128,
@@ -91,9 +91,9 @@ class TestBrdfTableCli:
             (["ggx", "-p", "beta=1"], "allowed: F0, alpha_x, alpha_y, correlated, alpha", 1),
             (["ggx", "-p", "alpha=2"], "outside", 1),
             (["phong", "-p", "rho_d=0.7", "-p", "rho_s=0.7"], "energy", 1),
-            (["ggx", "--lmax", 17], "lmax must be in [0, 16]", 1),
+            (["ggx", "--lmax", 17], "17 is not in the range 0<=x<=16", 2),
             (["ggx", "--vary", "alpha=0:1"], "NAME=lo:hi:N", 1),
-            (["ggx", "--resolution", "1"], "sides must be in", 1),
+            (["ggx", "--size", "1"], "sides must be in", 2),
             (["merl"], "needs a MERL", 1),
         ],
     )
@@ -112,7 +112,7 @@ class TestBrdfTableCli:
                 "ggx",
                 "-p",
                 "alpha=0.5",
-                "--resolution",
+                "--size",
                 16,
                 "--samples",
                 256,

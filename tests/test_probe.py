@@ -12,7 +12,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import map_path, write_test_exr
+from helpers import map_path, write_test_exr
 from shbake_cli.main import main
 from test_brdf import albedo_quadrature
 
@@ -320,7 +320,7 @@ class TestGlossyPreview:
             rc = main(["preview", str(asset), "-o", str(out), *args, "--source", m, "--json"])
             summary = json.loads(capsys.readouterr().out)
             assert rc == 0 and summary["relative_rms_error"] < limit, summary
-            assert (tmp_path / f"{asset.stem}-reference.png").exists()
+            assert (tmp_path / f"{asset.stem}-sheet.png").exists()
 
     def test_outside_fitted_range_refused(self, probe_maps, tmp_path, run_cli):
         fit = ["probe-fit", probe_maps[0], "-o", tmp_path, "--normals", "16", "--views", "16"]
@@ -406,7 +406,7 @@ class TestProbeSet:
             np.testing.assert_array_equal(probe_set["/q"][i], single["/q"])
         code, _, err = run_cli("preview", tmp_path / "set1.h5", "--index", "3", "-o",
                                tmp_path / "p3.exr", "--size", "16", "-q")  # fmt: skip
-        assert code == 0 and (tmp_path / "p3.png").exists()
+        assert code == 0 and (tmp_path / "p3-sheet.png").exists()
         code, _, err = run_cli("preview", tmp_path / "set1.h5", "--index", "4", "-o",
                                tmp_path / "p4.exr")  # fmt: skip
         assert code == 1 and "outside this set of 4 probes" in err

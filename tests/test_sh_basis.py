@@ -2,25 +2,12 @@
 
 import numpy as np
 import pytest
+from helpers import gauss_legendre_sphere
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from numpy.polynomial.legendre import leggauss
 
 from shbake.errors import ParameterError
 from shbake.sh.basis import evaluate, real_sh, real_sh_numba
-
-
-def gauss_legendre_sphere(lmax):
-    """Product rule exact for band ≤ 2 lmax: Gauss–Legendre in z, uniform in φ."""
-    z, wz = leggauss(lmax + 1)
-    nphi = 2 * lmax + 2
-    phi = 2 * np.pi * np.arange(nphi) / nphi
-    r = np.sqrt(1 - z * z)
-    d = np.stack(
-        [np.outer(r, np.cos(phi)), np.outer(r, np.sin(phi)), np.repeat(z[:, None], nphi, 1)], -1
-    )
-    w = np.outer(wz, np.full(nphi, 2 * np.pi / nphi))
-    return d.reshape(-1, 3), w.ravel()
 
 
 class TestRealSh:

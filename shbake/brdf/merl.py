@@ -20,7 +20,6 @@ from shbake import resources
 from shbake.brdf.phong import mirror_lobe_pdf, mirror_lobe_sample
 from shbake.brdf.spec import ModelSpec, Param
 from shbake.errors import InputError, ResourceError
-from shbake.format.atomic import atomic_path
 from shbake.jit import jit
 
 N_TH, N_TD, N_PD = 90, 90, 180
@@ -91,20 +90,6 @@ def half_diff_grid() -> tuple[np.ndarray, np.ndarray]:
         )
 
     return rot_y(d), rot_y(e)
-
-
-def write_merl(path: str, values: np.ndarray) -> None:
-    """Write ``(3, 90, 90, 180)`` BRDF values (1/sr) as a MERL ``.binary`` file, atomically.
-
-    Use with :func:`half_diff_grid` to tabulate any model in MERL form.
-    """
-    v = np.asarray(values, dtype=float)
-    if v.shape != (3, N_TH, N_TD, N_PD) or not np.all(np.isfinite(v)):
-        raise InputError(f"MERL values must be finite, shape (3, 90, 90, 180), got {v.shape}")
-    body = (v / SCALES[:, None, None, None]).astype("<f8").tobytes()
-    with atomic_path(os.fspath(path)) as tmp, open(tmp, "wb") as f:
-        f.write(np.array([N_TH, N_TD, N_PD], dtype="<i4").tobytes())
-        f.write(body)
 
 
 @jit

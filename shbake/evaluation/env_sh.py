@@ -5,26 +5,40 @@ import numpy as np
 from shbake.conventions import REC709_LUMINANCE
 from shbake.envmap.environment import Environment
 from shbake.format.asset import Asset
+from shbake.progress import NO_PROGRESS
 from shbake.reference.irradiance import brute_force_irradiance
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.env_sh import irradiance
 
+QUERY_CHUNK = 128
+"""Query directions per brute-force call (one progress step)."""
 
-def brute_force_reference(env: Environment, n_dirs: int = 2048) -> dict:
+
+def brute_force_reference(env: Environment, n_dirs: int = 2048, progress=NO_PROGRESS) -> dict:
     """Brute-force luminance of irradiance and tangent irradiance of ``env``.
 
     Queries: ``n_dirs`` spherical-Fibonacci directions. Returns
     ``{"dirs": (n, 3), "irradiance": (n,), "tangent_irradiance": (n,)}``.
+    Cost ``O(texels × n_dirs)``: minutes on a 4K map, hence ``progress``.
     """
     dirs, omega, radiance = env.samples()
     q = fibonacci_sphere(n_dirs)
     out = {"dirs": q}
-    for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
-        out[name] = brute_force_irradiance(dirs, omega, radiance, q, tangent) @ REC709_LUMINANCE
+    chunks = range(0, n_dirs, QUERY_CHUNK)
+    with progress.task("brute-force irradiance", total=2 * len(chunks), unit="chunk") as advance:
+        for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
+            parts = []
+            for s in chunks:
+                e = brute_force_irradiance(dirs, omega, radiance, q[s : s + QUERY_CHUNK], tangent)
+                parts.append(e @ REC709_LUMINANCE)
+                advance(1)
+            out[name] = np.concatenate(parts)
     return out
 
 
-def irradiance_errors(asset: Asset, env: Environment, reference: dict | None = None) -> dict:
+def irradiance_errors(
+    asset: Asset, env: Environment, reference: dict | None = None, progress=NO_PROGRESS
+) -> dict:
     """Luminance relative error of the asset's irradiance vs brute force of ``env``.
 
     ``env`` is the original map (before sun extraction); ``reference`` a
@@ -32,7 +46,7 @@ def irradiance_errors(asset: Asset, env: Environment, reference: dict | None = N
     for ``irradiance`` and ``tangent_irradiance`` when present,
     ``{"mean": …, "max": …}`` of ``|Y(E) - Y(E_ref)| / Y(E_ref)``.
     """
-    ref = reference if reference is not None else brute_force_reference(env)
+    ref = reference if reference is not None else brute_force_reference(env, progress=progress)
     out = {}
     for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
         if f"/{name}/sh" not in asset:

@@ -3,6 +3,7 @@
 import numpy as np
 import OpenImageIO as oiio
 
+from shbake.conventions import REC709_LUMINANCE
 from shbake.errors import OutputError
 from shbake.format.atomic import atomic_path
 
@@ -89,22 +90,31 @@ def _write(path, spec, pixels):
 
 def auto_exposure(img: np.ndarray) -> float:
     """``0.18 / geometric-mean luminance`` of the non-zero pixels (1 for a black image)."""
-    lum = np.maximum(np.asarray(img, dtype=np.float64), 0.0) @ np.array([0.2126, 0.7152, 0.0722])
+    lum = np.maximum(np.asarray(img, dtype=np.float64), 0.0) @ REC709_LUMINANCE
     nz = lum[lum > 0]
     return 0.18 / float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0
 
 
-def tonemap_to_srgb8(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
-    """Tone-map linear RGB to 8-bit sRGB for looking at.
+def tonemap(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
+    """Tone-map linear RGB to display sRGB in ``[0, 1]`` for looking at, hue preserved.
 
-    Exposure (a multiplier) defaults to ``0.18 / mean luminance`` of the
-    non-zero pixels; then Reinhard ``x/(1+x)`` on each channel, the sRGB
-    transfer function, and rounding. Deterministic.
+    ``exposure`` (a multiplier; default :func:`auto_exposure`) scales the
+    radiance; Reinhard's curve ``Y/(1+Y)`` is applied to the Rec.709
+    luminance ``Y`` and every channel scaled by the same factor (so a white
+    sphere under coloured light keeps its colour instead of turning grey, as
+    a per-channel curve does), channels above 1 clipped; then the sRGB
+    transfer function. Deterministic.
     """
     x = np.maximum(np.asarray(img, dtype=np.float64), 0.0)
     if exposure is None:
         exposure = auto_exposure(x)
     x = x * exposure
-    x = x / (1.0 + x)
-    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-    return np.clip(np.round(srgb * 255.0), 0, 255).astype(np.uint8)
+    lum = x @ REC709_LUMINANCE
+    scale = np.where(lum > 0.0, 1.0 / (1.0 + lum), 1.0)
+    x = np.minimum(x * scale[..., None], 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def tonemap_to_srgb8(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
+    """:func:`tonemap` rounded to 8-bit sRGB."""
+    return np.clip(np.round(tonemap(img, exposure) * 255.0), 0, 255).astype(np.uint8)

@@ -1,0 +1,115 @@
+"""``brdf-table`` as one unit of work: tabulate a BRDF, write the asset and its images.
+
+:func:`bake_brdf_table` validates the model, parameters, axes and outputs
+before any work, tabulates (:mod:`shbake.brdf.tabulate`), writes the
+``brdf_table`` asset (:mod:`shbake.format.kautz_table`), the band EXRs and the
+Kautz et al. Fig. 2 sheet, and with ``report`` measures error and time against
+lmax, resolution and samples (:mod:`shbake.bakers.kautz_report`).
+"""
+
+import os
+
+from shbake.bakers.kautz_report import settings_report
+from shbake.brdf import make_brdf
+from shbake.brdf.tabulate import parse_vary, tabulate_axes
+from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
+from shbake.format.asset import write_asset
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs
+from shbake.format.kautz_images import write_band_exrs, write_sheet
+from shbake.format.kautz_table import build_table_asset, table_at
+from shbake.progress import NO_PROGRESS
+
+
+def bake_brdf_table(
+    model: str,
+    output: str,
+    params: dict | None = None,
+    merl_path: str | None = None,
+    lmax: int = 4,
+    size: tuple[int, int] = (128, 128),
+    samples: int = 1024,
+    tol: float | None = None,
+    max_samples: int = 1 << 18,
+    vary: tuple[str, ...] = (),
+    exr_dir: str | None = None,
+    report: bool = False,
+    reproducible: bool = False,
+    command_line: str = "",
+    progress=NO_PROGRESS,
+) -> dict:
+    """Tabulate ``model`` into ``output``; the summary (with ``warnings`` to show the user).
+
+    ``samples``: quadrature points per strategy (ignored with ``tol``, which
+    refines each texel until its error estimate is at most ``tol`` or
+    ``max_samples`` is reached).
+    """
+    lmax = check_lmax(lmax, limit=KAUTZ_LMAX_LIMIT)
+    brdf = make_brdf(model, merl_path=merl_path, **(params or {}))
+    axes = [parse_vary(v) for v in vary]
+    check_output_path(output)
+    if exr_dir is not None:
+        check_output_dir(exr_dir, "--exr-dir")
+    points = 1
+    for _, values in axes:
+        points *= len(values)
+    with progress.task("tabulating", total=points, unit="table") as advance:
+        done = [0]
+
+        def step(index, _count, _samples, _error):
+            if index > done[0]:  # table ``index`` started: the ones before it are done
+                advance(index - done[0])
+                done[0] = index
+
+        tables, convs = tabulate_axes(
+            brdf,
+            axes,
+            progress=step,
+            lmax=lmax,
+            resolution=size,
+            samples=None if tol is not None else samples,
+            tol=tol,
+            max_samples=max_samples,
+        )
+    asset = build_table_asset(brdf, tables, convs, axes, lmax, record_time=not reproducible)
+    asset.attrs["command_line"] = command_line
+    tattrs = asset.dataset_attrs["/table"]
+    err = tattrs["error_estimate"]
+    warnings = []
+    if tol is not None and err > tol:
+        bad = int(sum((c.view_errors > tol).sum() for c in convs))
+        warnings.append(
+            f"{bad} texels did not reach --tol {tol:g} by {max_samples} samples (largest error "
+            f"estimate {err:.2e}, per texel in /error); raise --max-samples"
+        )
+    if not tattrs["energy_conserving"]:
+        warnings.append(
+            f"measured albedo up to {max(tattrs['max_albedo']):.4f} > 1: these parameters do "
+            "not conserve energy (flagged in the asset)"
+        )
+    summary = {
+        "output": output,
+        "model": model,
+        "parameters": brdf.describe()["parameters"],
+        "lmax": lmax,
+        "size": list(size),
+        "shape": list(asset["/table"].shape),
+        "error_estimate": err,
+        "samples_max": tattrs["samples_max"],
+        "seconds": sum(c.seconds for c in convs),
+        "max_albedo": tattrs["max_albedo"],
+        "energy_conserving": tattrs["energy_conserving"],
+        "warnings": warnings,
+    }
+    if report:
+        summary["report"] = settings_report(
+            brdf, lmax, size, samples if tol is None else convs[0].samples, convs[0].history
+        )
+    write_asset(output, asset)
+    if exr_dir is not None:
+        makedirs(exr_dir)
+        point = table_at(asset)
+        written = write_band_exrs(exr_dir, point.coeffs, lmax, brdf.coloured)
+        sheet_path = os.path.join(exr_dir, "sheet.png")
+        write_sheet(sheet_path, point.coeffs, lmax)
+        summary["images"] = written + [sheet_path]
+    return summary

@@ -1,0 +1,166 @@
+"""``project-env`` as one unit of work: read a map, bake ``env_sh``, write it and its companions.
+
+:func:`project_environment` is what the command runs: it validates every
+setting before reading the map, bakes the asset (:mod:`shbake.bakers.env_sh`),
+optionally measures it (``report``: truncation per band and the error against
+brute force, :mod:`shbake.evaluation.env_sh`), writes the asset, the lat-long
+irradiance maps and the engine exports, and returns a summary with the
+quality warnings a user should act on.
+"""
+
+import os
+
+import numpy as np
+
+from shbake.bakers.env_sh import bake_env_sh, truncation_report
+from shbake.conventions import check_lmax
+from shbake.envmap import load_environment
+from shbake.envmap.layouts import latlong_directions
+from shbake.envmap.sun import extract_sun
+from shbake.errors import OutputError, ParameterError
+from shbake.evaluation.env_sh import irradiance_errors
+from shbake.format.asset import write_asset
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs
+from shbake.format.engine_export import write_gltf_json
+from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_png
+from shbake.progress import NO_PROGRESS
+from shbake.sh.point_sets import fibonacci_sphere
+from shbake.shading.env_sh import irradiance
+
+TRUNCATION_WARNING = 0.10
+"""Relative irradiance error (max vs brute force) above which ``--report`` warns."""
+MINIMUM_DIRECTIONS = 4096
+"""Directions at which the baked irradiance is checked for negative values."""
+
+
+def quality_warnings(asset, summary: dict) -> list[str]:
+    """Plain-language warnings about a baked ``env_sh`` asset, each with the fix to try.
+
+    Negative Lambert irradiance anywhere on a Fibonacci sphere means ringing
+    (Gibbs) from a compact bright source; a ``--report`` error above
+    :data:`TRUNCATION_WARNING` means the chosen ``lmax`` is too low for the map.
+    """
+    out = []
+    fixes = []
+    if summary.get("window") != "dering":
+        fixes.append("--window dering")
+    if not summary.get("sun", {}).get("extracted"):
+        fixes.append("--extract-sun")
+    if "/irradiance/sh" in asset:
+        e = irradiance(asset, fibonacci_sphere(MINIMUM_DIRECTIONS))
+        lowest = float(e.min())
+        if lowest < 0.0:
+            hint = f"; try {' or '.join(fixes)}" if fixes else ""
+            out.append(
+                f"irradiance rings below zero (min {lowest:.4g} vs mean "
+                f"{float(e.mean()):.4g}){hint}"
+            )
+    errors = summary.get("report", {}).get("error_vs_brute_force", {})
+    for name, err in errors.items():
+        if err["max"] > TRUNCATION_WARNING:
+            hint = " or ".join(fixes + ["a higher --irradiance-lmax"])
+            out.append(
+                f"{name} differs from brute force by up to {err['max']:.0%} (mean "
+                f"{err['mean']:.1%}); try {hint}"
+            )
+    return out
+
+
+def project_environment(
+    env_path: str,
+    output: str,
+    lmax: int = 2,
+    window: str = "none",
+    irradiance_lmax: int | None = None,
+    with_irradiance: bool = True,
+    with_tangent: bool = True,
+    extract: bool = False,
+    sun_radius: float = 10.0,
+    exr_dir: str | None = None,
+    map_size: int = 128,
+    float_exr: bool = False,
+    png: bool = False,
+    exports: tuple[str, ...] = (),
+    report: bool = False,
+    layout: str | None = None,
+    negative: str = "clamp",
+    fix_nonfinite: str | None = None,
+    colorspace: str | None = None,
+    command_line: str = "",
+    quiet: bool = False,
+    progress=NO_PROGRESS,
+) -> dict:
+    """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the summary.
+
+    ``exr_dir``: lat-long irradiance / tangent-irradiance EXRs of ``map_size``
+    rows (``2 × map_size`` columns), half floats unless ``float_exr``, PNGs
+    beside them with ``png``. ``exports``: engine exports beside the asset.
+    ``report``: per-band energy, truncation and the error against brute force.
+    """
+    check_lmax(lmax)
+    irradiance_lmax = min(lmax, 2) if irradiance_lmax is None else irradiance_lmax
+    check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
+    if "gltf" in exports and (not with_irradiance or irradiance_lmax < 2):
+        raise ParameterError("--export gltf needs --irradiance with irradiance lmax >= 2")
+    check_output_path(output)
+    if exr_dir is not None:
+        check_output_dir(exr_dir, "--exr-dir")
+    environment = load_environment(env_path, layout, colorspace, negative, fix_nonfinite, quiet)
+    provenance = {"command_line": command_line}
+    asset, summary = bake_env_sh(
+        environment,
+        lmax=lmax,
+        window_name=window,
+        irradiance_lmax=irradiance_lmax,
+        irradiance=with_irradiance,
+        tangent=with_tangent,
+        sun=extract,
+        sun_radius_deg=sun_radius,
+        provenance=provenance,
+    )
+    maps = {}
+    if exr_dir is not None:
+        dirs = latlong_directions(map_size, 2 * map_size)
+        if with_irradiance:
+            maps["irradiance.exr"] = irradiance(asset, dirs)
+        if with_tangent:
+            maps["tangent_irradiance.exr"] = irradiance(asset, dirs, tangent=True)
+        for name, img in maps.items():
+            peak = float(np.abs(img).max())
+            if not float_exr and peak > HALF_MAX:
+                raise OutputError(f"{name}: value {peak:.6g} overflows half float; use --float-exr")
+    if report:
+        projected = environment
+        if extract and summary.get("sun", {}).get("extracted"):
+            projected = extract_sun(environment, radius_deg=sun_radius)[1]
+        rep = truncation_report(projected, lmax, irradiance_lmax)
+        rep["error_vs_brute_force"] = irradiance_errors(asset, environment, progress=progress)
+        summary["report"] = rep
+
+    write_asset(output, asset)
+    written = [output]
+    if maps:
+        makedirs(exr_dir)
+        for name, img in maps.items():
+            path = os.path.join(exr_dir, name)
+            write_exr(path, img, half=not float_exr, attrs={"envmap": 0})
+            written.append(path)
+            if png:
+                png_path = os.path.splitext(path)[0] + ".png"
+                write_png(png_path, tonemap_to_srgb8(img))
+                written.append(png_path)
+    if "gltf" in exports:
+        gltf_path = os.path.splitext(output)[0] + ".gltf.json"
+        write_gltf_json(gltf_path, asset["/irradiance/sh"][:9], os.path.basename(env_path))
+        summary["gltf"] = gltf_path
+        written.append(gltf_path)
+    summary.update(
+        output=output,
+        outputs=written,
+        input=env_path,
+        layout=environment.layout,
+        negative_count=environment.meta["negative_count"],
+        lighting_L00=asset["/lighting/sh"][0].tolist(),
+    )
+    summary["warnings"] = quality_warnings(asset, summary)
+    return summary

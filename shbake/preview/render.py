@@ -1,0 +1,172 @@
+"""``preview`` as one unit of work: read an asset, render a pass (and its reference), write images.
+
+:func:`preview_asset` reads the asset (and, for references, the original map
+it records, hash-checked), renders the pass on a sphere
+(:mod:`shbake.preview.passes`, :mod:`shbake.preview.glossy`), and writes the
+float32 EXR of the pass, with ``diff`` the reference and the signed error as
+EXRs too, and always a labelled contact sheet ``<stem>-sheet.png``
+(:mod:`shbake.preview.contact_sheet`); ``png`` adds a plain tone-mapped PNG
+beside every EXR. It never overwrites the source map.
+"""
+
+import os
+
+import numpy as np
+
+from shbake.envmap import load_environment
+from shbake.errors import ParameterError
+from shbake.format.asset import read_asset
+from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
+from shbake.format.kautz_table import table_at
+from shbake.format.provenance import resolve_source
+from shbake.format.shexp import probe_from_set
+from shbake.preview.contact_sheet import write_contact_sheet
+from shbake.preview.glossy import PASS_OF_KIND, render_glossy
+from shbake.preview.passes import PASSES, render_pass
+from shbake.progress import NO_PROGRESS
+
+REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
+ALL_PASSES = PASSES + tuple(PASS_OF_KIND.values())
+
+
+def load_source(asset, asset_path, source_path=None):
+    """The map an asset was baked from: ``source_path`` (``--source``), else the asset's
+    ``source_path`` relative to the asset (:func:`shbake.format.provenance.resolve_source`),
+    SHA-256-checked and read with the policies the asset records."""
+    a = asset.attrs
+    path = resolve_source(a, asset_path, source_path)
+    cs_in = a.get("source_colorspace_in")
+    nonfinite = a.get("source_nonfinite_policy")
+    return load_environment(
+        path,
+        a.get("source_layout"),
+        None if cs_in in (None, a.get("source_colorspace")) else cs_in,
+        a.get("source_negative_policy") or "clamp",
+        None if nonfinite in (None, "", "error") else nonfinite,
+        quiet=True,
+    )
+
+
+def _render_env(asset, asset_path, pass_name, size, diff, source, table_path, at, merl_path):
+    pass_name = pass_name or "irradiance"
+    if pass_name in PASS_OF_KIND.values():
+        raise ParameterError(f"--pass {pass_name} needs a {pass_name}_probe asset")
+    if pass_name == "kautz" and table_path is None:
+        raise ParameterError("--pass kautz needs --table TABLE.h5")
+    if diff and pass_name not in REFERENCE_OF:
+        raise ParameterError("--diff needs the irradiance, tangent or kautz pass")
+    table = brdf = None
+    if table_path is not None:
+        table = table_at(read_asset(table_path, kinds=("brdf_table",)),
+                         {k: float(v) for k, v in (at or {}).items()})  # fmt: skip
+    needs_source = pass_name.startswith("reference") or diff
+    if table is not None and needs_source:
+        brdf = table.make_brdf(merl_path)
+    src = load_source(asset, asset_path, source) if needs_source else None
+    img, timing = render_pass(asset, pass_name, size, src, table, brdf)
+    summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
+    if "modes" in timing:
+        summary["modes"] = timing["modes"]
+    settings = f"size {size}" + (f", table {os.path.basename(table_path)}" if table_path else "")
+    reference = None
+    if diff:
+        reference, ref_timing = render_pass(asset, REFERENCE_OF[pass_name], size, src, None, brdf)
+        summary["reference_seconds"] = ref_timing["seconds"]
+    return img, reference, summary, settings, src
+
+
+def _render_probe(asset, asset_path, pass_name, size, diff, source, roughness, f0, samples):
+    own = PASS_OF_KIND[asset.kind]
+    pass_name = pass_name or own
+    if pass_name not in (own, "reference"):
+        raise ParameterError(f"a {asset.kind} asset has passes {own} and reference")
+    if diff and pass_name == "reference":
+        raise ParameterError("--diff compares a probe pass with the reference")
+    needs_source = pass_name == "reference" or diff
+    src = load_source(asset, asset_path, source) if needs_source else None
+    img, timing = render_glossy(asset, pass_name, size, roughness, f0, src, samples)
+    summary = {"pass": pass_name, "size": size, "roughness": roughness, "f0": f0,
+               "seconds": timing["seconds"], "fps": timing["fps"]}  # fmt: skip
+    reference = None
+    if diff:
+        reference, ref_timing = render_glossy(asset, "reference", size, roughness, f0, src, samples)
+        summary["reference_seconds"] = ref_timing["seconds"]
+    settings = f"roughness {roughness:g} (α {roughness * roughness:.4g}), F0 {f0:g}, size {size}"
+    return img, reference, summary, settings, src
+
+
+def preview_asset(
+    asset_path: str,
+    output: str,
+    pass_name: str | None = None,
+    size: int = 192,
+    diff: bool = False,
+    source: str | None = None,
+    table_path: str | None = None,
+    at: dict | None = None,
+    merl_path: str | None = None,
+    roughness: float = 0.5,
+    f0: float = 1.0,
+    index: int = 0,
+    samples: int = 4096,
+    png: bool = False,
+    progress=NO_PROGRESS,
+) -> dict:
+    """Render pass ``pass_name`` of the asset at ``asset_path`` into ``output`` (EXR); the summary.
+
+    ``env_sh`` assets: irradiance, tangent, kautz (``table_path``) and their references;
+    probe assets: their own pass or the glossy reference at ``roughness``, ``f0``.
+    """
+    if pass_name is not None and pass_name not in ALL_PASSES:
+        raise ParameterError(f"unknown pass {pass_name!r}; choose one of {', '.join(ALL_PASSES)}")
+    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", *PASS_OF_KIND))
+    if asset.kind == "shexp_probe_set":
+        asset = probe_from_set(asset, index)
+    with progress.task(f"preview {os.path.basename(asset_path)}", total=None, unit="pass"):
+        if asset.kind in PASS_OF_KIND:
+            img, reference, summary, settings, src = _render_probe(
+                asset, asset_path, pass_name, size, diff, source, roughness, f0, samples
+            )
+        else:
+            img, reference, summary, settings, src = _render_env(
+                asset, asset_path, pass_name, size, diff, source, table_path, at, merl_path
+            )
+    title = f"{os.path.basename(asset_path)} ({asset.kind}): pass {summary['pass']}, {settings}"
+    write_outputs(output, img, reference, summary, title, png, src)
+    return summary
+
+
+def write_outputs(output, img, reference, summary, title, png=False, source=None):
+    """Write the pass EXR (and with a reference: the reference, the signed error, MSE and
+    relative RMS error into ``summary``), the contact sheet and, with ``png``, plain PNGs.
+    Refuses to overwrite the ``source`` map."""
+    stem = os.path.splitext(output)[0]
+    images = {output: img}
+    subtitle = ""
+    mask = np.any(img != 0.0, axis=-1)
+    if reference is not None:
+        mask = mask | np.any(reference != 0.0, axis=-1)
+        err = img - reference
+        mse = float(np.mean(err[mask] ** 2)) if mask.any() else 0.0
+        rel = float(np.sqrt(np.sum(err**2) / max(np.sum(reference**2), 1e-300)))
+        images[stem + "-reference.exr"] = reference
+        images[stem + "-diff.exr"] = err
+        summary.update(mse=mse, relative_rms_error=rel)
+        subtitle = f"MSE {mse:.4g} (over sphere pixels and channels), relative RMS error {rel:.3%}"
+    sheet = stem + "-sheet.png"
+    written = list(images) + [sheet] + ([os.path.splitext(p)[0] + ".png" for p in images]
+                                        if png else [])  # fmt: skip
+    if source is not None:
+        for path in written:
+            if os.path.exists(path) and os.path.samefile(path, source.meta["path"]):
+                raise ParameterError(f"{path} is the source map; choose another --output")
+    exposure = auto_exposure(reference if reference is not None else img)
+    for path, im in images.items():
+        write_exr(path, im, half=False)
+        if png:
+            write_png(
+                os.path.splitext(path)[0] + ".png",
+                tonemap_to_srgb8(np.abs(im) if path.endswith("-diff.exr") else im, exposure),
+            )
+    write_contact_sheet(sheet, img, mask, title, reference, subtitle)
+    summary["outputs"] = written
