@@ -12,7 +12,7 @@ from shbake_cli.project_env import project_env
 from shbake_cli.split_sum import split_sum
 
 from shbake import __version__
-from shbake.resources import parse_size, set_memory_budget, start_run
+from shbake.resources import end_run, parse_size, set_memory_budget, start_run
 
 
 class ShbakeGroup(click.Group):
@@ -62,10 +62,15 @@ def main(argv=None) -> int:
     argv = list(argv)
     set_memory_budget(None)
     start_run()
-    return run(
-        lambda: cli.main(args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": argv}),
-        argv,
-    )
+    try:
+        return run(
+            lambda: cli.main(
+                args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": argv}
+            ),
+            argv,
+        )
+    finally:
+        end_run()
 
 
 if __name__ == "__main__":

@@ -134,6 +134,14 @@ def inputs() -> list[str]:
     return list(_inputs)
 
 
+def end_run() -> None:
+    """End a command run: stop tracking inputs and outputs."""
+    global _tracking
+    _tracking = False
+    _inputs.clear()
+    _outputs.clear()
+
+
 def start_run() -> None:
     """Start a command run: forget earlier inputs and outputs, and track them from now on
     (library calls outside a run are not tracked: a program may write then read a file)."""
