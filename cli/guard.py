@@ -126,6 +126,7 @@ def run(call, argv) -> int:
             if os.environ.get("SHBAKE_DEBUG"):
                 traceback.print_exc()
             _error(message_of(e))
+            _drain_stdout()
             return 1
         try:
             sys.stdout.flush()
@@ -135,6 +136,14 @@ def run(call, argv) -> int:
             return 1
         _summarise(records, quiet)
     return code
+
+
+def _drain_stdout() -> None:
+    """Flush stdout after an error; if that fails too, silence it (no exit-time traceback)."""
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError):
+        _silence_stdout()
 
 
 def _silence_stdout() -> None:

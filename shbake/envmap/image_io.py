@@ -8,9 +8,9 @@ from shbake.errors import ImageReadError
 
 MAX_PIXELS = 1 << 28
 """Refuse images above 268 M pixels (a 16k×16k map is 268 M): a guard against absurd headers."""
-MAX_DECODED_BYTES = 3 << 30
-"""Refuse images whose decoded float32 pixels exceed 3 GiB (whatever the file size: a zip
-EXR of one colour compresses ~2000:1)."""
+MAX_DECODED_BYTES = 2 << 30
+"""Refuse images whose decoded float32 pixels exceed 2 GiB (a 16k × 8k RGBA map), whatever
+the file size: a zip EXR of one colour compresses ~2000:1."""
 WORKING_COPIES = 4
 """float32 RGB copies of the image a command may hold at once (decode, RGB, repair,
 conversion), used for the memory estimate."""
