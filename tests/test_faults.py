@@ -657,3 +657,28 @@ class TestMinor:
         code, out, _ = run_cli("project-env", box / "map.exr", "-o", box / "c.h5", "--json")
         assert code == 0
         json.loads(out)
+
+    def test_layout_detection_agrees_with_layout_option(self):
+        from shbake.envmap.layouts import LAYOUTS, check_layout, detect_layout
+        from shbake.errors import LayoutError
+
+        for h in range(1, 25):
+            for w in range(1, 25):
+                fitting = []
+                for layout in LAYOUTS:
+                    with contextlib.suppress(LayoutError):
+                        fitting.append(check_layout(layout, h, w))
+                try:
+                    found = detect_layout(h, w)
+                except LayoutError:
+                    found = None
+                assert (found is None) == (not fitting), (h, w)
+                assert found is None or found in fitting, (h, w)
+
+    def test_two_by_one_refused_one_line(self, run_cli, box):
+        from tests.helpers import write_test_exr
+
+        write_test_exr(box / "two.exr", np.ones((1, 2, 3)))
+        for extra in ([], ["--layout", "latlong"]):
+            with unchanged(box):
+                assert_failed(run_cli("project-env", box / "two.exr", "-o", box / "t.h5", *extra))
