@@ -626,6 +626,19 @@ class TestBatches:
             assert_failed(run_cli("probe-fit", box / "bad.exr", box / "map.exr", "--out-dir",
                                   box, "--samples", 64))  # fmt: skip
 
+    def test_completed_probes_stay_valid(self, run_cli, box):
+        """Per-probe atomic files: the probe fitted before the bad map is complete and valid;
+        nothing half-written is left."""
+        from shbake.format.asset import read_asset
+
+        (box / "zbad.exr").write_bytes(b"not an image")
+        before = set(os.listdir(box))
+        assert_failed(run_cli("probe-fit", box / "map.exr", box / "zbad.exr", "--out-dir",
+                              box / "probes", "--samples", 64))  # fmt: skip
+        assert set(os.listdir(box)) == before | {"probes"}
+        assert os.listdir(box / "probes") == ["map.h5"]
+        assert read_asset(str(box / "probes" / "map.h5")).kind == "shexp_probe"
+
     def test_set_is_all_or_nothing(self, run_cli, box):
         (box / "bad.exr").write_bytes(b"not an image")
         with unchanged(box):

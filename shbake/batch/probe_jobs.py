@@ -25,7 +25,7 @@ from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
-from shbake.format.atomic import refuse_same_file
+from shbake.format.atomic import detached, refuse_same_file
 from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
 
@@ -69,7 +69,8 @@ def run_probe_job(job: ProbeJob) -> dict:
     summary = {"source": job.source, "output": job.output, "bytes": probe_bytes(asset)}
     if job.output is None:
         return summary | {"p": probe.p, "q": probe.q, "stats": probe.stats, "meta": env.meta}
-    write_asset(job.output, asset)
+    with detached():  # each probe of a batch is atomic on its own (docs/FORMAT.md §1)
+        write_asset(job.output, asset)
     return summary | probe.stats
 
 

@@ -31,6 +31,7 @@ TAG = ".shbake-"
 """Marks shbake's temporaries: ``.<name>.shbake-<pid>-<n>.tmp<suffix>``."""
 
 _active = None
+_open: list = []
 _lock = threading.RLock()
 _counter = 0
 
@@ -266,10 +267,34 @@ def active() -> Transaction | None:
 
 
 def abort_active() -> None:
-    """Abort the running transaction (signal handlers call this)."""
-    t = _active
-    if t is not None:
-        t.abort()
+    """Abort every open transaction of this process (the signal watcher calls this)."""
+    with _lock:
+        for t in list(_open):
+            t.abort()
+
+
+@contextmanager
+def _tracked(t):
+    with _lock:
+        _open.append(t)
+    try:
+        yield t
+    finally:
+        with _lock:
+            if t in _open:
+                _open.remove(t)
+
+
+@contextmanager
+def detached():
+    """Run a block outside the command's transaction: its files are committed on their own
+    (one probe of a batch), so completed ones stay when a later one fails."""
+    global _active
+    saved, _active = _active, None
+    try:
+        yield
+    finally:
+        _active = saved
 
 
 @contextmanager
@@ -282,8 +307,9 @@ def transaction():
     t = Transaction()
     _active = t
     try:
-        yield t
-        t.commit()
+        with _tracked(t):
+            yield t
+            t.commit()
     except BaseException:
         t.abort()
         raise
@@ -295,8 +321,9 @@ def transaction():
 def _own_transaction():
     t = Transaction()
     try:
-        yield t
-        t.commit()
+        with _tracked(t):
+            yield t
+            t.commit()
     except BaseException:
         t.abort()
         raise
