@@ -13,6 +13,7 @@ from shbake_cli.split_sum import split_sum
 
 from shbake import __version__
 from shbake.resources import end_run, parse_size, set_memory_budget, start_run
+from shbake.signals import exit_quietly_on_signal
 
 
 class ShbakeGroup(click.Group):
@@ -57,7 +58,8 @@ def main(argv=None) -> int:
     Exit status: 0 success, 1 bad input or failed output, 2 usage error, 130/143
     interrupted by SIGINT/SIGTERM (:mod:`shbake_cli.guard`).
     """
-    if argv is None:
+    console = argv is None
+    if console:
         argv = sys.argv[1:]
     argv = list(argv)
     set_memory_budget(None)
@@ -71,6 +73,8 @@ def main(argv=None) -> int:
         )
     finally:
         end_run()
+        if console:
+            exit_quietly_on_signal()
 
 
 if __name__ == "__main__":
