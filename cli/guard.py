@@ -72,7 +72,13 @@ def guarded_invoke(invoke):
         raise Interrupted() from None
 
 
+QUIET_CATEGORIES = (DeprecationWarning, PendingDeprecationWarning, FutureWarning,
+                    ImportWarning, ResourceWarning)  # fmt: skip
+"""Library housekeeping warnings that say nothing about the user's run: not shown."""
+
+
 def _summarise(records, quiet: bool) -> None:
+    records = [w for w in records if not issubclass(w.category, QUIET_CATEGORIES)]
     if quiet or not records:
         return
     seen = {}
