@@ -123,9 +123,13 @@ def exit_quietly_on_signal() -> None:
 def worker_init() -> None:
     """Initialiser of pool worker processes: the parent handles SIGINT (a terminal sends
     it to the whole process group), SIGTERM ends the worker at once, and the worker dies
-    with its parent. Does nothing in a thread (a Dask worker's task thread)."""
+    with its parent; its warnings are not printed (they would interleave with the parent's
+    one-line messages). Does nothing in a thread (a Dask worker's task thread)."""
     if threading.current_thread() is not threading.main_thread():
         return
+    import warnings
+
+    warnings.simplefilter("ignore")  # a worker's stderr is the user's terminal: one-line rule
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     die_with_parent()
