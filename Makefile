@@ -1,5 +1,5 @@
 # shbake — two commands on a fresh machine with Python 3.11 and make:
-#   make demo   # bake the sample maps and write preview images into out/
+#   make demo   # bake the sample maps, write previews and out/index.html (open it first)
 #   make test   # run the test suite (CI runs this)
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV   := .venv
@@ -21,18 +21,21 @@ $(STAMP): setup.cfg pyproject.toml requirements.lock
 
 demo: $(STAMP)
 	@mkdir -p $(OUT)
-	$(BIN)/shbake probe-fit data_samples/*.exr -o $(OUT)/probes --jobs 2
+	$(BIN)/shbake probe-fit data_samples/*.exr --out-dir $(OUT)/probes --jobs 2
 	@for m in data_samples/*.exr; do \
 	  n=$$(basename $$m .exr); \
 	  echo "== $$n" >&2; \
 	  $(BIN)/shbake project-env $$m -o $(OUT)/$$n.h5 --lmax 8 --extract-sun \
 	      --exr-dir $(OUT)/$$n-maps --export gltf --report || exit 1; \
-	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass irradiance -o $(OUT)/$$n-irradiance.exr --diff || exit 1; \
-	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass tangent -o $(OUT)/$$n-tangent.exr --diff || exit 1; \
+	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass irradiance -o $(OUT)/$$n-irradiance.exr \
+	      --diff --json > $(OUT)/$$n-irradiance.json || exit 1; \
+	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass tangent -o $(OUT)/$$n-tangent.exr \
+	      --diff --json > $(OUT)/$$n-tangent.json || exit 1; \
 	  $(BIN)/shbake preview $(OUT)/probes/$$n.h5 --roughness 0.6 --f0 0.04 --size 128 \
-	      -o $(OUT)/$$n-glossy.exr --diff --source $$m || exit 1; \
+	      -o $(OUT)/$$n-glossy.exr --diff --source $$m --json > $(OUT)/$$n-glossy.json || exit 1; \
 	done
-	@echo "demo: assets and previews in $(OUT)/" >&2
+	$(BIN)/shbake overview $(OUT) -o $(OUT)/index.html --title "shbake demo: the six sample maps"
+	@echo "demo: open $(OUT)/index.html (assets, previews and contact sheets in $(OUT)/)" >&2
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2
