@@ -253,7 +253,8 @@ class TestOutputLocations:
 
     def test_read_only_file_system(self, run_cli, box, tmpfs):
         (tmpfs / "old.h5").write_bytes((box / "env.h5").read_bytes())
-        subprocess.run(["mount", "-o", "remount,ro", str(tmpfs)], check=True)
+        if subprocess.run(["mount", "-o", "remount,ro", str(tmpfs)]).returncode != 0:
+            pytest.skip("cannot remount the tmpfs read-only")
         with unchanged(tmpfs, box):
             assert_failed(run_cli("project-env", box / "map.exr", "-o", tmpfs / "old.h5"),
                           fragment="read-only")  # fmt: skip
