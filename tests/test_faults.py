@@ -251,6 +251,15 @@ class TestOutputLocations:
         with unchanged(box):
             assert_failed(run_cli(cmd, box / "map.exr", option, ""), fragment="empty")
 
+    def test_injected_erofs(self, run_cli, box, monkeypatch):
+        """Without root: the file system reports read-only."""
+        from shbake.format import atomic
+
+        monkeypatch.setattr(atomic, "_read_only_fs", lambda folder: True)
+        with unchanged(box):
+            assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "env.h5"),
+                          fragment="read-only")  # fmt: skip
+
     def test_read_only_file_system(self, run_cli, box, tmpfs):
         (tmpfs / "old.h5").write_bytes((box / "env.h5").read_bytes())
         if subprocess.run(["mount", "-o", "remount,ro", str(tmpfs)]).returncode != 0:
