@@ -3,7 +3,15 @@
 from pathlib import Path
 
 import click
-from shbake_cli.options import emit_json, info, json_opt, quiet_opt
+from shbake_cli.options import (
+    deprecated,
+    emit_json,
+    info,
+    json_opt,
+    quiet_opt,
+    samples_opt,
+    size_opt,
+)
 
 from shbake.bakers.shexp import FitConfig
 from shbake.bakers.splitsum import SplitSumConfig
@@ -34,25 +42,22 @@ def markdown_table(results: dict) -> str:
 
 @click.command("probe-eval")
 @click.argument("maps", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--size", type=int, default=32, show_default=True, help="Sphere size in pixels.")
+@size_opt(32, "Evaluation sphere size", lo=8, hi=512)
+@samples_opt(4096, "per pixel of the ground truth (visible-normal + map samples, MIS)")
 @click.option(
-    "--truth-samples",
-    type=int,
-    default=4096,
-    show_default=True,
-    help="Ground-truth samples per pixel.",
+    "--markdown",
+    type=click.Path(dir_okay=False),
+    help="Write the case table here as Markdown (a file).",
 )
-@click.option("--markdown", type=click.Path(dir_okay=False), help="Write the case table here.")
 @json_opt
 @quiet_opt
-def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
+@deprecated("--truth-samples", "samples", "--samples", type=click.IntRange(16, 1 << 20))
+def probe_eval(maps, size, samples, markdown, as_json, quiet):
     """Measure SH-exp and split-sum probes of MAPS against ground truth.
 
     Cases: chrome (F0 1) and dielectric (F0 0.04), roughness 0.25–1.0, four
     views; error: MSE over the sphere. Default fit and split-sum settings.
     """
-    if not 8 <= size <= 512:
-        raise InputError("--size must be in [8, 512]")
     if markdown is not None:  # checked (and compared with every map read) before any work
         check_output_path(markdown, "--markdown")
         refuse_same_file([markdown], maps)
@@ -64,7 +69,7 @@ def probe_eval(maps, size, truth_samples, markdown, as_json, quiet):
         if env.layout != "latlong":
             raise InputError(f"{path}: probe-eval takes lat-long maps (2:1)")
         plan = fit_plan(FitConfig(), env.shape)
-        rows, a, b = evaluate_map(env, plan, split_config, dfg, size, truth_samples)
+        rows, a, b = evaluate_map(env, plan, split_config, dfg, size, samples)
         name = Path(path).stem
         results[name] = rows
         sizes = {"shexp_bytes": probe_bytes(a), "splitsum_bytes": probe_bytes(b)}

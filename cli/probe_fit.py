@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 from shbake_cli.options import (
+    deprecated,
     emit_json,
     fix_nonfinite_opt,
     info,
@@ -55,7 +56,7 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_
     if not entries:
         raise ParameterError("give maps as arguments or a --list file")
     if probe_set is not None:
-        check_output_path(probe_set, "--set")
+        check_output_path(probe_set, "-o/--output")
         return [
             ProbeJob(os.path.abspath(src), None, config, negative, fix_nonfinite)
             for src, _ in entries
@@ -127,18 +128,19 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
     help="Probe list: lines 'MAP [OUTPUT]'.",
 )
 @click.option(
-    "--set",
+    "-o",
+    "--output",
     "probe_set",
     type=click.Path(dir_okay=False),
-    help="Write all probes into this one shexp_probe_set asset (list order) instead.",
+    help="All probes in this one shexp_probe_set asset, list order (a file; written "
+    "atomically, all or nothing). Without it: one file per probe in --out-dir.",
 )
 @click.option(
-    "-o",
     "--out-dir",
     default=".",
     show_default=True,
     type=click.Path(file_okay=False),
-    help="Folder for <map stem>.h5 outputs.",
+    help="Folder for one <map stem>.h5 per probe (each written atomically).",
 )
 @click.option(
     "--lmax-p", type=int, default=4, show_default=True, help="Highest band of P (mirror direction)."
@@ -171,10 +173,10 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 )
 @click.option(
     "--samples",
-    type=int,
+    type=click.IntRange(16, 1 << 20),
     default=1024,
     show_default=True,
-    help="Visible-normal samples per E0 target.",
+    help="Quadrature samples per E0 fit target (filtered visible-normal samples).",
 )
 @click.option(
     "--weighting",
@@ -213,10 +215,10 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 )
 @click.option(
     "--tol",
-    type=float,
+    type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
     default=None,
-    help="Use the fewest samples (256-4096) whose E0 target error (log RMS, first map) is "
-    "at most this.",
+    help="Error tolerance in (0, 1): use the fewest --samples (256-4096) whose E0 target "
+    "error (log RMS against a converged truth, first map) is at most TOL.",
 )
 @click.option(
     "--jobs", "n_jobs", type=int, default=1, show_default=True, help="Local worker processes."
@@ -231,6 +233,7 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
+@deprecated("--set", "probe_set", "-o/--output", type=click.Path(dir_okay=False))
 def probe_fit(
     maps,
     probe_list,

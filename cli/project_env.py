@@ -97,26 +97,13 @@ def project_env(ctx, env, output, exr_dir, size, as_json, quiet, **settings):
     summary = project_environment(
         env,
         output,
-        lmax=settings["lmax"],
-        window=settings["window"],
-        irradiance_lmax=settings["irradiance_lmax"],
-        with_irradiance=settings["irradiance"],
-        with_tangent=settings["tangent_irradiance"],
-        extract=settings["extract_sun"],
-        sun_radius=settings["sun_radius"],
         exr_dir=exr_dir,
         map_size=size,
-        float_exr=settings["float_exr"],
-        png=settings["png"],
-        exports=settings["exports"],
-        report=settings["report"],
-        layout=settings["layout"],
-        negative=settings["negative"],
-        fix_nonfinite=settings["fix_nonfinite"],
-        colorspace=settings["colorspace"],
+        irradiance_sh=settings.pop("irradiance"),
         command_line=command_line(ctx),
         quiet=quiet,
         progress=BarProgress(quiet),
+        **settings,
     )
     if settings["report"]:
         print_report(summary, quiet)

@@ -2,13 +2,17 @@
 
 import click
 from shbake_cli.options import (
+    deprecated,
     emit_json,
     fix_nonfinite_opt,
     info,
     json_opt,
     negative_opt,
+    output_opt,
     parse_range,
     quiet_opt,
+    samples_opt,
+    size_opt,
 )
 
 from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
@@ -23,28 +27,38 @@ from shbake.format.splitsum import build_splitsum_asset
 
 @click.command("split-sum")
 @click.argument("env", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Asset (.h5).")
+@output_opt("The splitsum_probe asset (.h5)")
+@size_opt(128, "Octahedral texels of the first (sharpest) level", lo=8, hi=2048)
 @click.option(
-    "--top",
-    type=int,
-    default=128,
+    "--min-size",
+    type=click.IntRange(8, 2048),
+    default=32,
     show_default=True,
-    help="Size of the first (roughest-detail) level.",
+    help="Octahedral texels per side of the smallest level (levels halve down to it).",
 )
-@click.option("--min-size", type=int, default=32, show_default=True, help="Smallest level size.")
-@click.option("--levels", type=int, default=5, show_default=True, help="Roughness levels.")
 @click.option(
-    "--roughness-range", default="0.2:1", show_default=True, help="Perceptual roughness lo:hi."
+    "--levels",
+    type=click.IntRange(2, 16),
+    default=5,
+    show_default=True,
+    help="Prefiltered levels, one per roughness, evenly spaced in --roughness-range.",
 )
-@click.option("--samples", type=int, default=1024, show_default=True, help="GGX samples per texel.")
+@click.option(
+    "--roughness-range",
+    default="0.2:1",
+    show_default=True,
+    help="Perceptual roughness lo:hi of the first and last level (GGX width α = r²).",
+)
+@samples_opt(1024, "per prefiltered texel (GGX half vectors, Karis 2013)")
 @negative_opt
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
+@deprecated("--top", "size", "--size", type=click.IntRange(8, 2048))
 def split_sum(
     env,
     output,
-    top,
+    size,
     min_size,
     levels,
     roughness_range,
@@ -56,7 +70,7 @@ def split_sum(
 ):
     """Bake the split-sum baseline of ENV (Karis 2013) as a probe asset of its own."""
     lo, hi = parse_range(roughness_range, "--roughness-range")
-    config = SplitSumConfig(top, min_size, levels, lo, hi, samples)
+    config = SplitSumConfig(size, min_size, levels, lo, hi, samples)
     check_output_path(output)
     environment = load_environment(env, negative=negative, fix_nonfinite=fix_nonfinite, quiet=quiet)
     if environment.layout != "latlong":

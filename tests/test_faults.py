@@ -245,9 +245,9 @@ class TestOutputLocations:
             assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "afile" / "d"),
                           fragment="not a folder")  # fmt: skip
 
-    @pytest.mark.parametrize("option", ["--set", "--markdown"])
+    @pytest.mark.parametrize("option", ["-o", "--markdown"])
     def test_empty_set_or_markdown(self, run_cli, box, option):
-        cmd = "probe-fit" if option == "--set" else "probe-eval"
+        cmd = "probe-fit" if option == "-o" else "probe-eval"
         with unchanged(box):
             assert_failed(run_cli(cmd, box / "map.exr", option, ""), fragment="empty")
 
@@ -279,7 +279,7 @@ class TestFullDisk:
 
     CASES = {
         "project-env": ["project-env", "{map}", "-o", "{out}/old.h5", "--exr-dir", "{out}/maps"],
-        "split-sum": ["split-sum", "{map}", "-o", "{out}/old.h5", "--top", "16", "--min-size",
+        "split-sum": ["split-sum", "{map}", "-o", "{out}/old.h5", "--size", "16", "--min-size",
                       "8", "--levels", "2", "--samples", "64"],
         "brdf-table": ["brdf-table", "phong", "-o", "{out}/old.h5", "--size", "8", "--lmax", "2",
                        "--samples", "64", "--exr-dir", "{out}/bands"],
@@ -601,7 +601,7 @@ class TestDeterminism:
                        "--samples", "64", "--exr-dir", "{out}/bands", "--reproducible", "-q"],
         "preview": ["preview", "{env}", "-o", "{out}/p.exr", "--size", "8", "--diff", "--png",
                     "-q"],
-        "split-sum": ["split-sum", "{map}", "-o", "{out}/s.h5", "--top", "16", "--min-size",
+        "split-sum": ["split-sum", "{map}", "-o", "{out}/s.h5", "--size", "16", "--min-size",
                       "8", "--levels", "2", "--samples", "64", "-q"],
     }  # fmt: skip
 
@@ -652,7 +652,7 @@ class TestBatches:
     def test_set_is_all_or_nothing(self, run_cli, box):
         (box / "bad.exr").write_bytes(b"not an image")
         with unchanged(box):
-            assert_failed(run_cli("probe-fit", box / "map.exr", box / "bad.exr", "--set",
+            assert_failed(run_cli("probe-fit", box / "map.exr", box / "bad.exr", "-o",
                                   box / "set.h5", "--samples", 64))  # fmt: skip
 
 

@@ -160,7 +160,7 @@ class TestShTargets:
         assert np.sqrt(np.mean((got / ref - 1) ** 2)) > 1e-2  # the documented limit
 
     def test_cli_choice(self, probe_maps, tmp_path, run_cli):
-        code, out, _ = run_cli("probe-fit", probe_maps[0], "-o", tmp_path, "--normals", "16",
+        code, out, _ = run_cli("probe-fit", probe_maps[0], "--out-dir", tmp_path, "--normals", "16",
                                "--views", "16", "--targets", "sh", "--json", "-q")  # fmt: skip
         assert code == 0 and json.loads(out)["config"]["targets"] == "sh"
         asset = read_asset(str(tmp_path / "m0.h5"), ("shexp_probe",))
@@ -310,9 +310,9 @@ class TestGlossyPreview:
         larger error is its model's: ``P(ρ) Q(h_ρ)`` has no term for the
         ``n·v`` falloff of the GGX albedo (docs/BENCHMARKS.md)."""
         m = probe_maps[0]
-        fit = ["probe-fit", m, "-o", str(tmp_path), "--normals", "32", "--views", "32", "-q"]
+        fit = ["probe-fit", m, "--out-dir", str(tmp_path), "--normals", "32", "--views", "32", "-q"]
         assert main(fit) == 0
-        assert main(["split-sum", m, "-o", str(tmp_path / "s.h5"), "--top", "32", "-q"]) == 0
+        assert main(["split-sum", m, "-o", str(tmp_path / "s.h5"), "--size", "32", "-q"]) == 0
         # measured: SH-exp 19.4 % / 17.2 %, split-sum 6.8 % / 6.6 % (chrome / dielectric)
         for asset, limit in ((tmp_path / "m0.h5", 0.25), (tmp_path / "s.h5", 0.09)):
             out = tmp_path / f"{asset.stem}.exr"
@@ -323,7 +323,8 @@ class TestGlossyPreview:
             assert (tmp_path / f"{asset.stem}-sheet.png").exists()
 
     def test_outside_fitted_range_refused(self, probe_maps, tmp_path, run_cli):
-        fit = ["probe-fit", probe_maps[0], "-o", tmp_path, "--normals", "16", "--views", "16"]
+        fit = ["probe-fit", probe_maps[0], "--out-dir", tmp_path, "--normals", "16",
+               "--views", "16"]  # fmt: skip
         assert run_cli(*fit, "--samples", "256", "-q")[0] == 0
         code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", tmp_path / "x.exr",
                                "--roughness", "0.1")  # fmt: skip
@@ -346,7 +347,7 @@ class TestGlossyPreview:
         src = tmp_path / "m0.exr"
         shutil.copy(probe_maps[0], src)
         opts = ["--normals", "16", "--views", "16", "--samples", "256", "-q"]
-        assert run_cli("probe-fit", src, "-o", tmp_path, *opts)[0] == 0
+        assert run_cli("probe-fit", src, "--out-dir", tmp_path, *opts)[0] == 0
         before = src.read_bytes()
         code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", src, "--diff", "--size", "16")
         assert code == 1 and src.read_bytes() == before
@@ -394,10 +395,10 @@ class TestProbeSet:
         """A set's probe i is bit for bit the probe of the single-file run; the set file
         is byte-identical between --jobs 1 and 2; preview reads a probe by --index."""
         opts = ["--normals", "16", "--views", "16", "--samples", "256", "-q"]
-        assert run_cli("probe-fit", *probe_maps, "-o", tmp_path, *opts)[0] == 0
+        assert run_cli("probe-fit", *probe_maps, "--out-dir", tmp_path, *opts)[0] == 0
         for jobs in ("1", "2"):
             out = tmp_path / f"set{jobs}.h5"
-            assert run_cli("probe-fit", *probe_maps, "--set", out, "--jobs", jobs, *opts)[0] == 0
+            assert run_cli("probe-fit", *probe_maps, "-o", out, "--jobs", jobs, *opts)[0] == 0
         assert filecmp.cmp(tmp_path / "set1.h5", tmp_path / "set2.h5", shallow=False)
         probe_set = read_asset(str(tmp_path / "set1.h5"), ("shexp_probe_set",))
         assert probe_set["/p"].shape == (4, 25, 3) and probe_set["/q"].shape == (4, 8, 3)
@@ -418,7 +419,7 @@ class TestFitReport:
         """--report measures target error against the 65 536-sample plain estimate
         (falling with samples) and the fit residual by order; --tol picks the fewest
         samples within the tolerance, and an unreachable one is a one-line error."""
-        opts = ["--normals", "16", "--views", "16", "-o", tmp_path, "--json"]
+        opts = ["--normals", "16", "--views", "16", "--out-dir", tmp_path, "--json"]
         code, out, err = run_cli("probe-fit", probe_maps[0], *opts, "--report", "--tol", "0.01")
         assert code == 0, err
         summary = json.loads(out)
@@ -438,10 +439,10 @@ class TestFitReport:
 
 class TestCli:
     def test_probe_fit_and_split_sum(self, probe_maps, tmp_path, capsys):
-        rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path), "--normals", "16",
+        rc = main(["probe-fit", probe_maps[0], "--out-dir", str(tmp_path), "--normals", "16",
                    "--views", "16", "--samples", "256", "--json", "-q"])  # fmt: skip
         assert rc == 0 and '"bytes": 396' in capsys.readouterr().out
-        rc = main(["split-sum", probe_maps[0], "-o", str(tmp_path / "s.h5"), "--top", "32",
+        rc = main(["split-sum", probe_maps[0], "-o", str(tmp_path / "s.h5"), "--size", "32",
                    "--samples", "256", "-q"])  # fmt: skip
         assert rc == 0 and read_asset(str(tmp_path / "s.h5")).kind == "splitsum_probe"
 
@@ -454,7 +455,7 @@ class TestCli:
         ],
     )
     def test_bad_options_one_line(self, probe_maps, tmp_path, capsys, args, message):
-        rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path), *args])
+        rc = main(["probe-fit", probe_maps[0], "--out-dir", str(tmp_path), *args])
         err = capsys.readouterr().err.strip()
         assert rc != 0 and message in err and "\n" not in err
         assert not list(tmp_path.glob("*.h5"))
@@ -463,7 +464,7 @@ class TestCli:
         img = smooth_map(32)
         img[3, 4] = np.nan
         write_test_exr(tmp_path / "nan.exr", img)
-        rc = main(["probe-fit", str(tmp_path / "nan.exr"), "-o", str(tmp_path)])
+        rc = main(["probe-fit", str(tmp_path / "nan.exr"), "--out-dir", str(tmp_path)])
         err = capsys.readouterr().err.strip()
         assert rc == 1 and "NaN" in err and "\n" not in err
         assert not (tmp_path / "nan.h5").exists()

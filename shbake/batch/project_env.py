@@ -15,8 +15,8 @@ import numpy as np
 from shbake.bakers.env_sh import bake_env_sh, truncation_report
 from shbake.conventions import check_lmax
 from shbake.envmap import load_environment
+from shbake.envmap import sun as sun_light
 from shbake.envmap.layouts import latlong_directions
-from shbake.envmap.sun import extract_sun
 from shbake.errors import OutputError, ParameterError
 from shbake.evaluation.env_sh import irradiance_errors
 from shbake.format.asset import write_asset
@@ -72,9 +72,9 @@ def project_environment(
     lmax: int = 2,
     window: str = "none",
     irradiance_lmax: int | None = None,
-    with_irradiance: bool = True,
-    with_tangent: bool = True,
-    extract: bool = False,
+    irradiance_sh: bool = True,
+    tangent_irradiance: bool = True,
+    extract_sun: bool = False,
     sun_radius: float = 10.0,
     exr_dir: str | None = None,
     map_size: int = 128,
@@ -100,7 +100,7 @@ def project_environment(
     check_lmax(lmax)
     irradiance_lmax = min(lmax, 2) if irradiance_lmax is None else irradiance_lmax
     check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
-    if "gltf" in exports and (not with_irradiance or irradiance_lmax < 2):
+    if "gltf" in exports and (not irradiance_sh or irradiance_lmax < 2):
         raise ParameterError("--export gltf needs --irradiance with irradiance lmax >= 2")
     check_output_path(output)
     if exr_dir is not None:
@@ -112,18 +112,18 @@ def project_environment(
         lmax=lmax,
         window_name=window,
         irradiance_lmax=irradiance_lmax,
-        irradiance=with_irradiance,
-        tangent=with_tangent,
-        sun=extract,
+        irradiance=irradiance_sh,
+        tangent=tangent_irradiance,
+        sun=extract_sun,
         sun_radius_deg=sun_radius,
         provenance=provenance,
     )
     maps = {}
     if exr_dir is not None:
         dirs = latlong_directions(map_size, 2 * map_size)
-        if with_irradiance:
+        if irradiance_sh:
             maps["irradiance.exr"] = irradiance(asset, dirs)
-        if with_tangent:
+        if tangent_irradiance:
             maps["tangent_irradiance.exr"] = irradiance(asset, dirs, tangent=True)
         for name, img in maps.items():
             peak = float(np.abs(img).max())
@@ -131,8 +131,8 @@ def project_environment(
                 raise OutputError(f"{name}: value {peak:.6g} overflows half float; use --float-exr")
     if report:
         projected = environment
-        if extract and summary.get("sun", {}).get("extracted"):
-            projected = extract_sun(environment, radius_deg=sun_radius)[1]
+        if extract_sun and summary.get("sun", {}).get("extracted"):
+            projected = sun_light.extract_sun(environment, radius_deg=sun_radius)[1]
         rep = truncation_report(projected, lmax, irradiance_lmax)
         rep["error_vs_brute_force"] = irradiance_errors(asset, environment, progress=progress)
         summary["report"] = rep

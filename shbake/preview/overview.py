@@ -2,7 +2,8 @@
 
 Every ``*.json`` in the folder that is a ``preview --json`` summary (it lists
 its ``outputs``, one of them a ``-sheet.png`` contact sheet) becomes a card:
-the contact sheet, the pass, the error against brute force and the speed.
+the contact sheet, the pass, the error against brute force and the speed; a
+``-sheet.png`` without a summary becomes a card with its name only.
 Cards are grouped by the asset's stem and sorted by name, so the same folder
 gives the same bytes. Images are linked relatively: the page moves with the
 folder.
@@ -40,10 +41,16 @@ def _summaries(folder: Path) -> list[tuple[str, dict]]:
         sheets = [p for p in summary.get("outputs", []) if str(p).endswith("-sheet.png")]
         if sheets:
             out.append((path.stem, summary | {"sheet": sheets[0]}))
-    return out
+    described = {os.path.abspath(s["sheet"]) for _, s in out}
+    for sheet in sorted(folder.glob("*-sheet.png")):
+        if os.path.abspath(sheet) not in described:  # a sheet without a summary: its name only
+            out.append((sheet.name[: -len("-sheet.png")], {"sheet": str(sheet)}))
+    return sorted(out, key=lambda card: card[0])
 
 
 def _caption(summary: dict) -> str:
+    if "pass" not in summary:
+        return "no --json summary beside it"
     parts = [f"pass <b>{html.escape(str(summary.get('pass')))}</b>"]
     if "roughness" in summary:
         parts.append(f"roughness {summary['roughness']:g}, F0 {summary.get('f0', 1):g}")
@@ -64,7 +71,7 @@ def write_overview(folder: str, output: str, title: str = "shbake previews") -> 
         raise InputError(f"{folder}: not a directory")
     cards = _summaries(root)
     if not cards:
-        raise InputError(f"{folder}: no preview summaries (*.json from 'shbake preview --json')")
+        raise InputError(f"{folder}: no contact sheets (*-sheet.png from 'shbake preview')")
     base = Path(os.path.abspath(os.path.dirname(os.path.abspath(output))))
     groups: dict[str, list] = {}
     for stem, summary in cards:
