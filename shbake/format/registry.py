@@ -23,6 +23,13 @@ A dataset's ``shape`` is a tuple of dimensions, each one of
 
 Families (``/levels/{k}``) are expanded by the kind's ``members(spec, attrs, dattrs)``;
 each member is checked in its own copy of the symbol table.
+
+Adding a kind
+-------------
+One ``register(Kind(...))`` in the kind's module under ``shbake/format/`` (its builder and
+typed reader live there too), that module's name in :data:`KIND_MODULES`, one example in
+``tests/assets_examples.py`` (``tests/test_registry.py`` fails for a kind without one),
+then ``make format-doc`` writes its FORMAT.md section.
 """
 
 from __future__ import annotations
