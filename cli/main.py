@@ -4,6 +4,7 @@ import sys
 
 import click
 from shbake_cli.brdf_table import brdf_table
+from shbake_cli.export import export
 from shbake_cli.guard import guarded_invoke, run
 from shbake_cli.overview import overview
 from shbake_cli.preview import preview
@@ -52,6 +53,7 @@ cli.add_command(probe_fit)
 cli.add_command(split_sum)
 cli.add_command(probe_eval)
 cli.add_command(overview)
+cli.add_command(export)
 
 
 def main(argv=None) -> int:
