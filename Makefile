@@ -11,7 +11,7 @@ OUT    ?= out
 export OMP_NUM_THREADS ?= 1
 export OPENBLAS_NUM_THREADS ?= 1
 
-ENGINES := tests/engines format-doc
+ENGINES := tests/engines
 
 .PHONY: demo test test-all bench lint clean engines format-doc
 
