@@ -327,7 +327,7 @@ class TestCompanionFiles:
                                   "--exr-dir", box / "maps"), fragment="directory")  # fmt: skip
 
     def test_export_name_is_a_directory(self, run_cli, box):
-        (box / "old.gltf.json").mkdir()
+        (box / "old.gltf").mkdir()
         (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
         with unchanged(box):
             assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "old.h5",

@@ -16,7 +16,7 @@ import numpy as np
 
 from shbake import __version__, conventions, resources
 from shbake.errors import FormatError
-from shbake.format import registry
+from shbake.format import atomic, registry
 from shbake.format.atomic import atomic_path
 from shbake.format.provenance import relativise
 
@@ -153,7 +153,7 @@ def read_asset(path: str, kinds: tuple[str, ...] | None = None,
         attribute or dataset that does not match the registry (one line).
     """
     where = f"{path}: "
-    f = _open(path)
+    f = _open(atomic.staged(path) or path)  # an output this run wrote reads from its temporary
     try:
         with f:
             raw = {}

@@ -261,6 +261,20 @@ def _unlink(p: str) -> None:
         pass
 
 
+def staged(path: str) -> str | None:
+    """The temporary holding ``path`` if the running transaction has written it (so a step
+    can read an output of an earlier step of the same run), else ``None``."""
+    t = _active
+    if t is None:
+        return None
+    target = os.path.abspath(os.fspath(path))
+    with _lock:
+        for tmp, final in t.staged:
+            if final == target:
+                return tmp
+    return None
+
+
 def active() -> Transaction | None:
     """The transaction of the running command, if any."""
     return _active
