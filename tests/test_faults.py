@@ -482,6 +482,13 @@ class TestCorruptAssets:
         with unchanged(tmp_path):
             assert_failed(run_cli(*args), fragment=fragment)
 
+    @pytest.mark.parametrize("case", [c for c, v in CORRUPTIONS.items() if v[0] == "env_sh"])
+    def test_export(self, run_cli, ws, tmp_path, case):
+        path, fragment = corrupt(case, ws / "map.exr", tmp_path)
+        with unchanged(tmp_path):
+            assert_failed(run_cli("export", path, "--to", "threejs", "-o", tmp_path / "x.json"),
+                          fragment=fragment)  # fmt: skip
+
     def test_truncated(self, run_cli, ws, tmp_path):
         data = (ws / "env_sh.h5").read_bytes()
         (tmp_path / "t.h5").write_bytes(data[: len(data) // 2])
