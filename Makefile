@@ -13,7 +13,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 ENGINES := tests/engines
 
-.PHONY: demo test test-all bench lint clean engines format-doc
+.PHONY: demo test test-all bench bench-speed lint clean engines format-doc
 
 $(STAMP): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -53,6 +53,10 @@ test-all: $(STAMP) engines
 
 bench: $(STAMP)
 	$(BIN)/python bench/run_all.py
+
+# The speed tables of docs/BENCHMARKS.md alone (issue 15), rewritten in place.
+bench-speed: $(STAMP)
+	$(BIN)/python bench/speed_tables.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check shbake cli tests bench

@@ -1,28 +1,56 @@
-"""Entry point: the ``shbake`` group, and library errors turned into one-line messages."""
+"""Entry point: the ``shbake`` group, and every failure turned into one line and an exit status.
 
+Start-up (issue 15): a subcommand's module is imported only when that
+subcommand runs (``shbake project-env`` never imports the preview or the BRDF
+code), and a console-script run ends with ``os._exit`` once its outputs are
+closed, skipping the interpreter's teardown of numba, h5py and OpenImageIO.
+
+Failures (issue 11): each subcommand runs as one output transaction, under the
+signal handlers, with errors mapped to one line by :mod:`shbake_cli.guard`.
+"""
+
+import gc
+import importlib
+import os
 import sys
+import threading
 
 import click
-from shbake_cli.brdf_table import brdf_table
-from shbake_cli.export import export
 from shbake_cli.guard import guarded_invoke, run
-from shbake_cli.overview import overview
-from shbake_cli.preview import preview
-from shbake_cli.probe_eval import probe_eval
-from shbake_cli.probe_fit import probe_fit
-from shbake_cli.project_env import project_env
-from shbake_cli.split_sum import split_sum
 
 from shbake import __version__
 from shbake.resources import end_run, parse_size, set_memory_budget, start_run
 from shbake.signals import exit_quietly_on_signal
 
+COMMANDS = {
+    "project-env": "project_env:project_env",
+    "preview": "preview:preview",
+    "brdf-table": "brdf_table:brdf_table",
+    "probe-fit": "probe_fit:probe_fit",
+    "split-sum": "split_sum:split_sum",
+    "probe-eval": "probe_eval:probe_eval",
+    "overview": "overview:overview",
+    "export": "export:export",
+}
+"""Subcommand → ``module:attribute`` in ``shbake_cli``, imported on use."""
 
-class ShbakeGroup(click.Group):
-    """The command group: each subcommand runs as one output transaction (guard.py)."""
+
+class LazyGroup(click.Group):
+    """A click group that imports a subcommand's module only when it is needed, and runs
+    each subcommand as one output transaction (:func:`shbake_cli.guard.guarded_invoke`)."""
+
+    def list_commands(self, ctx):
+        return list(COMMANDS)
+
+    def get_command(self, ctx, name):
+        target = COMMANDS.get(name)
+        if target is None:
+            return None
+        module, attr = target.split(":")
+        return getattr(importlib.import_module(f"shbake_cli.{module}"), attr)
 
     def invoke(self, ctx):
-        return guarded_invoke(lambda: super(ShbakeGroup, self).invoke(ctx))
+        return guarded_invoke(lambda: super(LazyGroup, self).invoke(ctx))
 
 
 def _max_memory(ctx, param, value):
@@ -31,7 +59,7 @@ def _max_memory(ctx, param, value):
     return value
 
 
-@click.group(cls=ShbakeGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="shbake")
 @click.option(
     "--max-memory",
@@ -46,30 +74,22 @@ def cli():
     """Bake spherical-harmonic lighting assets for real-time renderers."""
 
 
-cli.add_command(project_env)
-cli.add_command(preview)
-cli.add_command(brdf_table)
-cli.add_command(probe_fit)
-cli.add_command(split_sum)
-cli.add_command(probe_eval)
-cli.add_command(overview)
-cli.add_command(export)
-
-
 def main(argv=None) -> int:
     """Run the CLI; every failure is one line on stderr and a non-zero exit.
 
     Exit status: 0 success, 1 bad input or failed output, 2 usage error, 130/143
     interrupted by SIGINT/SIGTERM (:mod:`shbake_cli.guard`).
     """
-    console = argv is None
-    if console:
+    script = argv is None
+    if script:
         argv = sys.argv[1:]
     argv = list(argv)
     set_memory_budget(None)
     start_run()
     try:
-        return run(
+        if script:
+            gc.freeze()  # what is imported so far is never collected: skip scanning it
+        code = run(
             lambda: cli.main(
                 args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": argv}
             ),
@@ -77,8 +97,34 @@ def main(argv=None) -> int:
         )
     finally:
         end_run()
-        if console:
+        if script:
             exit_quietly_on_signal()
+    if script:
+        _fast_exit(code)
+    return code
+
+
+def _fast_exit(code: int) -> None:
+    """End a finished console-script run without interpreter teardown (outputs are closed).
+
+    Only when nothing else runs: no thread but the signal watcher and no child processes.
+    """
+    others = [
+        t
+        for t in threading.enumerate()
+        if t is not threading.main_thread() and t.name != "shbake-signals"
+    ]
+    if others:
+        return
+    mp = sys.modules.get("multiprocessing")
+    if mp is not None and mp.active_children():
+        return
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+    os._exit(code)
 
 
 if __name__ == "__main__":
