@@ -19,7 +19,6 @@ No traceback is printed unless ``SHBAKE_DEBUG=1``.
 
 import os
 import sys
-import traceback
 import warnings
 
 import click
@@ -130,6 +129,8 @@ def run(call, argv) -> int:
             if isinstance(e, SystemExit):
                 return e.code if isinstance(e.code, int) else 1
             if os.environ.get("SHBAKE_DEBUG"):
+                import traceback
+
                 traceback.print_exc()
             _error(message_of(e))
             _drain_stdout()

@@ -13,7 +13,6 @@ Forked children reset the handlers and ask the kernel to kill them with their pa
 (``PR_SET_PDEATHSIG``); spawned workers are ended by their pool.
 """
 
-import ctypes
 import os
 import signal
 import sys
@@ -107,6 +106,8 @@ def _child_after_fork() -> None:
 def die_with_parent() -> None:
     """Ask Linux to send SIGKILL when the parent exits (pool workers call this)."""
     if sys.platform.startswith("linux"):
+        import ctypes
+
         try:
             ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
         except (OSError, AttributeError):
