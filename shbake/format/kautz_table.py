@@ -8,16 +8,18 @@ coefficients of ``f*(·, v)``. The axes are named in the ``axes`` attribute.
 
 import json
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from shbake.brdf.model import BRDF, make_brdf, model_spec
 from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, lmax_of
 from shbake.errors import FormatError, ParameterError
 from shbake.format.asset import Asset
 from shbake.format.provenance import file_source, no_source
 from shbake.format.registry import Attr, Data, Kind, register
-from shbake.texture.parabolic import VIEW_Z_MIN
+
+if TYPE_CHECKING:
+    from shbake.brdf.model import BRDF
 
 ENERGY_SLACK = 1e-3
 """Measured albedo above ``1 + ENERGY_SLACK`` flags a table as not energy-conserving."""
@@ -28,7 +30,7 @@ PARAMETERISATION = (
 
 
 def build_table_asset(
-    brdf: BRDF,
+    brdf: "BRDF",
     tables: np.ndarray,
     convs: list,
     vary: list[tuple[str, np.ndarray]],
@@ -55,7 +57,7 @@ def build_table_asset(
         "axes": names,
         "lmax": lmax,
         "parameterisation": PARAMETERISATION,
-        "view_z_min": VIEW_Z_MIN,
+        "view_z_min": _view_z_min(),
         "error_estimate": float(max(c.error for c in convs)),
         "error_definition": "sqrt(4*pi) * max |c(N) - c(N/2)| over coefficients and channels",
         "samples_max": int(max(c.samples for c in convs)),
@@ -82,6 +84,12 @@ def build_table_asset(
     }
     attrs |= file_source(brdf.source) if brdf.source else no_source()
     return Asset("brdf_table", attrs, datasets, dattrs)
+
+
+def _view_z_min() -> float:
+    from shbake.texture.parabolic import VIEW_Z_MIN  # numba: loaded only when a table is built
+
+    return VIEW_Z_MIN
 
 
 FIXED_AXES = ("channel", "row", "col", "coeff")
@@ -184,8 +192,10 @@ class BRDFTable:
     source: str
     attrs: dict
 
-    def make_brdf(self, merl_path: str | None = None) -> BRDF:
+    def make_brdf(self, merl_path: str | None = None) -> "BRDF":
         """The tabulated BRDF, rebuilt from the recorded model and parameters."""
+        from shbake.brdf.model import make_brdf
+
         if self.model == "merl":
             return make_brdf("merl", merl_path=merl_path or self.source, **self.params)
         return make_brdf(self.model, **self.params)
@@ -220,6 +230,8 @@ def table_at(asset: Asset, at: dict | None = None) -> BRDFTable:
         data = data[k]
         params[name] = float(values[k])
     model = asset.attrs["brdf_model"]
+    from shbake.brdf.model import model_spec  # numba: loaded only when a table is used
+
     model_spec(model)
     return BRDFTable(
         np.ascontiguousarray(data),
