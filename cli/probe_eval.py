@@ -13,7 +13,7 @@ from shbake_cli.options import (
 )
 
 from shbake.batch.probe_eval import COMPARISONS, evaluate_maps, markdown_report, win_table
-from shbake.format.atomic import write_text
+from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 
 
 @click.command("probe-eval")
@@ -40,6 +40,10 @@ def probe_eval(maps, output, size, samples, sheet_dir, as_json, quiet):
     --weights log), split-sum plain (1024 samples per texel, levels at those
     α) and filtered (engine-grade).
     """
+
+    if output is not None:  # checked (and compared with every map read) before any work
+        check_output_path(output)
+        refuse_same_file([output], maps)
 
     def progress(name, rows):
         wins = sum(r["mse"]["shexp_v2"] < r["mse"]["splitsum_plain"] for r in rows)

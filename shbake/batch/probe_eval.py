@@ -144,10 +144,10 @@ def bake_splitsum_file(source, output, top=128, min_size=32, alphas=None, prefil
     from shbake.envmap import load_environment
     from shbake.errors import InputError
     from shbake.format.asset import write_asset
-    from shbake.format.atomic import check_writable_dir
+    from shbake.format.atomic import check_output_path
 
     config = SplitSumConfig(top, min_size, tuple(alphas or PAPER_ALPHAS), samples, prefilter)
-    check_writable_dir(output)
+    check_output_path(output)
     env = load_environment(source, negative=negative, fix_nonfinite=fix_nonfinite, quiet=True)
     if env.layout != "latlong":
         raise InputError(f"{source}: split-sum takes lat-long maps (2:1), got {env.layout}")

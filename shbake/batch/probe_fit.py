@@ -14,7 +14,11 @@ from pathlib import Path
 from shbake.bakers.shexp import FitConfig
 from shbake.batch.probe_jobs import ProbeJob, fit_plan, run_dask, run_local, shared_dfg_table
 from shbake.errors import InputError, ParameterError
-from shbake.format.atomic import check_writable_dir
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs
+from shbake.resources import read_bounded
+
+PROBE_LIST_MAX_BYTES = 16 << 20
+"""Largest probe list read (bytes)."""
 
 
 def read_probe_list(path: str) -> list[tuple[str, str | None]]:
@@ -22,7 +26,10 @@ def read_probe_list(path: str) -> list[tuple[str, str | None]]:
     are relative to the list's folder."""
     base = Path(path).parent
     try:
-        lines = Path(path).read_text().splitlines()
+        raw = read_bounded(path, PROBE_LIST_MAX_BYTES, "probe list (--list)")
+        lines = raw.decode("utf-8").splitlines()
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: the probe list is not UTF-8 text (byte {e.start})") from None
     except OSError as e:
         raise InputError(f"{path}: cannot read the probe list ({e.strerror})") from None
     out = []
@@ -41,20 +48,21 @@ def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, output
     entries = [(m, None) for m in maps] + (read_probe_list(probe_list) if probe_list else [])
     if not entries:
         raise ParameterError("give maps as arguments or a --list file")
-    if output:
-        check_writable_dir(output)
+    if output is not None:
+        check_output_path(output, "-o/--output")
         return [ProbeJob(os.path.abspath(src), None, config, negative, fix_nonfinite)
                 for src, _ in entries]  # fmt: skip
     jobs, seen = [], set()
     for src, out in entries:
         if out is None:
-            os.makedirs(out_dir, exist_ok=True)
+            check_output_dir(out_dir, "--out-dir")
+            makedirs(out_dir)
             out = os.path.join(out_dir, Path(src).stem + ".h5")
         out = os.path.abspath(out)
         if out in seen:
             raise ParameterError(f"two probes would write {out}; name outputs in a --list file")
         seen.add(out)
-        check_writable_dir(out)
+        check_output_path(out)
         jobs.append(ProbeJob(os.path.abspath(src), out, config, negative, fix_nonfinite))
     return jobs
 

@@ -13,16 +13,19 @@ and reused by every job that shares its configuration and map shape.
 import functools
 import multiprocessing
 import os
+import re
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numba
 
+from shbake import signals
 from shbake.bakers.shexp import FitConfig, FitPlan
 from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
+from shbake.format.atomic import detached, refuse_same_file
 from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
 
@@ -71,7 +74,8 @@ def _finish(job: ProbeJob, env, probe) -> dict:
     if job.output is None:
         return summary | {"p": probe.p, "q": probe.q, "knots": probe.knots, "stats": probe.stats,
                           "meta": env.meta}  # fmt: skip
-    write_asset(job.output, asset)
+    with detached():  # each probe of a batch is atomic on its own (docs/FORMAT.md §1)
+        write_asset(job.output, asset)
     return summary | probe.stats
 
 
@@ -111,7 +115,13 @@ def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
 
 
 def _single_thread():
+    signals.worker_init()
     numba.set_num_threads(1)
+
+
+def check_jobs(jobs: list[ProbeJob]) -> None:
+    """Refuse, before any work, a job whose output is any job's map (same file)."""
+    refuse_same_file([j.output for j in jobs if j.output], [j.source for j in jobs])
 
 
 def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict]:
@@ -119,6 +129,7 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict
 
     Worker processes (spawned) run numba on one thread each. Results keep the job order.
     """
+    check_jobs(jobs)
     if not 1 <= n_jobs <= (os.cpu_count() or 1) * 4:
         raise ParameterError(f"--jobs must be in [1, {(os.cpu_count() or 1) * 4}], got {n_jobs}")
     results = []
@@ -145,8 +156,17 @@ def _dask_job(job: ProbeJob) -> dict:
     return run_probe_job(job)
 
 
+SCHEDULER_ADDRESS = re.compile(r"((tcp|tls|inproc|ucx|ws|wss)://)?[A-Za-z0-9_.\-\[\]:]+:\d+/?")
+"""What a Dask scheduler address looks like (checked before connecting, which can take 20 s)."""
+
+
 def run_dask(jobs: list[ProbeJob], address: str, progress=None) -> list[dict]:
     """Run jobs on the Dask distributed scheduler at ``address``; results keep job order."""
+    check_jobs(jobs)
+    if not SCHEDULER_ADDRESS.fullmatch(str(address)):
+        raise ParameterError(
+            f"--scheduler {address!r}: expected an address such as tcp://host:8786"
+        )
     try:
         from distributed import Client, as_completed
     except ImportError:  # pragma: no cover - dask is an install requirement

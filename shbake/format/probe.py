@@ -17,9 +17,11 @@ import json
 
 import numpy as np
 
-from shbake.conventions import DFG_MU_MIN, DFG_SAMPLES, ROUGHNESS_MIN
+from shbake.conventions import DFG_MU_MIN, DFG_SAMPLES, DFG_SIZE, ROUGHNESS_MIN
 from shbake.errors import FormatError, ParameterError
 from shbake.format.asset import Asset
+from shbake.format.provenance import map_source
+from shbake.format.registry import Attr, Data
 
 PROBE_FORMAT = 2
 """Version of the probe kinds' layout and parameterisation."""
@@ -70,11 +72,50 @@ def check_probe_asset(asset: Asset, path: str = "probe") -> Asset:
 
 
 def source_attrs(meta: dict) -> dict:
-    """The ``source_*`` attributes of a probe from an environment's ``meta``."""
-    keep = ("sha256", "width", "height", "layout", "colorspace", "negative_policy")
-    return {f"source_{k}": meta[k] for k in keep if k in meta} | {
-        "source_name": str(meta.get("path", "")).rsplit("/", 1)[-1]
-    }
+    """The provenance block of a probe from an environment's ``meta`` (FORMAT §3)."""
+    return map_source(meta)
+
+
+ALPHA_MIN = ROUGHNESS_MIN * ROUGHNESS_MIN
+"""Smallest GGX width a probe may be fitted or shaded at."""
+
+
+def _check_range(value):
+    lo, hi = value
+    if not (isinstance(lo, int | float) and isinstance(hi, int | float)
+            and ALPHA_MIN - 1e-12 <= lo <= hi <= 1.0 + 1e-9):  # fmt: skip
+        raise FormatError(f"attribute alpha_range {value!r:.60} must be [lo, hi] with "
+                          f"{ALPHA_MIN:g} ≤ lo ≤ hi ≤ 1")  # fmt: skip
+
+
+DFG_DATA = Data(
+    "/dfg", (DFG_SIZE, DFG_SIZE, 2), "float32",
+    "`A0`, `A1` over node-centred `n·v ∈ [1e-3, 1]` × `sqrt(α) ∈ [0.02, 1]` (attributes say "
+    "so); bilinear, clamped",
+)  # fmt: skip
+"""The DFG table every probe kind carries."""
+
+PROBE_ATTRS = (
+    Attr("technique", "str", "the technique and its paper"),
+    Attr("probe_format", "int", "version of the probe layout and parameterisation; readers "
+         f"MUST refuse other values than {PROBE_FORMAT}", range=(PROBE_FORMAT, PROBE_FORMAT)),
+    Attr("alpha_convention", "str", f"`{ALPHA_CONVENTION}`: `α` is the GGX width (SPEC §1); "
+         "readers MUST refuse others (probe format 1 used perceptual roughness)"),
+    Attr("alpha_convention_text", "str", "the convention in words"),
+    Attr("alpha_range", "json", "`[lo, hi]` GGX widths fitted; readers MUST refuse `α` outside "
+         "it unless they document extrapolation (shbake's refuse it)", json_type=list, length=2),
+)  # fmt: skip
+"""Root attributes every probe kind shares."""
+
+
+def check_alpha_range(attrs: dict) -> None:
+    """The kind check shared by probes: a sane ``alpha_range`` and the GGX-width convention."""
+    if attrs.get("alpha_convention") != ALPHA_CONVENTION:
+        raise FormatError(
+            "this probe was baked with perceptual roughness (probe format 1); shbake now reads "
+            "alpha as the GGX width: re-bake it with this version"
+        )
+    _check_range(attrs["alpha_range"])
 
 
 def probe_bytes(asset: Asset, bytes_per_value: int = 4) -> int:

@@ -14,7 +14,7 @@ Root attributes
     (appendix B bound, worst channel), ``residual`` (JSON per channel),
     ``face_size``, ``layout``, ``coefficients`` (``global`` or
     ``tangent_q0``), ``view_convention``, ``method`` and the map's provenance
-    ``input_*`` (as ``env_sh``).
+    ``source_*`` (the common block, FORMAT §3).
 
 Timings vary between runs, so the CLI reports them and the asset does not
 store them: same inputs give identical bytes.
@@ -24,8 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from shbake.conventions import LMAX_LIMIT
 from shbake.errors import FormatError
 from shbake.format.asset import Asset, read_asset, write_asset
+from shbake.format.provenance import map_source
+from shbake.format.registry import SOURCE_MAP_ATTRS, Attr, Data, Kind, register
 
 KIND = "shrm"
 LAYOUT = "cube (6, S, S, n, 3): faces +X,-X,+Y,-Y,+Z,-Z as OpenEXR envmap=cube, texel cells"
@@ -34,6 +37,49 @@ VIEW_CONVENTION = (
     "radiance(R, V) = sum_ps shrm[R, p(p+1)+s] y_ps(V) (eq. 7/12); tangent kind: "
     "sum_p shrm[T, p] y_p0(T.V)"
 )
+
+
+def _check(attrs, shapes, dattrs, symbols):
+    n = shapes["/shrm"][3]
+    P = attrs["P"]
+    want = P + 1 if attrs["coefficients"] == "tangent_q0" else (P + 1) ** 2
+    if n != want:
+        raise FormatError(f"dataset /shrm has {n} coefficients per texel; P = {P} and "
+                          f"coefficients {attrs['coefficients']!r} need {want}")  # fmt: skip
+
+
+SHRM_KIND = register(Kind(
+    name=KIND,
+    version=2,
+    title="Spherical Harmonic Reflection Map (Ramamoorthi & Hanrahan 2002; `shrm`)",
+    attrs=SOURCE_MAP_ATTRS + (
+        Attr("brdf_model", "str", "the BRDF (shbake model name or a reflection model)"),
+        Attr("brdf_kind", "str", "`surface`, `lobe` (radially symmetric) or `tangent`"),
+        Attr("brdf_parameters", "json", "the model's parameters", json_type=dict),
+        Attr("brdf_source", "str", "measured data file, `\"\"` for analytic models"),
+        Attr("F", "int", "lighting × BRDF order (highest band l)", range=(0, LMAX_LIMIT),
+             symbol="F"),
+        Attr("P", "int", "view order (highest band p)", range=(0, LMAX_LIMIT), symbol="P"),
+        Attr("eps", "float", "energy tolerance ε the orders were chosen for", range=(0.0, 1.0)),
+        Attr("eps_brdf", "float", "BRDF energy left out at (F, P)", range=(0.0, 1.0)),
+        Attr("eps_reached", "bool", "whether ε was met within the order limits"),
+        Attr("eps_bound", "float", "appendix-B residual bound, worst channel"),
+        Attr("residual", "json", "appendix-B bound per channel", json_type=dict),
+        Attr("face_size", "int", "cube face texels `S`", range=(1, 4096), symbol="S"),
+        Attr("layout", "str", "the cube layout"),
+        Attr("coefficients", "str", "`global` ((P+1)² per texel) or `tangent_q0` (P+1)"),
+        Attr("view_convention", "str", "how a renderer evaluates a texel for a view (eq. 7/12)"),
+        Attr("method", "str", "the prefiltering method"),
+    ),
+    datasets=(
+        Data("/shrm", (6, "S", "S", "n", 3), "float32",
+             "the SHRM on a cube (faces +X, −X, +Y, −Y, +Z, −Z, OpenEXR `envmap = cube`)"),
+        Data("/brdf_coefficients", ("F+1", "P+1", "P+1", 3), "float64",
+             "`ρ̂[l, p, |q|, channel]` (real basis, RH02 eq. 13)"),
+        Data("/lighting/sh", ("(F+1)**2", 3), "float64", "the map's `L_lm` used"),
+    ),
+    check=_check,
+))  # fmt: skip
 
 
 def build_shrm_asset(bake, env_meta: dict) -> Asset:
@@ -57,7 +103,7 @@ def build_shrm_asset(bake, env_meta: dict) -> Asset:
         "view_convention": VIEW_CONVENTION,
         "method": "Ramamoorthi & Hanrahan 2002, frequency-space prefiltering (appendix C)",
     }
-    attrs.update({"input_" + k: v for k, v in env_meta.items()})
+    attrs.update(map_source(env_meta))
     datasets = {
         "/shrm": np.ascontiguousarray(bake.cube, dtype=np.float32),
         "/brdf_coefficients": np.ascontiguousarray(bake.coeffs.rho, dtype=np.float64),
