@@ -664,6 +664,32 @@ class TestBatches:
         for i in range(len(good)):
             assert read_asset(str(box / "probes" / f"m{i}.h5")).kind == "shexp_probe"
 
+    def test_manifest_lists_what_succeeded(self, run_cli, box):
+        """``--manifest``: written even when the batch fails; the probes of the completed
+        gather pass are ``written`` with their SHA-256, the rest ``not written``."""
+        import hashlib
+        import json
+
+        from shbake.batch.probe_jobs import GATHER_BATCH
+
+        good = []
+        for i in range(GATHER_BATCH):
+            shutil.copy(box / "map.exr", box / f"m{i}.exr")
+            good.append(box / f"m{i}.exr")
+        (box / "zbad.exr").write_bytes(b"not an image")
+        manifest = box / "manifest.json"
+        assert_failed(run_cli("probe-fit", *good, box / "zbad.exr", "--out-dir", box / "probes",
+                              "--samples", 64, "--manifest", manifest))  # fmt: skip
+        doc = json.loads(manifest.read_text())
+        assert doc["status"].startswith("failed:")
+        rows = {os.path.basename(r["source"]): r for r in doc["probes"]}
+        assert rows["zbad.exr"]["status"] == "not written"
+        for i in range(len(good)):
+            row = rows[f"m{i}.exr"]
+            assert row["status"] == "written"
+            digest = hashlib.sha256((box / "probes" / f"m{i}.h5").read_bytes()).hexdigest()
+            assert row["sha256"] == digest
+
     def test_set_is_all_or_nothing(self, run_cli, box):
         (box / "bad.exr").write_bytes(b"not an image")
         with unchanged(box):
