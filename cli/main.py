@@ -5,6 +5,7 @@ import sys
 import click
 from shbake_cli.brdf_table import brdf_table
 from shbake_cli.overview import overview
+from shbake_cli.plan import bake, plan
 from shbake_cli.preview import preview
 from shbake_cli.probe_eval import probe_eval
 from shbake_cli.probe_fit import probe_fit
@@ -28,6 +29,8 @@ cli.add_command(probe_fit)
 cli.add_command(split_sum)
 cli.add_command(probe_eval)
 cli.add_command(overview)
+cli.add_command(plan)
+cli.add_command(bake)
 
 
 def main(argv=None) -> int:

@@ -239,7 +239,7 @@ def load_scene(path: str) -> Scene:
         if e not in EXPORTS:
             chk.fail(f"scene.exports[{i}]", f"unknown export {e!r} (allowed: {', '.join(EXPORTS)})")
     stem = os.path.splitext(os.path.basename(path))[0]
-    out_dir = os.path.join(base, scene.get("out_dir", f"{stem}-assets"))
+    out_dir = os.path.normpath(os.path.join(base, scene.get("out_dir", f"{stem}-assets")))
     tolerances = dict(DEFAULT_TOLERANCES)
     tolerances.update(chk.tolerances(data.get("tolerances", {}), "tolerances"))
 
