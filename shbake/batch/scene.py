@@ -315,7 +315,8 @@ def load_scene(path: str) -> Scene:
                 chk.fail(key, "a glossy material needs 'roughness' ([lo, hi] or one number)")
             rr = [r, r] if isinstance(r, (int, float)) else r
             if (len(rr) != 2 or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                                        for x in rr) or not 0.0 <= rr[0] <= rr[1] <= 1.0):  # fmt: skip
+                                        for x in rr)
+                    or not 0.0 <= rr[0] <= rr[1] <= 1.0):  # fmt: skip
                 chk.fail(f"{key}.roughness", f"must be lo <= hi in [0, 1], got {r!r}")
             rough = (float(rr[0]), float(rr[1]))
         if any(m.name == mat["name"] for m in materials):
@@ -324,7 +325,8 @@ def load_scene(path: str) -> Scene:
     if not materials:
         chk.fail("materials", "a scene needs at least one [[materials]] entry")
     return Scene(path, scene.get("name", stem), out_dir,
-                 tuple(exports), tolerances, tuple(environments), tuple(materials), lines)  # fmt: skip
+                 tuple(exports), tolerances, tuple(environments), tuple(materials),
+                 lines)  # fmt: skip
 
 
 def _param_strings(params: dict) -> dict:
