@@ -11,6 +11,7 @@ from shbake_cli.probe_eval import probe_eval
 from shbake_cli.probe_fit import probe_fit
 from shbake_cli.project_env import project_env
 from shbake_cli.split_sum import split_sum
+from shbake_cli.tradeoff import tradeoff_cmd
 
 from shbake import __version__
 from shbake.errors import ShbakeError
@@ -31,6 +32,7 @@ cli.add_command(probe_eval)
 cli.add_command(overview)
 cli.add_command(plan)
 cli.add_command(bake)
+cli.add_command(tradeoff_cmd)
 
 
 def main(argv=None) -> int:

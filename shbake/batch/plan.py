@@ -112,7 +112,10 @@ def _cold(kind: str, fn, *a, **k) -> float:
     if kind not in _WARM:
         fn(*a, **k)
         _WARM.add(kind)
-    return _timed(fn, *a, **k)[1]
+    best = _timed(fn, *a, **k)[1]
+    for _ in range(2 if best < 0.05 else 0):  # short calls: the best of three (timer noise)
+        best = min(best, _timed(fn, *a, **k)[1])
+    return best
 
 
 def _timed(fn, *a, **k):
