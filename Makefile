@@ -11,7 +11,9 @@ OUT    ?= out
 export OMP_NUM_THREADS ?= 1
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: demo test test-all bench lint clean
+ENGINES := tests/engines
+
+.PHONY: demo test test-all bench lint clean engines
 
 $(STAMP): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -37,10 +39,16 @@ demo: $(STAMP)
 	$(BIN)/shbake overview $(OUT) -o $(OUT)/index.html --title "shbake demo: the six sample maps"
 	@echo "demo: open $(OUT)/index.html (assets, previews and contact sheets in $(OUT)/)" >&2
 
-test: $(STAMP)
+# Real engine code for tests/test_exports.py, pinned by tests/engines/package-lock.json.
+engines: $(ENGINES)/node_modules/.package-lock.json
+$(ENGINES)/node_modules/.package-lock.json: $(ENGINES)/package.json $(ENGINES)/package-lock.json
+	@if command -v npm >/dev/null 2>&1; then npm ci --prefix $(ENGINES) --no-audit --no-fund; \
+	else echo "npm not found: tests/test_exports.py will skip the engine checks" >&2; fi
+
+test: $(STAMP) engines
 	$(BIN)/python -m pytest -q -n 2
 
-test-all: $(STAMP)
+test-all: $(STAMP) engines
 	$(BIN)/python -m pytest -q -n 2 -m ''
 
 bench: $(STAMP)

@@ -4,6 +4,7 @@ import sys
 
 import click
 from shbake_cli.brdf_table import brdf_table
+from shbake_cli.export import export
 from shbake_cli.overview import overview
 from shbake_cli.plan import bake, plan
 from shbake_cli.preview import preview
@@ -30,6 +31,7 @@ cli.add_command(probe_fit)
 cli.add_command(split_sum)
 cli.add_command(probe_eval)
 cli.add_command(overview)
+cli.add_command(export)
 cli.add_command(plan)
 cli.add_command(bake)
 cli.add_command(tradeoff_cmd)

@@ -78,9 +78,9 @@ from shbake.sh.windows import WINDOW_METHODS
 @click.option(
     "--export",
     "exports",
-    type=click.Choice(["gltf"]),
+    type=click.Choice(["gltf", "babylon", "threejs"]),
     multiple=True,
-    help="Engine export beside the asset (gltf: EXT_lights_image_based JSON).",
+    help="Engine export beside the asset, as `shbake export --to TARGET` (docs/EXPORTS.md).",
 )
 @report_opt
 @input_policy_opts

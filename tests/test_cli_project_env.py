@@ -42,9 +42,13 @@ class TestProjectEnv:
         assert a.attrs["input_sha256"] and "project-env" in a.attrs["command_line"]
         assert a.attrs["input_negative_count"] > 0
         assert (tmp_path / "maps" / "irradiance.exr").exists()
-        gltf = json.loads((tmp_path / "sky.gltf.json").read_text())
-        coeffs = gltf["extensions"]["EXT_lights_image_based"]["lights"][0]["irradianceCoefficients"]
-        np.testing.assert_allclose(coeffs, a["/irradiance/sh"])
+        gltf = json.loads((tmp_path / "sky.gltf").read_text())  # shbake export --to gltf
+        light = gltf["extensions"]["EXT_lights_image_based"]["lights"][0]
+        signs = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1])[:, None]  # Babylon (docs/EXPORTS.md)
+        np.testing.assert_allclose(
+            light["irradianceCoefficients"], signs * a["/irradiance/sh"] / light["intensity"] ** 2
+        )
+        assert "KHR_lights_punctual" in gltf["extensionsUsed"]
         assert "vs brute force" in err
 
     def test_same_inputs_give_identical_bytes(self, run_cli, tmp_path):

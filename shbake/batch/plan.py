@@ -68,7 +68,7 @@ TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
 REFERENCE_SAMPLES = 16384
-PLAN_VERSION = 1
+PLAN_VERSION = 2
 
 
 def file_hash(path: str) -> str:
@@ -131,7 +131,8 @@ def _downsample(pixels: np.ndarray, height: int) -> np.ndarray:
     return np.ascontiguousarray(p, dtype=np.float32)
 
 
-def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol, gltf: bool) -> dict:
+def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
+                exports: tuple = ()) -> dict:  # fmt: skip
     """Settings, predicted error and time of one map's ``env_sh`` asset (module docstring)."""
     light, residual, rep = extract_sun(env)
     sun = bool(rep["extracted"])
@@ -141,7 +142,7 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol, glt
         errs["irradiance"] = (irradiance_truncation(coeffs, lambert_kernel), irr_tol)
     if tan_tol is not None:
         errs["tangent_irradiance"] = (irradiance_truncation(coeffs, kajiya_kay_kernel), tan_tol)
-    lo = 2 if gltf else 0
+    lo = 2 if exports else 0  # engine exports carry 9 coefficients
     lmax = next((L for L in range(lo, MAX_IRRADIANCE_LMAX + 1)
                  if all(e[L] <= t for e, t in errs.values())), None)  # fmt: skip
     if lmax is None:
@@ -152,7 +153,7 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol, glt
         "irradiance": irr_tol is not None,
         "tangent": tan_tol is not None,
         "extract_sun": sun,
-        "export_gltf": gltf and irr_tol is not None,
+        "exports": sorted(exports) if irr_tol is not None else [],
     }
     n = n_coeffs(lmax) * 3 * 8
     return {
@@ -294,12 +295,13 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
         if needs_sh:
             irr = scene.tolerance("irradiance", env) if "diffuse" in kinds else None
             tan = scene.tolerance("tangent_irradiance", env) if "fibre" in kinds else None
-            gltf = "gltf" in scene.exports
-            key = _digest(["env_sh", PLAN_VERSION, digest, irr and irr[0], tan and tan[0], gltf])
+            exports = tuple(scene.exports)
+            key = _digest(["env_sh", PLAN_VERSION, digest, irr and irr[0], tan and tan[0],
+                           sorted(exports)])  # fmt: skip
             if key not in cache:
                 get_env()
                 cache[key] = plan_env_sh(env.map, env_map, load_s, irr and irr[0],
-                                         tan and tan[0], gltf)  # fmt: skip
+                                         tan and tan[0], exports)  # fmt: skip
             p = cache[key]
             if "impossible" in p:
                 k = next(iter(p["impossible"]))

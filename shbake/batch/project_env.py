@@ -13,6 +13,7 @@ import os
 import numpy as np
 
 from shbake.bakers.env_sh import bake_env_sh, truncation_report
+from shbake.batch.export import export_assets
 from shbake.conventions import check_lmax
 from shbake.envmap import load_environment
 from shbake.envmap import sun as sun_light
@@ -21,7 +22,6 @@ from shbake.errors import OutputError, ParameterError
 from shbake.evaluation.env_sh import irradiance_errors
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_writable_dir
-from shbake.format.engine_export import write_gltf_json
 from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_png
 from shbake.progress import NO_PROGRESS
 from shbake.sh.point_sets import fibonacci_sphere
@@ -100,8 +100,8 @@ def project_environment(
     check_lmax(lmax)
     irradiance_lmax = min(lmax, 2) if irradiance_lmax is None else irradiance_lmax
     check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
-    if "gltf" in exports and (not irradiance_sh or irradiance_lmax < 2):
-        raise ParameterError("--export gltf needs --irradiance with irradiance lmax >= 2")
+    if exports and (not irradiance_sh or irradiance_lmax < 2):
+        raise ParameterError("--export needs --irradiance with irradiance lmax >= 2")
     check_writable_dir(output)
     if exr_dir is not None and os.path.exists(exr_dir) and not os.path.isdir(exr_dir):
         raise OutputError(f"{exr_dir}: exists and is not a directory")
@@ -149,11 +149,12 @@ def project_environment(
                 png_path = os.path.splitext(path)[0] + ".png"
                 write_png(png_path, tonemap_to_srgb8(img))
                 written.append(png_path)
-    if "gltf" in exports:
-        gltf_path = os.path.splitext(output)[0] + ".gltf.json"
-        write_gltf_json(gltf_path, asset["/irradiance/sh"][:9], os.path.basename(env_path))
-        summary["gltf"] = gltf_path
-        written.append(gltf_path)
+    for target in exports:  # issue 14: the library call of `shbake export`
+        ext = ".json" if target == "threejs" else ".gltf"
+        out = os.path.splitext(output)[0] + ("" if target == "gltf" else "." + target) + ext
+        files = export_assets([output], target, out, env_path=env_path, sun_radius_deg=sun_radius)
+        summary[target] = files[0]
+        written.extend(files)
     summary.update(
         output=output,
         outputs=written,

@@ -47,8 +47,9 @@ DEFAULT_TOLERANCES = {
     "glossy_probe": 0.2,
 }
 MATERIAL_KINDS = ("diffuse", "fibre", "anisotropic", "measured", "glossy")
-EXPORTS = ("gltf",)
-"""Engine exports a scene may ask for (what ``project-env --export`` writes today)."""
+EXPORTS = ("gltf", "babylon", "threejs")
+"""Engine exports a scene may ask for: what ``project-env --export`` writes beside an
+``env_sh`` asset (``shbake export``, docs/EXPORTS.md)."""
 
 SCENE_KEYS = {"name": str, "out_dir": str, "exports": list}
 ENV_KEYS = {"map": str, "name": str, "position": list, "rotation_deg": (int, float),

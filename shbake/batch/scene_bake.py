@@ -52,10 +52,10 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     summary = project_environment(
         a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
         irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
-        extract_sun=s["extract_sun"], exports=("gltf",) if s["export_gltf"] else (), quiet=True,
+        extract_sun=s["extract_sun"], exports=tuple(s["exports"]), quiet=True,
     )  # fmt: skip
     seconds = time.perf_counter() - t0
-    outputs = [a["output"]] + ([summary["gltf"]] if "gltf" in summary else [])
+    outputs = summary["outputs"]
     if not measure:
         return {"outputs": outputs, "bake_seconds": seconds}, {}
     env = load_environment(a["inputs"][0], quiet=True)

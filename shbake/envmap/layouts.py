@@ -171,6 +171,16 @@ def latlong_texel_point(j, f, u, height, width):
     return s * np.sin(phi), y, -s * np.cos(phi)
 
 
+def cube_face_frames() -> np.ndarray:
+    """``(6, 3, 3)`` frames of the cube-strip faces (+X, −X, +Y, −Y, +Z, −Z).
+
+    ``frames[f] @ (s, t, 1)`` is the (unnormalised) direction of face ``f`` at
+    face coordinates ``s`` (left → right) and ``t`` (top → bottom) in [-1, 1];
+    the columns are orthonormal (s axis, t axis, face normal).
+    """
+    return np.array([_STRIP_FACES[f] for f in _STRIP_FACES], dtype=np.float64)
+
+
 def _face_area(x, y):
     return np.arctan2(x * y, np.sqrt(x * x + y * y + 1.0))
 

@@ -1,0 +1,111 @@
+"""``shbake export``: env_sh (or split-sum) assets → engine-ready files (``docs/EXPORTS.md``)."""
+
+import click
+from shbake_cli.options import emit_json, info, json_opt, output_opt, quiet_opt, samples_opt
+
+from shbake.batch.export import export_assets
+from shbake.format.exports import TARGETS
+from shbake.format.exports.source import FRAMES
+
+
+@click.command("export")
+@click.argument("assets", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option(
+    "--to", "target", required=True, type=click.Choice(sorted(TARGETS)), help="Engine / format."
+)
+@output_opt(
+    "Output for one asset: FILE.gltf, FILE.json, FILE.ktx2, STEM_sh.txt or FILE.unity.json",
+    required=False,
+)
+@click.option(
+    "--out-dir",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Folder for several assets: one export per input, named after it.",
+)
+@click.option(
+    "--frame",
+    type=click.Choice(FRAMES),
+    default="y-up",
+    show_default=True,
+    help="Up axis of the target scene (z-up: (x, y, z) -> (x, -z, y)).",
+)
+@click.option(
+    "--rotate",
+    "rotate_deg",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Turn the environment about the target's up axis, degrees counter-clockwise from above.",
+)
+@click.option(
+    "--env",
+    "env_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Source map of the cube maps [default: the path recorded in the asset].",
+)
+@click.option(
+    "--size",
+    type=int,
+    default=None,
+    help="Texels per side of the first cube mip, a power of two [gltf 64, ktx2/filament 128].",
+)
+@click.option(
+    "--floor",
+    type=int,
+    default=None,
+    help="Texels per side of the last cube mip, a power of two [gltf 8, ktx2/filament 1].",
+)
+@click.option(
+    "--lod-mapping",
+    "mapping",
+    type=click.Choice(["gltf-ibl-sampler", "filament"]),
+    default=None,
+    help="Roughness of each mip level [gltf-ibl-sampler; filament for --to filament].",
+)
+@samples_opt(None, "per cube texel, GGX with filtered importance sampling [gltf 256, others 512]")
+@click.option(
+    "--sun-radius",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="Radius the asset's sun was extracted with, degrees (to rebuild its residual map).",
+)
+@click.option(
+    "--babylon-scene",
+    type=click.Choice(["left-handed", "right-handed"]),
+    default="left-handed",
+    show_default=True,
+    help="gltf/babylon: the handedness of the Babylon scene that loads the file.",
+)
+@json_opt
+@quiet_opt
+def export(assets, target, output, out_dir, sun_radius, babylon_scene, as_json, quiet, **cube):
+    """Export ASSETS (env_sh; split-sum probes for ktx2) to an engine format.
+
+    Beside the main file: gltf/babylon FILE_specular_<mip>_<face>.png; ktx2
+    FILE_dfg.ktx2 and FILE_dfg.exr; filament STEM_ibl.ktx, STEM_skybox.ktx (and
+    STEM_sun.json). See docs/EXPORTS.md for each target's conventions.
+    """
+    if (output is None) == (out_dir is None):
+        raise click.UsageError("give -o FILE (one asset) or --out-dir DIR (several)")
+    if output is not None and len(assets) > 1:
+        raise click.UsageError("several assets need --out-dir")
+    settings = {k: cube[k] for k in ("size", "floor", "mapping", "samples") if cube[k] is not None}
+    written = export_assets(
+        list(assets),
+        target,
+        output if output is not None else out_dir,
+        frame=cube["frame"],
+        rotate_deg=cube["rotate_deg"],
+        env_path=cube["env_path"],
+        sun_radius_deg=sun_radius,
+        babylon_scene=babylon_scene,
+        many=out_dir is not None,
+        **settings,
+    )
+    if as_json:
+        emit_json({"target": target, "written": written})
+    else:
+        info(f"wrote {len(written)} file(s) for {target}: {written[0]}", quiet)

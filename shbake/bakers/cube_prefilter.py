@@ -1,0 +1,446 @@
+"""GGX prefiltered cube mip chains with filtered importance sampling (split-sum radiance).
+
+Level ``i`` of a chain of ``n`` levels (sizes ``size >> i``, at least the
+stated floor) holds, for every texel direction ``N``, the split-sum
+prefiltered radiance of Karis 2013 (eq. 4, ``N = V = R``)::
+
+    P(N, α) = ∫ L(l) D(h) (N·l) dl / ∫ D(h) (N·l) dl        (h = normalize(N + l))
+
+estimated with ``K`` GGX half-vector samples (Walter et al. 2007 eq. 35–36,
+``D``/``Λ`` from :mod:`shbake.brdf.ggx`) and **filtered importance sampling**
+(Křivánek & Colbert 2008, GPU Gems 3 ch. 20, eq. 20-2/20-3): each sample reads
+the source cube's mip pyramid at ``lod = ½ log2(Ω_s / Ω_p) + 1`` where
+``Ω_s = 1 / (K p(l))`` is the sample's solid angle, ``p(l) = D(h)/4`` its
+density (``N = V``) and ``Ω_p = 4π / (6 N0²)`` a level-0 texel. That is what
+glTF-IBL-Sampler (``lib/source/shaders/filter.frag``, ``computeLod``) and
+Filament (``libs/ibl/src/CubemapIBL.cpp``, ``roughnessFilter``) do; it removes
+the bright specks a sun gives at ``α`` 0.2–0.4 with point sampling.
+
+Level 0 is the mirror map (``α = 0``): the source resampled, no lobe.
+Roughness ↔ LOD (``lod_fraction f = i / (n-1)``, perceptual roughness ``r``,
+``α = r²``, shbake.conventions):
+
+``gltf-ibl-sampler`` (default)
+    ``r = f`` (glTF-IBL-Sampler ``main.cpp``: ``roughness = lod / (mipCount-1)``).
+``filament``
+    ``f = r (2 - r)``, so ``r = 1 - sqrt(1 - f)`` (Filament
+    ``lodToPerceptualRoughness``: ``a = 2, b = -1``).
+
+Cube geometry: OpenGL/Vulkan/KTX face order and orientation (GL 4.6 spec
+table 8.19): face ``k`` (+X, −X, +Y, −Y, +Z, −Z), texel row ``i`` (top = 0),
+column ``j``, ``s = 2(j+½)/n − 1``, ``t = 2(i+½)/n − 1``, GL direction
+``g = s·a_s + t·a_t + a_n``. Engines sample a right-handed world direction
+``d`` at ``g = (−d_x, d_y, d_z)`` (three.js ``flipEnvMap = −1`` for cube
+textures; Babylon's glTF loader mirrors glTF ``x``), so texel directions are
+``d = (−g_x, g_y, g_z)``. Texel solid angles are the exact ones of
+:func:`shbake.envmap.layouts.cube_texels` (the same grid on every face).
+Every output texel is computed at its own direction, so faces agree along
+their shared edges (no seam).
+"""
+
+import math
+
+import numba
+import numpy as np
+
+from shbake.brdf.ggx import ggx_d
+from shbake.envmap.environment import Environment
+from shbake.envmap.layouts import cube_face_frames, cube_texels
+from shbake.errors import ParameterError
+from shbake.jit import jit, pjit
+from shbake.texture.bilinear import axis, blend
+
+# GL cube faces: columns (s axis, t axis, face normal) in GL cube space.
+GL_FACES = np.array(
+    [
+        [[0, 0, 1], [0, -1, 0], [-1, 0, 0]],  # +X: sc = -z, tc = -y
+        [[0, 0, -1], [0, -1, 0], [1, 0, 0]],  # -X: sc = +z, tc = -y
+        [[1, 0, 0], [0, 0, 1], [0, 1, 0]],  # +Y: sc = +x, tc = +z
+        [[1, 0, 0], [0, 0, -1], [0, -1, 0]],  # -Y: sc = +x, tc = -z
+        [[1, 0, 0], [0, -1, 0], [0, 0, 1]],  # +Z: sc = +x, tc = -y
+        [[-1, 0, 0], [0, -1, 0], [0, 0, -1]],  # -Z: sc = -x, tc = -y
+    ],
+    dtype=np.float64,
+)
+"""``GL_FACES[k] @ (s, t, 1)``: GL direction on face ``k`` (columns: s axis, t axis, normal)."""
+
+WORLD_FROM_GL = np.diag([-1.0, 1.0, 1.0])
+"""World direction of GL cube direction ``g``: ``d = WORLD_FROM_GL @ g`` (an x mirror)."""
+
+LOD_MAPPINGS = ("gltf-ibl-sampler", "filament")
+DEFAULT_SAMPLES = 512
+
+
+def world_face_frames() -> np.ndarray:
+    """``(6, 3, 3)``: world direction of face ``k`` at ``(s, t)`` is ``F[k] @ (s, t, 1)``."""
+    return np.einsum("ij,kjl->kil", WORLD_FROM_GL, GL_FACES)
+
+
+def cube_directions(size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit world directions ``(6, size, size, 3)`` and exact solid angles ``(size, size)``."""
+    edges = (2.0 * np.arange(size) + 1.0) / size - 1.0
+    s, t = np.meshgrid(edges, edges)
+    st1 = np.stack([s, t, np.ones_like(s)], -1)
+    d = np.einsum("kij,abj->kabi", world_face_frames(), st1)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    # the exact projected-texel solid angles of the cube-strip layout (same grid per face)
+    omega = cube_texels("cube-strip", 6 * size, size)[1][:size]
+    return d, omega
+
+
+def roughness_of_level(level: int, levels: int, mapping: str = "gltf-ibl-sampler") -> float:
+    """Perceptual roughness ``r`` stored at mip ``level`` of a chain of ``levels``."""
+    if mapping not in LOD_MAPPINGS:
+        raise ParameterError(f"unknown roughness/LOD mapping {mapping!r}; choose {LOD_MAPPINGS}")
+    if levels < 2:
+        return 0.0
+    f = level / (levels - 1)
+    return f if mapping == "gltf-ibl-sampler" else 1.0 - math.sqrt(max(0.0, 1.0 - f))
+
+
+def level_of_roughness(r: float, levels: int, mapping: str = "gltf-ibl-sampler") -> float:
+    """Fractional mip level an engine samples for perceptual roughness ``r`` (inverse map)."""
+    if mapping not in LOD_MAPPINGS:
+        raise ParameterError(f"unknown roughness/LOD mapping {mapping!r}; choose {LOD_MAPPINGS}")
+    f = r if mapping == "gltf-ibl-sampler" else r * (2.0 - r)
+    return f * (levels - 1)
+
+
+# ---------------------------------------------------------------- source sampling
+
+
+@jit
+def _bilinear_latlong(img, u, v, out):
+    """Texel-centred bilinear lat-long fetch: rows clamp to edge, columns wrap around."""
+    h, w = img.shape[0], img.shape[1]
+    r0, r1, fr = axis(v * h - 0.5, h)
+    x = u * w - 0.5
+    xf = math.floor(x)
+    c0 = int(xf) % w
+    c1 = (c0 + 1) % w
+    fc = x - xf
+    for c in range(3):
+        out[c] = blend(img[r0, c0, c], img[r0, c1, c], img[r1, c0, c], img[r1, c1, c], fr, fc)
+
+
+@pjit
+def _resample_latlong(img, dirs_sub, out):
+    # dirs_sub: (M, S, 3) sub-texel directions; out (M, 3) box average
+    m, s = dirs_sub.shape[0], dirs_sub.shape[1]
+    for k in numba.prange(m):
+        acc = np.zeros(3)
+        tmp = np.zeros(3)
+        for q in range(s):
+            dx, dy, dz = dirs_sub[k, q, 0], dirs_sub[k, q, 1], dirs_sub[k, q, 2]
+            u = math.atan2(dx, -dz) / (2.0 * math.pi)
+            u = u - math.floor(u)
+            v = math.acos(min(1.0, max(-1.0, dy))) / math.pi
+            _bilinear_latlong(img, u, v, tmp)
+            for c in range(3):
+                acc[c] += tmp[c]
+        for c in range(3):
+            out[k, c] = acc[c] / s
+
+
+def mirror_cube(
+    env: Environment, size: int, supersample: int = 4, rotation: np.ndarray | None = None
+) -> np.ndarray:
+    """The mirror (``α = 0``) cube map, ``(6, size, size, 3)`` float64.
+
+    ``rotation`` (3×3, target ← world): the cube is built in the target frame,
+    its texel ``d_t`` showing the map at world direction ``Rᵀ d_t``.
+
+    Each texel is the mean of ``supersample²`` bilinear lat-long fetches
+    (:mod:`shbake.texture.bilinear`, SPEC §3 ``u, v``) over the texel cell, or for cube
+    inputs the source texels whose centres fall in it (nearest face texel).
+    """
+    if size < 1 or size & (size - 1):
+        raise ParameterError(f"cube size must be a power of two, got {size}")
+    k = int(supersample)
+    sub = (np.arange(k) + 0.5) / k
+    edges = 2.0 * ((np.arange(size)[:, None] + sub[None, :]) / size).reshape(-1) - 1.0
+    s, t = np.meshgrid(edges, edges)
+    st1 = np.stack([s, t, np.ones_like(s)], -1)
+    d = np.einsum("kij,abj->kabi", world_face_frames(), st1)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    if rotation is not None:
+        d = d @ np.asarray(rotation, dtype=np.float64)  # row vectors: (Rᵀ d_t)ᵀ = d_tᵀ R
+    d = d.reshape(6, size, k, size, k, 3).transpose(0, 1, 3, 2, 4, 5).reshape(-1, k * k, 3)
+    out = np.empty((d.shape[0], 3))
+    if env.layout == "latlong":
+        _resample_latlong(env.pixels.astype(np.float64), np.ascontiguousarray(d), out)
+    else:
+        out[:] = _nearest_cube_input(env, d).mean(axis=1)
+    return out.reshape(6, size, size, 3)
+
+
+def _nearest_cube_input(env: Environment, d: np.ndarray) -> np.ndarray:
+    """Radiance of a cube-layout environment at directions ``d`` (nearest texel)."""
+    dirs, _, mask = env.texels()
+    frames = cube_face_frames()
+    n = dirs.shape[1] if env.layout == "cube-strip" else None
+    if env.layout != "cube-strip":
+        raise ParameterError("cube prefilter reads lat-long or cube-strip maps")
+    proj = np.einsum("...i,kij->...kj", d, frames)  # (..., 6, 3): (d·a_s, d·a_t, d·a_n)
+    face = np.argmax(proj[..., 2], axis=-1)
+    p = np.take_along_axis(proj, face[..., None, None], axis=-2)[..., 0, :]
+    s, t = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
+    j = np.clip(((s + 1) * 0.5 * n).astype(int), 0, n - 1)
+    i = np.clip(((t + 1) * 0.5 * n).astype(int), 0, n - 1)
+    return env.pixels[face * n + i, j].astype(np.float64)
+
+
+def downsample_cube(cube: np.ndarray) -> np.ndarray:
+    """Next coarser level: solid-angle weighted mean of each 2×2 block."""
+    n = cube.shape[1]
+    omega = cube_directions(n)[1]
+    w = omega[None, :, :, None]
+    num = (cube * w).reshape(6, n // 2, 2, n // 2, 2, 3).sum(axis=(2, 4))
+    den = w.reshape(1, n // 2, 2, n // 2, 2, 1).sum(axis=(2, 4))
+    return num / den
+
+
+def cube_pyramid(cube: np.ndarray) -> list[np.ndarray]:
+    """Box mip pyramid of a cube map down to 1×1 (the FIS source)."""
+    levels = [cube]
+    while levels[-1].shape[1] > 1:
+        levels.append(downsample_cube(levels[-1]))
+    return levels
+
+
+# ---------------------------------------------------------------- the filter
+
+
+@jit
+def _fetch_level(level, wf, dx, dy, dz, out):
+    """Bilinear fetch of one cube level at world direction d (clamp-to-edge within the face)."""
+    n = level.shape[1]
+    best = -1.0
+    face = 0
+    for k in range(6):
+        dn = dx * wf[k, 0, 2] + dy * wf[k, 1, 2] + dz * wf[k, 2, 2]
+        if dn > best:
+            best = dn
+            face = k
+    s = (dx * wf[face, 0, 0] + dy * wf[face, 1, 0] + dz * wf[face, 2, 0]) / best
+    t = (dx * wf[face, 0, 1] + dy * wf[face, 1, 1] + dz * wf[face, 2, 1]) / best
+    r0, r1, fr = axis((t + 1.0) * 0.5 * n - 0.5, n)
+    c0, c1, fc = axis((s + 1.0) * 0.5 * n - 0.5, n)
+    for c in range(3):
+        out[c] = blend(
+            level[face, r0, c0, c],
+            level[face, r0, c1, c],
+            level[face, r1, c0, c],
+            level[face, r1, c1, c],
+            fr,
+            fc,
+        )
+
+
+@jit
+def _hammersley(i, n):
+    b = i
+    r = 0.0
+    f = 0.5
+    while b > 0:
+        r += f * (b & 1)
+        b >>= 1
+        f *= 0.5
+    return (i + 0.5) / n, r
+
+
+@pjit
+def _prefilter_fis(pyr, wf, dirs, alpha, samples, omega_p, use_fis, out):
+    n_tex = dirs.shape[0]
+    n_levels = len(pyr)
+    a2 = alpha * alpha
+    for k in numba.prange(n_tex):
+        nx, ny, nz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
+        # tangent frame (Frisvad-style, branchless enough)
+        if abs(nz) < 0.999:
+            tx, ty, tz = -ny, nx, 0.0
+        else:
+            tx, ty, tz = 0.0, -nz, ny
+        tn = math.sqrt(tx * tx + ty * ty + tz * tz)
+        tx, ty, tz = tx / tn, ty / tn, tz / tn
+        bx, by, bz = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
+        acc = np.zeros(3)
+        lo = np.zeros(3)
+        hi = np.zeros(3)
+        wsum = 0.0
+        for q in range(samples):
+            u1, u2 = _hammersley(q, samples)
+            cos2 = (1.0 - u1) / (1.0 + (a2 - 1.0) * u1)
+            ct = math.sqrt(cos2)
+            st = math.sqrt(max(0.0, 1.0 - cos2))
+            ph = 2.0 * math.pi * u2
+            hx, hy, hz = st * math.cos(ph), st * math.sin(ph), ct
+            # l = 2 (n.h) h - n in the local frame (n = +z)
+            lz = 2.0 * hz * hz - 1.0
+            if lz <= 0.0:
+                continue
+            lx, ly = 2.0 * hz * hx, 2.0 * hz * hy
+            wx = lx * tx + ly * bx + lz * nx
+            wy = lx * ty + ly * by + lz * ny
+            wz = lx * tz + ly * bz + lz * nz
+            if use_fis:
+                pdf = ggx_d(alpha, alpha, hx, hy, hz) * 0.25
+                omega_s = 1.0 / (samples * pdf)
+                lod = 0.5 * math.log2(omega_s / omega_p) + 1.0
+                lod = min(max(lod, 0.0), n_levels - 1.0)
+            else:
+                lod = 0.0
+            i0 = int(lod)
+            i1 = min(i0 + 1, n_levels - 1)
+            f = lod - i0
+            _fetch_level(pyr[i0], wf, wx, wy, wz, lo)
+            _fetch_level(pyr[i1], wf, wx, wy, wz, hi)
+            for c in range(3):
+                acc[c] += lz * ((1.0 - f) * lo[c] + f * hi[c])
+            wsum += lz
+        for c in range(3):
+            out[k, c] = acc[c] / wsum
+
+
+def prefilter_level(
+    pyramid: list[np.ndarray],
+    size: int,
+    alpha: float,
+    samples: int = DEFAULT_SAMPLES,
+    fis: bool = True,
+) -> np.ndarray:
+    """One prefiltered cube ``(6, size, size, 3)`` at GGX ``alpha`` from a source pyramid.
+
+    ``fis=False`` point-samples level 0 of the source (plain importance
+    sampling: the estimator that shows fireflies).
+    """
+    if not 0.0 < alpha <= 1.0:
+        raise ParameterError(f"alpha must be in (0, 1], got {alpha}")
+    dirs, _ = cube_directions(size)
+    n0 = pyramid[0].shape[1]
+    omega_p = 4.0 * math.pi / (6.0 * n0 * n0)
+    out = np.empty((6 * size * size, 3))
+    pyr = numba.typed.List([np.ascontiguousarray(p) for p in pyramid])
+    _prefilter_fis(
+        pyr,
+        world_face_frames(),
+        dirs.reshape(-1, 3),
+        float(alpha),
+        int(samples),
+        omega_p,
+        bool(fis),
+        out,
+    )
+    return out.reshape(6, size, size, 3)
+
+
+def prefilter_chain(
+    env: Environment,
+    size: int = 128,
+    floor: int = 1,
+    mapping: str = "gltf-ibl-sampler",
+    samples: int = DEFAULT_SAMPLES,
+    source_size: int | None = None,
+    fis: bool = True,
+    rotation: np.ndarray | None = None,
+) -> tuple[list[np.ndarray], list[float]]:
+    """The GGX prefiltered cube mip chain of ``env``.
+
+    Parameters
+    ----------
+    size : power of two
+        Level-0 face edge (the mirror map).
+    floor : power of two, 1 … size
+        Smallest level edge; the chain has ``log2(size/floor) + 1`` levels.
+    mapping : one of :data:`LOD_MAPPINGS`
+        Perceptual roughness of each level (module docstring).
+    samples : int
+        GGX samples per texel (filtered importance sampling).
+    source_size : power of two
+        Edge of the mirror cube the filter reads (default ``2*size``).
+    rotation : 3×3, optional
+        Target ← world rotation (:func:`mirror_cube`).
+
+    Returns
+    -------
+    (levels, roughness)
+        ``levels[i]`` is ``(6, size >> i, size >> i, 3)`` float64;
+        ``roughness[i]`` its perceptual roughness (``α = r²``).
+    """
+    for name, v in (("size", size), ("floor", floor)):
+        if v < 1 or v & (v - 1):
+            raise ParameterError(f"{name} must be a power of two, got {v}")
+    if floor > size:
+        raise ParameterError(f"floor {floor} exceeds size {size}")
+    if samples < 1:
+        raise ParameterError(f"samples must be >= 1, got {samples}")
+    n_levels = int(round(math.log2(size // floor))) + 1
+    src = source_size or 2 * size
+    pyramid = cube_pyramid(mirror_cube(env, src, rotation=rotation))
+    levels, rough = [], []
+    for i in range(n_levels):
+        r = roughness_of_level(i, n_levels, mapping)
+        n = size >> i
+        if i == 0 or r == 0.0:
+            lvl = pyramid[int(round(math.log2(src // n)))]
+        else:
+            lvl = prefilter_level(pyramid, n, r * r, samples, fis)
+        levels.append(lvl)
+        rough.append(r)
+    return levels, rough
+
+
+@pjit
+def _reference_kernel(src_dirs, src_omega, src_rad, dirs, alpha, out):
+    m = dirs.shape[0]
+    for k in numba.prange(m):
+        nx, ny, nz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
+        acc0 = 0.0
+        acc1 = 0.0
+        acc2 = 0.0
+        wsum = 0.0
+        for q in range(src_dirs.shape[0]):
+            lx, ly, lz = src_dirs[q, 0], src_dirs[q, 1], src_dirs[q, 2]
+            nl = nx * lx + ny * ly + nz * lz
+            if nl <= 0.0:
+                continue
+            # h = normalize(n + l); n.h = sqrt((1 + n.l)/2); D depends on n.h only
+            nh = math.sqrt(0.5 * (1.0 + nl))
+            sh = math.sqrt(max(0.0, 1.0 - nh * nh))
+            w = ggx_d(alpha, alpha, sh, 0.0, nh) * nl * src_omega[q]
+            acc0 += w * src_rad[q, 0]
+            acc1 += w * src_rad[q, 1]
+            acc2 += w * src_rad[q, 2]
+            wsum += w
+        out[k, 0] = acc0 / wsum
+        out[k, 1] = acc1 / wsum
+        out[k, 2] = acc2 / wsum
+
+
+def reference_level(env: Environment, size: int, alpha: float) -> np.ndarray:
+    """Brute-force ``P(N, α)`` at every texel of a ``size`` cube: quadrature over all map texels.
+
+    ``∫ L D (N·l) dl / ∫ D (N·l) dl`` summed over the map's cells with their exact
+    solid angles (``Environment.samples``); shares nothing with the sampler but ``D``.
+    """
+    d, w, rad = env.samples()
+    dirs, _ = cube_directions(size)
+    out = np.empty((6 * size * size, 3))
+    _reference_kernel(d, w, rad, dirs.reshape(-1, 3), float(alpha), out)
+    return out.reshape(6, size, size, 3)
+
+
+__all__ = [
+    "GL_FACES",
+    "LOD_MAPPINGS",
+    "WORLD_FROM_GL",
+    "cube_directions",
+    "cube_pyramid",
+    "level_of_roughness",
+    "mirror_cube",
+    "prefilter_chain",
+    "prefilter_level",
+    "reference_level",
+    "roughness_of_level",
+    "world_face_frames",
+]

@@ -1,0 +1,89 @@
+"""``shbake export`` as one unit of work: read assets, bake what a target needs, write its files.
+
+The format layer (:mod:`shbake.format.exports`) serialises; this module bakes
+the GGX prefiltered cube chain (:mod:`shbake.bakers.cube_prefilter`) for the
+targets that carry cube maps (their ``CUBES`` defaults, overridable) and the
+DFG table (:mod:`shbake.bakers.dfg`) for ``ktx2``.
+"""
+
+import os
+
+from shbake.bakers.cube_prefilter import prefilter_chain
+from shbake.bakers.dfg import dfg_table
+from shbake.errors import ParameterError
+from shbake.format.exports import target_module
+from shbake.format.exports.source import load_source, require_sh
+
+
+def export_assets(
+    assets: list[str],
+    target: str,
+    out: str,
+    frame: str = "y-up",
+    rotate_deg: float = 0.0,
+    env_path: str | None = None,
+    sun_radius_deg: float = 10.0,
+    size: int | None = None,
+    floor: int | None = None,
+    samples: int | None = None,
+    mapping: str | None = None,
+    many: bool | None = None,
+    **options,
+) -> list[str]:
+    """Export each asset file in ``assets`` to ``target``; returns the files written.
+
+    Parameters
+    ----------
+    out : str
+        The output file for one asset, or a folder (created) for several.
+    many : bool, optional
+        Treat ``out`` as a folder even for one asset (default: when several).
+    frame, rotate_deg
+        Target frame (:func:`shbake.format.exports.source.frame_matrix`).
+    env_path : str, optional
+        Source map of the cube chains (default: the path recorded in the asset).
+    sun_radius_deg : float
+        Radius the asset's sun was extracted with (to rebuild its residual map).
+    size, floor, samples, mapping
+        Cube chain settings; ``None`` takes the target's ``CUBES`` defaults
+        (``filament`` always uses Filament's mapping).
+    options
+        Passed to the target's ``write`` (e.g. ``babylon_scene``).
+    """
+    mod = target_module(target)
+    if not assets:
+        raise ParameterError("no asset to export")
+    written = []
+    for path in assets:
+        src = load_source(path, frame=frame, rotate_deg=rotate_deg, env_path=env_path)
+        if not (many if many is not None else len(assets) > 1):
+            dest = out
+        else:
+            os.makedirs(out, exist_ok=True)
+            stem = os.path.splitext(os.path.basename(path))[0]
+            dest = os.path.join(out, stem + mod.EXTENSION)
+        extra = dict(options)
+        if mod.CUBES is not None:
+            cfg = dict(mod.CUBES)
+            given = {"size": size, "floor": floor, "samples": samples}
+            if target != "filament":
+                given["mapping"] = mapping
+            cfg.update({k: v for k, v in given.items() if v is not None})
+            if target != "ktx2":
+                require_sh(src, target)  # refuse before baking cube maps for nothing
+            levels, rough = prefilter_chain(
+                src.environment(sun_radius_deg),
+                size=cfg["size"],
+                floor=cfg["floor"],
+                mapping=cfg["mapping"],
+                samples=cfg["samples"],
+                rotation=src.rotation,
+            )
+            extra.update(levels=levels, roughness=rough, mapping=cfg["mapping"])
+            if target == "ktx2":
+                extra["dfg_table"] = dfg_table()
+        written += mod.write(src, dest, **extra)
+    return written
+
+
+__all__ = ["export_assets"]

@@ -1,0 +1,34 @@
+"""Engine-ready exports of shbake assets, one module per target (``docs/EXPORTS.md``).
+
+``TARGETS`` maps a target name to its module; every module has
+``write(source, out, **options) -> list[str]`` taking an
+:class:`~shbake.format.exports.source.ExportSource` (already in the target's
+frame) and, for targets with cube maps (``CUBES`` not None), the prefiltered
+chain; it returns the files written. The format layer only serialises:
+:func:`shbake.batch.export.export_assets` (the one library entry point of
+``shbake export`` and ``project-env --export``) bakes the cube chains.
+"""
+
+import importlib
+
+from shbake.errors import ParameterError
+
+TARGETS = {
+    "gltf": "shbake.format.exports.gltf",
+    "babylon": "shbake.format.exports.gltf",
+    "threejs": "shbake.format.exports.threejs",
+    "ktx2": "shbake.format.exports.ktx2",
+    "filament": "shbake.format.exports.filament",
+    "unity": "shbake.format.exports.unity",
+}
+"""Target name → module (``babylon`` = the glTF export: Babylon implements the extension)."""
+
+
+def target_module(name: str):
+    """The module that writes target ``name``."""
+    if name not in TARGETS:
+        raise ParameterError(f"unknown export target {name!r}; choose one of {', '.join(TARGETS)}")
+    return importlib.import_module(TARGETS[name])
+
+
+__all__ = ["TARGETS", "target_module"]

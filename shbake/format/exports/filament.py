@@ -1,0 +1,166 @@
+"""Filament export: cmgen's ``sh.txt``, KTX1 IBL and skybox cube maps with the SH in their metadata.
+
+Derived from Filament's own source (``docs/EXPORTS.md``); Filament itself is
+not run by the tests (no node build of its renderer evaluates IBL on the CPU):
+
+* ``IndirectLight::Builder::irradiance(3, sh)`` and the shader's
+  ``irradianceSH(n) = sh0 + sh1 y + sh2 z + sh3 x + sh4 yx + sh5 yz + sh6 (3z²−1)
+  + sh7 zx + sh8 (x²−y²)`` take cmgen's ``--sh-shader`` coefficients:
+  ``libs/ibl/src/CubemapSH.cpp`` ``computeSH(irradiance=true)`` projects on a
+  Condon–Shortley basis (``computeShBasis``: ``Pmm = (1 − 2m) Pmm``) and folds
+  in ``computeTruncatedCosSh`` (``π, 2π/3, π/4``); ``preprocessSHForShader``
+  multiplies by the signed polynomial constants ``A[i]`` (negative for
+  ``m = ±1``) and by ``1/π``. The two signs cancel, so
+  ``sh_i = E_i |c_i| / π`` with shbake's ``E_i`` and ``c_i`` its basis constants
+  (0.282095, 0.488603, 1.092548, 0.315392, 0.546274): ``irradianceSH(n) = E(n)/π``,
+  the Lambert radiance at albedo 1 (Filament multiplies by the diffuse colour).
+* Frame: cmgen's ``equirectangularToCubemap`` reads ``u = (atan2(x, z)/π + 1)/2``
+  (+X at ``u = 0.75``, shbake has it at 0.25) and ``main`` then mirrors the cube
+  (``mirrorCubemap``: ``dst(N) = src(−N.x, N.y, N.z)``, "we mirror by default"):
+  the two x mirrors cancel and Filament's frame is shbake's (right-handed, +Y up).
+* ``sh.txt``: ``outputSh`` lines ``(r, g, b); // Llm, irradiance, pre-scaled base``,
+  fixed, 15 decimals, width 18. KTX1 metadata ``sh``: nine ``"r g b\\n"`` lines
+  (``iblRoughnessPrefilter``: ``container.setMetadata("sh", …)``), read by
+  ``Ktx1Bundle::getSphericalHarmonics``.
+* Cube maps: KTX 1.1, ``GL_RGBA16F``/``GL_HALF_FLOAT``, faces +X, −X, +Y, −Y,
+  +Z, −Z in GL orientation, texel at GL direction ``g`` showing world
+  ``(−g_x, g_y, g_z)`` (:mod:`shbake.bakers.cube_prefilter`); ``_ibl.ktx`` holds
+  the GGX chain with Filament's roughness↔LOD mapping (``lod = r(2 − r)``),
+  ``_skybox.ktx`` the mirror level. The cube orientation is not verified in
+  Filament.
+* Sun: ``<stem>_sun.json`` for a ``LightManager::Type::SUN``: ``direction`` is
+  where the light travels (−toward-sun), ``intensity`` in lux = the largest
+  channel of the sun's irradiance, ``color`` = irradiance / intensity.
+"""
+
+import json
+import struct
+
+import numpy as np
+
+from shbake.errors import OutputError, ParameterError
+from shbake.format.atomic import atomic_path, write_text
+from shbake.format.exports.source import ExportSource, require_sh
+from shbake.sh.basis import real_sh
+
+EXTENSION = "_sh.txt"
+KTX1_IDENTIFIER = bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x31, 0x31, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A])
+GL_HALF_FLOAT, GL_RGBA, GL_RGBA16F = 0x140B, 0x1908, 0x881A
+_NAMES = ["L00", "L1-1", "L10", "L11", "L2-2", "L2-1", "L20", "L21", "L22"]
+
+
+def basis_constants() -> np.ndarray:
+    """``|c_i|``: shbake's 9 basis functions divided by their polynomials, from ``real_sh``."""
+    d = np.array([[0.6, 0.48, 0.64]])
+    x, y, z = d[0]
+    poly = np.array([1, y, z, x, x * y, y * z, 3 * z * z - 1, x * z, x * x - y * y])
+    return np.abs(real_sh(d, 2)[0] / poly)
+
+
+def filament_sh(irradiance9: np.ndarray) -> np.ndarray:
+    """cmgen ``--sh-shader`` coefficients (9×3) of shbake irradiance SH ``E_i``."""
+    return np.asarray(irradiance9, dtype=np.float64) * (basis_constants() / np.pi)[:, None]
+
+
+def sh_text(sh: np.ndarray) -> str:
+    """``sh.txt`` as cmgen's ``outputSh`` writes it."""
+    lines = []
+    for i, (r, g, b) in enumerate(sh):
+        lines.append(
+            f"({r:18.15f}, {g:18.15f}, {b:18.15f}); // {_NAMES[i]}, irradiance, pre-scaled base"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def sh_metadata(sh: np.ndarray) -> str:
+    """The KTX ``sh`` metadata value: nine ``r g b`` lines."""
+    return "".join(f"{r:.9g} {g:.9g} {b:.9g}\n" for r, g, b in sh)
+
+
+def encode_ktx1(levels: list[np.ndarray], kv: dict) -> bytes:
+    """KTX 1.1 bytes of an RGBA16F cube map; ``levels[i]`` is ``(6, n, n, 4)``."""
+    n0 = levels[0].shape[1]
+    kvd = b""
+    for k in sorted(kv):
+        entry = k.encode() + b"\0" + kv[k].encode() + b"\0"
+        kvd += struct.pack("<I", len(entry)) + entry + b"\0" * (-len(entry) % 4)
+    out = KTX1_IDENTIFIER + struct.pack(
+        "<13I",
+        0x04030201,
+        GL_HALF_FLOAT,
+        2,
+        GL_RGBA,
+        GL_RGBA16F,
+        GL_RGBA,
+        n0,
+        n0,
+        0,
+        0,
+        6,
+        len(levels),
+        len(kvd),
+    )
+    out += kvd
+    for lv in levels:
+        a = np.asarray(lv, dtype=np.float64)
+        if not np.all(np.isfinite(a)) or np.abs(a).max() > 65504.0:
+            raise OutputError("KTX level has values that half floats cannot hold")
+        faces = [a[f].astype("<f2").tobytes() for f in range(6)]
+        out += struct.pack("<I", len(faces[0]))  # imageSize: one face (non-array cube map)
+        for data in faces:
+            out += data + b"\0" * (-len(data) % 4)
+    return out
+
+
+def _rgba(level: np.ndarray) -> np.ndarray:
+    return np.concatenate([level, np.ones(level.shape[:-1] + (1,))], axis=-1)
+
+
+CUBES = {"size": 128, "floor": 1, "samples": 512, "mapping": "filament"}
+"""The cube chain this target wants: Filament's roughness↔LOD mapping (always)."""
+
+
+def write(
+    src: ExportSource,
+    out: str,
+    levels: list[np.ndarray] | None = None,
+    roughness: list[float] | None = None,
+    **_ignored,
+) -> list[str]:
+    """Write ``out`` (``<stem>_sh.txt``), and beside it ``<stem>_ibl.ktx``, ``<stem>_skybox.ktx``
+    (given the cube chain ``levels``, made with the ``filament`` mapping) and, with a
+    sun, ``<stem>_sun.json``."""
+    require_sh(src, "filament")
+    if not out.endswith("_sh.txt"):
+        raise ParameterError(f"{out}: the filament export writes <stem>_sh.txt")
+    stem = out[: -len("_sh.txt")]
+    sh = filament_sh(src.irradiance9)
+    write_text(out, sh_text(sh))
+    written = [out]
+    if levels is not None:
+        rough = roughness
+        kv = {"sh": sh_metadata(sh), "shbake.roughness": json.dumps([round(r, 9) for r in rough])}
+        for path, lv in ((stem + "_ibl.ktx", levels), (stem + "_skybox.ktx", levels[:1])):
+            payload = encode_ktx1([_rgba(x) for x in lv], kv)
+            with atomic_path(path) as tmp, open(tmp, "wb") as f:
+                f.write(payload)
+            written.append(path)
+    if src.sun_direction is not None:
+        e = np.asarray(src.sun_irradiance, dtype=np.float64)
+        intensity = float(e.max())
+        sun = {
+            "type": "SUN",
+            "direction": [float(-v) for v in src.sun_direction],
+            "intensity_lux": intensity,
+            "color_linear": [float(v) for v in e / intensity],
+            "angular_radius_deg": float(
+                np.degrees(np.arccos(1 - src.sun_solid_angle / (2 * np.pi)))
+            ),
+        }
+        path = stem + "_sun.json"
+        write_text(path, json.dumps(sun, indent=1, sort_keys=True) + "\n")
+        written.append(path)
+    return written
+
+
+__all__ = ["basis_constants", "encode_ktx1", "filament_sh", "sh_metadata", "sh_text", "write"]

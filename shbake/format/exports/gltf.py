@@ -1,0 +1,209 @@
+"""glTF 2.0 export: ``EXT_lights_image_based`` + ``KHR_lights_punctual`` sun, as Babylon reads it.
+
+The extension's text (KhronosGroup/glTF ``extensions/2.0/Vendor/EXT_lights_image_based/README.md``)
+defines no SH basis, sign or normalisation; Babylon.js is its implementation,
+so the numbers are written for what Babylon computes (``docs/EXPORTS.md``,
+each step checked in Babylon's own code by ``tests/test_exports.py``):
+
+* ``irradianceCoefficients[i] = s_i E_i / intensity²`` with ``s = (+,−,+,+,−,−,+,+,+)``:
+  Babylon's basis carries the Condon–Shortley sign (``SH3ylmBasisConstants``
+  negate ``y, x, yz, xz``) and its loader mirrors glTF ``x`` into its
+  left-handed frame; together they read shbake's ``E(x, −y, z)``, which the
+  sign flips of the ``y``-odd functions (indices 1, 4, 5) undo.
+* Babylon scales the SH by ``intensity`` (``EXT_lights_image_based.ts``:
+  ``sphericalHarmonics.scaleInPlace(light.intensity)``) *and* multiplies the
+  shaded irradiance by ``texture.level = intensity`` (``pbrBlockReflection``:
+  ``environmentIrradiance *= vReflectionInfos.x``): ``intensity²`` in all.
+* It divides by π (``convertIrradianceToLambertianRadiance``) and multiplies by
+  the albedo: a Lambert surface shows ``ρ E / π``, so the coefficients are
+  irradiance ``E`` (radiance × sr, "lux").
+* ``specularImages``: shbake's GGX prefiltered cube mip chain
+  (:mod:`shbake.bakers.cube_prefilter`), RGBD PNGs (the extension's HDR
+  packing: ``rgb = (c·D)^(1/2.2)``, ``a = D``, ``D = floor(max(255/max(c), 1))/255``,
+  Babylon's ``toRGBD``), faces +X, −X, +Y, −Y, +Z, −Z in GL orientation.
+  ``intensity`` is the power of two that brings the brightest texel within
+  RGBD's range 255 (1 when it already is); images store ``radiance / intensity``.
+* With an extracted sun: a ``KHR_lights_punctual`` directional light whose
+  node's +Z points at the sun (glTF lights shine along −Z), ``intensity``
+  = the largest channel of its irradiance (lux) and ``color`` = irradiance /
+  intensity; the IBL holds the residual, so ``E_ibl + E_sun`` is the map's irradiance.
+"""
+
+import json
+import math
+import os
+
+import numpy as np
+
+from shbake.errors import ParameterError
+from shbake.format.atomic import atomic_path, write_text
+from shbake.format.exports.source import ExportSource, require_sh
+
+EXTENSION = ".gltf"
+BABYLON_SIGNS = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1], dtype=np.float64)
+"""Per-coefficient sign from shbake's basis to Babylon's reading (indices 1, 4, 5 flip)."""
+RGBD_MAX = 255.0
+GAMMA = 2.2
+
+
+def babylon_coefficients(irradiance9: np.ndarray, intensity: float = 1.0) -> np.ndarray:
+    """``irradianceCoefficients`` (9×3) for shbake irradiance SH ``E_i`` (glTF frame)."""
+    return BABYLON_SIGNS[:, None] * np.asarray(irradiance9, dtype=np.float64) / intensity**2
+
+
+def rgbd_encode(img: np.ndarray) -> np.ndarray:
+    """Linear HDR ``(…, 3)`` → RGBD ``uint8 (…, 4)`` as Babylon's ``toRGBD``."""
+    c = np.maximum(np.asarray(img, dtype=np.float64), 0.0)
+    m = np.maximum(c.max(axis=-1), 1e-6)
+    D = np.clip(np.floor(np.maximum(RGBD_MAX / m, 1.0)) / 255.0, 0.0, 1.0)
+    rgb = np.clip((c * D[..., None]) ** (1.0 / GAMMA), 0.0, 1.0)
+    out = np.concatenate([rgb, D[..., None]], axis=-1)
+    return np.round(out * 255.0).astype(np.uint8)
+
+
+def rgbd_decode(px: np.ndarray) -> np.ndarray:
+    """RGBD ``uint8 (…, 4)`` → linear RGB, as Babylon's ``fromRGBD``."""
+    p = np.asarray(px, dtype=np.float64) / 255.0
+    return p[..., :3] ** GAMMA / np.maximum(p[..., 3:], 1.0 / 255.0)
+
+
+def _quat_z_to(d: np.ndarray) -> list[float]:
+    """Unit quaternion ``[x, y, z, w]`` turning +Z onto unit ``d``."""
+    z = np.array([0.0, 0.0, 1.0])
+    c = float(np.dot(z, d))
+    if c < -1.0 + 1e-12:
+        return [1.0, 0.0, 0.0, 0.0]
+    axis = np.cross(z, d)
+    w = math.sqrt(0.5 * (1.0 + c))
+    q = np.concatenate([axis / (2.0 * w), [w]])
+    q /= np.linalg.norm(q)
+    return [float(v) for v in q]
+
+
+def sun_light(src: ExportSource) -> tuple[dict, dict] | None:
+    """The ``KHR_lights_punctual`` light and its node for the source's sun (or None)."""
+    if src.sun_direction is None:
+        return None
+    e = np.asarray(src.sun_irradiance, dtype=np.float64)
+    intensity = float(e.max())
+    color = [float(v) for v in (e / intensity if intensity > 0 else np.ones(3))]
+    light = {
+        "type": "directional",
+        "name": f"{src.name} sun",
+        "color": color,
+        "intensity": intensity,
+    }
+    node = {
+        "name": f"{src.name} sun",
+        "rotation": _quat_z_to(np.asarray(src.sun_direction, dtype=np.float64)),
+        "extensions": {"KHR_lights_punctual": {"light": 0}},
+    }
+    return light, node
+
+
+CUBES = {"size": 64, "floor": 8, "samples": 256, "mapping": "gltf-ibl-sampler"}
+"""Default specular chain (the extension spaces its levels evenly in roughness 0…1)."""
+
+
+def write(
+    src: ExportSource,
+    out: str,
+    levels: list[np.ndarray],
+    roughness: list[float],
+    mapping: str = "gltf-ibl-sampler",
+    babylon_scene: str = "left-handed",
+    **_ignored,
+) -> list[str]:
+    """Write ``out`` (.gltf) and its specular PNGs beside it; returns the paths written.
+
+    ``levels``/``roughness``: the GGX prefiltered cube chain in the target frame
+    (:func:`shbake.bakers.cube_prefilter.prefilter_chain`) and each level's
+    perceptual roughness; ``mapping`` names the roughness↔LOD rule it used.
+
+    ``babylon_scene``: ``left-handed`` (Babylon's default scene) or
+    ``right-handed`` (``scene.useRightHandedSystem = true``): there the loader
+    skips its x mirror and the shader flips z (``REFLECTIONMAP_OPPOSITEZ``), which
+    turns the irradiance 180° about +Y; the light's ``rotation`` is then
+    ``[0, 1, 0, 0]`` to undo it.
+    """
+    require_sh(src, "gltf")
+    if not out.endswith(".gltf"):
+        raise ParameterError(f"{out}: the glTF export writes a .gltf file")
+    if babylon_scene not in ("left-handed", "right-handed"):
+        raise ParameterError(
+            f"babylon scene must be left-handed or right-handed, got {babylon_scene!r}"
+        )
+    rough = roughness
+    size = int(levels[0].shape[1])
+    peak = max(float(lv.max()) for lv in levels)
+    intensity = 1.0 if peak <= RGBD_MAX else float(2.0 ** math.ceil(math.log2(peak / RGBD_MAX)))
+    stem = os.path.splitext(os.path.basename(out))[0]
+    directory = os.path.dirname(os.path.abspath(out))
+    images, spec, written = [], [], []
+    for m, lv in enumerate(levels):
+        faces = []
+        for f in range(6):
+            name = f"{stem}_specular_{m}_{f}.png"
+            path = os.path.join(directory, name)
+            _write_png_rgba(path, rgbd_encode(lv[f] / intensity))
+            written.append(path)
+            faces.append(len(images))
+            images.append({"uri": name, "mimeType": "image/png"})
+        spec.append(faces)
+    ibl = {
+        "name": src.name,
+        "intensity": intensity,
+        "rotation": [0.0, 0.0, 0.0, 1.0]
+        if babylon_scene == "left-handed"
+        else [0.0, 1.0, 0.0, 0.0],
+        "irradianceCoefficients": [
+            [float(v) for v in row] for row in babylon_coefficients(src.irradiance9, intensity)
+        ],
+        "specularImageSize": int(size),
+        "specularImages": spec,
+        "extras": {
+            "shbake": {
+                "irradiance_sh_shbake_basis": [[float(v) for v in row] for row in src.irradiance9],
+                "basis": "Babylon.js: coefficient i = sign_i * E_i / intensity^2, "
+                "sign = (+,-,+,+,-,-,+,+,+)",
+                "specular_roughness": [float(r) for r in rough],
+                "roughness_lod_mapping": mapping,
+                "frame": src.frame,
+            }
+        },
+    }
+    used = ["EXT_lights_image_based"]
+    doc = {
+        "asset": {"version": "2.0", "generator": "shbake export"},
+        "extensionsUsed": used,
+        "extensions": {"EXT_lights_image_based": {"lights": [ibl]}},
+        "images": images,
+        "nodes": [{"name": f"{src.name} environment"}],
+        "scene": 0,
+        "scenes": [
+            {"name": src.name, "nodes": [0], "extensions": {"EXT_lights_image_based": {"light": 0}}}
+        ],
+    }
+    sun = sun_light(src)
+    if sun is not None:
+        light, node = sun
+        used.append("KHR_lights_punctual")
+        doc["extensions"]["KHR_lights_punctual"] = {"lights": [light]}
+        doc["nodes"].append(node)
+        doc["scenes"][0]["nodes"].append(1)
+    write_text(out, json.dumps(doc, indent=1, sort_keys=True) + "\n")
+    return [out, *written]
+
+
+def _write_png_rgba(path: str, px: np.ndarray) -> None:
+    import OpenImageIO as oiio
+
+    h, w, c = px.shape
+    spec = oiio.ImageSpec(w, h, c, "uint8")
+    spec.attribute("oiio:UnassociatedAlpha", 1)
+    with atomic_path(path) as tmp:
+        o = oiio.ImageOutput.create(tmp)
+        if o is None or not o.open(tmp, spec):
+            raise OSError(f"{path}: cannot write PNG ({oiio.geterror()})")
+        o.write_image(np.ascontiguousarray(px))
+        o.close()

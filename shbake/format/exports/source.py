@@ -1,0 +1,180 @@
+"""What every export reads from an ``env_sh`` asset, turned into the target's frame.
+
+Frames (SPEC §3: shbake's world is right-handed, +Y up):
+
+``y-up``
+    the world frame itself (glTF, three.js, Babylon's glTF scenes).
+``z-up``
+    right-handed, +Z up: ``(x, y, z)_target = (x, −z, y)_world`` (+90° about X;
+    Blender's glTF importer convention).
+
+``rotate_deg`` then turns the environment about the target's up axis,
+counter-clockwise seen from above (right-hand rule). Directions map as
+``d_t = R d_w``; SH coefficients as ``c_t = M(R) c_w``
+(:func:`shbake.sh.rotation.rotate`), so ``E_t(R d) = E_w(d)``.
+"""
+
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from shbake.errors import InputError, ParameterError
+from shbake.sh.rotation import rotate
+
+FRAMES = ("y-up", "z-up")
+_FRAME_MATRICES = {
+    "y-up": np.eye(3),
+    "z-up": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
+}
+_UP_AXIS = {"y-up": 1, "z-up": 2}
+
+
+def frame_matrix(frame: str = "y-up", rotate_deg: float = 0.0) -> np.ndarray:
+    """Rotation ``R`` (target ← shbake world) for ``frame`` and a turn about its up axis."""
+    if frame not in FRAMES:
+        raise ParameterError(f"unknown frame {frame!r}; choose one of {', '.join(FRAMES)}")
+    if not math.isfinite(rotate_deg):
+        raise ParameterError(f"rotation must be finite, got {rotate_deg}")
+    a = math.radians(rotate_deg)
+    c, s = math.cos(a), math.sin(a)
+    up = _UP_AXIS[frame]
+    i, j = [(1, 2), (2, 0), (0, 1)][up]  # the plane turned counter-clockwise about `up`
+    T = np.eye(3)
+    T[i, i], T[i, j], T[j, i], T[j, j] = c, -s, s, c
+    return T @ _FRAME_MATRICES[frame]
+
+
+@dataclass
+class ExportSource:
+    """An ``env_sh`` asset's lighting in the target frame.
+
+    Attributes
+    ----------
+    irradiance9 : (9, 3) or None (a split-sum probe: cube targets only)
+        Lambert irradiance SH ``E_i`` (``Â_l`` folded in), shbake basis, target frame:
+        ``E(n) = Σ_i E_i y_i(n)`` (radiance × sr; a Lambert albedo ρ shows ``ρ E / π``).
+    lighting9 : (9, 3)
+        Radiance SH ``L_lm`` (raw projection), shbake basis, target frame.
+    sun_direction : (3,) or None
+        Unit vector toward the extracted sun, target frame.
+    sun_irradiance : (3,) or None
+        Sun irradiance at normal incidence, ``radiance × solid_angle``.
+    """
+
+    name: str
+    irradiance9: np.ndarray
+    lighting9: np.ndarray
+    rotation: np.ndarray
+    frame: str
+    sun_direction: np.ndarray | None = None
+    sun_irradiance: np.ndarray | None = None
+    sun_solid_angle: float | None = None
+    env_path: str | None = None
+    meta: dict = field(default_factory=dict)
+
+    def environment(self, sun_radius_deg: float = 10.0):
+        """The map the SH came from, world frame (its sun removed if the asset's was).
+
+        Read from the asset's recorded input path (checked by SHA-256) or the
+        ``env_path`` given to :func:`load_source`.
+        """
+        from shbake.envmap import load_environment
+        from shbake.envmap.sun import extract_sun
+
+        path = self.env_path
+        if path is None or not os.path.exists(path) or os.path.isdir(path):
+            raise InputError(
+                f"{self.name}: the source map {path!r} is not readable; pass --env PATH"
+            )
+        from shbake.envmap.colorspace import WORKING_SPACE
+
+        cs = self.meta.get("colorspace_in")
+        env = load_environment(
+            path,
+            colorspace=None if cs in (None, WORKING_SPACE) else cs,
+            negative=self.meta.get("negative_policy", "clamp"),
+            quiet=True,
+        )
+        want = self.meta.get("sha256")
+        if want and env.meta["sha256"] != want:
+            raise InputError(f"{path}: SHA-256 differs from the one recorded in the asset")
+        if self.sun_irradiance is None:
+            return env
+        sun, residual, _ = extract_sun(env, radius_deg=sun_radius_deg)
+        if sun is None or not np.allclose(sun.energy, self.sun_irradiance, rtol=1e-6):
+            raise InputError(
+                f"{self.name}: re-extracting the sun with radius {sun_radius_deg}° does not give "
+                "the asset's sun; pass the radius the asset was baked with"
+            )
+        return residual
+
+
+def load_source(
+    path: str, frame: str = "y-up", rotate_deg: float = 0.0, env_path: str | None = None
+) -> ExportSource:
+    """Read an ``env_sh`` asset and express its lighting in the target frame.
+
+    A ``splitsum_probe`` asset is read too, for the cube-map targets only: it
+    holds no SH, and its cube chain is prefiltered anew from its source map
+    (``--env``; SHA-256 checked against ``source_sha256``).
+    """
+    from shbake.format.asset import read_asset
+
+    R = frame_matrix(frame, rotate_deg)
+    asset = read_asset(path, kinds=("env_sh", "splitsum_probe"))
+    if asset.kind == "splitsum_probe":
+        meta = {k[len("source_") :]: v for k, v in asset.attrs.items() if k.startswith("source_")}
+        return ExportSource(
+            name=os.path.splitext(os.path.basename(path))[0],
+            irradiance9=None,
+            lighting9=None,
+            rotation=R,
+            frame=frame,
+            env_path=env_path,
+            meta={
+                "sha256": meta.get("sha256"),
+                "negative_policy": meta.get("negative_policy", "clamp"),
+            },
+        )
+    if "/irradiance/sh" not in asset or asset["/irradiance/sh"].shape[0] < 9:
+        raise InputError(f"{path}: exports need /irradiance/sh with irradiance lmax >= 2")
+    E = rotate(np.asarray(asset["/irradiance/sh"][:9], dtype=np.float64), R)
+    L = rotate(np.asarray(asset["/lighting/sh"][:9], dtype=np.float64), R)
+    meta = {k[len("input_") :]: v for k, v in asset.attrs.items() if k.startswith("input_")}
+    src = ExportSource(
+        name=os.path.splitext(os.path.basename(path))[0],
+        irradiance9=E,
+        lighting9=L,
+        rotation=R,
+        frame=frame,
+        env_path=env_path or meta.get("abspath") or meta.get("path"),
+        meta=meta,
+    )
+    if "/sun/direction" in asset:
+        d = R @ np.asarray(asset["/sun/direction"], dtype=np.float64)
+        src.sun_direction = d / np.linalg.norm(d)
+        omega = float(asset["/sun/solid_angle"])
+        src.sun_solid_angle = omega
+        src.sun_irradiance = np.asarray(asset["/sun/radiance"], dtype=np.float64) * omega
+    return src
+
+
+def require_sh(src: ExportSource, target: str) -> None:
+    """Refuse a source without SH (a split-sum probe) for an SH target."""
+    if src.irradiance9 is None:
+        raise InputError(f"{src.name}: --to {target} needs an env_sh asset (SH lighting)")
+
+
+def shbake_irradiance(src: ExportSource, dirs: np.ndarray) -> np.ndarray:
+    """``E(n)`` of the source in its (target) frame at unit ``dirs`` (…, 3): SH plus sun."""
+    from shbake.sh.basis import real_sh
+
+    E = real_sh(dirs, 2) @ src.irradiance9
+    if src.sun_direction is not None:
+        E = (
+            E
+            + np.maximum(np.asarray(dirs) @ src.sun_direction, 0.0)[..., None] * src.sun_irradiance
+        )
+    return E
