@@ -42,7 +42,7 @@ def make_scene(folder: Path, text: str | None = None) -> Path:
 
 def hashes(folder: Path) -> dict:
     return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*")) if p.suffix in (".h5", ".json")
+            for p in sorted(folder.rglob("*")) if p.is_file()
             and ".stamps" not in p.parts and p.name != "scene.lock.json"}  # fmt: skip
 
 

@@ -153,7 +153,6 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
         "irradiance": irr_tol is not None,
         "tangent": tan_tol is not None,
         "extract_sun": sun,
-        "exports": sorted(exports) if irr_tol is not None else [],
     }
     n = n_coeffs(lmax) * 3 * 8
     return {
@@ -314,6 +313,22 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
             for m in scene.materials:
                 if m.kind in ("diffuse", "fibre"):
                     used[m.name].append(aid)
+            env_sh_out = assets[-1]["output"]
+            for target in sorted(exports):
+                if irr is None:
+                    raise scene.error("scene.exports", "engine exports need a diffuse material "
+                                      "(they carry the irradiance SH)")  # fmt: skip
+                eid = f"export/{target}/{env.name}"
+                assets.append({
+                    "id": eid, "kind": "export",
+                    "output": os.path.join(scene.out_dir, "export", target, env.name,
+                                           "files.json"),
+                    "inputs": [env.map, env_sh_out], "input_hashes": {"map": digest},
+                    "plan_key": _digest(["export", PLAN_VERSION, key, target]),
+                    "settings": {"target": target, "env_sh": aid},
+                    "tolerances": {}, "predicted_error": {}, "predicted_seconds": None,
+                    "bytes": None, "note": "engine export: no error or time model",
+                })  # fmt: skip
         if glossy:
             tol, tkey = scene.tolerance("glossy_probe", env)
             high = [m for m in glossy if m.roughness[0] >= SHEXP_MIN_ROUGHNESS]
@@ -407,13 +422,16 @@ def format_plan(plan: dict) -> str:
             f = s["fit"]
             text = (f"P{f['lmax_p']} Q{f['lmax_q']} r {f['roughness_min']:g}-"
                     f"{f['roughness_max']:g} samples {f['samples']}")  # fmt: skip
+        elif a["kind"] == "export":
+            text = f"{s['target']} of {s['env_sh']}"
         else:
             c = s["splitsum"]
             text = (f"{c['levels']} levels {c['top']}..{c['min_size']} r "
                     f"{c['roughness_min']:g}-{c['roughness_max']:g}")  # fmt: skip
         err = ", ".join(f"{v:.3g} ({a['tolerances'].get(k, float('nan')):g})"
                         for k, v in a["predicted_error"].items()) or "n/a"  # fmt: skip
-        rows.append((a["id"], text, err, f"{a['predicted_seconds']:.2f}", str(a["bytes"])))
+        secs = "n/a" if a["predicted_seconds"] is None else f"{a['predicted_seconds']:.2f}"
+        rows.append((a["id"], text, err, secs, "n/a" if a["bytes"] is None else str(a["bytes"])))
     widths = [max(len(r[i]) for r in rows) for i in range(5)]
     lines = ("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows)
     return "\n".join(line.rstrip() for line in lines)

@@ -47,9 +47,9 @@ DEFAULT_TOLERANCES = {
     "glossy_probe": 0.2,
 }
 MATERIAL_KINDS = ("diffuse", "fibre", "anisotropic", "measured", "glossy")
-EXPORTS = ("gltf", "babylon", "threejs")
-"""Engine exports a scene may ask for: what ``project-env --export`` writes beside an
-``env_sh`` asset (``shbake export``, docs/EXPORTS.md)."""
+EXPORTS = ("babylon", "filament", "gltf", "ktx2", "threejs", "unity")
+"""Engine exports a scene may ask for: ``shbake export --to TARGET`` of each map's ``env_sh``
+asset (docs/EXPORTS.md); cube targets also prefilter the map."""
 
 SCENE_KEYS = {"name": str, "out_dir": str, "exports": list}
 ENV_KEYS = {"map": str, "name": str, "position": list, "rotation_deg": (int, float),

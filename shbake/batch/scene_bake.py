@@ -52,7 +52,7 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     summary = project_environment(
         a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
         irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
-        extract_sun=s["extract_sun"], exports=tuple(s["exports"]), quiet=True,
+        extract_sun=s["extract_sun"], quiet=True,
     )  # fmt: skip
     seconds = time.perf_counter() - t0
     outputs = summary["outputs"]
@@ -131,7 +131,21 @@ def _bake_splitsum(a: dict, measure: bool = True) -> tuple[dict, dict]:
     return {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}, {}
 
 
-BAKERS = {"env_sh": _bake_env_sh, "brdf_table": _bake_brdf_table, "shexp": _bake_shexp,
+def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    from shbake.batch.export import export_assets
+
+    t0 = time.perf_counter()
+    folder = os.path.dirname(a["output"])
+    env_map, env_sh = a["inputs"]
+    files = export_assets([env_sh], a["settings"]["target"], folder, env_path=env_map, many=True)
+    listing = {os.path.relpath(f, folder): file_hash(f) for f in sorted(files)}
+    write_text(a["output"], json.dumps(listing, indent=1, sort_keys=True) + "\n")
+    return {"outputs": [a["output"]] + sorted(files),
+            "bake_seconds": time.perf_counter() - t0}, {}  # fmt: skip
+
+
+BAKERS = {"export": _bake_export, "env_sh": _bake_env_sh, "brdf_table": _bake_brdf_table,
+          "shexp": _bake_shexp,
           "splitsum": _bake_splitsum}  # fmt: skip
 
 
@@ -239,20 +253,28 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     lock = read_lock(lock_file)
     plan = plan_scene(scene, cache=lock.get("plans", {}))
     todo = [a for a in plan["assets"] if not _up_to_date(a, lock.get("assets", {}).get(a["id"]))]
+    ids = {a["id"] for a in todo}
+    todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
+             and a["settings"]["env_sh"] in ids]  # fmt: skip
+    # two waves: exports read the env_sh assets of the first
+    waves = [[a for a in todo if a["kind"] != "export"], [a for a in todo if a["kind"] == "export"]]
+    results = []
     if scheduler:
         from distributed import Client
 
         with Client(scheduler, timeout=10, set_as_default=False) as client:
-            results = client.gather(client.map(_dask_bake, todo, pure=False))
+            for wave in waves:
+                results += client.gather(client.map(_dask_bake, wave, pure=False))
     elif jobs > 1 and len(todo) > 1:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
         ctx = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_single_thread) as pool:
-            results = list(pool.map(bake_asset, todo))
+            for wave in waves:
+                results += list(pool.map(bake_asset, wave))
     else:
-        results = [bake_asset(a) for a in todo]
+        results = [bake_asset(a) for wave in waves for a in wave]
     records = dict(lock.get("assets", {}))
     records = {a["id"]: records[a["id"]] for a in plan["assets"] if a["id"] in records}
     for r in results:
@@ -268,8 +290,9 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     }
     with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
         json.dump(new_lock, f, indent=1, sort_keys=True)
+    done = {r["id"] for r in results}
     return {"baked": [r["id"] for r in results],
-            "skipped": [a["id"] for a in plan["assets"] if a not in todo],
+            "skipped": [a["id"] for a in plan["assets"] if a["id"] not in done],
             "records": records, "lock": lock_file}  # fmt: skip
 
 
@@ -332,7 +355,8 @@ def format_bake(summary: dict) -> str:
         r = summary["records"][aid]
         err = ", ".join(f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"]
                                          else "") for k, v in r["measured_error"].items())
-        lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s "
-                     f"(predicted {r['predicted_seconds']:.2f} s)")
+        pred = r["predicted_seconds"]
+        pred = "not predicted" if pred is None else f"predicted {pred:.2f} s"
+        lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s ({pred})")
     lines.append(f"bake: {len(summary['baked'])} baked, {len(summary['skipped'])} up to date")
     return "\n".join(lines)
