@@ -13,7 +13,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 ENGINES := tests/engines
 
-.PHONY: demo test test-all bench lint clean engines
+.PHONY: demo test test-all test-extremes bench lint clean engines
 
 $(STAMP): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -47,6 +47,9 @@ $(ENGINES)/node_modules/.package-lock.json: $(ENGINES)/package.json $(ENGINES)/p
 
 test: $(STAMP) engines
 	$(BIN)/python -m pytest -q -n 2
+
+test-extremes: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2 -m extremes tests/test_extremes.py
 
 test-all: $(STAMP) engines
 	$(BIN)/python -m pytest -q -n 2 -m ''
