@@ -1,7 +1,15 @@
 """``shbake tradeoff``: error against time and bytes for one asset kind's candidate settings."""
 
 import click
-from shbake_cli.options import NameValue, emit_json, info, json_opt, output_opt, quiet_opt
+from shbake_cli.options import (
+    NameValue,
+    emit_json,
+    info,
+    json_opt,
+    output_opt,
+    quiet_opt,
+    samples_opt,
+)
 
 from shbake.batch.tradeoff import KINDS, tradeoff, write_tradeoff
 from shbake.brdf import MODELS
@@ -15,10 +23,11 @@ from shbake.brdf import MODELS
               help="The BRDF model (brdf_table).")
 @click.option("-p", "--param", "params", type=NameValue(), multiple=True,
               help="Model parameter NAME=VALUE (repeatable; brdf_table).")
-@click.option("--tol", type=float, default=0.05, show_default=True,
-              help="Tolerance drawn and used to mark the chosen (cheapest) setting.")
-@click.option("--samples", type=click.IntRange(16, 1 << 20), default=256, show_default=True,
-              help="Samples per strategy per texel (brdf_table).")
+@click.option("--tol", type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
+              default=0.05, show_default=True,
+              help="Error tolerance in (0, 1): drawn, and the cheapest setting meeting it is "
+              "marked (env_sh: relative RMS irradiance error; brdf_table: relative L2 of f*).")
+@samples_opt(256, "per strategy per table texel (brdf_table)")
 @output_opt("The plot (PNG)")
 @click.option("--csv", "csv_path", type=click.Path(dir_okay=False), default=None,
               help="Also write the numbers as CSV.")

@@ -72,6 +72,7 @@ class Environment:
     position: tuple[float, float, float]
     rotation_deg: float
     tolerances: dict
+    key: str = ""
 
 
 @dataclass(frozen=True)
@@ -107,7 +108,7 @@ class Scene:
     def tolerance(self, kind: str, env: Environment | None = None) -> tuple[float, str]:
         """``(value, key)`` of the tolerance for asset ``kind``, the probe's override first."""
         if env is not None and kind in env.tolerances:
-            return env.tolerances[kind], f"{env.name}.tolerances.{kind}"
+            return env.tolerances[kind], f"{env.key}.tolerances.{kind}"
         return self.tolerances[kind], f"tolerances.{kind}"
 
 
@@ -271,7 +272,8 @@ def load_scene(path: str) -> Scene:
             if any(e.name == name for e in environments):
                 chk.fail(f"{key}.name", f"duplicate environment name {name!r}")
             environments.append(Environment(name, os.path.abspath(m), tuple(map(float, pos)),
-                                            float(env.get("rotation_deg", 0.0)), tol))  # fmt: skip
+                                            float(env.get("rotation_deg", 0.0)), tol,
+                                            key))  # fmt: skip
 
     materials = []
     for i, mat in enumerate(data.get("materials", [])):
