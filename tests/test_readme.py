@@ -1,9 +1,9 @@
 """Every ``shbake`` example of README.md runs as written, on the sample maps.
 
 The examples run in order (later ones read what earlier ones wrote) in a
-scratch folder holding ``sky.exr`` (a copy of a sample map), ``probes.txt``
-``scene.toml`` (tests/scenes/readme.toml) and a link to ``data_samples/``; the one Dask example gets a local cluster's
-address in place of ``tcp://host:8786``.
+scratch folder holding ``sky.exr`` (a copy of a sample map), ``probes.txt``,
+``scene.toml`` (tests/scenes/readme.toml) and a link to ``data_samples/``; the
+one Dask example gets a local cluster's address in place of ``tcp://host:8786``.
 """
 
 import os

@@ -204,7 +204,7 @@ class TestPipelines:
 
         shutil.rmtree(out)
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                          dashboard_address=None) as cluster:  # fmt: skip
+                          dashboard_address=":0") as cluster:  # fmt: skip
             bake_scene(load_scene(str(path)), scheduler=cluster.scheduler_address)
         assert hashes(out) == by_jobs
 
