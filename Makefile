@@ -36,6 +36,8 @@ demo: $(STAMP)
 	  $(BIN)/shbake preview $(OUT)/probes/$$n.h5 --roughness 0.6 --f0 0.04 --size 128 \
 	      -o $(OUT)/$$n-glossy.exr --diff --source $$m --json > $(OUT)/$$n-glossy.json || exit 1; \
 	done
+	$(BIN)/shbake tradeoff env_sh --map data_samples/sunset.exr --tol 0.02 \
+	    -o $(OUT)/tradeoff-env_sh.png --csv $(OUT)/tradeoff-env_sh.csv
 	$(BIN)/shbake overview $(OUT) -o $(OUT)/index.html --title "shbake demo: the six sample maps"
 	@echo "demo: open $(OUT)/index.html (assets, previews and contact sheets in $(OUT)/)" >&2
 
