@@ -68,7 +68,7 @@ TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
 REFERENCE_SAMPLES = 16384
-PLAN_VERSION = 2
+PLAN_VERSION = 3
 
 
 def file_hash(path: str) -> str:
@@ -134,7 +134,7 @@ def _downsample(pixels: np.ndarray, height: int) -> np.ndarray:
 def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
                 exports: tuple = ()) -> dict:  # fmt: skip
     """Settings, predicted error and time of one map's ``env_sh`` asset (module docstring)."""
-    light, residual, rep = extract_sun(env)
+    (light, residual, rep), t_sun = _timed(extract_sun, env)
     sun = bool(rep["extracted"])
     coeffs, proj_s = _timed(residual.project, ERROR_LMAX)
     errs = {}
@@ -158,7 +158,7 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
     return {
         "settings": settings,
         "predicted_error": {k: float(e[lmax]) for k, (e, _) in errs.items()},
-        "predicted_seconds": load_s + t_l + (0.05 if sun else 0.0),
+        "predicted_seconds": load_s + t_l + (t_sun if sun else 0.0),
         "bytes": n * (1 + settings["irradiance"] + settings["tangent"]) + (56 if sun else 0),
         "note": "error: Parseval on the full map" + (", sun removed (exact light)" if sun else ""),
     }
