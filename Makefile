@@ -13,7 +13,11 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 ENGINES := tests/engines
 
+<<<<<<< HEAD
 .PHONY: demo test test-all test-extremes bench lint clean engines
+=======
+.PHONY: demo test test-all bench bench-speed lint clean engines
+>>>>>>> main
 
 $(STAMP): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -58,6 +62,10 @@ test-all: $(STAMP) engines
 
 bench: $(STAMP)
 	$(BIN)/python bench/run_all.py
+
+# The speed tables of docs/BENCHMARKS.md alone (issue 15), rewritten in place.
+bench-speed: $(STAMP)
+	$(BIN)/python bench/speed_tables.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check shbake cli tests bench

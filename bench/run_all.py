@@ -1,4 +1,5 @@
-"""Run every benchmark and print the Markdown tables of docs/BENCHMARKS.md."""
+"""Run every benchmark: the speed tables are written into docs/BENCHMARKS.md
+(bench/speed_tables.py); the other tables are printed for the document."""
 
 import subprocess
 import sys
@@ -7,8 +8,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 SCRIPTS = (
-    ["projection.py"],
-    ["end_to_end.py"],
+    ["speed_tables.py"],
     ["irradiance_accuracy.py"],
     ["brdf_table.py"],
     ["probe_fit.py", "--dask"],

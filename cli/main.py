@@ -1,40 +1,56 @@
-"""Entry point: the ``shbake`` group, and library errors turned into one-line messages."""
+"""Entry point: the ``shbake`` group, and library errors turned into one-line messages.
 
+Start-up (issue 15): a subcommand's module is imported only when that
+subcommand runs (``shbake project-env`` never imports the preview or the BRDF
+code), and a console-script run ends with ``os._exit`` once its outputs are
+closed, skipping the interpreter's teardown of numba, h5py and OpenImageIO.
+"""
+
+import gc
+import importlib
+import os
 import sys
+import threading
 
 import click
-from shbake_cli.brdf_table import brdf_table
-from shbake_cli.export import export
-from shbake_cli.overview import overview
-from shbake_cli.plan import bake, plan
-from shbake_cli.preview import preview
-from shbake_cli.probe_eval import probe_eval
-from shbake_cli.probe_fit import probe_fit
-from shbake_cli.project_env import project_env
-from shbake_cli.split_sum import split_sum
-from shbake_cli.tradeoff import tradeoff_cmd
 
 from shbake import __version__
 from shbake.errors import ShbakeError
 
+COMMANDS = {
+    "project-env": "project_env:project_env",
+    "preview": "preview:preview",
+    "brdf-table": "brdf_table:brdf_table",
+    "probe-fit": "probe_fit:probe_fit",
+    "split-sum": "split_sum:split_sum",
+    "probe-eval": "probe_eval:probe_eval",
+    "overview": "overview:overview",
+    "export": "export:export",
+    "plan": "plan:plan",
+    "bake": "plan:bake",
+    "tradeoff": "tradeoff:tradeoff_cmd",
+}
+"""Subcommand → ``module:attribute`` in ``shbake_cli``, imported on use."""
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+class LazyGroup(click.Group):
+    """A click group that imports a subcommand's module only when it is needed."""
+
+    def list_commands(self, ctx):
+        return list(COMMANDS)
+
+    def get_command(self, ctx, name):
+        target = COMMANDS.get(name)
+        if target is None:
+            return None
+        module, attr = target.split(":")
+        return getattr(importlib.import_module(f"shbake_cli.{module}"), attr)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="shbake")
 def cli():
     """Bake spherical-harmonic lighting assets for real-time renderers."""
-
-
-cli.add_command(project_env)
-cli.add_command(preview)
-cli.add_command(brdf_table)
-cli.add_command(probe_fit)
-cli.add_command(split_sum)
-cli.add_command(probe_eval)
-cli.add_command(overview)
-cli.add_command(export)
-cli.add_command(plan)
-cli.add_command(bake)
-cli.add_command(tradeoff_cmd)
 
 
 def main(argv=None) -> int:
@@ -43,9 +59,11 @@ def main(argv=None) -> int:
     Exit status: 0 success, 1 bad input or failed output (ShbakeError), 2
     usage error (unknown option, invalid choice).
     """
+    script = argv is None
     try:
         if argv is None:
             argv = sys.argv[1:]
+        gc.freeze()  # what is imported so far is never collected: skip scanning it
         cli.main(args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": list(argv)})
     except click.exceptions.Abort:
         click.echo("shbake: error: aborted", err=True)
@@ -59,7 +77,24 @@ def main(argv=None) -> int:
     except ShbakeError as e:
         click.echo(f"shbake: error: {e}", err=True)
         return 1
+    if script:
+        _fast_exit(0)
     return 0
+
+
+def _fast_exit(code: int) -> None:
+    """End a finished console-script run without interpreter teardown (outputs are closed).
+
+    Only when nothing else runs: a single thread and no child processes.
+    """
+    if threading.active_count() > 1:
+        return
+    mp = sys.modules.get("multiprocessing")
+    if mp is not None and mp.active_children():
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
 
 
 if __name__ == "__main__":

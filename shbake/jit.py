@@ -4,14 +4,205 @@ Kernels are check-free: they assume the caller (a public Python function)
 validated shapes, dtypes and ranges, and say so in their docstrings.
 ``cache=True`` keeps compiled machine code in ``__pycache__`` so a second
 process (a ``make -j`` pipeline, a test worker) does not compile again.
+
+Threads (SPEC §6). The machines have 2 cores shared with other work; numba's ``prange`` splits
+a loop into equal static parts, so one descheduled worker stalls the whole
+call, and a second busy-waiting pool (BLAS, OpenMP) can make 2 threads slower
+than 1. The kernels here instead run as serial, ``nogil`` numba functions over
+a range of *blocks*; :func:`run_blocks` hands blocks out one at a time from a
+shared counter to at most :func:`thread_count` Python threads (the caller is
+one of them). A worker that loses its core simply takes fewer blocks. Small
+jobs run on the calling thread alone: starting a thread costs ~50 µs.
+
+The thread budget is ``SHBAKE_THREADS``, else ``NUMBA_NUM_THREADS``, else the
+CPUs this process may run on.
 """
 
-from functools import partial
+import os
+import sys
+import threading
+from functools import update_wrapper
 
-import numba
+prange = range
+"""Use ``from shbake.jit import prange`` in :data:`pjit` kernels: it becomes ``numba.prange``
+when the kernel is compiled and stays ``range`` for the interpreted ``py_func``."""
 
-jit = partial(numba.njit, cache=True, fastmath=False, nogil=True)
-"""``numba.njit`` with ``cache=True``; serial kernels."""
+_local = threading.local()
 
-pjit = partial(numba.njit, cache=True, fastmath=False, nogil=True, parallel=True)
-"""``numba.njit`` with ``cache=True`` and ``parallel=True``; kernels with ``prange``."""
+
+class LazyKernel:
+    """A numba kernel compiled — or loaded from numba's on-disk cache — on its first call.
+
+    Importing a module full of kernels then costs nothing: ``numba`` itself
+    (~200 ms) is imported only when a kernel first runs, so a command whose
+    options need no kernel (``--help``, a small-``lmax`` bake) never loads
+    it. Calls from other kernels work as with a plain dispatcher (numba types
+    a ``LazyKernel`` as its dispatcher). ``py_func`` is the Python function;
+    inside ``with interpreted():`` calls run it instead (tiny jobs).
+    """
+
+    def __init__(self, py_func, options: dict):
+        update_wrapper(self, py_func)
+        self.py_func = py_func
+        self._options = options
+        self._dispatcher = None
+        self._lock = threading.Lock()
+
+    @property
+    def dispatcher(self):
+        """The ``numba`` dispatcher (created on first use)."""
+        if self._dispatcher is None:
+            with self._lock:
+                if self._dispatcher is None:
+                    self._dispatcher = _compile(self.py_func, self._options)
+        return self._dispatcher
+
+    def __call__(self, *args):
+        if getattr(_local, "interpreted", False):
+            return self.py_func(*args)
+        return self.dispatcher(*args)
+
+    def __getattr__(self, name):  # signatures, inspect_asm, … of the dispatcher
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.dispatcher, name)
+
+    def __repr__(self) -> str:
+        return f"<LazyKernel {self.__qualname__}>"
+
+    def __reduce__(self):  # pickled by reference, like a function (Dask, multiprocessing)
+        return (_lookup, (self.__module__, self.__qualname__))
+
+
+def _lookup(module: str, qualname: str):
+    import importlib
+
+    obj = importlib.import_module(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
+class interpreted:
+    """Context manager: kernels called inside run as plain Python (no numba import).
+
+    For the few small jobs where interpreting is cheaper than loading numba
+    (a rotation at ``lmax ≤ 8`` during a small bake). Thread-local.
+    """
+
+    def __enter__(self):
+        self._prev = getattr(_local, "interpreted", False)
+        _local.interpreted = True
+        return self
+
+    def __exit__(self, *exc):
+        _local.interpreted = self._prev
+
+
+_registered = False
+
+
+def _register_with_numba():
+    global _registered
+    if _registered:
+        return
+    from numba.core import types
+    from numba.extending import typeof_impl
+
+    @typeof_impl.register(LazyKernel)
+    def _typeof_lazy(val, c):
+        return types.Dispatcher(val.dispatcher)
+
+    _registered = True
+
+
+def _compile(py_func, options: dict):
+    import numba
+
+    _register_with_numba()
+    g = py_func.__globals__
+    if g.get("prange") is range and "prange" in py_func.__code__.co_names:
+        g["prange"] = numba.prange  # the module's kernels are compiled from now on
+    return numba.njit(**options)(py_func)
+
+
+def _decorator(defaults: dict):
+    def decorate(fn=None, **options):
+        opts = {**defaults, **options}
+        if fn is None:
+            return lambda f: LazyKernel(f, opts)
+        return LazyKernel(fn, opts)
+
+    return decorate
+
+
+jit = _decorator(dict(cache=True, fastmath=False, nogil=True))
+"""``numba.njit`` with ``cache=True``, lazily compiled; serial kernels."""
+
+pjit = _decorator(dict(cache=True, fastmath=False, nogil=True, parallel=True))
+"""``numba.njit`` with ``cache=True`` and ``parallel=True``, lazily compiled; ``prange`` kernels."""
+
+if "numba" in sys.modules:  # numba already loaded: kernels may meet LazyKernels at once
+    _register_with_numba()
+
+
+MIN_WORK_PER_THREAD = 2_000_000
+"""Work units (≈ flops or bytes read) below which an extra thread does not pay."""
+
+
+def thread_budget() -> int:
+    """Threads the kernels may use: ``SHBAKE_THREADS`` > ``NUMBA_NUM_THREADS`` > CPU affinity."""
+    for var in ("SHBAKE_THREADS", "NUMBA_NUM_THREADS"):
+        v = os.environ.get(var)
+        if v:
+            try:
+                return max(1, int(v))
+            except ValueError:
+                pass
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def thread_count(work: float, blocks: int) -> int:
+    """Threads worth starting for ``work`` units split into ``blocks`` blocks."""
+    return int(max(1, min(thread_budget(), blocks, work // MIN_WORK_PER_THREAD)))
+
+
+def run_blocks(kernel, n_blocks: int, work: float, *args) -> None:
+    """Call ``kernel(*args, b0, b1)`` over consecutive block ranges covering ``[0, n_blocks)``.
+
+    ``kernel`` must release the GIL (numba ``nogil=True``) and write disjoint
+    outputs for disjoint block ranges. Blocks go out in groups of
+    ``max(1, n_blocks // (8 × threads))`` to whichever thread is free.
+    """
+    threads = thread_count(work, n_blocks)
+    if threads == 1:
+        kernel(*args, 0, n_blocks)
+        return
+    step = max(1, n_blocks // (8 * threads))
+    lock = threading.Lock()
+    state = [0]
+    errors = []
+
+    def worker():
+        try:
+            while True:
+                with lock:
+                    b0 = state[0]
+                    state[0] = b0 + step
+                if b0 >= n_blocks:
+                    return
+                kernel(*args, b0, min(n_blocks, b0 + step))
+        except BaseException as e:  # pragma: no cover - re-raised below
+            errors.append(e)
+
+    pool = [threading.Thread(target=worker, daemon=True) for _ in range(threads - 1)]
+    for t in pool:
+        t.start()
+    worker()
+    for t in pool:
+        t.join()
+    if errors:
+        raise errors[0]

@@ -13,7 +13,6 @@ import os
 import numpy as np
 
 from shbake.bakers.env_sh import bake_env_sh, truncation_report
-from shbake.batch.export import export_assets
 from shbake.conventions import check_lmax
 from shbake.envmap import load_environment
 from shbake.envmap import sun as sun_light
@@ -152,6 +151,8 @@ def project_environment(
     for target in exports:  # issue 14: the library call of `shbake export`
         ext = ".json" if target == "threejs" else ".gltf"
         out = os.path.splitext(output)[0] + ("" if target == "gltf" else "." + target) + ext
+        from shbake.batch.export import export_assets  # the exporters load numba: only here
+
         files = export_assets([output], target, out, env_path=env_path, sun_radius_deg=sun_radius)
         summary[target] = files[0]
         written.extend(files)

@@ -6,7 +6,12 @@ import numpy as np
 
 from shbake.envmap.colorspace import WORKING_SPACE, to_working_space
 from shbake.envmap.image_io import read_image, sha256_of, to_rgb
-from shbake.envmap.layouts import check_layout, detect_layout, latlong_solid_angles, texels
+from shbake.envmap.layouts import (
+    check_layout,
+    detect_layout,
+    latlong_row_solid_angles,
+    texels,
+)
 from shbake.envmap.repair import apply_negative_policy, repair_nonfinite
 from shbake.sh.projection import fejer_row_weights, project_latlong, project_samples
 
@@ -81,8 +86,8 @@ def load_environment(
     rgb, nonfinite = repair_nonfinite(rgb, fix_nonfinite, path)
     if colorspace:
         rgb = to_working_space(rgb, colorspace)
-    if layout == "latlong":  # every texel is valid
-        omega = latlong_solid_angles(h, w)
+    if layout == "latlong":  # every texel is valid; one solid angle per row
+        omega = np.broadcast_to(latlong_row_solid_angles(h, w)[:, None], (h, w))
         rgb = rgb.astype(np.float32, copy=False)
     else:
         _, omega, mask = texels(layout, h, w)

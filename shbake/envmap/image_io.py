@@ -75,6 +75,8 @@ def to_rgb(pixels: np.ndarray, channelnames: tuple[str, ...]) -> tuple[np.ndarra
     if all(c in names for c in "RGB"):
         idx = [names.index(c) for c in "RGB"]
         note = "RGB" if nc == 3 else f"RGB taken from channels {','.join(channelnames)}"
+        if idx == [0, 1, 2] and nc == 3:
+            return np.ascontiguousarray(pixels), note  # already RGB: no copy
         return np.ascontiguousarray(pixels[:, :, idx]), note
     if nc >= 3:
         return np.ascontiguousarray(pixels[:, :, :3]), f"first 3 of {nc} channels used as RGB"

@@ -128,17 +128,13 @@ def row_solid_angle(row, height, width):
     return (np.cos(np.pi * row / height) - np.cos(np.pi * (row + 1) / height)) * 2.0 * np.pi / width
 
 
-@jit
-def _row_solid_angles(height, width, out):
-    for row in range(height):
-        out[row] = row_solid_angle(row, height, width)
-
-
 def latlong_row_solid_angles(height: int, width: int) -> np.ndarray:
-    """Exact solid angle of one cell of each lat-long row, ``(H,)`` (:func:`row_solid_angle`)."""
-    out = np.empty(height)
-    _row_solid_angles(height, width, out)
-    return out
+    """Exact solid angle of one cell of each lat-long row, ``(H,)`` (:func:`row_solid_angle`).
+
+    Evaluated by the kernel's Python function on all rows at once (numpy):
+    the same formula, and no numba load for a small bake.
+    """
+    return row_solid_angle.py_func(np.arange(height, dtype=np.float64), height, width)
 
 
 def latlong_solid_angles(height: int, width: int) -> np.ndarray:

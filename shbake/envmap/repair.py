@@ -8,7 +8,6 @@ an explicit repair is asked for.
 import sys
 
 import numpy as np
-from scipy.ndimage import uniform_filter
 
 from shbake.errors import InputError, ParameterError
 
@@ -37,6 +36,8 @@ def repair_nonfinite(pixels: np.ndarray, repair: str | None, name: str) -> tuple
     out = np.where(bad, 0.0, pixels).astype(np.float32)
     if repair == "box3":
         good = (~bad).astype(np.float64)
+        from scipy.ndimage import uniform_filter  # only --fix-nonfinite box3 needs it
+
         sums = uniform_filter(out.astype(np.float64), size=(3, 3, 1), mode="nearest")
         counts = uniform_filter(good, size=(3, 3, 1), mode="nearest")
         fill = np.divide(sums, counts, out=np.zeros_like(sums), where=counts > 1e-12)
@@ -53,23 +54,29 @@ def apply_negative_policy(pixels, weights, policy: str, name: str, quiet: bool =
     """
     if policy not in NEGATIVE_POLICIES:
         raise ParameterError(f"unknown --negative {policy!r}; choose one of clamp, keep, error")
-    change = np.zeros(pixels.shape[2])
-    if pixels.size == 0 or pixels.min() >= 0:
+    nc = pixels.shape[2]
+    change = np.zeros(nc)
+    # One pass finds the (few) negative values; everything else touches only them.
+    flat_idx = np.flatnonzero(pixels < 0) if pixels.size else np.empty(0, np.int64)
+    if flat_idx.size == 0:
         return pixels, 0, change
-    neg = pixels < 0
-    count = int(np.any(neg, axis=2).sum())
+    texel = flat_idx // nc
+    count = int(np.count_nonzero(np.diff(texel))) + 1  # flat_idx is sorted
+    values = pixels.reshape(-1)[flat_idx].astype(np.float64)
     if policy == "keep":
         return pixels, count, change
     if policy == "error":
         raise InputError(
-            f"{name}: {count} pixels are negative (min {float(pixels.min()):.6g}); "
+            f"{name}: {count} pixels are negative (min {float(values.min()):.6g}); "
             "use --negative clamp|keep"
         )
-    change = -np.einsum("hwc,hw->c", np.where(neg, pixels, 0.0).astype(np.float64), weights)
+    w = pixels.shape[1]
+    omega = np.asarray(weights)[texel // w, texel % w]  # (H, W) or a broadcast view of it
+    change = -np.bincount(flat_idx % nc, weights=values * omega, minlength=nc)
     if not quiet:
         print(
             f"shbake: warning: {name}: clamped {count} negative pixels to 0 "
-            f"(min {float(pixels.min()):.6g}; ∫L dω change {np.array2string(change, precision=4)})",
+            f"(min {float(values.min()):.6g}; ∫L dω change {np.array2string(change, precision=4)})",
             file=sys.stderr,
         )
     return np.maximum(pixels, 0.0), count, change

@@ -5,7 +5,6 @@ the temporary file is removed and the previous content (if any) survives.
 """
 
 import os
-import tempfile
 from contextlib import contextmanager
 
 from shbake.errors import OutputError
@@ -23,14 +22,30 @@ def check_writable_dir(path: str) -> str:
     return directory
 
 
+def _reserve(directory: str, prefix: str, suffix: str) -> str:
+    """Create a new empty file ``prefix + random + suffix`` (mode 0600) and return its path.
+
+    What ``tempfile.mkstemp`` does, without importing tempfile (and with it
+    shutil, random, bz2, lzma: ~20 ms of every command's start-up).
+    """
+    for _ in range(100):
+        tmp = os.path.join(directory, f"{prefix}{os.urandom(6).hex()}{suffix}")
+        try:
+            fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return tmp
+    raise OutputError(f"{directory}: cannot create a temporary file")
+
+
 @contextmanager
 def atomic_path(path: str):
     """Yield a temporary path beside ``path`` (same suffix); move it into place on success."""
     directory = check_writable_dir(path)
     base = os.path.basename(path)
     suffix = os.path.splitext(base)[1]
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{suffix}", dir=directory)
-    os.close(fd)
+    tmp = _reserve(directory, f".{base}.", f".tmp{suffix}")
     try:
         yield tmp
         os.chmod(tmp, 0o644)

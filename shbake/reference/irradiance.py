@@ -7,10 +7,9 @@ anywhere. Cost ``O(texels × query directions)``; converges at second order
 in the texel size (shown in ``tests/test_reference.py``).
 """
 
-import numba
 import numpy as np
 
-from shbake.jit import pjit
+from shbake.jit import pjit, prange
 
 INV_PI2 = 1.0 / (np.pi * np.pi)
 
@@ -19,7 +18,7 @@ INV_PI2 = 1.0 / (np.pi * np.pi)
 def _brute_force(dirs, lw, queries, tangent, out):
     """Check-free kernel: ``lw`` is radiance × solid angle ``(N, 3)``, queries unit ``(M, 3)``."""
     n = dirs.shape[0]
-    for q in numba.prange(queries.shape[0]):
+    for q in prange(queries.shape[0]):
         qx, qy, qz = queries[q, 0], queries[q, 1], queries[q, 2]
         r = 0.0
         g = 0.0

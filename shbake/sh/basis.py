@@ -16,32 +16,47 @@ overflow to ``lmax`` ≫ 128) and multiplies by ``Re/Im (x + i y)^m =
 sin^m θ cos/sin(mφ)``, which is exact at the poles and needs no ``atan2``
 (the approach of sphericart, Bigi et al. 2023).
 
-Recurrences (``Q_0^0 = 1/sqrt(4π)``)::
+Recurrence (``Q_m^m`` a constant per ``m``, ``Q_{m-1}^m := 0``)::
 
-    Q_m^m     = sqrt((2m+1)/(2m)) Q_{m-1}^{m-1}
-    Q_{m+1}^m = sqrt(2m+3) z Q_m^m
-    Q_l^m     = a_lm (z Q_{l-1}^m - b_lm Q_{l-2}^m)
+    Q_m^m = sqrt((2m+1)/(2m)) Q_{m-1}^{m-1},   Q_0^0 = 1/sqrt(4π)
+    Q_l^m = a_lm (z Q_{l-1}^m - b_lm Q_{l-2}^m),   l ≥ m+1
     a_lm = sqrt((4l²-1)/(l²-m²)),  b_lm = sqrt(((l-1)²-m²)/(4(l-1)²-1))
+
+(``a_{m+1,m} = sqrt(2m+3)``, ``b_{m+1,m} = 0``: one formula for every step.)
+It is written once, in :func:`legendre_next`; every evaluator here, the
+projection's latitude stage and the kernels of other packages call it.
+
+Evaluators: :func:`real_sh` (numpy, vectorised, no compilation: small jobs
+and start-up), :func:`sh_eval_into` (one direction, inside other kernels),
+:func:`real_sh_into` (stored basis, blocked, into a preallocated output) and
+:func:`evaluate` (``Σ_i c_i y_i(d)`` fused and blocked: the basis is never
+stored).
 """
 
 from functools import cache
 
-import numba
 import numpy as np
 
 from shbake.conventions import check_lmax, lmax_of, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
+from shbake.jit import jit, run_blocks
 
 SQRT2 = np.sqrt(2.0)
+
+BLOCK = 256
+"""Directions per block of the blocked evaluators: their scratch (≈ 12 arrays of
+``BLOCK`` doubles) stays in the L1 cache."""
+
+FUSED_CHANNELS = 3
+"""Channels summed in one pass of :func:`evaluate`'s kernel (RGB)."""
 
 
 @cache
 def recurrence_tables(lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Coefficients of the normalised recurrence, shape ``(lmax+1, lmax+1)`` each.
+    """Coefficients of the normalised recurrence (module doc), shape ``(lmax+1, lmax+1)`` each.
 
-    Returns ``(qmm, a, b)``: ``qmm[m] = Q_m^m`` (a constant), ``a[l, m]`` and
-    ``b[l, m]`` for ``l >= m + 2`` (zero elsewhere). Read-only arrays.
+    Returns ``(qmm, a, b)``: ``qmm[m] = Q_m^m`` (a constant; 1-D), ``a[l, m]``
+    and ``b[l, m]`` for ``l >= m + 1`` (zero elsewhere). Read-only arrays.
     """
     qmm = np.empty(lmax + 1)
     qmm[0] = 1.0 / np.sqrt(4.0 * np.pi)
@@ -50,12 +65,23 @@ def recurrence_tables(lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     a = np.zeros((lmax + 1, lmax + 1))
     b = np.zeros((lmax + 1, lmax + 1))
     for m in range(lmax + 1):
-        for l in range(m + 2, lmax + 1):
+        for l in range(m + 1, lmax + 1):
             a[l, m] = np.sqrt((4.0 * l * l - 1.0) / (l * l - m * m))
             b[l, m] = np.sqrt(((l - 1.0) ** 2 - m * m) / (4.0 * (l - 1.0) ** 2 - 1.0))
     for t in (qmm, a, b):
         t.flags.writeable = False
     return qmm, a, b
+
+
+@jit
+def legendre_next(alm, blm, z, q1, q2):
+    """``Q_l^m(z)`` from ``q1 = Q_{l-1}^m(z)`` and ``q2 = Q_{l-2}^m(z)`` — THE recurrence.
+
+    ``alm = a[l, m]``, ``blm = b[l, m]`` from :func:`recurrence_tables`; start
+    with ``q1 = qmm[m]``, ``q2 = 0``. Scalars in kernels; ``legendre_next.py_func``
+    takes numpy arrays for ``z, q1, q2`` (used by :func:`real_sh`).
+    """
+    return alm * (z * q1 - blm * q2)
 
 
 def _as_directions(dirs) -> np.ndarray:
@@ -64,19 +90,23 @@ def _as_directions(dirs) -> np.ndarray:
         raise ParameterError(f"directions must have a last axis of 3, got shape {d.shape}")
     if not np.all(np.isfinite(d)):
         raise ParameterError("directions must be finite")
-    norm = np.linalg.norm(d, axis=-1)
-    if np.any(norm == 0.0):
+    big = np.abs(d).max(axis=-1, keepdims=True)  # scale first: no underflow for tiny vectors
+    if np.any(big == 0.0):
         raise ParameterError("directions must be non-zero vectors")
-    return d / norm[..., None]
+    d = d / big
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
 def real_sh(dirs, lmax: int) -> np.ndarray:
-    """Evaluate all real SH up to ``lmax`` at unit directions (vectorised numpy).
+    """Evaluate all real SH up to ``lmax`` at unit directions (vectorised numpy, no numba).
+
+    The choice for small jobs (no compilation, no kernel cache to load); for
+    many directions use :func:`real_sh_into` or, better, :func:`evaluate`.
 
     Parameters
     ----------
     dirs : array_like, shape (..., 3)
-        Directions; normalised here.
+        Directions; normalised here. Finite and non-zero.
     lmax : int, 0 … 128
         Highest band.
 
@@ -88,29 +118,24 @@ def real_sh(dirs, lmax: int) -> np.ndarray:
     d = _as_directions(dirs)
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     qmm, a, b = recurrence_tables(lmax)
+    step = legendre_next.py_func
     out = np.empty(d.shape[:-1] + (n_coeffs(lmax),))
     cm = np.ones_like(x)  # Re (x + iy)^m
     sm = np.zeros_like(x)  # Im (x + iy)^m
     for m in range(lmax + 1):
         if m > 0:
             cm, sm = cm * x - sm * y, cm * y + sm * x
-        q_lm2 = np.full_like(z, qmm[m])
-        q_lm1 = None
+        q1 = np.full_like(z, qmm[m])
+        q2 = 0.0
         for l in range(m, lmax + 1):
-            if l == m:
-                q = q_lm2
-            elif l == m + 1:
-                q_lm1 = np.sqrt(2.0 * m + 3.0) * z * q_lm2
-                q = q_lm1
-            else:
-                q = a[l, m] * (z * q_lm1 - b[l, m] * q_lm2)
-                q_lm2, q_lm1 = q_lm1, q
+            if l > m:
+                q1, q2 = step(a[l, m], b[l, m], z, q1, q2), q1
             base = l * (l + 1)
             if m == 0:
-                out[..., base] = q
+                out[..., base] = q1
             else:
-                out[..., base + m] = SQRT2 * q * cm
-                out[..., base - m] = SQRT2 * q * sm
+                out[..., base + m] = SQRT2 * q1 * cm
+                out[..., base - m] = SQRT2 * q1 * sm
     return out
 
 
@@ -126,49 +151,381 @@ def sh_eval_into(x, y, z, lmax, qmm, a, b, out):
     for m in range(lmax + 1):
         if m > 0:
             cm, sm = cm * x - sm * y, cm * y + sm * x
-        q2 = qmm[m]
-        q1 = 0.0
+        q1 = qmm[m]
+        q2 = 0.0
         for l in range(m, lmax + 1):
-            if l == m:
-                q = q2
-            elif l == m + 1:
-                q1 = np.sqrt(2.0 * m + 3.0) * z * q2
-                q = q1
-            else:
-                q = a[l, m] * (z * q1 - b[l, m] * q2)
+            if l > m:
+                q = legendre_next(a[l, m], b[l, m], z, q1, q2)
                 q2 = q1
                 q1 = q
             base = l * (l + 1)
             if m == 0:
-                out[base] = q
+                out[base] = q1
             else:
-                out[base + m] = 1.4142135623730951 * q * cm
-                out[base - m] = 1.4142135623730951 * q * sm
+                out[base + m] = 1.4142135623730951 * q1 * cm
+                out[base - m] = 1.4142135623730951 * q1 * sm
 
 
-@pjit
-def _sh_eval_many(d, lmax, qmm, a, b, out):
-    for i in numba.prange(d.shape[0]):
-        sh_eval_into(d[i, 0], d[i, 1], d[i, 2], lmax, qmm, a, b, out[i])
+# Scratch rows of the blocked kernels. They live in ONE array (row r at
+# offset r*BLOCK): LLVM then sees the distances between them and vectorises
+# the block loops without runtime alias checks (separate arrays defeat it).
+_X, _Y, _Z, _CM, _SM, _Q1, _Q2, _A0, _A1, _A2 = (i * BLOCK for i in range(10))
+_SCRATCH = 10 * BLOCK
+
+
+@jit
+def _load_block(d, i0, nb, s):
+    """Normalise directions ``d[i0:i0+nb]`` into the x, y, z rows of ``s``; count the bad ones.
+
+    Each is scaled by its largest component first (no underflow or overflow
+    for any finite non-zero vector). A zero or non-finite direction is
+    replaced by +Z and counted (the caller raises).
+    """
+    bad = 0
+    for k in range(nb):  # branch-free, so that it vectorises
+        dx = np.float64(d[i0 + k, 0])
+        dy = np.float64(d[i0 + k, 1])
+        dz = np.float64(d[i0 + k, 2])
+        m = max(abs(dx), max(abs(dy), abs(dz)))  # scale first: no under/overflow
+        sc = 1.0 / m if m > 0.0 and m < np.inf else 0.0
+        ux = dx * sc
+        uy = dy * sc
+        uz = dz * sc
+        r2 = ux * ux + uy * uy + uz * uz  # ≈ [1, 3] when usable, NaN if any NaN
+        ok = r2 >= 0.5 and r2 <= 4.0
+        bad += 0 if ok else 1
+        inv = 1.0 / np.sqrt(r2 if ok else 1.0)
+        s[_X + k] = ux * inv if ok else 0.0
+        s[_Y + k] = uy * inv if ok else 0.0
+        s[_Z + k] = uz * inv if ok else 1.0
+    return bad
+
+
+@jit
+def _next_m(s, nb, m, q0):
+    """Advance ``Re/Im (x+iy)^m`` to ``m`` (if ``m > 0``) and start ``Q^m`` at ``q0``."""
+    if m > 0:
+        for k in range(nb):
+            c_ = s[_CM + k] * s[_X + k] - s[_SM + k] * s[_Y + k]
+            s[_SM + k] = s[_CM + k] * s[_Y + k] + s[_SM + k] * s[_X + k]
+            s[_CM + k] = c_
+    else:
+        for k in range(nb):
+            s[_CM + k] = 1.0
+            s[_SM + k] = 0.0
+    for k in range(nb):
+        s[_Q1 + k] = q0
+        s[_Q2 + k] = 0.0
+
+
+@jit
+def _next_l(s, nb, alm, blm, qc, qp):
+    """One recurrence step for the block, in place: row ``qp`` (``Q_{l-2}``) becomes ``Q_l``.
+
+    ``qc`` holds ``Q_{l-1}``; afterwards the caller swaps the roles of the rows
+    (ping-pong: one store per direction and step).
+    """
+    for k in range(nb):
+        s[qp + k] = legendre_next(alm, blm, s[_Z + k], s[qc + k], s[qp + k])
+
+
+@jit(fastmath={"contract"})
+def _steps_accumulate(s, nb, m, nsteps, alm, blm, alm2, blm2, w):
+    """Advance ``Q1/Q2`` by ``nsteps`` (0, 1 or 2) recurrence steps and add each new ``Q_l^m``
+    to the accumulators: ``A_c += Q (w⁺_c Re(x+iy)^m + w⁻_c Im(x+iy)^m)``.
+
+    ``w[6j : 6j+6] = (w⁺_0, w⁻_0, w⁺_1, w⁻_1, w⁺_2, w⁻_2)`` for the ``j``-th band
+    of the call (``nsteps = 0``: the current ``Q1``). Two bands per pass halve
+    the loads and stores of the accumulators (the kernel is bound by them and
+    by the multiplies: about 11 flops per band and direction).
+    """
+    p0, n0, p1, n1, p2, n2 = w[0], w[1], w[2], w[3], w[4], w[5]
+    r0, o0, r1, o1, r2, o2 = w[6], w[7], w[8], w[9], w[10], w[11]
+    if nsteps == 2 and m == 0:  # Re = 1, Im = 0
+        for k in range(nb):
+            z = s[_Z + k]
+            qa = legendre_next(alm, blm, z, s[_Q1 + k], s[_Q2 + k])
+            qb = legendre_next(alm2, blm2, z, qa, s[_Q1 + k])
+            s[_Q2 + k] = qa
+            s[_Q1 + k] = qb
+            s[_A0 + k] += p0 * qa + r0 * qb
+            s[_A1 + k] += p1 * qa + r1 * qb
+            s[_A2 + k] += p2 * qa + r2 * qb
+    elif nsteps == 2:
+        for k in range(nb):
+            z = s[_Z + k]
+            qa = legendre_next(alm, blm, z, s[_Q1 + k], s[_Q2 + k])
+            qb = legendre_next(alm2, blm2, z, qa, s[_Q1 + k])
+            s[_Q2 + k] = qa
+            s[_Q1 + k] = qb
+            c = s[_CM + k]
+            sn = s[_SM + k]
+            ta = qa * c
+            ua = qa * sn
+            tb = qb * c
+            ub = qb * sn
+            s[_A0 + k] += p0 * ta + n0 * ua + r0 * tb + o0 * ub
+            s[_A1 + k] += p1 * ta + n1 * ua + r1 * tb + o1 * ub
+            s[_A2 + k] += p2 * ta + n2 * ua + r2 * tb + o2 * ub
+    else:
+        for k in range(nb):
+            q = s[_Q1 + k]
+            if nsteps == 1:
+                q = legendre_next(alm, blm, s[_Z + k], s[_Q1 + k], s[_Q2 + k])
+                s[_Q2 + k] = s[_Q1 + k]
+                s[_Q1 + k] = q
+            t = q * s[_CM + k]
+            u = q * s[_SM + k]
+            s[_A0 + k] += p0 * t + n0 * u
+            s[_A1 + k] += p1 * t + n1 * u
+            s[_A2 + k] += p2 * t + n2 * u
+
+
+@jit(fastmath={"contract"})
+def _evaluate_blocks(d, coef, lmax, qmm, a, b, out, bad, b0, b1):
+    """``out[i, c] = Σ_j coef[j, c] ȳ_j(d_i)`` for blocks ``b0 … b1-1`` (fused: no basis stored).
+
+    ``coef`` is ``(n_coeffs, 2, C)``: ``coef[l(l+1)+m] = (c_lm, c_l,-m)`` with the
+    √2 of ``m ≠ 0`` folded in (zeros for ``m = 0``'s second entry).
+    ``bad[blk]`` receives the count of unusable directions. Channels are summed
+    :data:`FUSED_CHANNELS` at a time in one pass over the block per pair of
+    bands. Check-free kernel.
+    """
+    n = d.shape[0]
+    nc = out.shape[1]
+    s = np.empty(_SCRATCH)
+    w = np.zeros(12)
+    for blk in range(b0, b1):
+        i0 = blk * BLOCK
+        nb = min(BLOCK, n - i0)
+        bad[blk] = _load_block(d, i0, nb, s)
+        for g in range(0, nc, FUSED_CHANNELS):
+            ng = min(FUSED_CHANNELS, nc - g)
+            for k in range(nb):
+                s[_A0 + k] = 0.0
+                s[_A1 + k] = 0.0
+                s[_A2 + k] = 0.0
+            for m in range(lmax + 1):
+                _next_m(s, nb, m, qmm[m])
+                l = m
+                nsteps = 0
+                while l <= lmax:
+                    # Bands l … l+k-1 of this pass; absent channels keep zero weights.
+                    k = 1 if nsteps == 0 else min(2, lmax + 1 - l)
+                    for j in range(k):
+                        i = (l + j) * (l + j + 1) + m
+                        for c in range(ng):
+                            w[6 * j + 2 * c] = coef[i, 0, g + c]
+                            w[6 * j + 2 * c + 1] = coef[i, 1, g + c]
+                    steps = 0 if nsteps == 0 else k
+                    alm2 = a[l + 1, m] if k == 2 else 0.0
+                    blm2 = b[l + 1, m] if k == 2 else 0.0
+                    _steps_accumulate(s, nb, m, steps, a[l, m], b[l, m], alm2, blm2, w)
+                    l += k
+                    nsteps = 1
+            for k in range(nb):
+                out[i0 + k, g] = s[_A0 + k]
+                if ng > 1:
+                    out[i0 + k, g + 1] = s[_A1 + k]
+                if ng > 2:
+                    out[i0 + k, g + 2] = s[_A2 + k]
+
+
+@jit
+def _basis_blocks(d, lmax, qmm, a, b, out, bad, b0, b1):
+    """``out[i, j] = y_j(d_i)`` for blocks ``b0 … b1-1`` (stored basis). Check-free kernel.
+
+    Each block's basis is built column by column (vectorised over the block)
+    in a ``(n_coeffs, BLOCK)`` scratch, then written out row by row, so that
+    the output is written sequentially.
+    """
+    n = d.shape[0]
+    nco = out.shape[1]
+    s = np.empty(_SCRATCH)
+    y = np.empty((nco, BLOCK))
+    for blk in range(b0, b1):
+        i0 = blk * BLOCK
+        nb = min(BLOCK, n - i0)
+        bad[blk] = _load_block(d, i0, nb, s)
+        for m in range(lmax + 1):
+            _next_m(s, nb, m, qmm[m])
+            for l in range(m, lmax + 1):
+                qr = _Q1
+                if l > m:
+                    if (l - m) % 2 == 1:
+                        _next_l(s, nb, a[l, m], b[l, m], _Q1, _Q2)
+                        qr = _Q2
+                    else:
+                        _next_l(s, nb, a[l, m], b[l, m], _Q2, _Q1)
+                base = l * (l + 1)
+                if m == 0:
+                    for k in range(nb):
+                        y[base, k] = s[qr + k]
+                else:
+                    for k in range(nb):
+                        q = s[qr + k]
+                        y[base + m, k] = 1.4142135623730951 * q * s[_CM + k]
+                        y[base - m, k] = 1.4142135623730951 * q * s[_SM + k]
+        for k in range(nb):
+            for j in range(nco):
+                out[i0 + k, j] = y[j, k]
+
+
+def _flat_directions(dirs) -> tuple[np.ndarray, tuple]:
+    """``(N, 3)`` float32/float64 C-contiguous view (copy only when needed) and the batch shape."""
+    d = np.asarray(dirs)
+    if d.dtype != np.float32 and d.dtype != np.float64:
+        d = d.astype(np.float64)
+    if d.shape[-1:] != (3,):
+        raise ParameterError(f"directions must have a last axis of 3, got shape {d.shape}")
+    return np.ascontiguousarray(d.reshape(-1, 3)), d.shape[:-1]
+
+
+def _check_out(out, shape) -> np.ndarray:
+    if out is None:
+        return np.empty(shape)
+    if (
+        not isinstance(out, np.ndarray)
+        or out.dtype != np.float64
+        or out.size != int(np.prod(shape))
+        or not out.flags.c_contiguous
+        or not out.flags.writeable
+    ):
+        raise ParameterError(
+            f"out must be a writeable C-contiguous float64 array of {int(np.prod(shape))} values"
+        )
+    return out
+
+
+def _raise_if_bad(bad) -> None:
+    if bad.any():
+        raise ParameterError(f"{int(bad.sum())} directions are zero or not finite")
+
+
+def real_sh_into(dirs, lmax: int, out=None) -> np.ndarray:
+    """All real SH up to ``lmax`` at ``dirs`` — the stored basis, blocked numba kernel.
+
+    Parameters
+    ----------
+    dirs : array_like, (..., 3), float32 or float64
+        Directions, normalised here; zero or non-finite ones raise
+        :class:`~shbake.errors.ParameterError` (found by the kernel itself:
+        validation costs no extra pass over the input).
+    lmax : int, 0 … 128
+    out : ndarray, optional
+        Preallocated C-contiguous float64 output with ``N × (lmax+1)^2``
+        values (any shape of that size); written in place and returned.
+
+    Returns
+    -------
+    ndarray, (..., (lmax+1)^2), float64 (``out`` if given, in its shape)
+    """
+    lmax = check_lmax(lmax)
+    d, batch = _flat_directions(dirs)
+    nco = n_coeffs(lmax)
+    res = _check_out(out, (d.shape[0], nco))
+    n_blocks = -(-d.shape[0] // BLOCK)
+    bad = np.zeros(n_blocks, dtype=np.int64)
+    qmm, a, b = recurrence_tables(lmax)
+    run_blocks(
+        _basis_blocks,
+        n_blocks,
+        d.shape[0] * nco * 4,
+        d,
+        lmax,
+        qmm,
+        a,
+        b,
+        res.reshape(d.shape[0], nco),
+        bad,
+    )
+    _raise_if_bad(bad)
+    return res if out is not None else res.reshape(batch + (nco,))
 
 
 def real_sh_numba(dirs, lmax: int) -> np.ndarray:
-    """Same as :func:`real_sh`, evaluated by the parallel numba kernel."""
-    lmax = check_lmax(lmax)
-    d = _as_directions(dirs)
-    flat = np.ascontiguousarray(d.reshape(-1, 3))
-    out = np.empty((flat.shape[0], n_coeffs(lmax)))
-    qmm, a, b = recurrence_tables(lmax)
-    _sh_eval_many(flat, lmax, qmm, a, b, out)
-    return out.reshape(d.shape[:-1] + (n_coeffs(lmax),))
+    """Same as :func:`real_sh`, by the blocked kernel of :func:`real_sh_into`."""
+    return real_sh_into(dirs, lmax)
 
 
-def evaluate(coeffs, dirs) -> np.ndarray:
-    """Reconstruct ``Σ_i c_i y_i(d)`` at directions ``dirs``.
+def _pair_coefficients(c: np.ndarray, lmax: int) -> np.ndarray:
+    """``(n, 2, C)``: row ``l(l+1)+m`` (``m ≥ 0``) holds ``(√2 c_lm, √2 c_l,-m)``, ``(c_l0, 0)``."""
+    out = np.zeros((c.shape[0], 2, c.shape[1]))
+    for l in range(lmax + 1):
+        base = l * (l + 1)
+        out[base, 0] = c[base]
+        out[base + 1 : base + l + 1, 0] = SQRT2 * c[base + 1 : base + l + 1]
+        out[base + 1 : base + l + 1, 1] = SQRT2 * c[base - 1 : base - l - 1 : -1]
+    return out
 
-    ``coeffs`` has shape ``(n,)`` or ``(n, C)``; the result has shape
-    ``dirs.shape[:-1]`` or ``dirs.shape[:-1] + (C,)``.
+
+SMALL_EVALUATION = 1 << 20
+"""``method="auto"`` evaluates ``N × n_coeffs`` up to this with numpy (nothing compiled or
+loaded: loading numba costs ~0.35 s), larger jobs with numba; the choice depends on the
+input alone, so the same input gives the same bytes in any process."""
+
+
+def evaluate(coeffs, dirs, out=None, method: str = "auto") -> np.ndarray:
+    """Reconstruct ``f(d) = Σ_i c_i y_i(d)`` at ``dirs`` without storing the basis.
+
+    Fused and blocked (:data:`BLOCK` directions at a time, their recurrence and
+    the sum over coefficients in L1-resident scratch, vectorised across the
+    block), run by :func:`shbake.jit.run_blocks`.
+
+    Parameters
+    ----------
+    coeffs : array_like, ((lmax+1)^2,) or ((lmax+1)^2, C)
+        SH coefficients in the flat index ``l(l+1)+m``.
+    dirs : array_like, (..., 3), float32 or float64
+        Directions, normalised here (zero / non-finite ones raise).
+    out : ndarray, optional
+        Preallocated C-contiguous float64 array with ``N`` (or ``N × C``) values.
+    method : ``"auto"``, ``"numba"`` or ``"numpy"``
+        ``numba``: the fused kernel. ``numpy``: ``real_sh(dirs) @ coeffs``
+        (stores the basis; nothing compiled or loaded). ``auto``: ``numpy``
+        for jobs up to :data:`SMALL_EVALUATION` basis values, else ``numba``.
+        The two agree to ~1e-15 relative, not bit for bit.
+
+    Returns
+    -------
+    ndarray, ``dirs.shape[:-1]`` or ``dirs.shape[:-1] + (C,)``, float64
     """
+    if method not in ("auto", "numba", "numpy"):
+        raise ParameterError(f"unknown method {method!r}; choose auto, numba or numpy")
     c = np.asarray(coeffs, dtype=np.float64)
-    lmax = lmax_of(c.shape[0])
-    return real_sh_numba(dirs, lmax) @ c
+    if c.ndim not in (1, 2):
+        raise ParameterError(f"coeffs must be 1-D or 2-D, got shape {c.shape}")
+    lmax = check_lmax(lmax_of(c.shape[0]))
+    d, batch = _flat_directions(dirs)
+    if method == "auto":
+        small = d.shape[0] * c.shape[0] <= SMALL_EVALUATION
+        method = "numpy" if small else "numba"
+    if method == "numpy":
+        res = real_sh(d, lmax) @ c
+        if out is not None:
+            _check_out(out, res.shape)[...] = res.reshape(out.shape)
+            return out
+        return res.reshape(batch + c.shape[1:])
+    c2 = _pair_coefficients(c.reshape(c.shape[0], -1), lmax)
+    nc = c2.shape[2]
+    res = _check_out(out, (d.shape[0], nc))
+    n_blocks = -(-d.shape[0] // BLOCK)
+    bad = np.zeros(n_blocks, dtype=np.int64)
+    qmm, a, b = recurrence_tables(lmax)
+    run_blocks(
+        _evaluate_blocks,
+        n_blocks,
+        d.shape[0] * c.shape[0] * (nc + 2),
+        d,
+        c2,
+        lmax,
+        qmm,
+        a,
+        b,
+        res.reshape(d.shape[0], nc),
+        bad,
+    )
+    _raise_if_bad(bad)
+    if out is not None:
+        return out
+    return res.reshape(batch + c.shape[1:])

@@ -52,12 +52,34 @@ def _p(i, a, b, l, r1, prev):
 
 
 @jit
-def rotation_blocks(r1, lmax, offsets, out):
-    """Fill the flat block storage ``out`` for bands 0…lmax (check-free kernel).
+def rotation_coefficients(lmax, offsets, uvw):
+    """The ``u, v, w`` factors of Ivanic–Ruedenberg for every ``(l, m, n)``, ``l ≥ 2``.
 
-    ``r1`` is the ``l = 1`` block (``R`` permuted to the basis order ``(y, z, x)``,
-    module docstring), ``offsets`` from :func:`block_offsets`.
+    ``uvw[3 k + 0/1/2]`` with ``k = offsets[l] + (m+l)(2l+1) + (n+l)`` — the
+    flat index of the block entry. They depend on ``lmax`` only, so a caller
+    rotating many frames computes them once (:func:`rotation_blocks_with`).
     """
+    for l in range(2, lmax + 1):
+        size = 2 * l + 1
+        for m in range(-l, l + 1):
+            am = abs(m)
+            d = 1.0 if m == 0 else 0.0
+            for n in range(-l, l + 1):
+                if abs(n) < l:
+                    denom = (l + n) * (l - n)
+                else:
+                    denom = 2 * l * (2 * l - 1)
+                k = 3 * (offsets[l] + (m + l) * size + (n + l))
+                uvw[k] = np.sqrt((l + m) * (l - m) / denom)
+                uvw[k + 1] = (
+                    0.5 * np.sqrt((1.0 + d) * (l + am - 1) * (l + am) / denom) * (1.0 - 2.0 * d)
+                )
+                uvw[k + 2] = -0.5 * np.sqrt((l - am - 1) * (l - am) / denom) * (1.0 - d)
+
+
+@jit
+def rotation_blocks_with(r1, lmax, offsets, uvw, out):
+    """:func:`rotation_blocks` with the factors of :func:`rotation_coefficients` given."""
     out[0] = 1.0
     if lmax == 0:
         return
@@ -70,16 +92,11 @@ def rotation_blocks(r1, lmax, offsets, out):
         prev = out[offsets[l - 1] : offsets[l]].reshape((psize, psize))
         cur = out[offsets[l] : offsets[l + 1]].reshape((size, size))
         for m in range(-l, l + 1):
-            am = abs(m)
-            d = 1.0 if m == 0 else 0.0
             for n in range(-l, l + 1):
-                if abs(n) < l:
-                    denom = (l + n) * (l - n)
-                else:
-                    denom = 2 * l * (2 * l - 1)
-                u = np.sqrt((l + m) * (l - m) / denom)
-                v = 0.5 * np.sqrt((1.0 + d) * (l + am - 1) * (l + am) / denom) * (1.0 - 2.0 * d)
-                w = -0.5 * np.sqrt((l - am - 1) * (l - am) / denom) * (1.0 - d)
+                k = 3 * (offsets[l] + (m + l) * size + (n + l))
+                u = uvw[k]
+                v = uvw[k + 1]
+                w = uvw[k + 2]
                 val = 0.0
                 if u != 0.0:
                     val += u * _p(0, m, n, l, r1, prev)
@@ -104,6 +121,18 @@ def rotation_blocks(r1, lmax, offsets, out):
                         ww = _p(1, m - 1, n, l, r1, prev) - _p(-1, -m + 1, n, l, r1, prev)
                     val += w * ww
                 cur[m + l, n + l] = val
+
+
+@jit
+def rotation_blocks(r1, lmax, offsets, out):
+    """Fill the flat block storage ``out`` for bands 0…lmax (check-free kernel).
+
+    ``r1`` is the ``l = 1`` block (``R`` permuted to the basis order ``(y, z, x)``,
+    module docstring), ``offsets`` from :func:`block_offsets`.
+    """
+    uvw = np.empty(3 * offsets[-1])
+    rotation_coefficients(lmax, offsets, uvw)
+    rotation_blocks_with(r1, lmax, offsets, uvw, out)
 
 
 class SHRotation:

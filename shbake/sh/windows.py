@@ -7,7 +7,6 @@ accepts.
 """
 
 import numpy as np
-from scipy.optimize import minimize
 
 from shbake.conventions import band_of_index, check_lmax, lmax_of
 from shbake.errors import ParameterError
@@ -50,6 +49,8 @@ def reconstruction_minimum(coeffs, n_samples: int = 8192) -> tuple[float, np.nda
     c = np.asarray(coeffs, dtype=np.float64)
     c2 = c.reshape(c.shape[0], -1)
     lmax = lmax_of(c.shape[0])
+    from scipy.optimize import minimize  # only --window dering needs it (~150 ms import)
+
     dirs = fibonacci_sphere(n_samples)
     vals = real_sh(dirs, lmax) @ c2
     best, best_dir = np.inf, dirs[0]

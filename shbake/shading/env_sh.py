@@ -14,47 +14,30 @@ irradiance at normal incidence (``/sun``, absent when no sun was extracted).
 Kernels are check-free: directions unit, arrays from a validated asset.
 """
 
-import numba
 import numpy as np
 
-from shbake.conventions import lmax_of
-from shbake.jit import jit, pjit
-from shbake.sh.basis import recurrence_tables, sh_eval_into
+from shbake.jit import jit, pjit, prange
+from shbake.sh.basis import evaluate
 
 INV_PI2 = 1.0 / (np.pi * np.pi)
 
 
 @jit
 def sun_lambert(c):
-    """Lambert factor ``max(0, n·s)`` of a directional light, ``c = n·s``."""
-    return c if c > 0.0 else 0.0
+    """Lambert factor ``max(0, n·s)`` of a directional light, ``c = n·s`` (``py_func``: arrays)."""
+    return np.maximum(c, 0.0)
 
 
 @jit
 def sun_tangent(c):
-    """Kajiya–Kay diffuse factor ``sqrt(1 − (t·s)²)/π²`` of a directional light, ``c = t·s``."""
-    return np.sqrt(max(0.0, 1.0 - c * c)) * INV_PI2
-
-
-@pjit
-def _sh_with_sun(dirs, coeffs, lmax, qmm, a, b, sun_dir, sun_energy, tangent, out):
-    n = coeffs.shape[0]
-    for p in numba.prange(dirs.shape[0]):
-        y = np.empty(n)
-        dx, dy, dz = dirs[p, 0], dirs[p, 1], dirs[p, 2]
-        sh_eval_into(dx, dy, dz, lmax, qmm, a, b, y)
-        c = dx * sun_dir[0] + dy * sun_dir[1] + dz * sun_dir[2]
-        k = sun_tangent(c) if tangent else sun_lambert(c)
-        for ch in range(3):
-            e = k * sun_energy[ch]
-            for q in range(n):
-                e += y[q] * coeffs[q, ch]
-            out[p, ch] = e
+    """Kajiya–Kay diffuse factor ``sqrt(1 − (t·s)²)/π²`` of a directional light, ``c = t·s``
+    (``py_func``: arrays)."""
+    return np.sqrt(np.maximum(0.0, 1.0 - c * c)) * INV_PI2
 
 
 @pjit
 def _matrix_with_sun(tangents, M, sun_dir, sun_energy, out):
-    for p in numba.prange(tangents.shape[0]):
+    for p in prange(tangents.shape[0]):
         t = (tangents[p, 0], tangents[p, 1], tangents[p, 2], 1.0)
         k = sun_tangent(t[0] * sun_dir[0] + t[1] * sun_dir[1] + t[2] * sun_dir[2])
         for ch in range(3):
@@ -89,10 +72,12 @@ def irradiance(asset, dirs, tangent: bool = False) -> np.ndarray:
     coeffs = np.ascontiguousarray(
         asset["/tangent_irradiance/sh" if tangent else "/irradiance/sh"], dtype=np.float64
     )
-    lmax = lmax_of(coeffs.shape[0])
     d, flat = _flat(dirs)
-    out = np.empty((flat.shape[0], 3))
-    _sh_with_sun(flat, coeffs, lmax, *recurrence_tables(lmax), *sun_of(asset), tangent, out)
+    out = evaluate(coeffs, flat)  # fused and blocked (numpy for small jobs): sh.basis
+    sun_dir, sun_energy = sun_of(asset)
+    if sun_energy.any():
+        k = (sun_tangent if tangent else sun_lambert).py_func(flat @ sun_dir)
+        out += k[:, None] * sun_energy
     return out.reshape(d.shape[:-1] + (3,))
 
 

@@ -1,0 +1,99 @@
+"""Issue 15: the fast projection paths give the same coefficients as before, and as ducc0.
+
+``tests/data/projection_before.npz`` holds the results of the implementation
+before issue 15 (commit 2b78de2: pair sums per row, one dot product per ``m``,
+recurrence per row) on the six shared maps (``--negative keep``) and on three
+random maps of odd and non-multiple-of-4 widths. The new kernels fold four
+columns and two rows and block the sums differently, so the summation order
+changed: agreement is asserted to 1e-12 of each channel's largest coefficient.
+ducc0 is the independent implementation (SPEC §5 conversion, in
+``tests/test_projection.py``).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from shbake.envmap import load_environment
+from shbake.sh import projection
+from shbake.sh.projection import project_latlong
+from tests.helpers import SHARED_MAPS, map_path
+from tests.test_projection import ducc0_project
+
+BEFORE = np.load(Path(__file__).parent / "data" / "projection_before.npz")
+RANDOM_MAPS = ("random37x75", "random20x42", "random33x64")
+
+
+def rel_err(ours, ref):
+    return float((np.abs(ours - ref).max(axis=0) / np.abs(ref).max(axis=0)).max())
+
+
+@pytest.fixture(scope="module")
+def shared_pixels():
+    return {
+        n: load_environment(str(map_path(n)), negative="keep", quiet=True).pixels
+        for n in SHARED_MAPS
+    }
+
+
+class TestProjectLatlongAgainstBefore:
+    @pytest.mark.parametrize("lmax", [2, 8, 30])
+    def test_shared_maps(self, shared_pixels, lmax):
+        for name, px in shared_pixels.items():
+            assert rel_err(project_latlong(px, lmax), BEFORE[f"{name}_lmax{lmax}"]) < 1e-12, name
+
+    @pytest.mark.parametrize("lmax", [2, 8, 30])
+    @pytest.mark.parametrize("key", RANDOM_MAPS)
+    def test_odd_and_unaligned_widths(self, key, lmax):
+        img = BEFORE[f"{key}_image"]
+        assert rel_err(project_latlong(img, lmax), BEFORE[f"{key}_lmax{lmax}"]) < 1e-12
+
+    def test_threads_do_not_change_the_result(self, shared_pixels, monkeypatch):
+        px = np.ascontiguousarray(np.tile(shared_pixels["esplanade"], (4, 4, 1)))
+        monkeypatch.setenv("SHBAKE_THREADS", "1")
+        one = project_latlong(px, 8)
+        monkeypatch.setenv("SHBAKE_THREADS", "2")
+        monkeypatch.setattr("shbake.jit.MIN_WORK_PER_THREAD", 1)
+        two = project_latlong(px, 8)
+        np.testing.assert_array_equal(one, two)
+
+
+class TestProjectLatlongAgainstDucc0:
+    @pytest.mark.parametrize("lmax", [2, 8, 30])
+    def test_shared_maps(self, shared_pixels, lmax):
+        for name, px in shared_pixels.items():
+            assert rel_err(project_latlong(px, lmax), ducc0_project(px, lmax)) < 1e-12, name
+
+    @pytest.mark.parametrize("key", RANDOM_MAPS)
+    def test_odd_and_unaligned_widths(self, key):
+        img = BEFORE[f"{key}_image"]
+        assert rel_err(project_latlong(img, 8), ducc0_project(img, 8)) < 1e-12
+
+
+class TestRowSums:
+    def test_quarter_and_half_folds_agree(self, shared_pixels):
+        # W % 4 == 0 takes the four-column fold; W = 510 the two-column one.
+        px = shared_pixels["studio"]
+        full = projection.row_sums(px, 12)
+        cut = projection.row_sums(np.ascontiguousarray(px[:, :510]), 12)
+        direct = np.einsum(
+            "hwc,wk->hck",
+            px[:, :510].astype(np.float64),
+            _direct_table(510, 12),
+        )
+        assert np.abs(cut - direct).max() < 1e-12 * np.abs(direct).max()
+        assert (
+            np.abs(
+                full - np.einsum("hwc,wk->hck", px.astype(np.float64), _direct_table(512, 12))
+            ).max()
+            < 1e-12 * np.abs(full).max()
+        )
+
+
+def _direct_table(w, lmax):
+    phi = -2.0 * np.pi * (np.arange(w) + 0.5) / w
+    cols = [np.ones(w)]
+    for m in range(1, lmax + 1):
+        cols += [np.cos(m * phi), np.sin(m * phi)]
+    return np.stack(cols, axis=1)
