@@ -13,11 +13,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 ENGINES := tests/engines
 
-<<<<<<< HEAD
-.PHONY: demo test test-all test-extremes bench lint clean engines
-=======
-.PHONY: demo test test-all bench bench-speed lint clean engines
->>>>>>> main
+.PHONY: demo test test-all test-extremes bench bench-speed lint clean engines format-doc
 
 $(STAMP): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -72,3 +68,7 @@ lint: $(STAMP)
 
 clean:
 	rm -rf $(VENV) $(OUT) build *.egg-info
+
+# docs/FORMAT.md: regenerate the per-kind tables from the registry (tests/test_registry.py checks)
+format-doc: $(STAMP)
+	$(BIN)/python -m shbake.format.registry docs/FORMAT.md

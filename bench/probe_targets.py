@@ -2,12 +2,12 @@
 
 Usage: ``python bench/probe_targets.py [maps …]`` (default: the six shared maps)
 
-For the default fit samples (64 normals × 64 views × 4 roughness), every
+For the default fit samples (64 normals × 32 views × 8 α), every
 7th target is integrated with 65 536 plain visible-normal samples (the
 ground truth, :func:`shbake.reference.ggx.ggx_integrals`). Against it:
 the filtered quadrature plan (1024 samples, the default targets) and the SH
 fast path (``--targets sh``) at lmax 4, 8 and 16. Error: RMS of
-``log(E0 / truth)`` per fit roughness (the fit works in log space; values
+``log(E0 / truth)`` per fit α (the fit works in log space; values
 below the fit's floor are floored first). Time: one probe's targets, after
 warm-up, numba on all cores.
 """
@@ -37,9 +37,9 @@ def timed(fn, *args):
 def main():
     names = sys.argv[1:] or MAPS
     cfg = FitConfig()
-    head = " | ".join(f"r {r:.2f}" for r in cfg.roughness)
+    head = " | ".join(f"α {r:.2f}" for r in cfg.alphas)
     print(f"| map | targets | ms | {head} |")
-    print("|---|---|---|" + "---|" * len(cfg.roughness))
+    print("|---|---|---|" + "---|" * len(cfg.alphas))
     for name in names:
         shared = ROOT.parent / "shared" / "hdri" / f"{name}.exr"
         path = shared if shared.exists() else ROOT / "data_samples" / f"{name}.exr"
@@ -47,19 +47,19 @@ def main():
         plan = FitPlan(cfg, env.shape)
         sel = np.arange(0, plan.views.shape[0], 7)
         truth, _ = ggx_integrals(
-            env.pixels, plan.views[sel], plan.normals[sel], plan.roughness[sel], 1 << 16
+            env.pixels, plan.views[sel], plan.normals[sel], plan.alpha[sel], 1 << 16
         )
         floor = cfg.floor * truth.mean(0)
         rows = [("quadrature 1024", plan.targets)]
         rows += [
-            (f"sh lmax {lmax}", ShTargets(plan.views, plan.normals, plan.roughness, lmax))
+            (f"sh lmax {lmax}", ShTargets(plan.views, plan.normals, plan.alpha, lmax))
             for lmax in (4, 8, 16)
         ]
         for label, targets in rows:
             e0, seconds = timed(targets.e0, env.pixels)
             err = np.log(np.maximum(e0[sel], floor) / truth)
             cells = " | ".join(
-                f"{np.sqrt(np.mean(err[plan.roughness[sel] == r] ** 2)):.3g}" for r in cfg.roughness
+                f"{np.sqrt(np.mean(err[plan.alpha[sel] == r] ** 2)):.3g}" for r in cfg.alphas
             )
             print(f"| {name} | {label} | {seconds * 1e3:.1f} | {cells} |", flush=True)
 

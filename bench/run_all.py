@@ -11,8 +11,10 @@ SCRIPTS = (
     ["speed_tables.py"],
     ["irradiance_accuracy.py"],
     ["brdf_table.py"],
-    ["probe_fit.py", "--dask"],
+    ["probe_fit.py"],
+    ["probe_throughput.py", "--dask", "60"],
     ["probe_targets.py"],
+    ["probe_eval.py"],
 )
 
 for script, *args in SCRIPTS:

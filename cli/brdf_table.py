@@ -1,6 +1,7 @@
 """``shbake brdf-table``: tabulate a BRDF's SH product-function coefficients (Kautz et al. 2002)."""
 
 import click
+import numpy as np
 from shbake_cli.options import (
     BarProgress,
     NameValue,
@@ -36,7 +37,8 @@ def list_params(ctx, _param, value):
         click.echo(f"{name}: {spec.summary}")
         for p in spec.params:
             colour = " (v or r,g,b)" if p.colour else ""
-            click.echo(f"  {p.name}={p.default:g}  [{p.lo:g}, {p.hi:g}]{colour}  {p.doc}")
+            default = ",".join(f"{v:g}" for v in np.atleast_1d(p.default))  # per-channel defaults
+            click.echo(f"  {p.name}={default}  [{p.lo:g}, {p.hi:g}]{colour}  {p.doc}")
         for alias, targets in spec.aliases.items():
             click.echo(f"  {alias}: sets {', '.join(targets)}")
     ctx.exit(0)

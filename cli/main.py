@@ -1,9 +1,12 @@
-"""Entry point: the ``shbake`` group, and library errors turned into one-line messages.
+"""Entry point: the ``shbake`` group, and every failure turned into one line and an exit status.
 
 Start-up (issue 15): a subcommand's module is imported only when that
 subcommand runs (``shbake project-env`` never imports the preview or the BRDF
 code), and a console-script run ends with ``os._exit`` once its outputs are
 closed, skipping the interpreter's teardown of numba, h5py and OpenImageIO.
+
+Failures (issue 11): each subcommand runs as one output transaction, under the
+signal handlers, with errors mapped to one line by :mod:`shbake_cli.guard`.
 """
 
 import gc
@@ -13,9 +16,11 @@ import sys
 import threading
 
 import click
+from shbake_cli.guard import guarded_invoke, run
 
 from shbake import __version__
-from shbake.errors import ShbakeError
+from shbake.resources import end_run, parse_size, set_memory_budget, start_run
+from shbake.signals import exit_quietly_on_signal
 
 COMMANDS = {
     "project-env": "project_env:project_env",
@@ -26,6 +31,7 @@ COMMANDS = {
     "probe-eval": "probe_eval:probe_eval",
     "overview": "overview:overview",
     "export": "export:export",
+    "shrm": "shrm:shrm",
     "plan": "plan:plan",
     "bake": "plan:bake",
     "tradeoff": "tradeoff:tradeoff_cmd",
@@ -34,7 +40,8 @@ COMMANDS = {
 
 
 class LazyGroup(click.Group):
-    """A click group that imports a subcommand's module only when it is needed."""
+    """A click group that imports a subcommand's module only when it is needed, and runs
+    each subcommand as one output transaction (:func:`shbake_cli.guard.guarded_invoke`)."""
 
     def list_commands(self, ctx):
         return list(COMMANDS)
@@ -46,54 +53,81 @@ class LazyGroup(click.Group):
         module, attr = target.split(":")
         return getattr(importlib.import_module(f"shbake_cli.{module}"), attr)
 
+    def invoke(self, ctx):
+        return guarded_invoke(lambda: super(LazyGroup, self).invoke(ctx))
+
+
+def _max_memory(ctx, param, value):
+    if value is not None:
+        set_memory_budget(parse_size(value))
+    return value
+
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="shbake")
+@click.option(
+    "--max-memory",
+    metavar="SIZE",
+    default=None,
+    expose_value=False,
+    callback=_max_memory,
+    help="Memory budget (e.g. 4G): runs whose estimate is larger are refused "
+    "[default: $SHBAKE_MAX_MEMORY, else 80% of the available memory].",
+)
 def cli():
     """Bake spherical-harmonic lighting assets for real-time renderers."""
 
 
 def main(argv=None) -> int:
-    """Run the CLI; every error is one line on stderr and a non-zero exit.
+    """Run the CLI; every failure is one line on stderr and a non-zero exit.
 
-    Exit status: 0 success, 1 bad input or failed output (ShbakeError), 2
-    usage error (unknown option, invalid choice).
+    Exit status: 0 success, 1 bad input or failed output, 2 usage error, 130/143
+    interrupted by SIGINT/SIGTERM (:mod:`shbake_cli.guard`).
     """
     script = argv is None
-    try:
-        if argv is None:
-            argv = sys.argv[1:]
-        gc.freeze()  # what is imported so far is never collected: skip scanning it
-        cli.main(args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": list(argv)})
-    except click.exceptions.Abort:
-        click.echo("shbake: error: aborted", err=True)
-        return 1
-    except click.exceptions.UsageError as e:
-        click.echo(f"shbake: error: {e.format_message()}", err=True)
-        return 2
-    except click.exceptions.ClickException as e:
-        click.echo(f"shbake: error: {e.format_message()}", err=True)
-        return 1
-    except ShbakeError as e:
-        click.echo(f"shbake: error: {e}", err=True)
-        return 1
     if script:
-        _fast_exit(0)
-    return 0
+        argv = sys.argv[1:]
+    argv = list(argv)
+    set_memory_budget(None)
+    start_run()
+    try:
+        if script:
+            gc.freeze()  # what is imported so far is never collected: skip scanning it
+        code = run(
+            lambda: cli.main(
+                args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": argv}
+            ),
+            argv,
+        )
+    finally:
+        end_run()
+        if script:
+            exit_quietly_on_signal()
+    if script:
+        _fast_exit(code)
+    return code
 
 
 def _fast_exit(code: int) -> None:
     """End a finished console-script run without interpreter teardown (outputs are closed).
 
-    Only when nothing else runs: a single thread and no child processes.
+    Only when nothing else runs: no thread but the signal watcher and no child processes.
     """
-    if threading.active_count() > 1:
+    others = [
+        t
+        for t in threading.enumerate()
+        if t is not threading.main_thread() and t.name != "shbake-signals"
+    ]
+    if others:
         return
     mp = sys.modules.get("multiprocessing")
     if mp is not None and mp.active_children():
         return
-    sys.stdout.flush()
-    sys.stderr.flush()
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
     os._exit(code)
 
 

@@ -15,7 +15,7 @@ import sys
 import click
 import numpy as np
 
-from shbake.errors import ParameterError
+from shbake.errors import OutputError, ParameterError
 from shbake.progress import Progress
 
 LAYOUT_CHOICES = ("latlong", "cube-strip", "cross-h", "cross-v")
@@ -275,4 +275,8 @@ def _default(o):
 
 def emit_json(summary: dict) -> None:
     """The ``--json`` summary: one JSON document on stdout."""
-    sys.stdout.write(json.dumps(summary, sort_keys=True, default=_default) + "\n")
+    try:
+        sys.stdout.write(json.dumps(summary, sort_keys=True, default=_default) + "\n")
+        sys.stdout.flush()
+    except OSError as e:
+        raise OutputError(f"cannot write the JSON summary to stdout ({e.strerror})") from None

@@ -40,7 +40,7 @@ from shbake.preview.render import ALL_PASSES, preview_asset
     "--source",
     type=click.Path(dir_okay=False),
     default=None,
-    help="Original map of the asset (default: the path recorded in the asset).",
+    help="Original map of the asset (default: its source_path, relative to the asset).",
 )
 @click.option(
     "--table",

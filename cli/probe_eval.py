@@ -1,6 +1,4 @@
-"""``shbake probe-eval``: SH-exp vs split-sum against ground truth on rendered spheres."""
-
-from pathlib import Path
+"""``shbake probe-eval``: SH-exp v2, the paper's SH-exp and both split-sums against ground truth."""
 
 import click
 from shbake_cli.options import (
@@ -8,81 +6,54 @@ from shbake_cli.options import (
     emit_json,
     info,
     json_opt,
+    output_opt,
     quiet_opt,
     samples_opt,
     size_opt,
 )
 
-from shbake.bakers.shexp import FitConfig
-from shbake.bakers.splitsum import SplitSumConfig
-from shbake.batch.probe_eval import evaluate_map
-from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
-from shbake.envmap import load_environment
-from shbake.errors import InputError
-from shbake.format.atomic import write_text
-from shbake.format.probe import probe_bytes
-
-
-def markdown_table(results: dict) -> str:
-    lines = [
-        "| map | material | roughness | view yaw | MSE SH-exp | MSE split-sum | ratio | winner "
-        "| truth MSE (est.) |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for name, rows in results.items():
-        for r in rows:
-            ratio = r["mse_shexp"] / r["mse_splitsum"] if r["mse_splitsum"] > 0 else float("inf")
-            lines.append(
-                f"| {name} | {r['material']} | {r['roughness']:.2f} | {r['yaw']:.0f} | "
-                f"{r['mse_shexp']:.3e} | {r['mse_splitsum']:.3e} | {ratio:.2f} | "
-                f"{'SH-exp' if r['shexp_wins'] else 'split-sum'} | {r['mse_truth_estimate']:.1e} |"
-            )
-    return "\n".join(lines) + "\n"
+from shbake.batch.probe_eval import COMPARISONS, evaluate_maps, markdown_report, win_table
+from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 
 
 @click.command("probe-eval")
 @click.argument("maps", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@size_opt(32, "Evaluation sphere size", lo=8, hi=512)
-@samples_opt(4096, "per pixel of the ground truth (visible-normal + map samples, MIS)")
+@output_opt("Markdown report: win rates per α and material, bytes, every case", required=False)
+@size_opt(32, "Sphere image size", lo=8, hi=512)
+@samples_opt(4096, "per pixel of the ground truth (visible-normal + map samples)")
+@deprecated("--truth-samples", "samples", "--samples", type=int)
+@deprecated("--markdown", "output", "-o/--output", type=click.Path(dir_okay=False))
 @click.option(
-    "--markdown",
-    type=click.Path(dir_okay=False),
-    help="Write the case table here as Markdown (a file).",
+    "--sheet-dir",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Folder for one labelled contact sheet per case (SH-exp v2 | ground truth | error).",
 )
 @json_opt
 @quiet_opt
-@deprecated("--truth-samples", "samples", "--samples", type=click.IntRange(16, 1 << 20))
-def probe_eval(maps, size, samples, markdown, as_json, quiet):
-    """Measure SH-exp and split-sum probes of MAPS against ground truth.
+def probe_eval(maps, output, size, samples, sheet_dir, as_json, quiet):
+    """Measure the probes of MAPS against ground truth.
 
-    Cases: chrome (F0 1) and dielectric (F0 0.04), roughness 0.25–1.0, four
-    views; error: MSE over the sphere. Default fit and split-sum settings.
+    Cases: chrome (F0 1) and dielectric (F0 0.04) × the paper's GGX widths
+    α = 0.25, 0.36, 0.49, 0.64, 0.81, 1 × four views; error: MSE over the
+    sphere. Probes: SH-exp v2 (default fit), the paper's SH-exp (--sets 1
+    --weights log), split-sum plain (1024 samples per texel, levels at those
+    α) and filtered (engine-grade).
     """
-    dfg = shared_dfg_table()
-    split_config = SplitSumConfig()
-    results, sizes = {}, {}
-    for path in maps:
-        env = load_environment(path, quiet=True)
-        if env.layout != "latlong":
-            raise InputError(f"{path}: probe-eval takes lat-long maps (2:1)")
-        plan = fit_plan(FitConfig(), env.shape)
-        rows, a, b = evaluate_map(env, plan, split_config, dfg, size, samples)
-        name = Path(path).stem
-        results[name] = rows
-        sizes = {"shexp_bytes": probe_bytes(a), "splitsum_bytes": probe_bytes(b)}
-        wins = sum(r["shexp_wins"] for r in rows)
-        info(f"probe-eval: {name}: SH-exp wins {wins}/{len(rows)}", quiet)
-    total = sum(len(r) for r in results.values())
-    wins = sum(x["shexp_wins"] for r in results.values() for x in r)
-    ties = sum(
-        abs(x["mse_shexp"] - x["mse_splitsum"]) < x["mse_truth_estimate"]
-        for r in results.values()
-        for x in r
-    )
-    info(f"probe-eval: SH-exp wins {wins}/{total} ({wins / total:.0%}); {ties} cases differ by "
-         f"less than the truth's own error; bytes per probe {sizes['shexp_bytes']} vs "
-         f"{sizes['splitsum_bytes']}", quiet)  # fmt: skip
-    if markdown:
-        write_text(markdown, markdown_table(results))
+
+    if output is not None:  # checked (and compared with every map read) before any work
+        check_output_path(output)
+        refuse_same_file([output], maps)
+
+    def progress(name, rows):
+        wins = sum(r["mse"]["shexp_v2"] < r["mse"]["splitsum_plain"] for r in rows)
+        info(f"probe-eval: {name}: SH-exp v2 beats plain split-sum in {wins}/{len(rows)}", quiet)
+
+    result = evaluate_maps(maps, size, samples, progress, sheet_dir=sheet_dir)
+    totals = {f"{m} vs {b}": win_table(result, m, b)["total"] for m, b in COMPARISONS}
+    for k, (w, n) in totals.items():
+        info(f"probe-eval: {k}: {w}/{n} ({w / n:.0%})", quiet)
+    if output:
+        write_text(output, markdown_report(result))
     if as_json:
-        emit_json({"cases": results, "wins": wins, "total": total, "ties": ties, **sizes})
+        emit_json(result | {"totals": totals})

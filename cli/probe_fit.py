@@ -1,10 +1,6 @@
-"""``shbake probe-fit``: lat-long maps → SH-exponential glossy probes, in batch."""
+"""``shbake probe-fit``: lat-long maps → SH-exponential glossy probes (v2), in batch."""
 
-import os
 import sys
-import time
-from dataclasses import replace
-from pathlib import Path
 
 import click
 from shbake_cli.options import (
@@ -14,275 +10,106 @@ from shbake_cli.options import (
     info,
     json_opt,
     negative_opt,
+    output_opt,
     parse_range,
     quiet_opt,
+    report_opt,
+    samples_opt,
+    tol_opt,
 )
 
-from shbake.bakers.shexp import TARGETS, WEIGHTINGS, FitConfig
-from shbake.batch.probe_jobs import ProbeJob, run_dask, run_local
-from shbake.errors import InputError, ParameterError
-from shbake.format.atomic import check_writable_dir
+from shbake.bakers.shexp import TARGETS, WEIGHTS, FitConfig
+from shbake.batch.probe_fit import fit_probes
+from shbake.errors import ParameterError
 
 
-def read_probe_list(path: str) -> list[tuple[str, str | None]]:
-    """Lines ``MAP [OUTPUT]``; blank lines and ``#`` comments skipped; relative paths
-    are relative to the list's folder."""
-    base = Path(path).parent
-    try:
-        lines = Path(path).read_text().splitlines()
-    except OSError as e:
-        raise InputError(f"{path}: cannot read the probe list ({e.strerror})") from None
-    out = []
-    for n, line in enumerate(lines, 1):
-        parts = line.split("#", 1)[0].split()
-        if not parts:
-            continue
-        if len(parts) > 2:
-            raise InputError(f"{path}:{n}: expected 'MAP [OUTPUT]', got {line.strip()!r}")
-        out.append((str(base / parts[0]), str(base / parts[1]) if len(parts) == 2 else None))
-    return out
-
-
-def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_set=None):
-    """One :class:`ProbeJob` per map; with ``probe_set`` the jobs write nothing (a set)."""
-    entries = [(m, None) for m in maps] + (read_probe_list(probe_list) if probe_list else [])
-    if not entries:
-        raise ParameterError("give maps as arguments or a --list file")
-    if probe_set:
-        check_writable_dir(probe_set)
-        return [
-            ProbeJob(os.path.abspath(src), None, config, negative, fix_nonfinite)
-            for src, _ in entries
-        ]
-    jobs, seen = [], set()
-    for src, out in entries:
-        if out is None:
-            os.makedirs(out_dir, exist_ok=True)
-            out = os.path.join(out_dir, Path(src).stem + ".h5")
-        out = os.path.abspath(out)
-        if out in seen:
-            raise ParameterError(f"two probes would write {out}; name outputs in a --list file")
-        seen.add(out)
-        check_writable_dir(out)
-        jobs.append(ProbeJob(os.path.abspath(src), out, config, negative, fix_nonfinite))
-    return jobs
-
-
-def settings_study(job: ProbeJob, config: FitConfig, report: bool, tol, quiet: bool):
-    """``--tol`` and ``--report`` on the first map: (config to use, study for the summary)."""
-    from shbake.bakers.shexp_report import (
-        format_report,
-        orders_study,
-        pick_samples,
-        samples_study,
-    )
-    from shbake.batch.probe_jobs import fit_plan
-    from shbake.envmap import load_environment
-
-    if config.targets != "quadrature":
-        raise ParameterError("--report and --tol study the quadrature targets")
-    env = load_environment(job.source, negative=job.negative, fix_nonfinite=job.fix_nonfinite,
-                           quiet=True)  # fmt: skip
-    if env.layout != "latlong":
-        raise InputError(f"{job.source}: probe-fit takes lat-long maps (2:1), got {env.layout}")
-    samples_rows = samples_study(env.pixels, config)
-    study = {"samples_study": samples_rows}
-    if tol is not None:
-        config = replace(config, samples=pick_samples(samples_rows, tol))
-        study["chosen_samples"] = config.samples
-        info(f"probe-fit: --tol {tol:g} → --samples {config.samples}", quiet)
-    if report:
-        e0 = fit_plan(config, env.shape).targets.e0(env.pixels)
-        study["orders_study"] = orders_study(env.pixels, config, e0)
-        if not quiet:
-            click.echo(format_report(samples_rows, study["orders_study"]), err=True)
-    return config, study
-
-
-def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
-    """Write the probes of ``results`` as one set asset; return the summaries without arrays."""
-    from shbake.batch.probe_jobs import shared_dfg_table
-    from shbake.format.asset import write_asset
-    from shbake.format.shexp import build_shexp_set_asset
-
-    probes = [r | {"name": Path(r["source"]).stem} for r in results]
-    write_asset(path, build_shexp_set_asset(probes, config, shared_dfg_table()))
-    keep = ("source", "bytes")
-    return [{k: r[k] for k in keep} | r["stats"] | {"output": path} for r in results]
+def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
+    """The fit's GGX-width range from ``--alpha-range`` or ``--roughness-range`` (``α = r²``)."""
+    if alpha_text is not None and roughness_text is not None:
+        raise click.UsageError("give --alpha-range or --roughness-range, not both")
+    if roughness_text is not None:
+        lo, hi = parse_range(roughness_text, "--roughness-range")
+        return lo * lo, hi * hi
+    return parse_range(alpha_text or "0.2:1", "--alpha-range")
 
 
 @click.command("probe-fit")
 @click.argument("maps", nargs=-1, type=click.Path(dir_okay=False))
-@click.option(
-    "--list",
-    "probe_list",
-    type=click.Path(dir_okay=False),
-    help="Probe list: lines 'MAP [OUTPUT]'.",
-)
-@click.option(
-    "-o",
-    "--output",
-    "probe_set",
-    type=click.Path(dir_okay=False),
-    help="All probes in this one shexp_probe_set asset, list order (a file; written "
-    "atomically, all or nothing). Without it: one file per probe in --out-dir.",
-)
-@click.option(
-    "--out-dir",
-    default=".",
-    show_default=True,
-    type=click.Path(file_okay=False),
-    help="Folder for one <map stem>.h5 per probe (each written atomically).",
-)
-@click.option(
-    "--lmax-p", type=int, default=4, show_default=True, help="Highest band of P (mirror direction)."
-)
-@click.option(
-    "--lmax-q",
-    type=int,
-    default=2,
-    show_default=True,
-    help="Highest band of Q (half-reflection), DC dropped.",
-)
-@click.option(
-    "--normals", type=int, default=64, show_default=True, help="Fit normals (Fibonacci sphere)."
-)
-@click.option(
-    "--views", type=int, default=64, show_default=True, help="Fit views per normal (hemisphere)."
-)
-@click.option(
-    "--roughness-range",
-    default="0.2:1",
-    show_default=True,
-    help="Perceptual roughness range lo:hi of the fit.",
-)
-@click.option(
-    "--roughness-count",
-    type=int,
-    default=4,
-    show_default=True,
-    help="Roughness samples in the range.",
-)
-@click.option(
-    "--samples",
-    type=click.IntRange(16, 1 << 20),
-    default=1024,
-    show_default=True,
-    help="Quadrature samples per E0 fit target (filtered visible-normal samples).",
-)
-@click.option(
-    "--weighting",
-    type=click.Choice(WEIGHTINGS),
-    default="log",
-    show_default=True,
-    help="log: eq. 13; relative: Gauss-Newton on PQ/E0 - 1; linear: on (PQ - E0)/mean E0.",
-)
-@click.option(
-    "--floor",
-    type=float,
-    default=1e-4,
-    show_default=True,
-    help="E0 floor before the log, × mean E0 per channel.",
-)
-@click.option(
-    "--targets",
-    type=click.Choice(TARGETS),
-    default="quadrature",
-    show_default=True,
-    help="E0 at the fit samples: quadrature (filtered importance sampling) or sh "
-    "(SH lighting x GGX tables; noise-free, blurs low roughness).",
-)
-@click.option(
-    "--targets-lmax",
-    type=int,
-    default=8,
-    show_default=True,
-    help="Lighting bands of --targets sh.",
-)
-@click.option(
-    "--report",
-    is_flag=True,
-    help="Measure target error and time vs --samples, and fit residual vs orders, on the "
-    "first map.",
-)
-@click.option(
-    "--tol",
-    type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
-    default=None,
-    help="Error tolerance in (0, 1): use the fewest --samples (256-4096) whose E0 target "
-    "error (log RMS against a converged truth, first map) is at most TOL.",
-)
-@click.option(
-    "--jobs", "n_jobs", type=int, default=1, show_default=True, help="Local worker processes."
-)
-@click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS",
-    help="Dask distributed scheduler (tcp://host:port).",
-)
+@click.option("--list", "probe_list", type=click.Path(dir_okay=False),
+              help="Probe list: lines 'MAP [OUTPUT]'.")  # fmt: skip
+@output_opt("All probes in one shexp_probe_set asset, list order, written only if all succeed",
+            required=False)  # fmt: skip
+@click.option("--out-dir", default=".", show_default=True, type=click.Path(file_okay=False),
+              help="Without -o: one <map stem>.h5 probe per map into this folder.")  # fmt: skip
+@click.option("--lmax-p", type=int, default=4, show_default=True,
+              help="Highest band of P (mirror direction).")  # fmt: skip
+@click.option("--lmax-q", type=int, default=2, show_default=True,
+              help="Highest band of Q (half-reflection), DC dropped.")  # fmt: skip
+@click.option("--normals", type=int, default=64, show_default=True,
+              help="Fit normals (Fibonacci sphere).")  # fmt: skip
+@click.option("--views", type=int, default=32, show_default=True,
+              help="Fit views per normal (uniform on the hemisphere; weighted 2 n·v by "
+              "shaded-nv: the on-screen, cosine-weighted distribution).")  # fmt: skip
+@click.option("--alpha-range", default=None, metavar="LO:HI",
+              help="GGX-width range of the fit [default: 0.2:1]; the probe shades only it.")
+@click.option("--roughness-range", default=None, metavar="LO:HI",
+              help="The same range as perceptual roughness (α = r²); exclusive with "
+              "--alpha-range.")  # fmt: skip
+@click.option("--alpha-count", type=int, default=8, show_default=True,
+              help="Fit α values, evenly spaced over the range (at least 2·sets − 1).")
+@click.option("--sets", type=click.IntRange(1, 8), default=2, show_default=True,
+              help="Coefficient sets K, hat-blended (linear) in α; 1 with --weights log "
+              "and --alpha-count 4 is the paper's model.")  # fmt: skip
+@click.option("--weights", type=click.Choice(WEIGHTS), default="shaded-nv", show_default=True,
+              help="Log-space sample weights: log (eq. 13), shaded (E0²), shaded-nv "
+              "(E0² · 2 n·v), shaded-nv-f0 (+ chrome/dielectric balance).")  # fmt: skip
+@click.option("--polish", type=click.IntRange(0, 8), default=1, show_default=True,
+              help="Gauss–Newton steps on the shaded error after the log fit (shaded-nv*; "
+              "a step that does not lower it is dropped).")  # fmt: skip
+@samples_opt(1024, "per E0 fit target (filtered visible-normal samples)")
+@click.option("--floor", type=float, default=1e-4, show_default=True,
+              help="E0 floor before the log, × mean E0 per channel.")  # fmt: skip
+@click.option("--targets", type=click.Choice(TARGETS), default="quadrature", show_default=True,
+              help="E0 at the fit samples: quadrature (filtered importance sampling) or sh "
+              "(SH lighting x GGX tables; noise-free, blurs narrow lobes).")  # fmt: skip
+@click.option("--targets-lmax", type=int, default=8, show_default=True,
+              help="Lighting bands of --targets sh.")  # fmt: skip
+@report_opt
+@tol_opt("the fewest --samples (256-4096) whose E0 target error (log RMS, first map) is at most "
+         "this")  # fmt: skip
+@click.option("--jobs", "n_jobs", type=int, default=1, show_default=True,
+              help="Local worker processes.")  # fmt: skip
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Dask distributed scheduler (tcp://host:port).")  # fmt: skip
+@deprecated("--set", "output", "-o/--output", type=click.Path(dir_okay=False))
+@deprecated("--roughness-count", "alpha_count", "--alpha-count", type=int)
 @negative_opt
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
-@deprecated("--set", "probe_set", "-o/--output", type=click.Path(dir_okay=False))
-def probe_fit(
-    maps,
-    probe_list,
-    probe_set,
-    out_dir,
-    lmax_p,
-    lmax_q,
-    normals,
-    views,
-    roughness_range,
-    roughness_count,
-    samples,
-    weighting,
-    floor,
-    targets,
-    targets_lmax,
-    report,
-    tol,
-    n_jobs,
-    scheduler,
-    negative,
-    fix_nonfinite,
-    as_json,
-    quiet,
-):
-    """Fit P/Q SH-exponential probes (33 numbers per channel by default) to MAPS.
+def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, alpha_count,
+              as_json, quiet, **settings):  # fmt: skip
+    """Fit SH-exp v2 probes (2 × 33 numbers per channel by default) to MAPS.
 
-    Roughness is perceptual (GGX width = r²). Each probe is one atomic,
-    idempotent file; the same inputs give byte-identical files with --jobs,
-    --scheduler or neither.
+    α is the GGX width (SPEC §1). Each probe is one atomic, idempotent file
+    (or one set file with -o); the same inputs give byte-identical files
+    with --jobs, --scheduler or neither.
     """
-    lo, hi = parse_range(roughness_range, "--roughness-range")
-    config = FitConfig(lmax_p, lmax_q, normals, views, roughness_count, lo, hi, samples,
-                       weighting, floor, targets, targets_lmax)  # fmt: skip
-    jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, probe_set)
-    study = None
-    if report or tol is not None:
-        config, study = settings_study(jobs[0], config, report, tol, quiet)
-        jobs = [replace(job, config=config) for job in jobs]
-    if scheduler and n_jobs != 1:
-        raise ParameterError("use --jobs or --scheduler, not both")
+    lo, hi = fit_alpha_range(alpha_range, roughness_range)
+    run = {k: settings.pop(k) for k in ("negative", "fix_nonfinite", "report", "tol", "n_jobs",
+                                        "scheduler")}  # fmt: skip
+    if output and probe_list is None and not maps:
+        raise ParameterError("give maps as arguments or a --list file")
+    config = FitConfig(alpha_count=alpha_count, alpha_min=lo, alpha_max=hi, **settings)
     show = not quiet and sys.stderr.isatty()
 
     def progress(done, total):
         if show:
             click.echo(f"\rprobe-fit: {done}/{total}", err=True, nl=done == total)
 
-    t0 = time.perf_counter()
-    if scheduler:
-        results = run_dask(jobs, scheduler, progress)
-    else:
-        results = run_local(jobs, n_jobs, progress)
-    if probe_set:
-        results = write_set(probe_set, results, config)
-    seconds = time.perf_counter() - t0
-    rate = len(jobs) / seconds if seconds > 0 else float("inf")
-    info(f"probe-fit: {len(jobs)} probes in {seconds:.2f} s ({rate:.1f} probes/s)", quiet)
+    summary = fit_probes(maps, probe_list, output, out_dir, config, progress=progress,
+                         notes=lambda text: info(text, quiet), **run)  # fmt: skip
+    info(f"probe-fit: {len(summary['probes'])} probes in {summary['seconds']:.2f} s "
+         f"({summary['probes_per_second']:.1f} probes/s)", quiet)  # fmt: skip
     if as_json:
-        emit_json({"probes": results, "seconds": seconds, "probes_per_second": rate,
-                   "config": config.as_dict(), **(study or {})})  # fmt: skip
+        emit_json(summary)

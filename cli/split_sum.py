@@ -9,75 +9,55 @@ from shbake_cli.options import (
     json_opt,
     negative_opt,
     output_opt,
-    parse_range,
     quiet_opt,
     samples_opt,
     size_opt,
 )
 
-from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
-from shbake.batch.probe_jobs import shared_dfg_table
-from shbake.envmap import load_environment
-from shbake.errors import InputError
-from shbake.format.asset import write_asset
-from shbake.format.atomic import check_writable_dir
-from shbake.format.probe import probe_bytes
-from shbake.format.splitsum import build_splitsum_asset
+from shbake.bakers.splitsum import PAPER_ALPHAS, PREFILTERS
+from shbake.batch.probe_eval import bake_splitsum_file
+from shbake.errors import ParameterError
+
+
+def parse_levels(alphas: str | None, roughness: str | None) -> tuple[float, ...]:
+    """Level GGX widths from ``--alphas a,b,…`` or ``--roughness-levels r,s,…`` (``α = r²``)."""
+    if alphas is not None and roughness is not None:
+        raise click.UsageError("give --alphas or --roughness-levels, not both")
+    text = alphas if alphas is not None else roughness
+    if text is None:
+        return PAPER_ALPHAS
+    try:
+        values = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise ParameterError(f"{text!r}: expected comma-separated numbers") from None
+    return values if alphas is not None else tuple(v * v for v in values)
 
 
 @click.command("split-sum")
 @click.argument("env", type=click.Path(dir_okay=False))
 @output_opt("The splitsum_probe asset (.h5)")
-@size_opt(128, "Octahedral texels of the first (sharpest) level", lo=8, hi=2048)
-@click.option(
-    "--min-size",
-    type=click.IntRange(8, 2048),
-    default=32,
-    show_default=True,
-    help="Octahedral texels per side of the smallest level (levels halve down to it).",
-)
-@click.option(
-    "--levels",
-    type=click.IntRange(2, 16),
-    default=5,
-    show_default=True,
-    help="Prefiltered levels, one per roughness, evenly spaced in --roughness-range.",
-)
-@click.option(
-    "--roughness-range",
-    default="0.2:1",
-    show_default=True,
-    help="Perceptual roughness lo:hi of the first and last level (GGX width α = r²).",
-)
-@samples_opt(1024, "per prefiltered texel (GGX half vectors, Karis 2013)")
+@size_opt(128, "Texels per side of the first (sharpest) octahedral level", lo=8, hi=2048)
+@click.option("--min-size", type=int, default=32, show_default=True, help="Smallest level size.")
+@click.option("--alphas", default=None, metavar="A,B,…",
+              help="GGX width of each level, increasing [default: the evaluation's "
+              "0.25,0.36,0.49,0.64,0.81,1].")  # fmt: skip
+@click.option("--roughness-levels", default=None, metavar="R,S,…",
+              help="The levels as perceptual roughness (α = r²); exclusive with --alphas.")
+@click.option("--prefilter", type=click.Choice(PREFILTERS), default="plain", show_default=True,
+              help="plain: one map texel per sample (Karis; the paper's baseline); filtered: "
+              "filtered importance sampling of the solid-angle pyramid (engine-grade).")
+@samples_opt(1024, "per texel (GGX half vectors)")
+@deprecated("--top", "size", "--size", type=click.IntRange(8, 2048))
 @negative_opt
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
-@deprecated("--top", "size", "--size", type=click.IntRange(8, 2048))
-def split_sum(
-    env,
-    output,
-    size,
-    min_size,
-    levels,
-    roughness_range,
-    samples,
-    negative,
-    fix_nonfinite,
-    as_json,
-    quiet,
-):
+def split_sum(env, output, size, min_size, alphas, roughness_levels, prefilter, samples,
+              negative, fix_nonfinite, as_json, quiet):  # fmt: skip
     """Bake the split-sum baseline of ENV (Karis 2013) as a probe asset of its own."""
-    lo, hi = parse_range(roughness_range, "--roughness-range")
-    config = SplitSumConfig(size, min_size, levels, lo, hi, samples)
-    check_writable_dir(output)
-    environment = load_environment(env, negative=negative, fix_nonfinite=fix_nonfinite, quiet=quiet)
-    if environment.layout != "latlong":
-        raise InputError(f"{env}: split-sum takes lat-long maps (2:1), got {environment.layout}")
-    chain = prefilter_chain(environment.pixels, config)
-    asset = build_splitsum_asset(chain, config, shared_dfg_table(), environment.meta)
-    write_asset(output, asset)
-    info(f"split-sum: {output}: {levels} levels, {probe_bytes(asset)} bytes", quiet)
+    levels = parse_levels(alphas, roughness_levels)
+    summary = bake_splitsum_file(env, output, size, min_size, levels, prefilter, samples,
+                                 negative, fix_nonfinite)  # fmt: skip
+    info(f"split-sum: {output}: {summary['levels']} levels, {summary['bytes']} bytes", quiet)
     if as_json:
-        emit_json({"output": output, "bytes": probe_bytes(asset), "config": config.as_dict()})
+        emit_json(summary)

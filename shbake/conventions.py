@@ -100,3 +100,16 @@ def check_samples(n, lo: int = 16, hi: int = SAMPLES_LIMIT, name: str = "samples
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or not lo <= n <= hi:
         raise ParameterError(f"{name} must be an integer in [{lo}, {hi}], got {n}")
     return int(n)
+
+
+CUBE_FACES = (
+    ("+X", ((0, 0, 1), (0, -1, 0), (1, 0, 0))),
+    ("-X", ((0, 0, -1), (0, -1, 0), (-1, 0, 0))),
+    ("+Y", ((1, 0, 0), (0, 0, 1), (0, -1, 0))),
+    ("-Y", ((1, 0, 0), (0, 0, -1), (0, 1, 0))),
+    ("+Z", ((-1, 0, 0), (0, -1, 0), (0, 0, 1))),
+    ("-Z", ((1, 0, 0), (0, -1, 0), (0, 0, -1))),
+)
+"""Cube faces of OpenEXR ``envmap = cube`` (SPEC §3) in strip order, each with the matrix
+``A`` of its orientation: direction ``= A @ (s, t, 1)``, ``s`` left → right and ``t`` top →
+bottom in ``[-1, 1]``. Used by the cube-strip input layout and the cube-map textures."""

@@ -32,3 +32,8 @@ class FormatError(InputError):
 
 class OutputError(ShbakeError, OSError):
     """An output could not be written (unwritable path, value overflow)."""
+
+
+class ResourceError(InputError):
+    """A run would need more memory than the budget (``--max-memory``), or an input is a
+    special file (FIFO, device) that cannot be read with bounded time and memory."""

@@ -21,10 +21,20 @@ ALLOWED = {
     "bakers": {"sh", "texture", "envmap", "brdf", "format", "reference", "shading"},
     "preview": {"sh", "texture", "envmap", "brdf", "format", "shading", "reference"},
     "evaluation": {"sh", "texture", "envmap", "brdf", "format", "shading", "reference", "preview"},
-    "batch": {"sh", "texture", "envmap", "brdf", "format", "shading", "reference", "preview",
-              "evaluation", "bakers"},  # fmt: skip
+    "batch": {
+        "sh",
+        "texture",
+        "envmap",
+        "brdf",
+        "format",
+        "shading",
+        "reference",
+        "preview",
+        "evaluation",
+        "bakers",
+    },  # fmt: skip
 }
-BASE = {"conventions", "errors", "jit", "progress"}
+BASE = {"conventions", "errors", "jit", "progress", "resources", "signals"}
 """Modules of the package root every stage may import."""
 
 

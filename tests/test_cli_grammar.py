@@ -4,14 +4,14 @@ import click
 import pytest
 from shbake_cli.main import cli
 
-COMMANDS = sorted(cli.commands)
+COMMANDS = sorted(cli.list_commands(None))  # lazily imported subcommands
 RETIRED = ("--exr-maps", "--map-height", "--resolution", "--exr ", "--truth-samples", "--top",
            "--set ")  # fmt: skip
 """Old spellings: hidden deprecated aliases, never shown in --help."""
 
 
 def visible_options(name: str) -> dict[str, click.Option]:
-    command = cli.commands[name]
+    command = cli.get_command(None, name)
     out = {}
     for p in command.params:
         if isinstance(p, click.Option) and not p.hidden:
@@ -21,8 +21,8 @@ def visible_options(name: str) -> dict[str, click.Option]:
 
 
 def help_text(name: str) -> str:
-    ctx = click.Context(cli.commands[name], info_name=name, parent=click.Context(cli))
-    return cli.commands[name].get_help(ctx)
+    ctx = click.Context(cli.get_command(None, name), info_name=name, parent=click.Context(cli))
+    return cli.get_command(None, name).get_help(ctx)
 
 
 class TestEveryCommand:

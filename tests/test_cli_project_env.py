@@ -39,8 +39,8 @@ class TestProjectEnv:
         assert a.attrs["format"] == "shbake" and a.attrs["kind"] == "env_sh"
         assert a["/lighting/sh"].shape == (81, 3) and a["/irradiance/sh"].shape == (9, 3)
         assert a["/tangent_irradiance/matrix"].shape == (3, 4, 4)
-        assert a.attrs["input_sha256"] and "project-env" in a.attrs["command_line"]
-        assert a.attrs["input_negative_count"] > 0
+        assert a.attrs["source_sha256"] and "project-env" in a.attrs["command_line"]
+        assert a.attrs["source_negative_count"] > 0
         assert (tmp_path / "maps" / "irradiance.exr").exists()
         gltf = json.loads((tmp_path / "sky.gltf").read_text())  # shbake export --to gltf
         light = gltf["extensions"]["EXT_lights_image_based"]["lights"][0]
@@ -115,7 +115,7 @@ class TestProjectEnv:
             out = tmp_path / f"n-{fix}.h5"
             assert run_cli("project-env", src, "-o", out, "--fix-nonfinite", fix, "-q")[0] == 0
             a = read_asset(str(out))
-            assert a.attrs["input_nonfinite_repaired"] == 2
+            assert a.attrs["source_nonfinite_repaired"] == 2
         # box3 restores the constant map exactly.
         L = read_asset(str(tmp_path / "n-box3.h5"))["/lighting/sh"]
         np.testing.assert_allclose(L[0], np.sqrt(4 * np.pi), rtol=1e-12)

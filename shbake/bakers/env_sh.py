@@ -15,6 +15,7 @@ from shbake.envmap.environment import Environment
 from shbake.envmap.sun import extract_sun
 from shbake.errors import ParameterError
 from shbake.format.asset import Asset
+from shbake.format.provenance import map_source
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 from shbake.sh.tangent_irradiance import matrix_form
 from shbake.sh.windows import WINDOW_METHODS, dering_window, window
@@ -122,8 +123,7 @@ def bake_env_sh(
             datasets["/tangent_irradiance/matrix"] = matrix_form(L_irr[:9] * w[bands[:9]][:, None])
             dattrs["/tangent_irradiance/matrix"] = {"form": "E(t) = [t,1]^T M [t,1], Mehta eq. 23"}
     summary["bake_seconds"] = time.perf_counter() - t0
-    attrs = {"input_" + k: v for k, v in env.meta.items()}
-    attrs.update(provenance or {})
+    attrs = map_source(env.meta) | dict(provenance or {})
     return Asset("env_sh", attrs, datasets, dattrs), summary
 
 

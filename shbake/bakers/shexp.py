@@ -1,71 +1,90 @@
-"""The SH-exponential glossy probe fit (Silvennoinen et al. 2025, §4).
+"""The SH-exponential glossy probe fit (Silvennoinen et al. 2025, §4), and shbake's v2.
 
-``E0(v, n, r) ≈ P(ρ, r) Q(h_ρ, r)`` (eq. 9–11) with ``ρ = 2(n·v)n − v`` the
-mirror direction, ``h_ρ = (n + ρ)/|n + ρ|``, and::
+``E0(v, n, α) ≈ P(ρ, α) Q(h_ρ, α)`` (eq. 9–11), ``ρ`` the mirror direction,
+``h_ρ = (n + ρ)/|n + ρ|``, ``α`` the GGX width (SPEC §1)::
 
-    P = exp(Σ_lm vMF_l(1/r) y_lm(ρ) p_lm),  Q = exp(Σ_lm vMF_l(1/r) y_lm(h_ρ) q_lm)
-    vMF_l(κ) = exp(−l(l+1)/(2κ))                                    (eq. 12)
+    log P Q = Σ_k h_k(α) [ Σ_lm vMF_l(1/α) y_lm(ρ) p_klm + Σ_lm vMF_l(1/α) y_lm(h_ρ) q_klm ]
+    vMF_l(1/α) = exp(−l(l+1) α / 2)                                         (eq. 12)
 
-``p``: ``lmax_p`` (default 4, 25 coefficients); ``q``: ``lmax_q`` (default 2)
-without its DC term (8), which ``p`` already holds (§4.1). ``r`` is the
-paper's α, read as perceptual roughness (GGX width ``r²``, CONVENTIONS).
-The fit (eq. 13–14) is linear least squares in log space over fixed
-``(v, n, r)`` samples; everything but the right-hand side is built once
-(:class:`FitPlan`). Shaded by :mod:`shbake.shading.shexp`.
+with ``h_k`` the piecewise-linear hat functions of ``α`` on ``K`` knots spread
+evenly over the fitted range (:func:`shbake.shading.shexp.hat_weights`;
+``K = 1``: the paper's single set; ``K = 2``: coefficients linear in ``α``).
+``p``: ``lmax_p`` (default 4, 25 coefficients per set); ``q``: ``lmax_q``
+(default 2) without its DC term (8), which ``p`` already holds (§4.1).
+
+The fit is one weighted linear least-squares problem in log space over fixed
+``(v, n, α)`` samples (eq. 13–14, all sets jointly), per channel::
+
+    minimise Σ_t w_t (log P Q − log E0)_t²
+
+``weights``: ``log`` — ``w = 1`` (eq. 13: the paper); ``shaded`` —
+``w = E0²``, so that ``w · (log residual)² ≈ (P Q − E0)²``, the shaded
+squared error the evaluation measures (``E0`` is the fit target, standing in
+for ``P Q``); ``shaded-nv`` — ``w = E0² · 2 max(n·v, 0)``: the views of the
+fit lattice are uniform over each hemisphere, and ``2 n·v`` is the density
+ratio of the cosine-weighted distribution to it — the distribution of
+``(v, n)`` pairs over the pixels of a rendered sphere (an orthographic view
+sees normal ``n`` on ``n·v`` of its area). ``polish`` Gauss–Newton steps then
+minimise the shaded error ``Σ_t 2 n·v (P Q − E0)²`` itself (weights
+``shaded-nv`` only); each step is halved until the error decreases and a step
+that does not decrease it is dropped ("where it helps").
+
+``sets = 1, weights = log, alpha_count = 4`` over ``α ∈ [0.2, 1]`` with 64
+normals × 64 uniform views is the paper's fit (§5.1). Everything but the
+right-hand side is built once per configuration (:class:`FitPlan`). Shaded by
+:mod:`shbake.shading.shexp`.
 """
 
 from dataclasses import asdict, dataclass
 
 import numpy as np
-import scipy.linalg
 
-from shbake.bakers.shexp_sh_targets import ShTargets
 from shbake.bakers.shexp_targets import QuadraturePlan
 from shbake.brdf.sampling import tangent_frame
-from shbake.conventions import (
-    SH_TARGETS_LMAX_LIMIT,
-    SHEXP_LMAX_LIMIT,
-    check_roughness,
-    n_coeffs,
-)
+from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import jit
+from shbake.reference.ggx import check_alpha
 from shbake.sh.basis import real_sh
 from shbake.sh.point_sets import fibonacci_sphere, hemisphere_fibonacci
-from shbake.shading.shexp import mirror_and_half, vmf_factors
+from shbake.shading.shexp import hat_weights, mirror_and_half, vmf_factors
 
-WEIGHTINGS = ("log", "relative", "linear")
+WEIGHTS = ("log", "shaded", "shaded-nv", "shaded-nv-f0")
+DIELECTRIC_F0 = 0.04
+WEIGHTINGS = WEIGHTS  # the name cli/probe_fit.py imports until its grammar pass
 TARGETS = ("quadrature", "sh")
-GAUSS_NEWTON_STEPS = 4
-STEP_HALVINGS = 12
+SETS_LIMIT = 8
+STEP_HALVINGS = 8
 ABSOLUTE_FLOOR = 1e-30
+FIT_ALPHA_MIN = 0.05
+"""Narrowest GGX width a fit range may start at (SH-exp does not reach mirrors)."""
 
 
 @dataclass(frozen=True)
 class FitConfig:
     """Everything that shapes a fit; two probes fitted with equal configs are comparable.
 
-    ``floor``: ``E0`` below ``floor × mean(E0)`` (per channel, and below
-    ``1e-30``) is raised to it before the log, so dark and black maps stay
-    finite. ``weighting``: ``log`` minimises the log residual (eq. 13, a
-    proxy of relative error); ``relative`` continues with damped Gauss–Newton
-    steps on the relative error ``PQ/E0 − 1`` itself, ``linear`` on the linear
-    error ``(PQ − E0)/mean(E0)`` (what an MSE weighs: bright targets
-    dominate). ``targets``: how ``E0`` is computed at the fit samples —
-    ``quadrature`` (``samples`` filtered visible-normal samples each) or
-    ``sh`` (SH lighting to ``targets_lmax`` × GGX tables,
-    :mod:`shbake.probe.sh_targets`).
+    ``alpha_min``/``alpha_max``/``alpha_count``: the GGX widths of the fit
+    samples, ``alpha_count`` evenly spaced over the range (the probe shades
+    this range only). ``sets``: coefficient sets ``K`` (knots evenly spaced
+    over the range). ``weights``, ``polish``: module docstring. ``floor``:
+    ``E0`` below ``floor × mean(E0)`` (per channel, and below ``1e-30``) is
+    raised to it before the log, so dark and black maps stay finite.
+    ``targets``: how ``E0`` is computed at the fit samples — ``quadrature``
+    (``samples`` filtered visible-normal samples each) or ``sh`` (SH lighting
+    to ``targets_lmax`` × GGX tables).
     """
 
     lmax_p: int = 4
     lmax_q: int = 2
     normals: int = 64
-    views: int = 64
-    roughness_count: int = 4
-    roughness_min: float = 0.2
-    roughness_max: float = 1.0
+    views: int = 32
+    alpha_count: int = 8
+    alpha_min: float = 0.2
+    alpha_max: float = 1.0
+    sets: int = 2
+    weights: str = "shaded-nv"
+    polish: int = 1
     samples: int = 1024
-    weighting: str = "log"
     floor: float = 1e-4
     targets: str = "quadrature"
     targets_lmax: int = 8
@@ -76,8 +95,12 @@ class FitConfig:
             (1 <= self.lmax_q <= SHEXP_LMAX_LIMIT, f"lmax_q must be in [1, {SHEXP_LMAX_LIMIT}]"),
             (4 <= self.normals <= 4096, "normals must be in [4, 4096]"),
             (4 <= self.views <= 4096, "views must be in [4, 4096]"),
-            (1 <= self.roughness_count <= 64, "roughness_count must be in [1, 64]"),
-            (self.weighting in WEIGHTINGS, f"weighting must be one of {', '.join(WEIGHTINGS)}"),
+            (1 <= self.alpha_count <= 64, "alpha_count must be in [1, 64]"),
+            (1 <= self.sets <= SETS_LIMIT, f"sets must be in [1, {SETS_LIMIT}]"),
+            (self.sets == 1 or self.alpha_count >= 2 * self.sets - 1,
+             "alpha_count must be at least 2·sets − 1 (every hat needs samples)"),  # fmt: skip
+            (self.weights in WEIGHTS, f"weights must be one of {', '.join(WEIGHTS)}"),
+            (0 <= self.polish <= 8, "polish must be in [0, 8] Gauss–Newton steps"),
             (np.isfinite(self.floor) and 0 < self.floor < 1, "floor must be in (0, 1)"),
             (self.targets in TARGETS, f"targets must be one of {', '.join(TARGETS)}"),
             (
@@ -88,161 +111,276 @@ class FitConfig:
         for ok, msg in checks:
             if not ok:
                 raise ParameterError(msg)
-        check_roughness([self.roughness_min, self.roughness_max], 0.05, 1.0, "roughness range")
-        if self.roughness_min > self.roughness_max or (
-            self.roughness_count > 1 and self.roughness_min == self.roughness_max
+        check_alpha([self.alpha_min, self.alpha_max], name="alpha range")
+        if self.alpha_min < FIT_ALPHA_MIN:
+            raise ParameterError(f"alpha range must start at {FIT_ALPHA_MIN:g} or above")
+        if self.alpha_min > self.alpha_max or (
+            self.alpha_count > 1 and self.alpha_min == self.alpha_max
         ):
-            raise ParameterError("roughness range must be lo < hi (or one value with count 1)")
+            raise ParameterError("alpha range must be lo < hi (or one value with count 1)")
+        if self.sets > 1 and self.alpha_min == self.alpha_max:
+            raise ParameterError("several coefficient sets need an alpha range lo < hi")
+
+    @classmethod
+    def paper(cls, **changes) -> "FitConfig":
+        """The paper's fit (§5.1): one set, log weights, 4 α samples over [0.2, 1], no polish."""
+        return cls(**({"sets": 1, "weights": "log", "alpha_count": 4, "polish": 0, "views": 64}
+                      | changes))
 
     @property
-    def roughness(self) -> np.ndarray:
-        return np.linspace(self.roughness_min, self.roughness_max, self.roughness_count)
+    def alphas(self) -> np.ndarray:
+        """GGX widths of the fit samples."""
+        return np.linspace(self.alpha_min, self.alpha_max, self.alpha_count)
+
+    @property
+    def knots(self) -> np.ndarray:
+        """``α`` of the coefficient sets (one set: the range's low end, unused)."""
+        return np.linspace(self.alpha_min, self.alpha_max, self.sets)
 
     @property
     def n_params(self) -> int:
+        """Coefficients per channel and set."""
         return n_coeffs(self.lmax_p) + n_coeffs(self.lmax_q) - 1
 
     def as_dict(self) -> dict:
         return asdict(self)
 
 
-def design_rows(views, normals, roughness, lmax_p: int, lmax_q: int) -> np.ndarray:
-    """Rows of eq. 14: ``[vMF ⊙ Y(ρ), (vMF ⊙ Y(h_ρ)) without DC]``, ``(T, n_params)``."""
+def design_rows(views, normals, alpha, lmax_p: int, lmax_q: int, knots) -> np.ndarray:
+    """Rows of eq. 14 for ``K`` sets: ``h_k(α) [vMF ⊙ Y(ρ), (vMF ⊙ Y(h_ρ)) without DC]``
+    for ``k = 0 … K−1`` side by side, ``(T, K · n_params)``."""
     rho, h = mirror_and_half(views, normals)
-    yp = real_sh(rho, lmax_p) * vmf_factors(lmax_p, roughness)
-    yq = real_sh(h, lmax_q) * vmf_factors(lmax_q, roughness)
-    return np.concatenate([yp, yq[:, 1:]], axis=1)
+    yp = real_sh(rho, lmax_p) * vmf_factors(lmax_p, alpha)
+    yq = real_sh(h, lmax_q) * vmf_factors(lmax_q, alpha)
+    base = np.concatenate([yp, yq[:, 1:]], axis=1)
+    hw = hat_weights(knots, alpha)
+    return (hw[:, :, None] * base[:, None, :]).reshape(base.shape[0], -1)
 
 
-@jit
-def _normal_matrix(A, w, out):
-    """``out = Aᵀ diag(w) A`` with a fixed summation order (deterministic)."""
-    n = A.shape[1]
-    for i in range(n):
-        for j in range(i, n):
-            s = 0.0
-            for t in range(A.shape[0]):
-                s += A[t, i] * w[t] * A[t, j]
-            out[i, j] = s
-            out[j, i] = s
+class Design:
+    """The rows of eq. 14 over a product lattice: every ``(v, n)`` pair at every fit ``α``.
+
+    Row ``t = i·M + j`` (``α_i``, pair ``j``) is ``h(α_i) ⊗ (D(α_i) y_j)`` with ``y_j``
+    the pair's unscaled basis row ``[Y(ρ), Y(h_ρ) without DC]`` (``(M, n)``, shared by
+    every ``α``), ``D(α)`` the vMF factors and ``h(α)`` the hat weights
+    (:func:`design_rows` writes the same rows out). Weighted normal matrices are
+    then ``Σ_i (h_i h_iᵀ) ⊗ D_i (Yᵀ diag(w_i) Y) D_i``: ``N_α`` Gram matrices of
+    ``n`` columns instead of one of ``K n`` columns over ``N_α M`` rows (BLAS).
+    """
+
+    def __init__(self, views, normals, alphas, lmax_p: int, lmax_q: int, knots):
+        rho, h = mirror_and_half(views, normals)
+        self.Y = np.concatenate([real_sh(rho, lmax_p), real_sh(h, lmax_q)[:, 1:]], axis=1)
+        n_p = n_coeffs(lmax_p)
+        self.D = np.concatenate(
+            [vmf_factors(lmax_p, alphas), vmf_factors(lmax_q, alphas)[:, 1:]], axis=1
+        )  # (N_α, n)
+        self.H = hat_weights(knots, alphas)  # (N_α, K)
+        self.n_p = n_p
+        self.pairs = self.Y.shape[0]
+        self.iu = np.triu_indices(self.Y.shape[1])
+        self.YY = np.ascontiguousarray(self.Y[:, self.iu[0]] * self.Y[:, self.iu[1]])
+
+    @property
+    def n_params(self) -> int:
+        return self.H.shape[1] * self.Y.shape[1]
+
+    def _coeffs(self, x):
+        """Per-``α`` blended, vMF-scaled coefficients ``(N_α, n)`` of one column ``x``."""
+        sets = x.reshape(self.H.shape[1], -1)
+        return (self.H @ sets) * self.D
+
+    def apply(self, x):
+        """``A x`` for one column ``x`` (``(K n,)``), as ``(N_α · M,)``."""
+        return (self.Y @ self._coeffs(x).T).T.reshape(-1)
+
+    def normal_matrices(self, w):
+        """``Aᵀ diag(w_c) A`` for each column ``w_c`` of ``w`` ``(N_α · M, C)``; ``(C, K n, K n)``.
+
+        One BLAS product ``(Y_i Y_j)ᵀ W`` over the pairs' upper-triangle products
+        (built once) gives every ``Yᵀ diag(w) Y`` at every ``α`` and channel."""
+        K, n, n_a = self.H.shape[1], self.Y.shape[1], self.H.shape[0]
+        c = w.shape[1]
+        wm = w.reshape(n_a, self.pairs, c).transpose(1, 0, 2).reshape(self.pairs, n_a * c)
+        tri = (self.YY.T @ wm).reshape(-1, n_a, c)  # (n(n+1)/2, N_α, C)
+        g = np.empty((n, n, n_a, c))
+        g[self.iu] = tri
+        g[self.iu[1], self.iu[0]] = tri
+        g *= self.D.T[:, None, :, None] * self.D.T[None, :, :, None]  # D_i G_i D_i
+        hh = self.H[:, :, None] * self.H[:, None, :]  # (N_α, K, K)
+        out = np.einsum("akl,ijac->ckilj", hh, g, optimize=True)
+        return out.reshape(c, K * n, K * n)
+
+    def rhs(self, wb):
+        """``Aᵀ (w ⊙ b)`` for weighted columns ``wb`` ``(N_α · M, C)``; ``(K n, C)``."""
+        n_a, c = self.H.shape[0], wb.shape[1]
+        wm = wb.reshape(n_a, self.pairs, c).transpose(1, 0, 2).reshape(self.pairs, n_a * c)
+        yb = (self.Y.T @ wm).reshape(-1, n_a, c) * self.D.T[:, :, None]  # (n, N_α, C)
+        return np.einsum("iac,ak->kic", yb, self.H).reshape(-1, c)
+
+    def solve(self, w, b):
+        """``argmin Σ_t w_tc (A x − b)_tc²`` per column ``c`` of ``b`` ``(T, C)`` with weights
+        ``w`` ``(T, C)``: Cholesky of the column-scaled normal equations (numpy only: no
+        scipy import per worker); ``(K n, C)``."""
+        mats = self.normal_matrices(w)
+        rhs = self.rhs(w * b)
+        x = np.empty_like(rhs)
+        for c, m in enumerate(mats):
+            d = 1.0 / np.sqrt(np.maximum(np.diag(m), 1e-300))
+            m = m * d[:, None] * d[None, :]
+            m[np.diag_indices_from(m)] += 1e-12
+            chol = np.linalg.cholesky(m)
+            x[:, c] = np.linalg.solve(chol.T, np.linalg.solve(chol, rhs[:, c] * d)) * d
+        return x
 
 
-@jit
-def _weighted_rhs(A, w, b, out):
-    """``out = Aᵀ diag(w) b`` per column of ``b`` (deterministic order)."""
-    for c in range(b.shape[1]):
-        for i in range(A.shape[1]):
-            s = 0.0
-            for t in range(A.shape[0]):
-                s += A[t, i] * w[t] * b[t, c]
-            out[i, c] = s
+def _material_balance(nv, alpha, dfg=None):
+    """Per-sample factor giving chrome and dielectric (``F0 = 0.04``) equal say in the fit.
 
+    A dielectric's shaded error is the chrome one times ``m = (F0 + (1 − F0) A1/A0)²``,
+    which grows toward grazing views; ``1/S_c + m/S_d`` (``S`` the means of ``2 n·v`` and
+    ``2 n·v m`` at each ``α``) weighs both materials' relative errors equally.
+    """
+    from shbake.bakers.dfg import dfg_table
+    from shbake.shading.dfg import dfg_lookup
 
-def _factor(A, w):
-    """Cholesky factor of the column-scaled normal matrix ``D Aᵀ diag(w) A D``, and ``D``."""
-    m = np.empty((A.shape[1], A.shape[1]))
-    _normal_matrix(A, w, m)
-    d = 1.0 / np.sqrt(np.maximum(np.diag(m), 1e-300))
-    return scipy.linalg.cho_factor(m * d[:, None] * d[None, :], lower=True), d
-
-
-def _solve(A, w, b, factor=None):
-    """Weighted least squares ``argmin ||diag(√w)(A x − b)||²`` by the normal equations
-    (``factor`` from :func:`_factor` of the same ``A, w`` when reused)."""
-    cho, d = factor if factor is not None else _factor(A, w)
-    rhs = np.empty((A.shape[1], b.shape[1]))
-    _weighted_rhs(A, w, b, rhs)
-    return scipy.linalg.cho_solve(cho, rhs * d[:, None]) * d[:, None]
+    table = dfg_table() if dfg is None else dfg
+    a = dfg_lookup(table, nv, alpha)
+    m = (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * a[:, 1] / np.maximum(a[:, 0], 1e-12)) ** 2
+    out = np.empty_like(m)
+    for x in np.unique(alpha):
+        k = alpha == x
+        s_c, s_d = np.mean(2.0 * nv[k]), np.mean(2.0 * nv[k] * m[k])
+        out[k] = 0.5 * (1.0 + m[k] * s_c / s_d)
+    return out
 
 
 @dataclass
 class ShexpProbe:
-    """A fitted probe: ``p`` ``((lmax_p+1)^2, 3)``, ``q`` ``((lmax_q+1)^2 − 1, 3)``."""
+    """A fitted probe: ``p`` ``(K, (lmax_p+1)^2, 3)``, ``q`` ``(K, (lmax_q+1)^2 − 1, 3)``,
+    the sets' ``knots`` ``(K,)``."""
 
     p: np.ndarray
     q: np.ndarray
+    knots: np.ndarray
     stats: dict
 
 
 class FitPlan:
-    """The probe-independent part of a fit: samples, design matrix, factorisation.
+    """The probe-independent part of a fit: samples, design matrix, view weights.
 
     ``views``/``normals`` ``(T, 3)``: for each of ``config.normals`` Fibonacci
     normals, ``config.views`` views spread uniformly over its hemisphere; each
-    pair at every roughness of ``config.roughness``. ``targets`` computes
-    ``E0`` there: a :class:`QuadraturePlan` (``quadrature``, when given, is
-    one built earlier for the same config and shape) or :class:`ShTargets`.
+    pair at every ``α`` of ``config.alphas``. ``targets`` computes ``E0``
+    there: a :class:`QuadraturePlan` (``quadrature``, when given, is one built
+    earlier for the same config and shape) or :class:`ShTargets`.
     """
 
-    def __init__(self, config: FitConfig, shape: tuple[int, int], quadrature=None):
+    def __init__(self, config: FitConfig, shape: tuple[int, int], quadrature=None, dfg=None):
         self.config = config
         normals = fibonacci_sphere(config.normals)
         local = hemisphere_fibonacci(config.views)
         views = [local @ np.array([*tangent_frame(*n), n]) for n in normals]
         v1 = np.concatenate(views)
         n1 = np.repeat(normals, config.views, axis=0)
-        r = config.roughness
-        self.views = np.tile(v1, (r.size, 1))
-        self.normals = np.tile(n1, (r.size, 1))
-        self.roughness = np.repeat(r, v1.shape[0])
-        self.A = design_rows(self.views, self.normals, self.roughness, config.lmax_p, config.lmax_q)
+        a = config.alphas
+        self.views = np.tile(v1, (a.size, 1))
+        self.normals = np.tile(n1, (a.size, 1))
+        self.alpha = np.repeat(a, v1.shape[0])
+        self.knots = config.knots
+        self.design = Design(v1, n1, a, config.lmax_p, config.lmax_q, self.knots)
+        nv = np.maximum(np.einsum("ij,ij->i", self.views, self.normals), 0.0)
+        self.view_weight = 2.0 * nv
+        self.sample_weight = self.view_weight
+        if config.weights == "shaded-nv-f0":
+            self.sample_weight = self.view_weight * _material_balance(nv, self.alpha, dfg)
         if config.targets == "sh":
-            self.targets = ShTargets(self.views, self.normals, self.roughness,
+            from shbake.bakers.shexp_sh_targets import ShTargets  # scipy.fft: only when asked
+
+            self.targets = ShTargets(self.views, self.normals, self.alpha,
                                      config.targets_lmax, config.samples)  # fmt: skip
         else:
             self.targets = quadrature or QuadraturePlan.build(
-                self.views, self.normals, self.roughness, config.samples, shape
+                self.views, self.normals, self.alpha, config.samples, shape
             )
-        self.unit_weights = np.ones(self.A.shape[0])
-        self.unit_factor = _factor(self.A, self.unit_weights)
 
     def fit(self, pixels) -> ShexpProbe:
-        """Fit ``p``, ``q`` to the map ``pixels`` (lat-long, the plan's shape)."""
+        """Fit the sets to the map ``pixels`` (lat-long, the plan's shape)."""
         return self.fit_targets(self.targets.e0(pixels))
 
+    def fit_many(self, maps) -> list[ShexpProbe]:
+        """:meth:`fit` of several maps, their targets gathered in one pass (quadrature
+        targets); each probe equals :meth:`fit` of its map bit for bit."""
+        if not hasattr(self.targets, "e0_many"):
+            return [self.fit(m) for m in maps]
+        return [self.fit_targets(e0) for e0 in self.targets.e0_many(maps)]
+
     def fit_targets(self, e0: np.ndarray) -> ShexpProbe:
-        """Fit ``p``, ``q`` to given ``E0`` values at the plan's samples, ``(T, 3)``."""
+        """Fit the sets to given ``E0`` values at the plan's samples, ``(T, 3)``."""
         cfg = self.config
         floor = np.maximum(cfg.floor * e0.mean(axis=0), ABSOLUTE_FLOOR)
         floored = int((e0 < floor).sum())
-        target = np.log(np.maximum(e0, floor))
-        x = _solve(self.A, self.unit_weights, target, self.unit_factor)
-        if cfg.weighting != "log":
-            # relative: residual PQ/E0 − 1; linear: (PQ − E0)/mean(E0), the MSE's own proxy
-            scale = np.ones_like(e0) if cfg.weighting == "relative" else np.exp(target - np.log(
-                np.maximum(e0.mean(axis=0), ABSOLUTE_FLOOR)))  # fmt: skip
-            for _ in range(GAUSS_NEWTON_STEPS):
-                x = self._gauss_newton_step(x, target, scale)
-        res = self.A @ x - target
-        rel = np.expm1(res)
+        target_lin = np.maximum(e0, floor)
+        target = np.log(target_lin)
+        if cfg.weights == "log":
+            w = np.ones(target.shape[0])
+        else:
+            # scale-free: E0 relative to its channel mean, so weights stay O(1)
+            rel = target_lin / target_lin.mean(axis=0)
+            w = rel**2 * (self.sample_weight[:, None] if cfg.weights != "shaded" else 1.0)
+        x = self.design.solve(np.broadcast_to(w.reshape(w.shape[0], -1), target.shape), target)
+        polished = 0
+        if cfg.weights.startswith("shaded-nv"):
+            for _ in range(cfg.polish):
+                x, took = self._polish_step(x, target_lin)
+                polished += took
         n_p = n_coeffs(cfg.lmax_p)
-        stats = {
-            "log_rms": float(np.sqrt(np.mean(res**2))),
-            "relative_rms": float(np.sqrt(np.mean(rel**2))),
-            "floored_targets": floored,
-            "targets": int(e0.shape[0]),
-        }
-        return ShexpProbe(x[:n_p], x[n_p:], stats)
+        K, n = cfg.sets, cfg.n_params
+        sets = x.reshape(K, n, 3)
+        stats = self._stats(x, target, target_lin) | {
+            "floored_targets": floored, "targets": int(e0.shape[0]), "polish_steps": polished,
+        }  # fmt: skip
+        return ShexpProbe(sets[:, :n_p], sets[:, n_p:], self.knots.copy(), stats)
 
-    def _gauss_newton_step(self, x, target, scale):
-        """One damped step on ``Σ_t s_t² (exp(A x − b)_t − 1)²`` per channel: the full
-        Gauss–Newton step, halved until the sum decreases (at most 12 times)."""
+    def _shaded_cost(self, x, target_lin, c):
+        with np.errstate(over="ignore"):
+            pq = np.exp(self.design.apply(x))
+        return float(np.sum(self.sample_weight * (pq - target_lin[:, c]) ** 2)), pq
+
+    def _polish_step(self, x, target_lin):
+        """One Gauss–Newton step per channel on ``Σ 2n·v (P Q − E0)²`` (module docstring);
+        returns the new coefficients and how many channels took their step."""
         out = x.copy()
+        took = 0
         for c in range(x.shape[1]):
-            s, b = scale[:, c], target[:, c]
-            e = np.exp(self.A @ x[:, c] - b)
-            # J = diag(s e) A; residual s (e − 1); normal equations Jᵀ J δ = −Jᵀ s (e − 1)
-            delta = _solve(self.A, (s * e) ** 2, ((1.0 - e) / e)[:, None])[:, 0]
-            base = _scaled_cost(self.A, x[:, c], b, s)
+            base, pq = self._shaded_cost(x[:, c], target_lin, c)
+            scale = target_lin[:, c].mean()
+            # J = diag(PQ) A; residual PQ − E0; (Jᵀ W J) δ = −Jᵀ W (PQ − E0)
+            w = self.sample_weight * (pq / scale) ** 2
+            delta = self.design.solve(w[:, None], ((target_lin[:, c] - pq) / pq)[:, None])[:, 0]
             for k in range(STEP_HALVINGS + 1):
                 trial = x[:, c] + 0.5**k * delta
-                if _scaled_cost(self.A, trial, b, s) < base:
+                cost, _ = self._shaded_cost(trial, target_lin, c)
+                if cost < base:
                     out[:, c] = trial
+                    took += 1
                     break
-        return out
+        return out, took
 
-
-def _scaled_cost(A, x, b, s) -> float:
-    """``Σ s² (exp(A x − b) − 1)²`` (overflow reads as +inf: the step is refused)."""
-    with np.errstate(over="ignore"):
-        return float(np.sum((s * np.expm1(A @ x - b)) ** 2))
+    def _stats(self, x, target, target_lin) -> dict:
+        """Log residual, and the shaded relative error ``√(Σ 2n·v (PQ − E0)² / Σ 2n·v E0²)``
+        overall and per fit ``α``."""
+        fit = np.stack([self.design.apply(x[:, c]) for c in range(3)], axis=1)
+        res = fit - target
+        rel = np.minimum(np.expm1(np.minimum(fit - target, 30.0)), 1e12)  # finite for any fit
+        err = (target_lin * rel) ** 2
+        w = self.view_weight[:, None]
+        n_a = self.config.alpha_count
+        num = (w * err).reshape(n_a, -1).sum(axis=1)
+        den = (w * target_lin**2).reshape(n_a, -1).sum(axis=1)
+        by_alpha = [float(x) for x in np.sqrt(num / den)]
+        return {
+            "log_rms": float(np.sqrt(np.mean(res**2))),
+            "shaded_relative_rms": float(np.sqrt(np.sum(w * err) / np.sum(w * target_lin**2))),
+            "shaded_relative_rms_by_alpha": by_alpha,
+        }

@@ -9,7 +9,11 @@ Two error sources, each against an independent or converged value:
   per-target work measured on the subset and scaled to all targets.
 * orders — the fit's own residual: RMS log residual of ``P Q`` against the
   targets of the chosen configuration (in-sample) for each ``(lmax_p,
-  lmax_q)``, with the bytes per probe and the solve time.
+  lmax_q)``, with its shaded relative error, the bytes per probe and the
+  solve time.
+* per ``α`` — the chosen fit's shaded relative error
+  ``√(Σ 2n·v (PQ − E0)² / Σ 2n·v E0²)`` at each fit ``α`` (in-sample; what
+  the ``shaded-nv`` weights minimise).
 
 ``--tol`` picks the fewest samples of :data:`SAMPLE_STUDY` whose target error
 is at most the tolerance.
@@ -57,7 +61,7 @@ def samples_study(pixels, config: FitConfig) -> list[dict]:
     """Target error and gather time per sample count (module docstring)."""
     plan = FitPlan(replace(config, samples=64), pixels.shape[:2])  # geometry only
     pick = np.arange(0, plan.views.shape[0], SUBSET)
-    v, n, r = plan.views[pick], plan.normals[pick], plan.roughness[pick]
+    v, n, r = plan.views[pick], plan.normals[pick], plan.alpha[pick]
     truth, _ = ggx_integrals(pixels, v, n, r, TRUTH_SAMPLES)
     floor = config.floor * truth.mean(axis=0)
     rows = []
@@ -80,7 +84,8 @@ def orders_study(pixels, config: FitConfig, e0) -> list[dict]:
                        pixels.shape[:2])  # fmt: skip
         probe, seconds = _best_time(plan.fit_targets, e0)
         rows.append({"lmax_p": lmax_p, "lmax_q": lmax_q, "fit_log_rms": probe.stats["log_rms"],
-                     "bytes": 12 * (n_coeffs(lmax_p) + n_coeffs(lmax_q) - 1),
+                     "fit_shaded_rms": probe.stats["shaded_relative_rms"],
+                     "bytes": 12 * config.sets * (n_coeffs(lmax_p) + n_coeffs(lmax_q) - 1),
                      "solve_seconds": seconds})  # fmt: skip
     return rows
 
@@ -97,8 +102,15 @@ def pick_samples(rows: list[dict], tol: float) -> int:
     return min(ok)
 
 
-def format_report(samples_rows: list[dict], order_rows: list[dict]) -> str:
-    """The report as two small text tables."""
+def alpha_rows(config: FitConfig, stats: dict) -> list[dict]:
+    """The fit's shaded relative error per fit ``α`` from a probe's ``stats``."""
+    return [{"alpha": float(a), "shaded_relative_rms": e}
+            for a, e in zip(config.alphas, stats["shaded_relative_rms_by_alpha"], strict=True)]
+
+
+def format_report(samples_rows: list[dict], order_rows: list[dict],
+                  by_alpha: list[dict] = ()) -> str:  # fmt: skip
+    """The report as small text tables."""
     lines = ["samples  target error (log RMS)  targets per probe (ms)"]
     lines += [
         f"{r['samples']:>7}  {r['target_log_rms']:>21.4f}  {1e3 * r['targets_seconds']:>22.1f}"
@@ -110,4 +122,7 @@ def format_report(samples_rows: list[dict], order_rows: list[dict]) -> str:
         f"{1e3 * r['solve_seconds']:>10.1f}"
         for r in order_rows
     ]
+    if by_alpha:
+        lines += ["", "  alpha  fit shaded error (relative RMS)"]
+        lines += [f"{r['alpha']:>7.4f}  {r['shaded_relative_rms']:>31.4f}" for r in by_alpha]
     return "\n".join(lines)

@@ -5,8 +5,8 @@ Instead of integrating the map at every target (:class:`QuadraturePlan`),
 look up, dot): ``L`` the map's SH coefficients up to ``lmax``
 (:func:`shbake.sh.projection.project_latlong`), ``L^(n)`` rotated into the
 frame ``(t, b, n)`` of each fit normal, and ``c(v; r)`` the parabolic-map
-table of the Fresnel-free GGX (``F0 = 1``, width ``r²``) at each fit
-roughness (:func:`shbake.brdf.tabulate.tabulate`), read bilinearly at the
+table of the Fresnel-free GGX (``F0 = 1``, width ``α``) at each fit
+width (:func:`shbake.brdf.tabulate.tabulate`), read bilinearly at the
 local view ``v_n``. Tables and frames are built once per configuration.
 
 The cost is one projection and ``T`` dot products of ``(lmax+1)²`` terms;
@@ -23,7 +23,7 @@ import numpy as np
 from shbake.brdf import make_brdf
 from shbake.brdf.sampling import tangent_frame
 from shbake.brdf.tabulate import tabulate
-from shbake.conventions import SH_TARGETS_LMAX_LIMIT, ggx_alpha
+from shbake.conventions import SH_TARGETS_LMAX_LIMIT
 from shbake.errors import ParameterError
 from shbake.jit import pjit
 from shbake.sh.projection import project_latlong
@@ -52,7 +52,7 @@ class ShTargets:
     Parameters
     ----------
     views, normals : (T, 3) world directions; ``normals`` repeat a small set.
-    roughness : (T,) perceptual roughness, a small set of values.
+    roughness : (T,) GGX width ``α``, a small set of values.
     lmax : lighting bands (1–24).
     samples : integration samples per table view (:func:`tabulate`).
     """
@@ -71,7 +71,7 @@ class ShTargets:
         self.normal_of = normal_of.astype(np.int64).reshape(-1)
         self.tables = np.stack(
             [
-                tabulate(make_brdf("ggx", F0=1.0, alpha=float(ggx_alpha(r))), lmax,
+                tabulate(make_brdf("ggx", F0=1.0, alpha=float(r)), lmax,
                          TABLE_RESOLUTION, samples)[0][..., :1]
                 for r in r_values
             ]

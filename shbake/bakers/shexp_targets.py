@@ -1,7 +1,7 @@
 """The SH-exp fit's ``E0`` targets by filtered importance sampling (a map-independent plan).
 
 The fit needs ``E0`` (:mod:`shbake.reference.ggx`) at a fixed set of
-``(v, n, r)`` targets for every probe. Everything that does not depend on the
+``(v, n, α)`` targets for every probe. Everything that does not depend on the
 map — the visible-normal sample directions, the pyramid texels they read and
 their weights — is built once per (targets, samples, map shape) as a
 :class:`QuadraturePlan`; a probe is then one pyramid build and one gather.
@@ -19,9 +19,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from shbake.brdf.ggx import check_geometry, sample_light, vndf_terms
+from shbake.brdf.ggx import check_geometry, ggx_d, sample_light, smith_lambda
 from shbake.brdf.sampling import surface_frame
-from shbake.conventions import check_samples, ggx_alpha
+from shbake.conventions import check_samples
 from shbake.envmap.importance import (
     bright_texels,
     latlong_flat,
@@ -32,6 +32,7 @@ from shbake.envmap.importance import (
 from shbake.envmap.layouts import latlong_texel, row_solid_angle
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
+from shbake.reference.ggx import check_alpha
 from shbake.sh.point_sets import fibonacci_square
 
 LOD_BIAS = 1.0
@@ -40,26 +41,35 @@ LOD_BIAS = 1.0
 
 @pjit
 def _add_point_lights(views, normals, alphas, dirs, energy, out):
-    """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k`` (:func:`vndf_terms`: ``p(l) G1(l)``)."""
+    """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k = Σ_k G1(v) D(h) G1(l) / (4 n·v) E_k``.
+
+    Isotropic GGX needs only ``n·h`` and ``n·l``, so no tangent frame is built: ``D`` and
+    ``Λ`` (:mod:`shbake.brdf.ggx`) get the equivalent local vectors ``(sin θ, 0, cos θ)``,
+    and ``G1(v)/(4 n·v)`` is hoisted out of the light loop.
+    """
     for t in numba.prange(views.shape[0]):
+        vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
-        (tx, ty, tz), (bx, by, bz), (v0, v1, v2) = surface_frame(
-            views[t, 0], views[t, 1], views[t, 2], nx, ny, nz
-        )
+        a = alphas[t]
+        nv = nx * vx + ny * vy + nz * vz
+        front = 1.0 / ((1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nv * nv)), 0.0, nv))
+                       * 4.0 * nv)  # fmt: skip
         for k in range(dirs.shape[0]):
             lx, ly, lz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
-            l2 = nx * lx + ny * ly + nz * lz
-            if l2 <= 0.0:
+            nl = nx * lx + ny * ly + nz * lz
+            if nl <= 0.0:
                 continue
-            l0, l1 = tx * lx + ty * ly + tz * lz, bx * lx + by * ly + bz * lz
-            pdf, g1l, _ = vndf_terms(v0, v1, v2, l0, l1, l2, alphas[t])
-            w = pdf * g1l
+            hn = np.sqrt(max(2.0 + 2.0 * (vx * lx + vy * ly + vz * lz), 1e-300))
+            nh = min(1.0, (nv + nl) / hn)
+            d = ggx_d(a, a, np.sqrt(max(0.0, 1.0 - nh * nh)), 0.0, nh)
+            g1l = 1.0 / (1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nl * nl)), 0.0, nl))
+            w = front * d * g1l
             for c in range(3):
                 out[t, c] += w * energy[k, c]
 
 
 @jit
-def _filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets, log2_omega):
+def filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets, log2_omega):
     """Pyramid texel (flat, across levels) for a sample of density ``pdf`` among ``n``.
 
     Level ``k = ⌊½ log2(Ω_s / Ω_texel) + 1⌋`` clamped to ``[0, levels − 1]``, where
@@ -91,7 +101,7 @@ def _plan_rows(views, normals, alphas, square, height, width, offsets, index, we
                 tan, bit, nrm, v_loc, alphas[t], prm, square[k, 0], square[k, 1]
             )
             if w0 > 0.0:
-                index[t, k] = _filtered_texel(
+                index[t, k] = filtered_texel(
                     lx, ly, lz, pdf, n, height, width, levels, offsets, log2_omega
                 )
             else:
@@ -124,21 +134,28 @@ def _compact(index, weight, offsets, flat_index, flat_weight):
 
 
 @pjit
-def _gather(offsets, index, weight, pixels, out):
+def _gather_many(offsets, index, weight, stacked, out):
+    """``out[b, t] = Σ_k weight_k stacked[index_k, b]`` over target ``t``'s entries, for ``B``
+    maps at once: ``stacked`` ``(texels, B, 3)``, ``out``
+    ``(B, T, 3)``; each entry read once for all maps, sums per map in entry order,
+    so a map's result does not depend on which maps share its pass."""
+    n_maps = stacked.shape[1]
     for t in numba.prange(offsets.shape[0] - 1):
-        a0 = a1 = a2 = 0.0
+        acc = np.zeros((n_maps, 3))
         for k in range(offsets[t], offsets[t + 1]):
             j = index[k]
             w = weight[k]
-            a0 += w * pixels[j, 0]
-            a1 += w * pixels[j, 1]
-            a2 += w * pixels[j, 2]
-        out[t, 0], out[t, 1], out[t, 2] = a0, a1, a2
+            for b in range(n_maps):
+                acc[b, 0] += w * stacked[j, b, 0]
+                acc[b, 1] += w * stacked[j, b, 1]
+                acc[b, 2] += w * stacked[j, b, 2]
+        for b in range(n_maps):
+            out[b, t, 0], out[b, t, 1], out[b, t, 2] = acc[b, 0], acc[b, 1], acc[b, 2]
 
 
 @dataclass
 class QuadraturePlan:
-    """Texels and weights of ``E0`` at fixed ``(v, n, r)`` targets for one map shape.
+    """Texels and weights of ``E0`` at fixed ``(v, n, α)`` targets for one map shape.
 
     Rows are stored back to back (``offsets``, ``index`` into the stacked
     pyramid, ``weight``), each sorted by texel, samples landing in one texel
@@ -155,8 +172,10 @@ class QuadraturePlan:
     alphas: np.ndarray
 
     @classmethod
-    def build(cls, views, normals, roughness, samples: int, shape: tuple[int, int]):
-        v, n, r = check_geometry(views, normals, roughness)
+    def build(cls, views, normals, alpha, samples: int, shape: tuple[int, int]):
+        """The plan for ``(v, n, α)`` targets (``α`` the GGX width) and map ``shape``."""
+        v, n, _ = check_geometry(views, normals, 1.0)
+        a = check_alpha(alpha, v.shape[0])
         samples = check_samples(samples)
         levels = pyramid_levels(shape)
         index = np.empty((v.shape[0], samples), dtype=np.int32)
@@ -164,15 +183,15 @@ class QuadraturePlan:
         count = np.empty(v.shape[0], dtype=np.int64)
         square = fibonacci_square(samples)
         starts = level_offsets(shape, levels)
-        _plan_rows(v, n, ggx_alpha(r), square, shape[0], shape[1], starts, index, weight, count)
+        _plan_rows(v, n, a, square, shape[0], shape[1], starts, index, weight, count)
         offsets = np.concatenate([[0], np.cumsum(count)]).astype(np.int64)
         flat_index = np.empty(offsets[-1], dtype=np.int32)
         flat_weight = np.empty(offsets[-1], dtype=np.float32)
         _compact(index, weight, offsets, flat_index, flat_weight)
-        return cls(tuple(shape), levels, offsets, flat_index, flat_weight, v, n, ggx_alpha(r))
+        return cls(tuple(shape), levels, offsets, flat_index, flat_weight, v, n, a)
 
-    def e0(self, pixels) -> np.ndarray:
-        """``E0`` at the plan's targets, ``(T, 3)`` float64."""
+    def _prepare(self, pixels):
+        """The map's pyramid without its bright texels, and those as point lights."""
         flat, h, w = latlong_flat(pixels)
         if (h, w) != self.shape:
             raise ParameterError(f"plan is for {self.shape[1]}x{self.shape[0]} maps, got {w}x{h}")
@@ -180,9 +199,20 @@ class QuadraturePlan:
         if lights.size:
             flat = flat.copy()
             flat[lights] = 0.0
-        pyramid = latlong_pyramid(flat, self.shape, self.levels)
-        out = np.empty((self.offsets.shape[0] - 1, 3))
-        _gather(self.offsets, self.index, self.weight, pyramid, out)
-        if lights.size:
-            _add_point_lights(self.views, self.normals, self.alphas, dirs, energy, out)
-        return out
+        return latlong_pyramid(flat, self.shape, self.levels), dirs, energy
+
+    def e0(self, pixels) -> np.ndarray:
+        """``E0`` at the plan's targets, ``(T, 3)`` float64."""
+        return self.e0_many([pixels])[0]
+
+    def e0_many(self, maps) -> list[np.ndarray]:
+        """``E0`` of several maps in one pass over the plan's entries (each texel entry read
+        once for all maps); each result equals :meth:`e0` of that map bit for bit."""
+        prepared = [self._prepare(m) for m in maps]
+        stacked = np.stack([p[0] for p in prepared], axis=1)  # (texels, B, 3)
+        out = np.empty((len(prepared), self.offsets.shape[0] - 1, 3))
+        _gather_many(self.offsets, self.index, self.weight, stacked, out)
+        for b, (_, dirs, energy) in enumerate(prepared):
+            if dirs.shape[0]:
+                _add_point_lights(self.views, self.normals, self.alphas, dirs, energy, out[b])
+        return list(out)

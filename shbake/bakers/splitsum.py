@@ -1,13 +1,26 @@
-"""The split-sum baseline prefilter (Karis 2013; Silvennoinen et al. 2025 §3.2).
+"""The split-sum baselines (Karis 2013; Silvennoinen et al. 2025 §3.2).
 
-``E(v, n, r) ≈ L̃(ρ, r) · (F0 A0(n·v, r) + (1 − F0) A1(n·v, r))``: a chain of
+``E(v, n, α) ≈ L̃(ρ, α) · (F0 A0(n·v, α) + (1 − F0) A1(n·v, α))``: a chain of
 octahedral maps ``L̃`` (:mod:`shbake.texture.octahedral`) prefiltered with the
-GGX lobe under ``n = v = ρ``, each level at one roughness, times the DFG table
-(:mod:`shbake.bakers.dfg`). Prefiltering follows Karis' listing: ``N`` half
-vectors importance-sampled from ``D`` (a 2D Fibonacci lattice),
-``L = 2(V·H)H − V``, radiance averaged with weight ``N·L``. Levels: roughness
-``linspace(r_min, r_max, levels)``, size ``max(min_size, top >> k)``. Shaded by
-:mod:`shbake.shading.splitsum`.
+GGX lobe under ``n = v = ρ``, one level per GGX width ``α`` of
+``config.alphas``, times the DFG table (:mod:`shbake.bakers.dfg`). Level
+``k`` has ``max(min_size, top >> k)`` texels per side.
+
+Two prefilters, both from Karis' listing — ``N`` half vectors
+importance-sampled from ``D`` (a 2D Fibonacci lattice), ``L = 2(V·H)H − V``,
+radiance averaged with weight ``N·L``:
+
+* ``plain`` (the paper's baseline, §5.1): each sample reads one texel of the
+  map (``N = 1024``).
+* ``filtered`` (engine-grade, as glTF-IBL-Sampler and Filament's cmgen do):
+  filtered importance sampling (Křivánek & Colbert 2008) — each sample reads
+  the level of the map's solid-angle pyramid (:mod:`shbake.envmap.importance`)
+  whose texels match its share of the sphere, ``Ω_s = 1/(N p)`` with
+  ``p = D(h)/4`` (``n = v``), one level coarser (``LOD_BIAS``). A sun is then
+  spread over the texels of a coarse level instead of landing on a few
+  samples: no fireflies.
+
+Shaded by :mod:`shbake.shading.splitsum`.
 """
 
 from dataclasses import asdict, dataclass
@@ -15,52 +28,68 @@ from dataclasses import asdict, dataclass
 import numba
 import numpy as np
 
+from shbake.bakers.shexp_targets import filtered_texel
 from shbake.brdf.sampling import tangent_frame
-from shbake.conventions import check_roughness, check_samples, ggx_alpha
-from shbake.envmap.layouts import latlong_texel
+from shbake.conventions import check_samples
+from shbake.envmap.importance import latlong_flat, latlong_pyramid, level_offsets, pyramid_levels
+from shbake.envmap.layouts import latlong_texel, row_solid_angle
 from shbake.errors import ParameterError
 from shbake.jit import pjit
+from shbake.reference.ggx import check_alpha
 from shbake.sh.point_sets import fibonacci_square
 from shbake.texture.octahedral import decode as oct_decode
+
+PAPER_ALPHAS = (0.25, 0.36, 0.49, 0.64, 0.81, 1.0)
+"""The evaluation's GGX widths (:mod:`shbake.evaluation.probes`): the paper's levels sit at them."""
+PREFILTERS = ("plain", "filtered")
 
 
 @dataclass(frozen=True)
 class SplitSumConfig:
-    """Mip-chain layout: ``levels`` roughness levels from ``top`` texels down to ``min_size``."""
+    """Mip-chain layout: one level per ``α`` of ``alphas`` from ``top`` texels down to
+    ``min_size``; ``samples`` half vectors per texel; ``prefilter`` (module docstring)."""
 
     top: int = 128
     min_size: int = 32
-    levels: int = 5
-    roughness_min: float = 0.2
-    roughness_max: float = 1.0
+    alphas: tuple = PAPER_ALPHAS
     samples: int = 1024
+    prefilter: str = "plain"
 
     def __post_init__(self):
         if not (8 <= self.min_size <= self.top <= 2048):
             raise ParameterError("split-sum sizes must satisfy 8 ≤ min_size ≤ top ≤ 2048")
-        if not 2 <= self.levels <= 16:
-            raise ParameterError("split-sum levels must be in [2, 16]")
-        check_roughness([self.roughness_min, self.roughness_max], 0.05, 1.0, "roughness range")
-        if self.roughness_min >= self.roughness_max:
-            raise ParameterError("roughness range must be lo < hi")
+        a = check_alpha(np.asarray(self.alphas, float).reshape(-1), name="split-sum levels")
+        if not 2 <= a.size <= 16 or np.any(np.diff(a) <= 0):
+            raise ParameterError("split-sum levels: 2 to 16 increasing GGX widths")
+        object.__setattr__(self, "alphas", tuple(float(x) for x in a))
+        if self.prefilter not in PREFILTERS:
+            raise ParameterError(f"prefilter must be one of {', '.join(PREFILTERS)}")
         check_samples(self.samples)
 
     @property
-    def roughness(self) -> np.ndarray:
-        return np.linspace(self.roughness_min, self.roughness_max, self.levels)
+    def levels(self) -> int:
+        return len(self.alphas)
+
+    @property
+    def alpha_range(self) -> tuple[float, float]:
+        return self.alphas[0], self.alphas[-1]
 
     @property
     def sizes(self) -> list[int]:
         return [max(self.min_size, self.top >> k) for k in range(self.levels)]
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        return asdict(self) | {"alphas": list(self.alphas)}
 
 
 @pjit
-def _prefilter(size, alpha, square, pixels, height, width, out):
+def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, out):
     n = square.shape[0]
     a2 = alpha * alpha
+    levels = offsets.shape[0] - 1
+    log2_omega = np.empty(height)
+    for row in range(height):
+        log2_omega[row] = np.log2(row_solid_angle(row, height, width))
     for row in numba.prange(size):
         for col in range(size):
             nx, ny, nz = oct_decode((col + 0.5) / size, (row + 0.5) / size)
@@ -81,7 +110,13 @@ def _prefilter(size, alpha, square, pixels, height, width, out):
                 nl = lx * nx + ly * ny + lz * nz
                 if nl <= 0.0:
                     continue
-                j = latlong_texel(lx, ly, lz, height, width)
+                if filtered:
+                    q = (ct * ct) * (a2 - 1.0) + 1.0
+                    pdf = a2 / (np.pi * q * q) / 4.0  # D(h) (n·h) / (4 v·h), n = v
+                    j = filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets,
+                                       log2_omega)  # fmt: skip
+                else:
+                    j = latlong_texel(lx, ly, lz, height, width)
                 acc0 += pixels[j, 0] * nl
                 acc1 += pixels[j, 1] * nl
                 acc2 += pixels[j, 2] * nl
@@ -93,14 +128,18 @@ def _prefilter(size, alpha, square, pixels, height, width, out):
 
 def prefilter_chain(pixels, config: SplitSumConfig) -> list[np.ndarray]:
     """The prefiltered octahedral levels, float32 ``(size_k, size_k, 3)`` each."""
-    if pixels.ndim != 3 or pixels.shape[1] != 2 * pixels.shape[0]:
-        raise ParameterError("split-sum prefiltering takes a lat-long (2:1) RGB map")
-    h, w = pixels.shape[:2]
-    flat = np.ascontiguousarray(pixels.reshape(-1, 3), dtype=np.float32)
+    flat, h, w = latlong_flat(pixels)
+    if config.prefilter == "filtered":
+        levels = pyramid_levels((h, w))
+        offsets = level_offsets((h, w), levels)
+        flat = latlong_pyramid(flat, (h, w), levels)
+    else:
+        offsets = level_offsets((h, w), 1)
     square = fibonacci_square(config.samples)
-    levels = []
-    for size, r in zip(config.sizes, config.roughness, strict=True):
+    out_levels = []
+    for size, a in zip(config.sizes, config.alphas, strict=True):
         out = np.empty((size, size, 3))
-        _prefilter(size, float(ggx_alpha(r)), square, flat, h, w, out)
-        levels.append(out.astype(np.float32))
-    return levels
+        _prefilter(size, float(a), square, flat, h, w, config.prefilter == "filtered", offsets,
+                   out)  # fmt: skip
+        out_levels.append(out.astype(np.float32))
+    return out_levels

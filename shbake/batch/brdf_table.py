@@ -13,9 +13,8 @@ from shbake.bakers.kautz_report import settings_report
 from shbake.brdf import make_brdf
 from shbake.brdf.tabulate import parse_vary, tabulate_axes
 from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
-from shbake.errors import OutputError
 from shbake.format.asset import write_asset
-from shbake.format.atomic import check_writable_dir
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.kautz_images import write_band_exrs, write_sheet
 from shbake.format.kautz_table import build_table_asset, table_at
 from shbake.progress import NO_PROGRESS
@@ -47,9 +46,9 @@ def bake_brdf_table(
     lmax = check_lmax(lmax, limit=KAUTZ_LMAX_LIMIT)
     brdf = make_brdf(model, merl_path=merl_path, **(params or {}))
     axes = [parse_vary(v) for v in vary]
-    check_writable_dir(output)
-    if exr_dir is not None and os.path.exists(exr_dir) and not os.path.isdir(exr_dir):
-        raise OutputError(f"{exr_dir}: exists and is not a directory")
+    check_output_path(output)
+    if exr_dir is not None:
+        check_output_dir(exr_dir, "--exr-dir")
     points = 1
     for _, values in axes:
         points *= len(values)
@@ -107,7 +106,7 @@ def bake_brdf_table(
         )
     write_asset(output, asset)
     if exr_dir is not None:
-        os.makedirs(exr_dir, exist_ok=True)
+        makedirs(exr_dir)
         point = table_at(asset)
         written = write_band_exrs(exr_dir, point.coeffs, lmax, brdf.coloured)
         sheet_path = os.path.join(exr_dir, "sheet.png")

@@ -11,6 +11,7 @@ import os
 from shbake.bakers.cube_prefilter import prefilter_chain
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
+from shbake.format.atomic import makedirs
 from shbake.format.exports import target_module
 from shbake.format.exports.source import load_source, require_sh
 
@@ -59,7 +60,7 @@ def export_assets(
         if not (many if many is not None else len(assets) > 1):
             dest = out
         else:
-            os.makedirs(out, exist_ok=True)
+            makedirs(out)
             stem = os.path.splitext(os.path.basename(path))[0]
             dest = os.path.join(out, stem + mod.EXTENSION)
         extra = dict(options)

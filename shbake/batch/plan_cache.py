@@ -20,6 +20,7 @@ import functools
 import hashlib
 import json
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -73,15 +74,15 @@ def _load(path: Path) -> QuadraturePlan | None:
         with np.load(path) as z:
             shape = tuple(int(x) for x in z["shape"])
             return QuadraturePlan(shape, int(z["levels"]), *(z[k] for k in ARRAYS))
-    except (OSError, KeyError, ValueError):
-        return None
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
+        return None  # a truncated or foreign entry is rebuilt
 
 
 def _store(path: Path, write) -> None:
     """Write a cache entry atomically with ``write(file)``."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(str(path)) as tmp, open(tmp, "wb") as f:
+        with atomic_path(str(path), independent=True) as tmp, open(tmp, "wb") as f:
             write(f)
     except OSError:
         pass  # a cache that cannot be written only costs time
@@ -116,7 +117,7 @@ def cached_dfg_table() -> np.ndarray:
         table = np.load(path)
         if table.shape == (DFG_SIZE, DFG_SIZE, 2):
             return table
-    except (OSError, ValueError):
+    except (OSError, ValueError, EOFError):
         pass
     table = dfg.dfg_table()
     _store(path, lambda f: np.save(f, table))

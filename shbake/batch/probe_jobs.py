@@ -13,16 +13,19 @@ and reused by every job that shares its configuration and map shape.
 import functools
 import multiprocessing
 import os
+import re
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numba
 
+from shbake import signals
 from shbake.bakers.shexp import FitConfig, FitPlan
 from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
+from shbake.format.atomic import detached, refuse_same_file
 from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
 
@@ -52,22 +55,51 @@ def shared_dfg_table():
     return cached_dfg_table()
 
 
-def run_probe_job(job: ProbeJob) -> dict:
-    """Fit one probe and write it; returns a summary (no timing, for determinism).
-    Without an output the summary carries the probe (``p``, ``q``, ``stats``, ``meta``)."""
+GATHER_BATCH = 8
+"""Probes whose targets are gathered in one pass over the plan (one worker's chunk)."""
+
+
+def _load(job: ProbeJob):
     env = load_environment(
         job.source, negative=job.negative, fix_nonfinite=job.fix_nonfinite, quiet=True
     )
     if env.layout != "latlong":
         raise InputError(f"{job.source}: probe-fit takes lat-long maps (2:1), got {env.layout}")
-    plan = fit_plan(job.config, env.shape)
-    probe = plan.fit(env.pixels)
+    return env
+
+
+def _finish(job: ProbeJob, env, probe) -> dict:
     asset = build_shexp_asset(probe, job.config, shared_dfg_table(), env.meta)
     summary = {"source": job.source, "output": job.output, "bytes": probe_bytes(asset)}
     if job.output is None:
-        return summary | {"p": probe.p, "q": probe.q, "stats": probe.stats, "meta": env.meta}
-    write_asset(job.output, asset)
+        return summary | {"p": probe.p, "q": probe.q, "knots": probe.knots, "stats": probe.stats,
+                          "meta": env.meta}  # fmt: skip
+    with detached():  # each probe of a batch is atomic on its own (docs/FORMAT.md §1)
+        write_asset(job.output, asset)
     return summary | probe.stats
+
+
+def run_probe_job(job: ProbeJob) -> dict:
+    """Fit one probe and write it; returns a summary (no timing, for determinism).
+    Without an output the summary carries the probe (``p``, ``q``, ``knots``, ``stats``,
+    ``meta``)."""
+    return run_probe_batch([job])[0]
+
+
+def run_probe_batch(jobs: list[ProbeJob]) -> list[dict]:
+    """Fit several probes, gathering the targets of those that share a configuration and
+    map shape in one pass (:meth:`FitPlan.fit_many`); summaries in job order. A probe's
+    bytes do not depend on the batch it ran in."""
+    envs = [_load(job) for job in jobs]
+    groups: dict = {}
+    for i, (job, env) in enumerate(zip(jobs, envs, strict=True)):
+        groups.setdefault((job.config, env.shape), []).append(i)
+    results: list = [None] * len(jobs)
+    for (config, shape), members in groups.items():
+        probes = fit_plan(config, shape).fit_many([envs[i].pixels for i in members])
+        for i, probe in zip(members, probes, strict=True):
+            results[i] = _finish(jobs[i], envs[i], probe)
+    return results
 
 
 def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
@@ -83,7 +115,13 @@ def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
 
 
 def _single_thread():
+    signals.worker_init()
     numba.set_num_threads(1)
+
+
+def check_jobs(jobs: list[ProbeJob]) -> None:
+    """Refuse, before any work, a job whose output is any job's map (same file)."""
+    refuse_same_file([j.output for j in jobs if j.output], [j.source for j in jobs])
 
 
 def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict]:
@@ -91,24 +129,25 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict
 
     Worker processes (spawned) run numba on one thread each. Results keep the job order.
     """
+    check_jobs(jobs)
     if not 1 <= n_jobs <= (os.cpu_count() or 1) * 4:
         raise ParameterError(f"--jobs must be in [1, {(os.cpu_count() or 1) * 4}], got {n_jobs}")
     results = []
     if n_jobs == 1:
-        for i, job in enumerate(jobs):
-            results.append(run_probe_job(job))
+        for i in range(0, len(jobs), GATHER_BATCH):
+            results.extend(run_probe_batch(jobs[i : i + GATHER_BATCH]))
             if progress:
-                progress(i + 1, len(jobs))
+                progress(len(results), len(jobs))
         return results
     _warm_plan_cache(jobs)
     # spawn, not fork: forking a process whose numba thread pool is running is unsafe
     context = multiprocessing.get_context("spawn")
+    batches = [jobs[i : i + GATHER_BATCH] for i in range(0, len(jobs), GATHER_BATCH)]
     with ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread) as pool:
-        chunk = max(1, len(jobs) // (4 * n_jobs))
-        for i, res in enumerate(pool.map(run_probe_job, jobs, chunksize=chunk)):
-            results.append(res)
+        for batch in pool.map(run_probe_batch, batches):
+            results.extend(batch)
             if progress:
-                progress(i + 1, len(jobs))
+                progress(len(results), len(jobs))
     return results
 
 
@@ -117,8 +156,17 @@ def _dask_job(job: ProbeJob) -> dict:
     return run_probe_job(job)
 
 
+SCHEDULER_ADDRESS = re.compile(r"((tcp|tls|inproc|ucx|ws|wss)://)?[A-Za-z0-9_.\-\[\]:]+:\d+/?")
+"""What a Dask scheduler address looks like (checked before connecting, which can take 20 s)."""
+
+
 def run_dask(jobs: list[ProbeJob], address: str, progress=None) -> list[dict]:
     """Run jobs on the Dask distributed scheduler at ``address``; results keep job order."""
+    check_jobs(jobs)
+    if not SCHEDULER_ADDRESS.fullmatch(str(address)):
+        raise ParameterError(
+            f"--scheduler {address!r}: expected an address such as tcp://host:8786"
+        )
     try:
         from distributed import Client, as_completed
     except ImportError:  # pragma: no cover - dask is an install requirement

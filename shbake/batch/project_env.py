@@ -20,7 +20,7 @@ from shbake.envmap.layouts import latlong_directions
 from shbake.errors import OutputError, ParameterError
 from shbake.evaluation.env_sh import irradiance_errors
 from shbake.format.asset import write_asset
-from shbake.format.atomic import check_writable_dir
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_png
 from shbake.progress import NO_PROGRESS
 from shbake.sh.point_sets import fibonacci_sphere
@@ -101,11 +101,11 @@ def project_environment(
     check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
     if exports and (not irradiance_sh or irradiance_lmax < 2):
         raise ParameterError("--export needs --irradiance with irradiance lmax >= 2")
-    check_writable_dir(output)
-    if exr_dir is not None and os.path.exists(exr_dir) and not os.path.isdir(exr_dir):
-        raise OutputError(f"{exr_dir}: exists and is not a directory")
+    check_output_path(output)
+    if exr_dir is not None:
+        check_output_dir(exr_dir, "--exr-dir")
     environment = load_environment(env_path, layout, colorspace, negative, fix_nonfinite, quiet)
-    provenance = {"command_line": command_line, "input_abspath": os.path.abspath(env_path)}
+    provenance = {"command_line": command_line}
     asset, summary = bake_env_sh(
         environment,
         lmax=lmax,
@@ -139,7 +139,7 @@ def project_environment(
     write_asset(output, asset)
     written = [output]
     if maps:
-        os.makedirs(exr_dir, exist_ok=True)
+        makedirs(exr_dir)
         for name, img in maps.items():
             path = os.path.join(exr_dir, name)
             write_exr(path, img, half=not float_exr, attrs={"envmap": 0})

@@ -11,8 +11,10 @@ from shbake.brdf import (
     blinn_phong,
     ggx,
     kajiya_kay,
+    lafortune,
     lambert,
     merl,
+    microfacet,
     phong,
     ward,
 )
@@ -36,6 +38,10 @@ def brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, out):
         ggx.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
     elif model == 6:
         kajiya_kay.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    elif model == 8:
+        microfacet.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
+    elif model == 9:
+        lafortune.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
     else:
         merl.evaluate_data(data, sx, sy, sz, vx, vy, vz, out)
 
@@ -55,6 +61,10 @@ def lobe_sample(model, prm, vx, vy, vz, ur, ua):
         return ggx.sample(prm, vx, vy, vz, ur, ua)
     if model == 6:
         return kajiya_kay.sample(prm, vx, vy, vz, ur, ua)
+    if model == 8:
+        return microfacet.sample(prm, vx, vy, vz, ur, ua)
+    if model == 9:
+        return lafortune.sample(prm, vx, vy, vz, ur, ua)
     return merl.sample(prm, vx, vy, vz, ur, ua)
 
 
@@ -73,4 +83,8 @@ def lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz):
         return ggx.pdf(prm, sx, sy, sz, vx, vy, vz)
     if model == 6:
         return kajiya_kay.pdf(prm, sx, sy, sz, vx, vy, vz)
+    if model == 8:
+        return microfacet.pdf(prm, sx, sy, sz, vx, vy, vz)
+    if model == 9:
+        return lafortune.pdf(prm, sx, sy, sz, vx, vy, vz)
     return merl.pdf(prm, sx, sy, sz, vx, vy, vz)

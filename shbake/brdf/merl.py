@@ -12,12 +12,14 @@ half/difference angles and interpolates trilinearly in index space (missing
 values read as 0, ``θ`` beyond the last sample clamps, ``φ_d`` wraps).
 """
 
+import os
 
 import numpy as np
 
+from shbake import resources
 from shbake.brdf.phong import mirror_lobe_pdf, mirror_lobe_sample
 from shbake.brdf.spec import ModelSpec, Param
-from shbake.errors import InputError
+from shbake.errors import InputError, ResourceError
 from shbake.jit import jit
 
 N_TH, N_TD, N_PD = 90, 90, 180
@@ -49,8 +51,11 @@ def read_merl(path: str) -> np.ndarray:
     Raises :class:`~shbake.errors.InputError` for a missing, truncated or
     malformed file, or non-finite values.
     """
-    try:
-        raw = open(path, "rb").read()
+    expected = 12 + 3 * 8 * N_TH * N_TD * N_PD
+    try:  # special files refused before opening; never more than the format's size read
+        raw = resources.read_bounded(os.fspath(path), expected, "MERL file (--merl)")
+    except ResourceError as e:
+        raise InputError(str(e)) from None
     except OSError as e:
         raise InputError(f"{path}: cannot read MERL file ({e.strerror})") from None
     if len(raw) < 12:

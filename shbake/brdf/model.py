@@ -10,8 +10,10 @@ from shbake.brdf import (
     blinn_phong,
     ggx,
     kajiya_kay,
+    lafortune,
     lambert,
     merl,
+    microfacet,
     phong,
     ward,
 )
@@ -22,7 +24,10 @@ from shbake.jit import pjit
 
 MODELS: dict[str, ModelSpec] = {
     m.SPEC.name: m.SPEC
-    for m in (lambert, phong, blinn_phong, ashikhmin_shirley, ward, ggx, kajiya_kay, merl)
+    for m in (
+        lambert, phong, blinn_phong, ashikhmin_shirley, ward, ggx, kajiya_kay, merl,
+        microfacet, lafortune,
+    )
 }
 """Model name → :class:`~shbake.brdf.spec.ModelSpec`, in kernel-id order."""
 

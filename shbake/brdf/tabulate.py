@@ -49,6 +49,7 @@ from shbake.brdf.sampling import cosine_pdf
 from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, check_lmax, n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
+from shbake.resources import check_memory
 from shbake.sh.basis import recurrence_tables, sh_eval_into
 from shbake.texture.parabolic import check_resolution, texel_views
 
@@ -420,6 +421,16 @@ def parse_vary(spec: str) -> tuple[str, np.ndarray]:
     return name.strip(), np.linspace(lo, hi, count)
 
 
+TABLE_COPIES = 3
+"""float64 copies of the tables alive at once (per-point tables, their stack, the asset's)."""
+
+
+def table_bytes(points: int, resolution, lmax: int) -> float:
+    """Memory estimate (bytes) of ``points`` tables of ``resolution`` texels and ``lmax``."""
+    h, w = (resolution, resolution) if isinstance(resolution, int) else (resolution or (32, 32))
+    return float(points) * h * w * (lmax + 1) ** 2 * 3 * 8 * TABLE_COPIES
+
+
 def tabulate_axes(
     brdf: BRDF,
     vary: list[tuple[str, np.ndarray]],
@@ -441,6 +452,8 @@ def tabulate_axes(
         for value in values:
             brdf.with_values(**{name: value})
     points = list(itertools.product(*[range(len(v)) for _, v in vary]))
+    check_memory(table_bytes(len(points), kwargs.get("resolution"), kwargs.get("lmax", 4)),
+                 "this table")  # fmt: skip
     tables, convs = [], []
     for idx, point in enumerate(points):
         b = brdf.with_values(

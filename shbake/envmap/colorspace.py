@@ -18,12 +18,22 @@ def _colour():
     return colour
 
 
+DISPLAY_SRGB = ("sRGB-display", "srgb-display")
+"""Names declaring display-referred sRGB pixels (8-bit PNG/JPEG): the sRGB transfer function
+is decoded (IEC 61966-2-1), primaries are Rec.709."""
+
+
 def to_working_space(pixels: np.ndarray, name: str) -> np.ndarray:
     """Convert *linear* RGB in colourspace ``name`` to linear Rec.709 (CAT02 adaptation).
 
     The input is taken as scene-linear (no transfer function is decoded):
-    HDR maps are stored linear.
+    HDR maps are stored linear. ``sRGB-display`` (:data:`DISPLAY_SRGB`) instead decodes
+    the sRGB transfer function of display-referred 8-bit images.
     """
+    if name in DISPLAY_SRGB:
+        x = np.asarray(pixels, dtype=np.float64)
+        lin = np.where(x <= 0.04045, x / 12.92, ((np.maximum(x, 0.04045) + 0.055) / 1.055) ** 2.4)
+        return lin.astype(np.float32)
     if name in (WORKING_SPACE, "Rec.709", "sRGB", "linear-rec709"):
         return pixels
     colour = _colour()

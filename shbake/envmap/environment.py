@@ -1,5 +1,7 @@
 """An environment map loaded, validated and ready to integrate."""
 
+import os
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -80,6 +82,12 @@ def load_environment(
     → negative policy. See :mod:`shbake.envmap.repair` for the policies.
     """
     raw, info = read_image(path)
+    if info.get("display_referred") and colorspace is None and not quiet:
+        print(
+            f"shbake: warning: {path}: {info['format']} pixels are display-referred, read as "
+            "linear radiance; give --colorspace sRGB-display to decode sRGB",
+            file=sys.stderr,
+        )
     rgb, channel_note = to_rgb(raw, info["channelnames"])
     h, w = rgb.shape[:2]
     layout = check_layout(layout, h, w) if layout else detect_layout(h, w, info["envmap"])
@@ -96,6 +104,7 @@ def load_environment(
     meta = {
         "path": str(path),
         "sha256": sha256_of(path),
+        "size": os.stat(path).st_size,
         "width": w,
         "height": h,
         "layout": layout,

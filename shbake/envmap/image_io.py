@@ -1,15 +1,19 @@
 """Reading HDR images (EXR, Radiance HDR, anything OpenImageIO reads) as float32."""
 
-import hashlib
-import os
-
 import numpy as np
 import OpenImageIO as oiio
 
+from shbake import resources
 from shbake.errors import ImageReadError
 
 MAX_PIXELS = 1 << 28
 """Refuse images above 268 M pixels (a 16k×16k map is 268 M): a guard against absurd headers."""
+MAX_DECODED_BYTES = 2 << 30
+"""Refuse images whose decoded float32 pixels exceed 2 GiB (a 16k × 8k RGBA map), whatever
+the file size: a zip EXR of one colour compresses ~2000:1."""
+WORKING_COPIES = 4
+"""float32 RGB copies of the image a command may hold at once (decode, RGB, repair,
+conversion), used for the memory estimate."""
 
 
 def read_image(path: str) -> tuple[np.ndarray, dict]:
@@ -24,11 +28,7 @@ def read_image(path: str) -> tuple[np.ndarray, dict]:
     ImageReadError
         Missing, empty, non-image, truncated or corrupt file.
     """
-    if not os.path.exists(path):
-        raise ImageReadError(f"{path}: no such file")
-    if os.path.isdir(path):
-        raise ImageReadError(f"{path}: is a directory, not an image")
-    if os.path.getsize(path) == 0:
+    if resources.check_regular_file(path, "image").st_size == 0:
         raise ImageReadError(f"{path}: empty file")
     inp = oiio.ImageInput.open(path)
     if inp is None:
@@ -40,8 +40,20 @@ def read_image(path: str) -> tuple[np.ndarray, dict]:
         spec = inp.spec()
         if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
             raise ImageReadError(f"{path}: image has no pixels")
-        if spec.width * spec.height > MAX_PIXELS:
+        pixels_n = spec.width * spec.height
+        if pixels_n > MAX_PIXELS:
             raise ImageReadError(f"{path}: {spec.width}x{spec.height} exceeds {MAX_PIXELS} pixels")
+        decoded = pixels_n * spec.nchannels * 4
+        if decoded > MAX_DECODED_BYTES:
+            raise ImageReadError(
+                f"{path}: {spec.width}x{spec.height}x{spec.nchannels} decodes to "
+                f"{resources.human(decoded)}, above the {resources.human(MAX_DECODED_BYTES)} "
+                "an input image may have"
+            )
+        resources.check_memory(
+            decoded + WORKING_COPIES * pixels_n * 3 * 4,
+            f"reading {path} ({spec.width}x{spec.height})",
+        )
         pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
         err = inp.geterror().strip()
         if pixels is None or err:
@@ -51,6 +63,8 @@ def read_image(path: str) -> tuple[np.ndarray, dict]:
         meta = {
             "channelnames": tuple(spec.channelnames),
             "format": str(spec.format),
+            "display_referred": spec.format.basetype in (oiio.UINT8, oiio.UINT16)
+            and spec.getattribute("oiio:ColorSpace") not in ("linear", "Linear", "lin_rec709"),
             "envmap": {0: "latlong", 1: "cube"}.get(envmap, None) if envmap is not None else None,
         }
     finally:
@@ -84,10 +98,5 @@ def to_rgb(pixels: np.ndarray, channelnames: tuple[str, ...]) -> tuple[np.ndarra
 
 
 def sha256_of(path: str) -> str:
-    """Hex SHA-256 of a file's bytes."""
-
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+    """Hex SHA-256 of a file's bytes (bounded by its size; special files refused)."""
+    return resources.sha256_of(path)

@@ -22,20 +22,14 @@ apart).
 
 import numpy as np
 
+from shbake.conventions import CUBE_FACES
 from shbake.errors import LayoutError
 from shbake.jit import jit
 
 LAYOUTS = ("latlong", "cube-strip", "cross-h", "cross-v")
 
 # Per face: direction = A @ (s, t, 1), s = left→right, t = top→bottom in [-1, 1].
-_STRIP_FACES = {
-    "+X": ((0, 0, 1), (0, -1, 0), (1, 0, 0)),
-    "-X": ((0, 0, -1), (0, -1, 0), (-1, 0, 0)),
-    "+Y": ((1, 0, 0), (0, 0, 1), (0, -1, 0)),
-    "-Y": ((1, 0, 0), (0, 0, -1), (0, 1, 0)),
-    "+Z": ((-1, 0, 0), (0, -1, 0), (0, 0, 1)),
-    "-Z": ((1, 0, 0), (0, -1, 0), (0, 0, -1)),
-}
+_STRIP_FACES = dict(CUBE_FACES)  # the one table of face orientations (shbake.conventions)
 _CROSS_POLES = {
     "+Y": ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
     "-Y": ((-1, 0, 0), (0, 0, -1), (0, -1, 0)),
@@ -71,23 +65,29 @@ _CELLS = {
 }
 
 
+def fits_layout(layout: str, height: int, width: int) -> bool:
+    """Whether a ``width × height`` image has ``layout``'s shape (the one rule detection and
+    ``--layout`` share)."""
+    return {
+        "latlong": width == 2 * height and height >= 2,
+        "cube-strip": height == 6 * width and width >= 1,
+        "cross-h": 3 * width == 4 * height and width % 4 == 0 and width >= 4,
+        "cross-v": 4 * width == 3 * height and width % 3 == 0 and width >= 3,
+    }[layout]
+
+
 def detect_layout(height: int, width: int, envmap_attr: str | None = None) -> str:
-    """Layout from the image shape (and OpenEXR's ``envmap`` attribute if present)."""
-    if envmap_attr == "latlong" and width == 2 * height:
-        return "latlong"
-    if envmap_attr == "cube" and height == 6 * width:
+    """Layout from the image shape (and OpenEXR's ``envmap`` attribute if present): the
+    first of :data:`LAYOUTS` whose shape fits (:func:`fits_layout`), so that a detected
+    layout is always one ``--layout`` accepts."""
+    if envmap_attr == "cube" and fits_layout("cube-strip", height, width):
         return "cube-strip"
-    if width == 2 * height:
-        return "latlong"
-    if height == 6 * width:
-        return "cube-strip"
-    if 3 * width == 4 * height and width % 4 == 0:
-        return "cross-h"
-    if 4 * width == 3 * height and width % 3 == 0:
-        return "cross-v"
+    for layout in ("latlong", "cube-strip", "cross-h", "cross-v"):
+        if fits_layout(layout, height, width):
+            return layout
     raise LayoutError(
-        f"cannot tell the layout of a {width}x{height} image: expected 2:1 lat-long, "
-        "1:6 cube strip, 4:3 or 3:4 cross (or give --layout)"
+        f"cannot tell the layout of a {width}x{height} image: expected 2:1 lat-long of at "
+        "least 2 rows, 1:6 cube strip, 4:3 or 3:4 cross (or give --layout)"
     )
 
 
@@ -95,13 +95,7 @@ def check_layout(layout: str, height: int, width: int) -> str:
     """Validate that ``layout`` fits a ``width × height`` image."""
     if layout not in LAYOUTS:
         raise LayoutError(f"unknown layout {layout!r}; choose one of {', '.join(LAYOUTS)}")
-    ok = {
-        "latlong": width == 2 * height and height >= 2,
-        "cube-strip": height == 6 * width,
-        "cross-h": 3 * width == 4 * height and width % 4 == 0,
-        "cross-v": 4 * width == 3 * height and width % 3 == 0,
-    }[layout]
-    if not ok:
+    if not fits_layout(layout, height, width):
         raise LayoutError(f"a {width}x{height} image does not have the {layout} layout's shape")
     return layout
 
@@ -220,4 +214,3 @@ def texels(layout: str, height: int, width: int):
             np.ones((height, width), dtype=bool),
         )
     return cube_texels(layout, height, width)
-

@@ -1,27 +1,37 @@
 """SH-exp vs split-sum against ground truth on rendered spheres (paper §5.1).
 
-A case is (map, material, roughness, view): a sphere of ``size²`` pixels seen
+A case is (map, material, α, view): a sphere of ``size²`` pixels seen
 orthographically from a camera at yaw ``θ`` about +Y (view ``v`` the camera
-direction), shaded three ways — ground truth (:func:`ggx_integrals`, dense
-visible-normal quadrature), the SH-exp probe and the split-sum probe. Error:
-mean squared error over the sphere's pixels and channels. The truth's own
-error is estimated from a second truth at a quarter of the samples:
-``MSE(T_{N/4} − T_N) / 5`` (each estimate's variance shrinking as ``1/N``),
-so a case whose two MSEs differ by less than it is a tie in all but name.
+direction), shaded by every probe under test and by the ground truth
+(:func:`ggx_integrals`, MIS). Error: mean squared error over the sphere's
+pixels and channels. The truth's own error is estimated from a second truth
+at a quarter of the samples: ``MSE(T_{N/4} − T_N) / 5`` (each estimate's
+variance shrinking as ``1/N``), so a case whose two MSEs differ by less than
+it is a tie in all but name.
+
+The paper's test values (§5.1, Fig. 4–5): ``α ∈ [0.25, 1]`` "distributed
+according to a perceptual roughness remapping" (Burley 2012): ``α = r²`` for
+``r = 0.5, 0.6, …, 1.0`` evenly spaced, end points included — six widths
+(:data:`ALPHAS`); with 8 maps, 2 materials and 2 views that is the paper's
+192 cases. shbake uses 4 views and the 6 shared maps (288 cases).
 """
 
+import hashlib
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from shbake.format.probe import check_probe_roughness
+from shbake.errors import ParameterError
+from shbake.format.probe import check_probe_alpha
+from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.sphere import sphere_geometry
 from shbake.reference.ggx import ggx_integrals
 from shbake.shading.shexp import evaluate_shexp
 from shbake.shading.splitsum import evaluate_splitsum
 
 MATERIALS = {"chrome": 1.0, "dielectric": 0.04}
-ROUGHNESS = (0.25, 0.4, 0.6, 0.8, 1.0)
+ALPHAS = tuple(round(r * r, 6) for r in (0.5, 0.6, 0.7, 0.8, 0.9, 1.0))
 VIEW_YAWS = (0.0, 90.0, 180.0, 270.0)
 
 
@@ -39,43 +49,101 @@ def sphere_views(size: int, yaw_deg: float):
     return normals[keep], view, mask2
 
 
+def shade_probe(asset, views, normals, alpha, f0) -> np.ndarray:
+    """Radiance ``(T, 3)`` of a ``shexp_probe`` or ``splitsum_probe`` asset at ``(v, n, α)``
+    for Schlick ``F0`` (scalar), refusing ``α`` outside the probe's range."""
+    check_probe_alpha(asset, alpha)
+    f0s = (float(f0),) * 3
+    if asset.kind == "shexp_probe":
+        return evaluate_shexp(asset["/p"], asset["/q"], asset["/dfg"], views, normals, alpha,
+                              f0s, asset["/knots"])  # fmt: skip
+    if asset.kind == "splitsum_probe":
+        levels = [asset[f"/levels/{k}"] for k in range(int(asset.attrs["levels"]))]
+        return evaluate_splitsum(levels, asset["/level_alpha"], asset["/dfg"], views, normals,
+                                 alpha, f0s)  # fmt: skip
+    raise ParameterError(f"not a probe asset: {asset.kind}")
+
+
 @dataclass
-class ProbeRenders:
-    """Radiance ``(P, 3)`` per shading method for one case."""
+class CaseTruth:
+    """Ground truth ``E0``, ``E1`` of one (α, view) on the sphere, and a coarse pair."""
 
-    truth: np.ndarray
-    coarse_truth: np.ndarray
-    shexp: np.ndarray
-    splitsum: np.ndarray
+    normals: np.ndarray
+    views: np.ndarray
+    e0: np.ndarray
+    e1: np.ndarray
+    coarse_e0: np.ndarray
+    coarse_e1: np.ndarray
 
-    def mse(self) -> tuple[float, float]:
-        return (
-            float(np.mean((self.shexp - self.truth) ** 2)),
-            float(np.mean((self.splitsum - self.truth) ** 2)),
-        )
-
-    def truth_mse(self) -> float:
-        """Estimated MSE of the truth itself (module docstring)."""
-        return float(np.mean((self.coarse_truth - self.truth) ** 2)) / 5.0
+    def radiance(self, f0: float, coarse: bool = False) -> np.ndarray:
+        e0, e1 = (self.coarse_e0, self.coarse_e1) if coarse else (self.e0, self.e1)
+        return f0 * e0 + (1.0 - f0) * e1
 
 
-def render_case(pixels, shexp_asset, splitsum_asset, roughness, f0, yaw, size, truth_samples):
-    """Shade one case three ways; returns :class:`ProbeRenders`."""
-    for asset in (shexp_asset, splitsum_asset):
-        check_probe_roughness(asset, roughness)
+def case_truth(pixels, alpha: float, yaw: float, size: int, truth_samples: int,
+               cache_dir=None) -> CaseTruth:  # fmt: skip
+    """The truth of every material at one (α, view): ``E0``, ``E1`` once.
+
+    ``cache_dir``: keep the integrals there as ``.npy`` files named by a SHA-256 of the
+    map's pixels and the case (the truth does not depend on the probes under test)."""
     normals, view, _ = sphere_views(size, yaw)
-    views = np.broadcast_to(view, normals.shape)
-    e0, e1 = ggx_integrals(pixels, views, normals, roughness, truth_samples)
-    truth = f0 * e0 + (1.0 - f0) * e1
-    e0, e1 = ggx_integrals(pixels, views, normals, roughness, max(16, truth_samples // 4))
-    coarse_truth = f0 * e0 + (1.0 - f0) * e1
-    table = shexp_asset["/dfg"]
-    shexp = evaluate_shexp(
-        shexp_asset["/p"], shexp_asset["/q"], table, views, normals, roughness, (f0,) * 3
-    )
-    levels = [splitsum_asset[f"/levels/{k}"] for k in range(splitsum_asset.attrs["levels"])]
-    split = evaluate_splitsum(
-        levels, splitsum_asset["/level_roughness"], splitsum_asset["/dfg"],
-        views, normals, roughness, (f0,) * 3,
-    )  # fmt: skip
-    return ProbeRenders(truth, coarse_truth, shexp, split)
+    views = np.ascontiguousarray(np.broadcast_to(view, normals.shape))
+    path = None
+    if cache_dir is not None:
+        key = hashlib.sha256(np.ascontiguousarray(pixels, np.float32).tobytes())
+        key.update(repr((float(alpha), float(yaw), int(size), int(truth_samples))).encode())
+        path = Path(cache_dir) / f"truth-{key.hexdigest()[:32]}.npy"
+        if path.exists():
+            e0, e1, c0, c1 = np.load(path)
+            return CaseTruth(normals, views, e0, e1, c0, c1)
+    e0, e1 = ggx_integrals(pixels, views, normals, alpha, truth_samples)
+    c0, c1 = ggx_integrals(pixels, views, normals, alpha, max(16, truth_samples // 4))
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npy")
+        np.save(tmp, np.stack([e0, e1, c0, c1]))
+        tmp.replace(path)
+    return CaseTruth(normals, views, e0, e1, c0, c1)
+
+
+def write_case_sheet(sheet_dir, label: str, material: str, alpha: float, yaw: float,
+                     size: int, shaded: dict, ref: np.ndarray, mse: dict) -> str:  # fmt: skip
+    """A labelled contact sheet of one case: the first probe of ``shaded`` (name → radiance
+    ``(P, 3)`` on the visible sphere pixels) | the ground truth | the signed error; the
+    title names the case, the subtitle every probe's MSE."""
+    _, _, mask = sphere_views(size, yaw)
+    name = next(iter(shaded))
+
+    def image(values):
+        img = np.zeros((size, size, 3))
+        img[mask] = values
+        return img
+
+    title = f"{label}: {material}, α {alpha:.4g}, view yaw {yaw:.0f}°; result = {name}"
+    subtitle = "MSE " + ", ".join(f"{k} {v:.3g}" for k, v in mse.items())
+    path = str(Path(sheet_dir) / f"{label}-{material}-a{alpha:.4g}-yaw{yaw:.0f}-sheet.png")
+    return write_contact_sheet(path, image(shaded[name]), mask, title, image(ref), subtitle,
+                               labels=(name, "ground truth (MIS)"))  # fmt: skip
+
+
+def evaluate_cases(pixels, assets: dict, size: int = 32, truth_samples: int = 4096,
+                   alphas=ALPHAS, yaws=VIEW_YAWS, materials=MATERIALS,
+                   cache_dir=None, sheet_dir=None, label: str = "map") -> list[dict]:  # fmt: skip
+    """Rows ``{material, alpha, yaw, mse: {name: MSE}, mse_truth_estimate}`` for every case
+    of one map; ``assets``: name → probe asset; ``cache_dir``: :func:`case_truth`;
+    ``sheet_dir``: also write one contact sheet per case (:func:`write_case_sheet`)."""
+    rows = []
+    for a in alphas:
+        for yaw in yaws:
+            truth = case_truth(pixels, a, yaw, size, truth_samples, cache_dir)
+            for material, f0 in materials.items():
+                ref = truth.radiance(f0)
+                shaded = {name: shade_probe(asset, truth.views, truth.normals, a, f0)
+                          for name, asset in assets.items()}  # fmt: skip
+                mse = {name: float(np.mean((s - ref) ** 2)) for name, s in shaded.items()}
+                err = float(np.mean((truth.radiance(f0, coarse=True) - ref) ** 2)) / 5.0
+                rows.append({"material": material, "alpha": float(a), "yaw": float(yaw),
+                             "mse": mse, "mse_truth_estimate": err})  # fmt: skip
+                if sheet_dir is not None:
+                    write_case_sheet(sheet_dir, label, material, a, yaw, size, shaded, ref, mse)
+    return rows

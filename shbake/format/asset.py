@@ -2,8 +2,10 @@
 
 Writing is deterministic (no timestamps, fixed library-version bounds, sorted
 attribute and group order) and atomic (:mod:`shbake.format.atomic`).
-Reading refuses files that are not shbake assets, of an unknown kind, or of
-a newer format version.
+Both directions go through the per-kind registry (:mod:`shbake.format.registry`):
+a writer cannot store an asset its readers would refuse, and a reader refuses
+(one line) any file whose attributes or datasets do not match the declaration
+before a kernel sees a value.
 """
 
 import json
@@ -12,12 +14,11 @@ from dataclasses import dataclass, field
 import h5py
 import numpy as np
 
-from shbake import __version__, conventions
+from shbake import __version__, conventions, resources
 from shbake.errors import FormatError
+from shbake.format import atomic, registry
 from shbake.format.atomic import atomic_path
-
-KINDS = ("env_sh", "brdf_table", "shexp_probe", "shexp_probe_set", "splitsum_probe")
-"""Asset kinds this version of shbake reads and writes."""
+from shbake.format.provenance import relativise
 
 
 def conventions_attrs() -> dict:
@@ -69,18 +70,48 @@ def _json_default(o):
     raise TypeError(f"not JSON serialisable: {type(o)}")
 
 
-def write_asset(path: str, asset: Asset) -> None:
-    """Write ``asset`` to ``path`` atomically and deterministically."""
-    if asset.kind not in KINDS:
-        raise FormatError(f"unknown asset kind {asset.kind!r}")
-    root = {
+def _memory_form(v):
+    """An in-memory attribute in the form the registry checks (as a reader would decode it)."""
+    if isinstance(v, np.ndarray):
+        return v
+    if isinstance(v, tuple):
+        return list(v)
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def root_attrs(asset: Asset) -> dict:
+    """Every root attribute ``write_asset`` stores for ``asset`` (in memory form)."""
+    kind = registry.kind_of(asset.kind)
+    return {
         "format": conventions.FORMAT_NAME,
-        "format_version": np.int64(conventions.FORMAT_VERSION),
+        "format_version": kind.version,
         "kind": asset.kind,
         "shbake_version": __version__,
         **conventions_attrs(),
-        **asset.attrs,
+        **{k: _memory_form(v) for k, v in asset.attrs.items()},
     }
+
+
+def validate_asset(asset: Asset, where: str = "") -> None:
+    """Check an in-memory asset against its kind's registry entry (FormatError if not)."""
+    kind = registry.kind_of(asset.kind)
+    arrays = {k: np.asarray(v) for k, v in asset.datasets.items()}
+    shapes = {k: (a.shape, a.dtype) for k, a in arrays.items()}
+    dattrs = {k: {n: _memory_form(v) for n, v in d.items()}
+              for k, d in asset.dataset_attrs.items()}  # fmt: skip
+    _, _, selected = registry.validate(kind, root_attrs(asset), shapes, dattrs, where)
+    for spec, path in selected:
+        registry.check_values(spec, path, arrays[path], where)
+
+
+def write_asset(path: str, asset: Asset) -> None:
+    """Validate ``asset`` against the registry, then write it to ``path`` atomically and
+    deterministically. ``source_path`` attributes are stored relative to ``path``'s folder."""
+    asset = Asset(asset.kind, relativise(asset.attrs, path), asset.datasets, asset.dataset_attrs)
+    validate_asset(asset, "refusing to write an invalid asset: ")
+    root = root_attrs(asset)
     with atomic_path(path) as tmp:
         with h5py.File(tmp, "w", libver=("earliest", "v110"), track_order=False) as f:
             for k in sorted(root):
@@ -92,53 +123,115 @@ def write_asset(path: str, asset: Asset) -> None:
                     ds.attrs[k] = _attr_value(v)
 
 
-def _decode(v):
-    if isinstance(v, bytes):
-        return v.decode("utf-8")
-    if isinstance(v, np.ndarray) and v.shape == ():
-        return v.item()
-    if isinstance(v, np.generic):
-        return v.item()
-    return v
+def _open(path: str):
+    resources.check_regular_file(path, "asset")
+    try:
+        return h5py.File(path, "r")
+    except OSError as e:
+        raise FormatError(f"{path}: not a readable HDF5 asset ({_first_line(e)})") from None
 
 
-def read_asset(path: str, kinds: tuple[str, ...] | None = None) -> Asset:
-    """Read an asset, checking format name, version and kind.
+def _first_line(e) -> str:
+    lines = str(e).strip().splitlines()
+    return registry.short(lines[0], 120).strip("'\"") if lines else type(e).__name__
+
+
+def read_asset(path: str, kinds: tuple[str, ...] | None = None,
+               datasets: tuple[str, ...] | None = None) -> Asset:  # fmt: skip
+    """Read and validate an asset.
+
+    Format name, version and kind are checked first; then every declared attribute's
+    type and every declared dataset's shape and dtype from the HDF5 metadata; only
+    then are the declared datasets loaded (``datasets``: only those paths, and
+    families by prefix), each checked for finiteness. Undeclared datasets are never
+    read. The bytes to load are checked against the memory budget.
 
     Raises
     ------
     FormatError
-        Not an HDF5 file, not a shbake asset, newer version, unexpected kind.
+        Not an HDF5 file, not a shbake asset, unknown kind or version, or any
+        attribute or dataset that does not match the registry (one line).
     """
+    where = f"{path}: "
+    f = _open(atomic.staged(path) or path)  # an output this run wrote reads from its temporary
     try:
-        f = h5py.File(path, "r")
-    except FileNotFoundError:
-        raise FormatError(f"{path}: no such file") from None
-    except OSError as e:
-        raise FormatError(f"{path}: not a readable HDF5 asset ({str(e).splitlines()[0]})") from None
-    with f:
-        attrs = {k: _decode(v) for k, v in f.attrs.items()}
-        if attrs.get("format") != conventions.FORMAT_NAME:
-            raise FormatError(f"{path}: not a shbake asset (no format='shbake' attribute)")
-        version = attrs.get("format_version")
-        if not isinstance(version, int) or version > conventions.FORMAT_VERSION or version < 1:
-            raise FormatError(
-                f"{path}: format_version {version!r} is not supported by shbake {__version__} "
-                f"(reads 1…{conventions.FORMAT_VERSION})"
-            )
-        kind = attrs.get("kind")
-        if kind not in KINDS or (kinds is not None and kind not in kinds):
-            want = ", ".join(kinds or KINDS)
-            raise FormatError(f"{path}: asset kind {kind!r} is not one of: {want}")
-        datasets, dattrs = {}, {}
+        with f:
+            raw = {}
+            for k in f.attrs:
+                try:
+                    raw[k] = registry.decode_attr(f.attrs[k])
+                except (OSError, TypeError, ValueError) as e:
+                    msg = f"{where}unreadable attribute {k} ({_first_line(e)})"
+                    raise FormatError(msg) from None
+            fmt = raw.get("format")
+            if not (isinstance(fmt, str) and fmt == conventions.FORMAT_NAME):
+                raise FormatError(f"{where}not a shbake asset (format attribute is "
+                                  f"{registry.short(fmt)}, expected 'shbake')")  # fmt: skip
+            kind_name = raw.get("kind")
+            if not isinstance(kind_name, str) or kind_name not in registry.kinds():
+                raise FormatError(
+                    f"{where}asset kind {registry.short(kind_name)} is unknown to "
+                    f"shbake {__version__} (knows: {', '.join(registry.kinds())})"
+                )
+            if kinds is not None and kind_name not in kinds:
+                raise FormatError(f"{where}asset kind {kind_name!r} is not one of: "
+                                  f"{', '.join(kinds)}")  # fmt: skip
+            kind = registry.kind_of(kind_name)
+            version = raw.get("format_version")
+            if isinstance(version, bool) or not isinstance(version, int) or version != kind.version:
+                raise FormatError(
+                    f"{where}format_version {registry.short(version)} of kind {kind_name} is not "
+                    f"supported by shbake {__version__} (reads version {kind.version})"
+                )
+            shapes = {}
 
-        def visit(name, obj):
-            if isinstance(obj, h5py.Dataset):
-                datasets["/" + name] = obj[()]
-                dattrs["/" + name] = {k: _decode(v) for k, v in obj.attrs.items()}
+            def visit(name, obj):
+                if isinstance(obj, h5py.Dataset):
+                    shapes["/" + name] = (obj.shape, obj.dtype)
 
-        try:
-            f.visititems(visit)
-        except (OSError, RuntimeError) as e:
-            raise FormatError(f"{path}: corrupt asset ({str(e).splitlines()[0]})") from None
-    return Asset(kind, attrs, datasets, dattrs)
+            try:
+                f.visititems(visit)
+                attrs, dattrs_ok, selected = registry.validate(
+                    kind, raw, shapes, _LazyAttrs(f, where), where
+                )
+            except (OSError, RuntimeError, KeyError) as e:
+                raise FormatError(f"{where}corrupt asset ({_first_line(e)})") from None
+            if datasets is not None:
+                selected = [
+                    (s, p)
+                    for s, p in selected
+                    if any(p == d or p.startswith(d.rstrip("/") + "/") for d in datasets)
+                ]
+            nbytes = sum(int(np.prod(shapes[p][0], dtype=np.float64)) * shapes[p][1].itemsize
+                         for _, p in selected)  # fmt: skip
+            resources.check_memory(2 * nbytes, f"reading {path}")
+            loaded = {}
+            for spec, p in selected:
+                try:
+                    data = f[p][()]
+                except (OSError, RuntimeError, ValueError) as e:
+                    raise FormatError(f"{where}corrupt dataset {p} ({_first_line(e)})") from None
+                registry.check_values(spec, p, np.asarray(data), where)
+                loaded[p] = data
+            return Asset(kind_name, attrs, loaded, {p: dattrs_ok[p] for _, p in selected})
+    except (OSError, RuntimeError) as e:
+        raise FormatError(f"{where}corrupt asset ({_first_line(e)})") from None
+
+
+class _LazyAttrs:
+    """``path → decoded attributes`` of a file's datasets, read on demand."""
+
+    def __init__(self, f, where):
+        self.f, self.where = f, where
+
+    def get(self, path, default=None):
+        if path not in self.f:
+            return default
+        out = {}
+        for k in self.f[path].attrs:
+            try:
+                out[k] = registry.decode_attr(self.f[path].attrs[k])
+            except (OSError, TypeError, ValueError) as e:
+                raise FormatError(f"{self.where}unreadable attribute {k} of {path} "
+                                  f"({_first_line(e)})") from None  # fmt: skip
+        return out

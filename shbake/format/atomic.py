@@ -1,59 +1,372 @@
-"""Atomic file output: write to a temporary file in the target directory, then ``os.replace``.
+"""Transactions over every output of a run: all files appear together, or none does.
 
-No partial or corrupt output is ever left at the target path: on any error
-the temporary file is removed and the previous content (if any) survives.
+A command runs inside :func:`transaction`. Every writer (assets, EXR/PNG images,
+exports, text) asks :func:`atomic_path` for a path to write; inside a transaction
+that is a temporary file *in the target's own folder*, named
+``.<name>.shbake-<pid>-<n>.tmp<suffix>``, and folders the run needs are created
+and recorded. Only when the command has finished without error are the
+temporaries renamed onto their targets (``os.replace``: same folder, no copy, no
+space needed). On any error or signal every temporary is removed and every
+folder the run created is removed again, so each old output stays
+byte-identical and no new file is left.
+
+A run killed with ``kill -9`` cannot clean up; its temporaries carry its process
+id, and the next run that writes the same target removes those whose process
+no longer exists (never a live process's).
+
+Outside a transaction (library use), :func:`atomic_path` is a transaction of
+one file. Batches (``probe-fit`` without ``--set``) write one file per probe,
+each atomic on its own (documented in ``docs/FORMAT.md`` §1).
 """
 
+import errno
 import os
+import re
+import threading
 from contextlib import contextmanager
 
 from shbake.errors import OutputError
 
+TAG = ".shbake-"
+"""Marks shbake's temporaries: ``.<name>.shbake-<pid>-<n>.tmp<suffix>``."""
+
+_active = None
+_open: list = []
+_lock = threading.RLock()
+_counter = 0
+
+
+def _temp_re(base: str):
+    return re.compile(rf"^\.{re.escape(base)}{re.escape(TAG)}(\d+)-(\d+)\.tmp")
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (another user's counts as alive)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def remove_stale(path: str) -> list[str]:
+    """Remove temporaries of ``path`` left by processes that no longer exist; return them."""
+    folder = os.path.dirname(os.path.abspath(path))
+    pattern = _temp_re(os.path.basename(path))
+    removed = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        m = pattern.match(name)
+        if m and int(m.group(1)) != os.getpid() and not pid_alive(int(m.group(1))):
+            try:
+                os.remove(os.path.join(folder, name))
+                removed.append(name)
+            except OSError:
+                pass
+    return removed
+
+
+def _read_only_fs(folder: str) -> bool:
+    try:
+        return bool(os.statvfs(folder).f_flag & os.ST_RDONLY)
+    except OSError:
+        return False
+
+
+def check_output_path(path, option: str = "-o/--output") -> str:
+    """Refuse an output path that cannot be written, before any work; return its folder.
+
+    Refused: an empty path, a folder, a parent that is missing or not a folder, a
+    read-only file system or an unwritable folder.
+    """
+    if path is None or str(path).strip() == "":
+        raise OutputError(f"{option}: empty output path")
+    path = os.fspath(path)
+    if path.endswith(os.sep) or os.path.isdir(path):
+        raise OutputError(f"{path}: is a directory ({option} must name a file)")
+    folder = os.path.dirname(os.path.abspath(path))
+    check_output_dir(folder, option, missing_ok=False, shown=path)
+    from shbake import resources
+
+    resources.declare_output(path)
+    return folder
+
+
+def check_output_dir(folder, option: str, missing_ok: bool = True, shown=None) -> str:
+    """Refuse an output folder that cannot be written (or created, with ``missing_ok``)."""
+    if folder is None or str(folder).strip() == "":
+        raise OutputError(f"{option}: empty folder path")
+    folder = os.path.abspath(os.fspath(folder))
+    shown = shown or folder
+    probe = folder
+    while not os.path.exists(probe):
+        if not missing_ok:
+            raise OutputError(f"{shown}: folder {probe} does not exist ({option})")
+        probe = os.path.dirname(probe)
+    if not os.path.isdir(probe):
+        raise OutputError(f"{shown}: {probe} is a file, not a folder ({option})")
+    if _read_only_fs(probe):
+        raise OutputError(f"{shown}: {probe} is on a read-only file system ({option})")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise OutputError(f"{shown}: folder {probe} is not writable ({option})")
+    return folder
+
 
 def check_writable_dir(path: str) -> str:
-    """Return the directory of ``path`` after checking it exists and is writable."""
-    directory = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(directory):
-        raise OutputError(f"{path}: directory {directory} does not exist")
-    if not os.access(directory, os.W_OK):
-        raise OutputError(f"{path}: directory {directory} is not writable")
-    if os.path.isdir(path):
-        raise OutputError(f"{path}: is a directory")
-    return directory
+    """Alias of :func:`check_output_path` (the folder of ``path``)."""
+    return check_output_path(path)
 
 
-def _reserve(directory: str, prefix: str, suffix: str) -> str:
-    """Create a new empty file ``prefix + random + suffix`` (mode 0600) and return its path.
+def check_not_input(path) -> None:
+    """Refuse an output that is one of the files this process has read (same inode,
+    through links or another spelling)."""
+    from shbake import resources
 
-    What ``tempfile.mkstemp`` does, without importing tempfile (and with it
-    shutil, random, bz2, lzma: ~20 ms of every command's start-up).
-    """
-    for _ in range(100):
-        tmp = os.path.join(directory, f"{prefix}{os.urandom(6).hex()}{suffix}")
-        try:
-            fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600)
-        except FileExistsError:
+    refuse_same_file([path], resources.inputs())
+
+
+def refuse_same_file(outputs, inputs) -> None:
+    """Refuse an output that is (through links or another name) one of the inputs."""
+    ins = [os.fspath(p) for p in inputs if p]
+    for out in outputs:
+        if not out or not os.path.exists(out):
             continue
+        for src in ins:
+            try:
+                same = os.path.exists(src) and os.path.samefile(out, src)
+            except OSError:
+                same = False
+            if same:
+                raise OutputError(
+                    f"{out}: is the input {src}; writing it would destroy the input "
+                    "(choose another output)"
+                )
+
+
+def os_error_message(e: OSError, path: str | None = None) -> str:
+    """One line for an OSError while writing ``path``."""
+    where = path or e.filename or "output"
+    text = str(e)
+    if e.errno == errno.ENOSPC or "No space left" in text or "errno = 28," in text:
+        return f"no space left on device writing {where}"
+    if e.errno == errno.EROFS or "Read-only file system" in text:
+        return f"read-only file system writing {where}"
+    if e.errno == errno.EDQUOT:
+        return f"disk quota exceeded writing {where}"
+    lines = text.strip().splitlines()
+    reason = e.strerror or (lines[0][:160] if lines else type(e).__name__)
+    return f"cannot write {where} ({reason})"
+
+
+class Transaction:
+    """The outputs of one run: staged temporaries, and folders created for them."""
+
+    def __init__(self):
+        self.staged: list[tuple[str, str]] = []
+        self.created: list[str] = []
+        self.done = False
+
+    def makedirs(self, folder: str) -> None:
+        """Create ``folder`` (and missing parents), removed again if the run fails."""
+        folder = os.path.abspath(folder)
+        missing = []
+        probe = folder
+        while not os.path.exists(probe):
+            missing.append(probe)
+            probe = os.path.dirname(probe)
+        for d in reversed(missing):
+            try:
+                os.mkdir(d)
+            except FileExistsError:
+                continue
+            except OSError as e:
+                raise OutputError(os_error_message(e, d)) from None
+            with _lock:
+                self.created.append(d)
+        if not os.path.isdir(folder):
+            raise OutputError(f"{folder}: exists and is not a folder")
+
+    def stage(self, path: str) -> str:
+        """A new temporary beside ``path``; it replaces ``path`` at :meth:`commit`."""
+        global _counter
+        check_output_path(path)
+        check_not_input(path)
+        path = os.path.abspath(os.fspath(path))
+        with _lock:
+            if any(final == path for _, final in self.staged):
+                raise OutputError(f"{path}: written twice by one run")
+            _counter += 1
+            n = _counter
+        remove_stale(path)
+        folder, base = os.path.split(path)
+        suffix = os.path.splitext(base)[1]
+        tmp = os.path.join(folder, f".{base}{TAG}{os.getpid()}-{n}.tmp{suffix}")
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        except OSError as e:
+            raise OutputError(os_error_message(e, path)) from None
         os.close(fd)
+        with _lock:
+            self.staged.append((tmp, path))
         return tmp
-    raise OutputError(f"{directory}: cannot create a temporary file")
+
+    def discard(self, tmp: str) -> None:
+        """Remove one staged temporary (its writer failed)."""
+        with _lock:
+            self.staged = [(t, f) for t, f in self.staged if t != tmp]
+        _unlink(tmp)
+
+    def commit(self) -> list[str]:
+        """Move every temporary onto its target; return the targets."""
+        from shbake import signals
+
+        with _lock:
+            signals.raise_if_interrupted()
+            done = []
+            for tmp, final in self.staged:
+                try:
+                    os.chmod(tmp, 0o644)
+                    os.replace(tmp, final)
+                except OSError as e:
+                    self.staged = [(t, f) for t, f in self.staged if f not in done]
+                    raise OutputError(os_error_message(e, final)) from None
+                done.append(final)
+            self.staged, self.created, self.done = [], [], True
+            return done
+
+    def abort(self) -> None:
+        """Remove every temporary and every folder this run created (if empty)."""
+        with _lock:
+            for tmp, _ in self.staged:
+                _unlink(tmp)
+            for d in reversed(self.created):
+                try:
+                    os.rmdir(d)
+                except OSError:
+                    pass
+            self.staged, self.created, self.done = [], [], True
+
+
+def _unlink(p: str) -> None:
+    try:
+        os.remove(p)
+    except OSError:
+        pass
+
+
+def staged(path: str) -> str | None:
+    """The temporary holding ``path`` if the running transaction has written it (so a step
+    can read an output of an earlier step of the same run), else ``None``."""
+    t = _active
+    if t is None:
+        return None
+    target = os.path.abspath(os.fspath(path))
+    with _lock:
+        for tmp, final in t.staged:
+            if final == target:
+                return tmp
+    return None
+
+
+def active() -> Transaction | None:
+    """The transaction of the running command, if any."""
+    return _active
+
+
+def abort_active() -> None:
+    """Abort every open transaction of this process (the signal watcher calls this)."""
+    with _lock:
+        for t in list(_open):
+            t.abort()
 
 
 @contextmanager
-def atomic_path(path: str):
-    """Yield a temporary path beside ``path`` (same suffix); move it into place on success."""
-    directory = check_writable_dir(path)
-    base = os.path.basename(path)
-    suffix = os.path.splitext(base)[1]
-    tmp = _reserve(directory, f".{base}.", f".tmp{suffix}")
+def _tracked(t):
+    with _lock:
+        _open.append(t)
     try:
-        yield tmp
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
+        yield t
+    finally:
+        with _lock:
+            if t in _open:
+                _open.remove(t)
+
+
+@contextmanager
+def detached():
+    """Run a block outside the command's transaction: its files are committed on their own
+    (one probe of a batch), so completed ones stay when a later one fails."""
+    global _active
+    saved, _active = _active, None
+    try:
+        yield
+    finally:
+        _active = saved
+
+
+@contextmanager
+def transaction():
+    """Run a block as one transaction (nested blocks join the outer one)."""
+    global _active
+    if _active is not None:
+        yield _active
+        return
+    t = Transaction()
+    _active = t
+    try:
+        with _tracked(t):
+            yield t
+            t.commit()
     except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+        t.abort()
         raise
+    finally:
+        _active = None
+
+
+@contextmanager
+def _own_transaction():
+    t = Transaction()
+    try:
+        with _tracked(t):
+            yield t
+            t.commit()
+    except BaseException:
+        t.abort()
+        raise
+
+
+@contextmanager
+def atomic_path(path: str, independent: bool = False):
+    """Yield a temporary path beside ``path`` (same suffix) that replaces ``path`` when the
+    run's transaction commits (at once outside a transaction, or with ``independent``:
+    caches). OSErrors while writing it become one-line :class:`OutputError`s
+    (``no space left on device writing X``)."""
+    with _own_transaction() if independent else transaction() as t:
+        tmp = t.stage(path)
+        try:
+            yield tmp
+        except OSError as e:
+            t.discard(tmp)
+            if isinstance(e, OutputError):
+                raise
+            raise OutputError(os_error_message(e, path)) from None
+        except BaseException:
+            t.discard(tmp)
+            raise
+
+
+def makedirs(folder: str) -> None:
+    """Create an output folder inside the running transaction (at once outside one)."""
+    with transaction() as t:
+        t.makedirs(folder)
 
 
 def write_text(path: str, text: str) -> None:

@@ -44,7 +44,6 @@ def write_exr(
     if len(channel_names) != c:
         raise ValueError(f"{c} channels but {len(channel_names)} names")
     spec.channelnames = tuple(channel_names)
-    spec.attribute("compression", "zip")
     for k, v in sorted((attrs or {}).items()):
         spec.attribute(k, v)
     _write(path, spec, img)
@@ -57,16 +56,36 @@ def write_png(path: str, img8: np.ndarray) -> None:
     _write(path, oiio.ImageSpec(w, h, c, "uint8"), img8)
 
 
+FIXED_ATTRIBUTES = {"compression": "zip", "DateTime": ""}
+"""Set on every image so identical pixels give identical bytes: a fixed compression, and
+no ``DateTime`` (OpenImageIO would stamp the current time, OpenEXR's ``capDate``)."""
+
+
+def _oiio_error(path, what, text):
+    text = " ".join(str(text).split())
+    if "No space left" in text:
+        return OutputError(f"no space left on device writing {path}")
+    if "Read-only file system" in text:
+        return OutputError(f"read-only file system writing {path}")
+    return OutputError(f"{path}: {what} ({text[:200] or 'unknown error'})")
+
+
 def _write(path, spec, pixels):
+    for k, v in FIXED_ATTRIBUTES.items():
+        if k != "compression" or path.lower().endswith(".exr"):
+            spec.attribute(k, v)
     with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(tmp)
         if out is None:
-            raise OutputError(f"{path}: cannot create image writer ({oiio.geterror().strip()})")
+            raise _oiio_error(path, "cannot create image writer", oiio.geterror())
+        ok = False
         try:
-            if not out.open(tmp, spec) or not out.write_image(pixels):
-                raise OutputError(f"{path}: write failed ({out.geterror().strip()})")
+            ok = out.open(tmp, spec) and out.write_image(pixels)
+            err = "" if ok else out.geterror()
         finally:
-            out.close()
+            closed = out.close()
+        if not ok or not closed:
+            raise _oiio_error(path, "write failed", err if not ok else out.geterror())
 
 
 def auto_exposure(img: np.ndarray) -> float:

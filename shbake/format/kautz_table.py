@@ -8,14 +8,18 @@ coefficients of ``f*(·, v)``. The axes are named in the ``axes`` attribute.
 
 import json
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from shbake.brdf.model import BRDF, make_brdf, model_spec
-from shbake.conventions import SQRT_4PI, lmax_of
+from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, lmax_of
 from shbake.errors import FormatError, ParameterError
 from shbake.format.asset import Asset
-from shbake.texture.parabolic import VIEW_Z_MIN
+from shbake.format.provenance import file_source, no_source
+from shbake.format.registry import Attr, Data, Kind, register
+
+if TYPE_CHECKING:
+    from shbake.brdf.model import BRDF
 
 ENERGY_SLACK = 1e-3
 """Measured albedo above ``1 + ENERGY_SLACK`` flags a table as not energy-conserving."""
@@ -26,7 +30,7 @@ PARAMETERISATION = (
 
 
 def build_table_asset(
-    brdf: BRDF,
+    brdf: "BRDF",
     tables: np.ndarray,
     convs: list,
     vary: list[tuple[str, np.ndarray]],
@@ -53,7 +57,7 @@ def build_table_asset(
         "axes": names,
         "lmax": lmax,
         "parameterisation": PARAMETERISATION,
-        "view_z_min": VIEW_Z_MIN,
+        "view_z_min": _view_z_min(),
         "error_estimate": float(max(c.error for c in convs)),
         "error_definition": "sqrt(4*pi) * max |c(N) - c(N/2)| over coefficients and channels",
         "samples_max": int(max(c.samples for c in convs)),
@@ -78,7 +82,99 @@ def build_table_asset(
         "brdf_source": desc["source"],
         "brdf_coloured": coloured,
     }
+    attrs |= file_source(brdf.source) if brdf.source else no_source()
     return Asset("brdf_table", attrs, datasets, dattrs)
+
+
+def _view_z_min() -> float:
+    from shbake.texture.parabolic import VIEW_Z_MIN  # numba: loaded only when a table is built
+
+    return VIEW_Z_MIN
+
+
+FIXED_AXES = ("channel", "row", "col", "coeff")
+
+
+def _table_axes(dattrs) -> list:
+    axes = (dattrs.get("/table") or {}).get("axes")
+    if isinstance(axes, str):
+        try:
+            axes = json.loads(axes)
+        except ValueError:
+            return []
+    return list(axes) if isinstance(axes, list | tuple) else []
+
+
+def _members(spec, attrs, dattrs):
+    return [f"/axes/{a}" for a in _table_axes(dattrs)
+            if isinstance(a, str) and a not in FIXED_AXES]  # fmt: skip
+
+
+def _check(attrs, shapes, dattrs, symbols):
+    axes = dattrs["/table"]["axes"]
+    table = shapes["/table"]
+    if not all(isinstance(a, str) for a in axes) or list(axes[-3:]) != ["row", "col", "coeff"]:
+        raise FormatError(f"/table attribute axes must name the axes and end with row, col, "
+                          f"coeff; found {axes!r:.80}")  # fmt: skip
+    if len(axes) != len(table):
+        raise FormatError(f"/table has {len(table)} axes but its axes attribute names {len(axes)}")
+    coloured = attrs["brdf_coloured"]
+    if coloured != (axes[0] == "channel") or (coloured and table[0] != 3):
+        raise FormatError("/table: a leading channel axis of 3 MUST be present exactly when "
+                          "brdf_coloured is 1")  # fmt: skip
+    vary = [a for a in axes if a not in FIXED_AXES]
+    lead = table[1 if coloured else 0 : -3]
+    if shapes["/error"] != tuple(lead) + tuple(table[-3:-1]):
+        raise FormatError(f"dataset /error must have shape {tuple(lead) + tuple(table[-3:-1])}, "
+                          f"found {shapes['/error']}")  # fmt: skip
+    for name, n in zip(vary, lead, strict=True):
+        if shapes.get(f"/axes/{name}") != (n,):
+            raise FormatError(f"dataset /axes/{name} must have shape ({n},)")
+
+
+BRDF_TABLE = register(Kind(
+    name="brdf_table",
+    version=2,
+    title="SH of the BRDF product per view direction (Kautz et al. 2002; `brdf-table`)",
+    attrs=(
+        Attr("brdf_model", "str", "model name (`shbake brdf-table --help`)"),
+        Attr("brdf_parameters", "json", "name → number or [r, g, b]; the values of varied "
+             "parameters are those of the first axis point", json_type=dict),
+        Attr("brdf_citation", "str", "where the model is defined"),
+        Attr("brdf_source", "str", "MERL file as given, or `\"\"`", required=False),
+        Attr("brdf_coloured", "bool", "RGB BRDF (a leading channel axis of 3 in `/table`)"),
+    ),
+    datasets=(
+        Data("/table", ("*lead", "H", "W", "(lmax+1)**2"), "float32",
+             "`c_i(v)` of `f*(s,v) = f(s,v) max(0,s_z)` per parabolic texel; axes "
+             "`([channel,] *parameters, row, col, coeff)`",
+             attrs=(
+                 Attr("axes", "json", "names of every axis: `channel`, parameter names, "
+                      "`row`, `col`, `coeff`", json_type=list),
+                 Attr("lmax", "int", "highest band", range=(0, KAUTZ_LMAX_LIMIT), symbol="lmax"),
+                 Attr("parameterisation", "str", "parabolic map, rows `p_y`, cols `p_x`, "
+                      "texel centres; outside-disc texels hold the horizon value"),
+                 Attr("view_z_min", "float", "smallest tabulated view `z`"),
+                 Attr("error_estimate", "float", "max of `/error`"),
+                 Attr("error_definition", "str", "what `/error` measures"),
+                 Attr("samples_max", "int", "largest quadrature sample count", range=(1, 1 << 40)),
+                 Attr("quadrature", "str", "integration rule"),
+                 Attr("max_albedo", "floats", "largest white-furnace albedo per channel",
+                      length=3),
+                 Attr("energy_conserving", "bool", "max albedo ≤ 1 + 1e-3"),
+                 Attr("bake_seconds", "float", "the only run-dependent value: writers MUST omit "
+                      "it when asked for reproducible output (`--reproducible`)", required=False),
+             )),
+        Data("/error", ("*elead", "H", "W"), "float32",
+             "per-texel quadrature error estimate, axes `(*parameters, row, col)`"),
+        Data("/axes/{name}", ("N",), "float64",
+             "the values of varied parameter `name` (one per parameter axis of `/table`)"),
+    ),
+    notes=("Consumers shade with `Q = Σ_i L_i c_i(v)` where `L` is the lighting rotated into "
+           "the local frame (`docs/CONVENTIONS.md`).",),
+    members=_members,
+    check=_check,
+))  # fmt: skip
 
 
 def _json_attr(v):
@@ -96,8 +192,10 @@ class BRDFTable:
     source: str
     attrs: dict
 
-    def make_brdf(self, merl_path: str | None = None) -> BRDF:
+    def make_brdf(self, merl_path: str | None = None) -> "BRDF":
         """The tabulated BRDF, rebuilt from the recorded model and parameters."""
+        from shbake.brdf.model import make_brdf
+
         if self.model == "merl":
             return make_brdf("merl", merl_path=merl_path or self.source, **self.params)
         return make_brdf(self.model, **self.params)
@@ -132,6 +230,8 @@ def table_at(asset: Asset, at: dict | None = None) -> BRDFTable:
         data = data[k]
         params[name] = float(values[k])
     model = asset.attrs["brdf_model"]
+    from shbake.brdf.model import model_spec  # numba: loaded only when a table is used
+
     model_spec(model)
     return BRDFTable(
         np.ascontiguousarray(data),

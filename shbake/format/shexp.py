@@ -1,83 +1,160 @@
-"""The ``shexp_probe`` and ``shexp_probe_set`` assets (``docs/FORMAT.md`` §5, §5a)."""
+"""The ``shexp_probe`` and ``shexp_probe_set`` assets (``docs/FORMAT.md`` §5, §5a), probe format 2.
 
-import json
+``/p`` ``(K, (lmax_p+1)², 3)`` and ``/q`` ``(K, (lmax_q+1)² − 1, 3)`` float32: ``K``
+coefficient sets at the GGX widths ``/knots`` ``(K,)`` (float64), blended by
+hat functions of ``α`` (:mod:`shbake.shading.shexp`); sets gain a leading
+probe axis.
+"""
 
 import numpy as np
 
-from shbake.errors import ParameterError
+from shbake.conventions import SHEXP_LMAX_LIMIT
+from shbake.errors import FormatError, ParameterError
 from shbake.format.asset import Asset
-from shbake.format.probe import DFG_ATTRS, ROUGHNESS_CONVENTION, source_attrs
+from shbake.format.probe import (
+    DFG_ATTRS,
+    DFG_DATA,
+    PROBE_ATTRS,
+    check_alpha_range,
+    convention_attrs,
+    source_attrs,
+)
+from shbake.format.registry import PROVENANCE_ATTRS, SOURCE_MAP_ATTRS, Attr, Data, Kind, register
+
+_SHEXP_ATTRS = PROBE_ATTRS + (
+    Attr("lmax_p", "int", "highest band of P", range=(0, SHEXP_LMAX_LIMIT), symbol="lmax_p"),
+    Attr("lmax_q", "int", "highest band of Q", range=(1, SHEXP_LMAX_LIMIT), symbol="lmax_q"),
+    Attr("sets", "int", "`K`, coefficient sets linear in `α` (hat functions)", range=(1, 64),
+         symbol="K"),
+    Attr("weights", "str", "the fit's sample weights (`log`, `shaded`, `shaded-nv`, …)"),
+    Attr("fit_config", "json", "every fit option, including `targets` and `targets_lmax`; two "
+         "probes with equal `fit_config` are comparable", json_type=dict),
+    Attr("fresnel_tail", "str", "how `E1` is formed"),
+)  # fmt: skip
+_AXES = Attr("axes", "json", "axis names", json_type=list, required=False)
+KNOTS_DATA = Data("/knots", ("K",), "float64", "the GGX width of each coefficient set, "
+                  "increasing (hat functions between them)")  # fmt: skip
+
+
+def _check_set(attrs, shapes, dattrs, symbols):
+    check_alpha_range(attrs)
+    n = attrs["probe_count"]
+    for name in ("probe_names", "probe_sources", "probe_fit_stats"):
+        if len(attrs[name]) != n:
+            raise FormatError(f"attribute {name} must list {n} probes, found {len(attrs[name])}")
+    keys = {a.name for a in PROVENANCE_ATTRS if a.required}
+    for i, src in enumerate(attrs["probe_sources"]):
+        if not isinstance(src, dict) or not keys <= set(src):
+            raise FormatError(f"attribute probe_sources[{i}] must hold {', '.join(sorted(keys))}")
+
+
+SHEXP_PROBE = register(Kind(
+    name="shexp_probe",
+    version=2,
+    title="SH-exponential glossy probe (Silvennoinen et al. 2025; `probe-fit`)",
+    attrs=_SHEXP_ATTRS + SOURCE_MAP_ATTRS + (
+        Attr("fit_stats", "json", "`log_rms`, `relative_rms`, `floored_targets`, `targets`",
+             json_type=dict),
+    ),
+    datasets=(
+        Data("/p", ("K", "(lmax_p+1)**2", 3), "float32", "SH coefficients of `P` (eq. 11), one "
+             "set per knot", attrs=(_AXES,)),
+        Data("/q", ("K", "(lmax_q+1)**2-1", 3), "float32", "SH coefficients of `Q` without the "
+             "DC term (eq. 11), one set per knot", attrs=(_AXES,)),
+        KNOTS_DATA,
+        DFG_DATA,
+    ),
+    notes=("A probe asset MUST NOT record times, hosts or command lines: the same map and "
+           "configuration give byte-identical files from any runner.",),
+    check=lambda attrs, shapes, dattrs, symbols: check_alpha_range(attrs),
+))  # fmt: skip
+
+SHEXP_PROBE_SET = register(Kind(
+    name="shexp_probe_set",
+    version=2,
+    title="many SH-exp probes of one configuration, in list order (`probe-fit -o`)",
+    attrs=_SHEXP_ATTRS + (
+        Attr("probe_count", "int", "`N`", range=(1, 1 << 24), symbol="N"),
+        Attr("probe_names", "json", "map stems", json_type=list),
+        Attr("probe_sources", "json", "per probe, the provenance block of §3 (and the source "
+             "map attributes)", json_type=list),
+        Attr("probe_fit_stats", "json", "per probe, `fit_stats` as in `shexp_probe`",
+             json_type=list),
+    ),
+    datasets=(
+        Data("/p", ("N", "K", "(lmax_p+1)**2", 3), "float32", "`P` per probe",
+             attrs=(_AXES,)),
+        Data("/q", ("N", "K", "(lmax_q+1)**2-1", 3), "float32", "`Q` per probe",
+             attrs=(_AXES,)),
+        KNOTS_DATA,
+        DFG_DATA,
+    ),
+    provenance=False,
+    notes=("Probe `i` of a set MUST hold the same values as the `shexp_probe` fitted to the "
+           "same map with the same configuration.",),
+    check=_check_set,
+))  # fmt: skip
 
 SHEXP_ATTRS = (
-    "technique", "roughness_convention", "roughness_range", "lmax_p", "lmax_q", "fit_config",
-    "fresnel_tail",
+    "technique", "probe_format", "alpha_convention", "alpha_convention_text", "alpha_range",
+    "lmax_p", "lmax_q", "sets", "weights", "fit_config", "fresnel_tail",
 )  # fmt: skip
 
 
 def _shexp_attrs(config) -> dict:
     """Root attributes every SH-exp kind shares (FORMAT §5)."""
-    return {
-        "technique": "SH exponential (Silvennoinen et al. 2025)",
-        "roughness_convention": ROUGHNESS_CONVENTION,
-        "roughness_range": [config.roughness_min, config.roughness_max],
+    return convention_attrs((config.alpha_min, config.alpha_max)) | {
+        "technique": "SH exponential (Silvennoinen et al. 2025), K sets linear in alpha (v2)",
         "lmax_p": config.lmax_p,
         "lmax_q": config.lmax_q,
+        "sets": config.sets,
+        "weights": config.weights,
         "fit_config": config.as_dict(),
         "fresnel_tail": "E1 = E0 * A1/A0 (eq. 15, exact under constant light)",
     }
 
 
+def _datasets(p, q, knots, dfg, probe_axis: bool):
+    axes = ["probe", "set", "coeff", "channel"] if probe_axis else ["set", "coeff", "channel"]
+    data = {
+        "/p": np.asarray(p, np.float32),
+        "/q": np.asarray(q, np.float32),
+        "/knots": np.asarray(knots, np.float64),
+        "/dfg": dfg.astype(np.float32),
+    }
+    knots = {"axes": ["set"], "meaning": "GGX width of each coefficient set"}
+    dattrs = {"/dfg": DFG_ATTRS, "/p": {"axes": axes}, "/q": {"axes": axes}, "/knots": knots}
+    return data, dattrs
+
+
 def build_shexp_asset(probe, config, dfg: np.ndarray, meta: dict) -> Asset:
-    """``/p`` ``(n_p, 3)``, ``/q`` ``(n_q − 1, 3)`` float32 and ``/dfg``."""
+    """One probe: ``/p``, ``/q``, ``/knots`` and ``/dfg``."""
     attrs = _shexp_attrs(config) | {"fit_stats": probe.stats, **source_attrs(meta)}
-    return Asset(
-        "shexp_probe",
-        attrs,
-        {
-            "/p": probe.p.astype(np.float32),
-            "/q": probe.q.astype(np.float32),
-            "/dfg": dfg.astype(np.float32),
-        },
-        {
-            "/dfg": DFG_ATTRS,
-            "/p": {"axes": ["coeff", "channel"]},
-            "/q": {"axes": ["coeff", "channel"]},
-        },
-    )
+    return Asset("shexp_probe", attrs, *_datasets(probe.p, probe.q, probe.knots, dfg, False))
 
 
 def build_shexp_set_asset(probes: list[dict], config, dfg: np.ndarray) -> Asset:
-    """Many SH-exp probes in one file: ``/p`` ``(N, n_p, 3)``, ``/q`` ``(N, n_q − 1, 3)``,
-    one ``/dfg``. ``probes``: per probe ``{"name", "p", "q", "stats", "meta"}`` in set order."""
+    """Many SH-exp probes in one file, one ``/dfg`` and ``/knots``. ``probes``: per probe
+    ``{"name", "p", "q", "stats", "meta"}`` in set order."""
     attrs = _shexp_attrs(config) | {
         "probe_count": len(probes),
         "probe_names": [x["name"] for x in probes],
         "probe_sources": [source_attrs(x["meta"]) for x in probes],
         "probe_fit_stats": [x["stats"] for x in probes],
     }
-    return Asset(
-        "shexp_probe_set",
-        attrs,
-        {
-            "/p": np.stack([x["p"] for x in probes]).astype(np.float32),
-            "/q": np.stack([x["q"] for x in probes]).astype(np.float32),
-            "/dfg": dfg.astype(np.float32),
-        },
-        {
-            "/dfg": DFG_ATTRS,
-            "/p": {"axes": ["probe", "coeff", "channel"]},
-            "/q": {"axes": ["probe", "coeff", "channel"]},
-        },
-    )
+    p = np.stack([x["p"] for x in probes])
+    q = np.stack([x["q"] for x in probes])
+    return Asset("shexp_probe_set", attrs, *_datasets(p, q, config.knots, dfg, True))
 
 
 def probe_from_set(asset: Asset, index: int) -> Asset:
     """Probe ``index`` of a ``shexp_probe_set`` as an in-memory ``shexp_probe``."""
     count = int(asset.attrs["probe_count"])
     if not 0 <= index < count:
-        raise ParameterError(f"probe index {index} is outside this set of {count} probes")
-    sources = asset.attrs["probe_sources"]
-    source = (json.loads(sources) if isinstance(sources, str) else sources)[index]
-    attrs = {k: asset.attrs[k] for k in SHEXP_ATTRS} | source
-    datasets = {"/p": asset["/p"][index], "/q": asset["/q"][index], "/dfg": asset["/dfg"]}
+        raise ParameterError(f"--index {index} is outside this set of {count} probes")
+    source = asset.attrs["probe_sources"][index]
+    attrs = {k: asset.attrs[k] for k in SHEXP_ATTRS if k in asset.attrs} | source
+    attrs["fit_stats"] = asset.attrs["probe_fit_stats"][index]
+    datasets = {"/p": asset["/p"][index], "/q": asset["/q"][index], "/knots": asset["/knots"],
+                "/dfg": asset["/dfg"]}  # fmt: skip
     return Asset("shexp_probe", attrs, datasets)

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from shbake.errors import InputError
 from shbake.format.atomic import write_text
+from shbake.resources import read_bounded
 
 STYLE = """
 body { font-family: sans-serif; margin: 1.5em; background: #fafafa; color: #222; }
@@ -29,12 +30,16 @@ td, th { border: 1px solid #ccc; padding: 0.2em 0.5em; text-align: right; }
 """
 
 
+SUMMARY_MAX_BYTES = 1 << 20
+"""Largest ``--json`` summary file read."""
+
+
 def _summaries(folder: Path) -> list[tuple[str, dict]]:
     out = []
     for path in sorted(folder.glob("*.json")):
         try:
-            summary = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            summary = json.loads(read_bounded(str(path), SUMMARY_MAX_BYTES, "preview summary"))
+        except (OSError, ValueError):  # unreadable, special (FIFO), too large or not JSON
             continue
         if not isinstance(summary, dict):
             continue

@@ -14,55 +14,41 @@ import os
 import numpy as np
 
 from shbake.envmap import load_environment
-from shbake.envmap.image_io import sha256_of
-from shbake.errors import FormatError, ImageReadError, ParameterError
+from shbake.errors import ParameterError
 from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
 from shbake.format.kautz_table import table_at
+from shbake.format.provenance import resolve_source
 from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.glossy import PASS_OF_KIND, render_glossy
 from shbake.preview.passes import PASSES, render_pass
+from shbake.preview.shrm import preview_shrm
 from shbake.progress import NO_PROGRESS
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
-ALL_PASSES = PASSES + tuple(PASS_OF_KIND.values())
+ALL_PASSES = PASSES + tuple(PASS_OF_KIND.values()) + ("shrm",)
 
 
-def load_source(asset, source_path):
-    """The original map of an ``env_sh`` asset (its recorded path, or ``source_path``),
-    hash-checked and read with the policies the asset records."""
-    path = source_path or asset.attrs.get("input_abspath") or asset.attrs.get("input_path")
-    if not path or not os.path.exists(path):
-        raise ImageReadError(f"original map {path!r} not found; give it with --source")
-    if sha256_of(path) != asset.attrs.get("input_sha256"):
-        raise FormatError(f"{path}: SHA-256 differs from the one recorded in the asset")
+def load_source(asset, asset_path, source_path=None):
+    """The map an asset was baked from: ``source_path`` (``--source``), else the asset's
+    ``source_path`` relative to the asset (:func:`shbake.format.provenance.resolve_source`),
+    SHA-256-checked and read with the policies the asset records."""
     a = asset.attrs
+    path = resolve_source(a, asset_path, source_path)
+    cs_in = a.get("source_colorspace_in")
+    nonfinite = a.get("source_nonfinite_policy")
     return load_environment(
         path,
-        a.get("input_layout"),
-        None
-        if a.get("input_colorspace_in") == a.get("input_colorspace")
-        else a.get("input_colorspace_in"),
-        a.get("input_negative_policy", "clamp"),
-        None if a.get("input_nonfinite_policy") == "error" else a.get("input_nonfinite_policy"),
+        a.get("source_layout"),
+        None if cs_in in (None, a.get("source_colorspace")) else cs_in,
+        a.get("source_negative_policy") or "clamp",
+        None if nonfinite in (None, "", "error") else nonfinite,
         quiet=True,
     )
 
 
-def load_probe_source(asset, asset_path, source_path):
-    """The map a probe was fitted to: ``source_path``, or its recorded name beside the asset."""
-    name = asset.attrs.get("source_name", "")
-    path = source_path or os.path.join(os.path.dirname(os.path.abspath(asset_path)), name)
-    if not os.path.isfile(path):
-        raise ImageReadError(f"original map {name!r} not found beside the asset; give --source")
-    if sha256_of(path) != asset.attrs.get("source_sha256"):
-        raise FormatError(f"{path}: SHA-256 differs from the one recorded in the probe")
-    return load_environment(path, negative=asset.attrs.get("source_negative_policy", "clamp"),
-                            quiet=True)  # fmt: skip
-
-
-def _render_env(asset, pass_name, size, diff, source, table_path, at, merl_path):
+def _render_env(asset, asset_path, pass_name, size, diff, source, table_path, at, merl_path):
     pass_name = pass_name or "irradiance"
     if pass_name in PASS_OF_KIND.values():
         raise ParameterError(f"--pass {pass_name} needs a {pass_name}_probe asset")
@@ -77,7 +63,7 @@ def _render_env(asset, pass_name, size, diff, source, table_path, at, merl_path)
     needs_source = pass_name.startswith("reference") or diff
     if table is not None and needs_source:
         brdf = table.make_brdf(merl_path)
-    src = load_source(asset, source) if needs_source else None
+    src = load_source(asset, asset_path, source) if needs_source else None
     img, timing = render_pass(asset, pass_name, size, src, table, brdf)
     summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
     if "modes" in timing:
@@ -98,13 +84,14 @@ def _render_probe(asset, asset_path, pass_name, size, diff, source, roughness, f
     if diff and pass_name == "reference":
         raise ParameterError("--diff compares a probe pass with the reference")
     needs_source = pass_name == "reference" or diff
-    src = load_probe_source(asset, asset_path, source) if needs_source else None
-    img, timing = render_glossy(asset, pass_name, size, roughness, f0, src, samples)
-    summary = {"pass": pass_name, "size": size, "roughness": roughness, "f0": f0,
+    src = load_source(asset, asset_path, source) if needs_source else None
+    alpha = roughness * roughness  # probes take the GGX width (probe format 2)
+    img, timing = render_glossy(asset, pass_name, size, alpha, f0, src, samples)
+    summary = {"pass": pass_name, "size": size, "roughness": roughness, "alpha": alpha, "f0": f0,
                "seconds": timing["seconds"], "fps": timing["fps"]}  # fmt: skip
     reference = None
     if diff:
-        reference, ref_timing = render_glossy(asset, "reference", size, roughness, f0, src, samples)
+        reference, ref_timing = render_glossy(asset, "reference", size, alpha, f0, src, samples)
         summary["reference_seconds"] = ref_timing["seconds"]
     settings = f"roughness {roughness:g} (α {roughness * roughness:.4g}), F0 {f0:g}, size {size}"
     return img, reference, summary, settings, src
@@ -134,17 +121,21 @@ def preview_asset(
     """
     if pass_name is not None and pass_name not in ALL_PASSES:
         raise ParameterError(f"unknown pass {pass_name!r}; choose one of {', '.join(ALL_PASSES)}")
-    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", *PASS_OF_KIND))
+    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", "shrm", *PASS_OF_KIND))
     if asset.kind == "shexp_probe_set":
         asset = probe_from_set(asset, index)
     with progress.task(f"preview {os.path.basename(asset_path)}", total=None, unit="pass"):
-        if asset.kind in PASS_OF_KIND:
+        if asset.kind == "shrm":  # SHRM hook (issue 13): shbake.preview.shrm.preview_shrm
+            needs_source = diff or pass_name == "reference"
+            src = load_source(asset, asset_path, source) if needs_source else None
+            img, reference, summary, settings = preview_shrm(asset, pass_name, size, diff, src)
+        elif asset.kind in PASS_OF_KIND:
             img, reference, summary, settings, src = _render_probe(
                 asset, asset_path, pass_name, size, diff, source, roughness, f0, samples
             )
         else:
             img, reference, summary, settings, src = _render_env(
-                asset, pass_name, size, diff, source, table_path, at, merl_path
+                asset, asset_path, pass_name, size, diff, source, table_path, at, merl_path
             )
     title = f"{os.path.basename(asset_path)} ({asset.kind}): pass {summary['pass']}, {settings}"
     write_outputs(output, img, reference, summary, title, png, src)
@@ -179,7 +170,9 @@ def write_outputs(output, img, reference, summary, title, png=False, source=None
     for path, im in images.items():
         write_exr(path, im, half=False)
         if png:
-            write_png(os.path.splitext(path)[0] + ".png",
-                      tonemap_to_srgb8(np.abs(im) if path.endswith("-diff.exr") else im, exposure))
+            write_png(
+                os.path.splitext(path)[0] + ".png",
+                tonemap_to_srgb8(np.abs(im) if path.endswith("-diff.exr") else im, exposure),
+            )
     write_contact_sheet(sheet, img, mask, title, reference, subtitle)
     summary["outputs"] = written

@@ -2,10 +2,11 @@
 
 Silvennoinen et al. (2025), eq. 6–8, with ``f_DV = D V`` (no Fresnel)::
 
-    E0(v, n, r) = ∫ L(l) f_DV(v, n, l) (n·l) dl
-    E1(v, n, r) = ∫ L(l) f_DV(v, n, l) (1 − v·h)^5 (n·l) dl
+    E0(v, n, α) = ∫ L(l) f_DV(v, n, l) (n·l) dl
+    E1(v, n, α) = ∫ L(l) f_DV(v, n, l) (1 − v·h)^5 (n·l) dl
 
-GGX width ``α = r²`` for perceptual roughness ``r`` (``docs/CONVENTIONS.md``),
+``α`` is the GGX width itself (Walter et al. 2007; Mitsuba 3's ``alpha``;
+SPEC §1; perceptual roughness ``r`` maps as ``α = r²``, ``docs/CONVENTIONS.md``),
 separable Smith ``G = G1(v) G1(l)`` (SPEC §4, as Mitsuba 3). Sampling
 half vectors from the distribution of visible normals (Heitz 2018) has density
 ``p_B(l) = G1(v) D(h) / (4 n·v)`` and leaves ``f_DV (n·l) = p_B(l) G1(l)``.
@@ -29,11 +30,28 @@ import numpy as np
 
 from shbake.brdf.ggx import check_geometry, sample_light, vndf_terms
 from shbake.brdf.sampling import surface_frame
-from shbake.conventions import check_samples, ggx_alpha
+from shbake.conventions import ROUGHNESS_MIN, check_samples
 from shbake.envmap.importance import latlong_flat, light_distribution
 from shbake.envmap.layouts import latlong_texel, latlong_texel_point
+from shbake.errors import ParameterError
 from shbake.jit import pjit
 from shbake.sh.point_sets import fibonacci_square
+
+ALPHA_MIN = ROUGHNESS_MIN**2
+"""Smallest GGX width the integrals accept (perceptual roughness 0.02)."""
+
+
+def check_alpha(alpha, count: int | None = None, name: str = "alpha") -> np.ndarray:
+    """Refuse GGX widths outside ``[ALPHA_MIN, 1]`` (or non-finite) with a one-line
+    :class:`ParameterError`; returns float64, broadcast to ``(count,)`` when given."""
+    a = np.asarray(alpha, dtype=float)
+    if not np.all(np.isfinite(a)) or np.any(a < ALPHA_MIN - 1e-15) or np.any(a > 1.0 + 1e-12):
+        raise ParameterError(
+            f"{name} (GGX width) must lie in [{ALPHA_MIN:g}, 1], got {np.ravel(a)[:4]}"
+        )
+    if count is not None:
+        a = np.ascontiguousarray(np.broadcast_to(a, (count,)))
+    return a
 
 
 @pjit
@@ -88,22 +106,23 @@ def _integrate_mis(views, normals, alphas, square, pixels, height, width, cdf, d
             out1[t, c] = a1[c] / n
 
 
-def ggx_integrals(pixels, views, normals, roughness, samples: int = 4096):
-    """``E0`` and ``E1``, each ``(T, 3)``, at ``T`` world-space ``(v, n, r)``.
+def ggx_integrals(pixels, views, normals, alpha, samples: int = 4096):
+    """``E0`` and ``E1``, each ``(T, 3)``, at ``T`` world-space ``(v, n, α)``.
 
     Parameters
     ----------
     pixels : (H, 2H, 3) lat-long radiance (finite, ≥ 0).
     views, normals : (T, 3) unit world directions with ``n·v > 0``; ``v`` points
         from the surface toward the viewer.
-    roughness : scalar or (T,) perceptual roughness ``r`` in ``[0.02, 1]``.
+    alpha : scalar or (T,) GGX width ``α`` in ``[ALPHA_MIN, 1]`` (not perceptual).
     samples : visible-normal samples, and as many map samples, per integral.
     """
-    v, n, r = check_geometry(views, normals, roughness)
+    v, n, _ = check_geometry(views, normals, 1.0)
+    a = check_alpha(alpha, v.shape[0])
     flat, h, w = latlong_flat(pixels)
     samples = check_samples(samples)
     e0 = np.empty((v.shape[0], 3))
     e1 = np.empty((v.shape[0], 3))
     cdf, density = light_distribution(flat, h, w)
-    _integrate_mis(v, n, ggx_alpha(r), fibonacci_square(samples), flat, h, w, cdf, density, e0, e1)
+    _integrate_mis(v, n, a, fibonacci_square(samples), flat, h, w, cdf, density, e0, e1)
     return e0, e1

@@ -1,8 +1,8 @@
-"""Look-up of the DFG table ``(A0, A1)`` over ``(n·v, r)`` (node-centred, bilinear).
+"""Look-up of the DFG table ``(A0, A1)`` over ``(n·v, α)`` (node-centred, bilinear).
 
 The table (``/dfg`` of every probe asset, baked by :mod:`shbake.bakers.dfg`)
-has node-centred axes ``μ = n·v ∈ [DFG_MU_MIN, 1]`` and perceptual roughness
-``r ∈ [ROUGHNESS_MIN, 1]``; queries are clamped to them.
+has node-centred axes ``μ = n·v ∈ [DFG_MU_MIN, 1]`` and ``√α ∈ [ROUGHNESS_MIN, 1]``
+(α the GGX width); queries take ``α`` and are clamped to the axes.
 """
 
 import numpy as np
@@ -13,9 +13,10 @@ from shbake.texture.bilinear import axis, blend
 
 
 @jit
-def dfg_at(table, mu, r):
-    """Bilinear ``(A0, A1)`` at ``(μ, r)``, clamped to the table's axes (check-free)."""
+def dfg_at(table, mu, alpha):
+    """Bilinear ``(A0, A1)`` at ``(μ, α)``, clamped to the table's axes (check-free)."""
     n_mu, n_r = table.shape[0], table.shape[1]
+    r = np.sqrt(max(alpha, 0.0))
     x = (min(1.0, max(DFG_MU_MIN, mu)) - DFG_MU_MIN) / (1.0 - DFG_MU_MIN) * (n_mu - 1)
     y = (min(1.0, max(ROUGHNESS_MIN, r)) - ROUGHNESS_MIN) / (1.0 - ROUGHNESS_MIN) * (n_r - 1)
     i0, i1, fx = axis(x, n_mu)
@@ -31,9 +32,9 @@ def _dfg_many(table, mu, r, out):
         out[k, 0], out[k, 1] = dfg_at(table, mu[k], r[k])
 
 
-def dfg_lookup(table, mu, r) -> np.ndarray:
-    """``(A0, A1)`` at arrays ``μ``, ``r`` (broadcast), shape ``(…, 2)``."""
-    m, rr = np.broadcast_arrays(np.asarray(mu, float), np.asarray(r, float))
+def dfg_lookup(table, mu, alpha) -> np.ndarray:
+    """``(A0, A1)`` at arrays ``μ``, GGX width ``α`` (broadcast), shape ``(…, 2)``."""
+    m, rr = np.broadcast_arrays(np.asarray(mu, float), np.asarray(alpha, float))
     out = np.empty(m.shape + (2,))
     _dfg_many(np.asarray(table, float), m.reshape(-1), rr.reshape(-1), out.reshape(-1, 2))
     return out

@@ -1,28 +1,66 @@
-"""SH-exponential glossy probe shading (Silvennoinen et al. 2025, §4).
+"""SH-exponential glossy probe shading (Silvennoinen et al. 2025, §4; shbake's v2).
 
-``E0(v, n, r) ≈ P(ρ, r) Q(h_ρ, r)`` (eq. 9–11) with ``ρ = 2(n·v)n − v`` the
-mirror direction, ``h_ρ = (n + ρ)/|n + ρ|``, and::
+``E0(v, n, α) ≈ P(ρ, α) Q(h_ρ, α)`` (eq. 9–11) with ``ρ = 2(n·v)n − v`` the
+mirror direction, ``h_ρ = (n + ρ)/|n + ρ|``, ``α`` the GGX width (SPEC §1), and::
 
-    P = exp(Σ_lm vMF_l(1/r) y_lm(ρ) p_lm),  Q = exp(Σ_lm vMF_l(1/r) y_lm(h_ρ) q_lm)
-    vMF_l(κ) = exp(−l(l+1)/(2κ))                                    (eq. 12)
+    P = exp(Σ_lm vMF_l(1/α) y_lm(ρ) p_lm(α)),  Q = exp(Σ_lm vMF_l(1/α) y_lm(h_ρ) q_lm(α))
+    vMF_l(κ) = exp(−l(l+1)/(2κ))  so  vMF_l(1/α) = exp(−l(l+1) α / 2)   (eq. 12)
 
-``q`` has no DC term. Full radiance: ``E = F0 E0 + (1 − F0) E0 A1/A0``
-(eq. 5, 15; :mod:`shbake.shading.dfg`). Fitted by :mod:`shbake.bakers.shexp`.
+``q`` has no DC term. The paper has one set ``(p, q)`` for every ``α``
+(``K = 1``). v2 stores ``K`` sets at knots ``α_0 < … < α_{K−1}`` and blends
+them with piecewise-linear hat functions of ``α`` (``K = 2``: linear in
+``α``), ``p(α) = Σ_k h_k(α) p_k``; ``α`` is clamped to the knots, so the
+coefficients are continuous in ``α`` (no seam). Full radiance:
+``E = F0 E0 + (1 − F0) E0 A1/A0`` (eq. 5, 15; :mod:`shbake.shading.dfg`).
+Fitted by :mod:`shbake.bakers.shexp`.
 """
 
 import numba
 import numpy as np
 
-from shbake.jit import pjit
+from shbake.jit import jit, pjit
 from shbake.sh.basis import recurrence_tables, sh_eval_into
 from shbake.shading.dfg import dfg_at
 
 
-def vmf_factors(lmax: int, roughness) -> np.ndarray:
-    """``vMF_l(1/r)`` per coefficient index, shape ``(…, (lmax+1)^2)`` (eq. 12)."""
+def vmf_factors(lmax: int, alpha) -> np.ndarray:
+    """``vMF_l(1/α) = exp(−l(l+1)α/2)`` per coefficient index, ``(…, (lmax+1)^2)`` (eq. 12)."""
     l = np.repeat(np.arange(lmax + 1), 2 * np.arange(lmax + 1) + 1)
-    r = np.asarray(roughness, dtype=float)[..., None]
-    return np.exp(-l * (l + 1) * r / 2.0)
+    a = np.asarray(alpha, dtype=float)[..., None]
+    return np.exp(-l * (l + 1) * a / 2.0)
+
+
+@jit
+def hat_weight(knots, alpha, k):
+    """Weight of set ``k`` at ``α``: the piecewise-linear hat on ``knots`` (check-free).
+
+    ``α`` is clamped to ``[knots[0], knots[-1]]``; one knot gives weight 1.
+    """
+    n = knots.shape[0]
+    if n == 1:
+        return 1.0
+    a = min(max(alpha, knots[0]), knots[n - 1])
+    if k > 0 and knots[k - 1] <= a <= knots[k]:
+        return (a - knots[k - 1]) / (knots[k] - knots[k - 1])
+    if k < n - 1 and knots[k] <= a <= knots[k + 1]:
+        return (knots[k + 1] - a) / (knots[k + 1] - knots[k])
+    return 0.0
+
+
+def hat_weights(knots, alpha) -> np.ndarray:
+    """``(T, K)`` hat weights of every set at each ``α`` (:func:`hat_weight`)."""
+    knots = np.asarray(knots, dtype=float)
+    a = np.clip(np.asarray(alpha, dtype=float).reshape(-1), knots[0], knots[-1])
+    out = np.zeros((a.size, knots.size))
+    if knots.size == 1:
+        out[:] = 1.0
+        return out
+    i = np.clip(np.searchsorted(knots, a, side="right") - 1, 0, knots.size - 2)
+    t = (a - knots[i]) / (knots[i + 1] - knots[i])
+    rows = np.arange(a.size)
+    out[rows, i] = 1.0 - t
+    out[rows, i + 1] += t
+    return out
 
 
 def mirror_and_half(views, normals) -> tuple[np.ndarray, np.ndarray]:
@@ -34,10 +72,12 @@ def mirror_and_half(views, normals) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pjit
-def _evaluate(views, normals, roughness, f0, p, q, lmax_p, lmax_q, qmm, a, b, table, out):
+def _evaluate(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qmm, a, b, table, out):
+    n_sets = knots.shape[0]
     for k in numba.prange(views.shape[0]):
         yp = np.empty((lmax_p + 1) ** 2)
         yq = np.empty((lmax_q + 1) ** 2)
+        hw = np.empty(n_sets)
         vx, vy, vz = views[k, 0], views[k, 1], views[k, 2]
         nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
         nv = nx * vx + ny * vy + nz * vz
@@ -46,38 +86,59 @@ def _evaluate(views, normals, roughness, f0, p, q, lmax_p, lmax_q, qmm, a, b, ta
         hn = np.sqrt(hx * hx + hy * hy + hz * hz)
         sh_eval_into(rx, ry, rz, lmax_p, qmm, a, b, yp)
         sh_eval_into(hx / hn, hy / hn, hz / hn, lmax_q, qmm, a, b, yq)
-        r = roughness[k]
-        a0, a1 = dfg_at(table, nv, r)
+        al = alphas[k]
+        for s in range(n_sets):
+            hw[s] = hat_weight(knots, al, s)
+        a0, a1 = dfg_at(table, nv, al)
         tail = a1 / a0 if a0 > 0.0 else 0.0
         for c in range(3):
-            s = 0.0
+            acc = 0.0
             for l in range(lmax_p + 1):
-                g = np.exp(-l * (l + 1) * r / 2.0)
+                g = np.exp(-l * (l + 1) * al / 2.0)
                 for i in range(l * l, (l + 1) * (l + 1)):
-                    s += g * yp[i] * p[i, c]
+                    coef = 0.0
+                    for s in range(n_sets):
+                        coef += hw[s] * p[s, i, c]
+                    acc += g * yp[i] * coef
             for l in range(1, lmax_q + 1):
-                g = np.exp(-l * (l + 1) * r / 2.0)
+                g = np.exp(-l * (l + 1) * al / 2.0)
                 for i in range(l * l, (l + 1) * (l + 1)):
-                    s += g * yq[i] * q[i - 1, c]
-            e0 = np.exp(s)
+                    coef = 0.0
+                    for s in range(n_sets):
+                        coef += hw[s] * q[s, i - 1, c]
+                    acc += g * yq[i] * coef
+            e0 = np.exp(acc)
             out[k, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
 
 
-def evaluate_shexp(p, q, table, views, normals, roughness, f0=(1.0, 1.0, 1.0)) -> np.ndarray:
-    """Outgoing radiance ``(T, 3)`` of an SH-exp probe at world ``(v, n, r)``.
+def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots=None):
+    """Outgoing radiance ``(T, 3)`` of an SH-exp probe at world ``(v, n, α)``.
 
-    ``f0``: Schlick reflectance per channel (1 = chrome: ``E0`` alone).
-    Roughness must lie in the probe's fitted range; the caller checks it.
+    Parameters
+    ----------
+    p, q : ``(K, (lmax_p+1)², 3)`` and ``(K, (lmax_q+1)² − 1, 3)`` coefficient sets
+        (a single set may be given without the leading axis).
+    table : the probe's DFG table (:mod:`shbake.shading.dfg`).
+    views, normals : ``(T, 3)`` unit world directions.
+    alpha : GGX width, scalar or ``(T,)``; the caller checks the probe's range.
+    f0 : Schlick reflectance per channel (1 = chrome: ``E0`` alone).
+    knots : ``(K,)`` increasing ``α`` of the sets (``None`` for one set).
     """
     p = np.asarray(p, float)
     q = np.asarray(q, float)
-    lmax_p = int(round(np.sqrt(p.shape[0]))) - 1
-    lmax_q = int(round(np.sqrt(q.shape[0] + 1))) - 1
+    if p.ndim == 2:
+        p, q = p[None], q[None]
+    knots = np.zeros(1) if knots is None else np.asarray(knots, float).reshape(-1)
+    lmax_p = int(round(np.sqrt(p.shape[1]))) - 1
+    lmax_q = int(round(np.sqrt(q.shape[1] + 1))) - 1
     v = np.ascontiguousarray(np.asarray(views, float).reshape(-1, 3))
     n = np.ascontiguousarray(np.asarray(normals, float).reshape(-1, 3))
-    r = np.ascontiguousarray(np.broadcast_to(np.asarray(roughness, float), (v.shape[0],)))
+    al = np.broadcast_to(np.asarray(alpha, float), (v.shape[0],)).copy()
     out = np.empty((v.shape[0], 3))
     f0 = np.broadcast_to(np.asarray(f0, float), (3,)).copy()
     qmm, a, b = recurrence_tables(max(lmax_p, lmax_q))
-    _evaluate(v, n, r, f0, p, q, lmax_p, lmax_q, qmm, a, b, np.asarray(table, float), out)
+    _evaluate(
+        v, n, al, f0, np.ascontiguousarray(p), np.ascontiguousarray(q), knots, lmax_p, lmax_q,
+        qmm, a, b, np.asarray(table, float), out,
+    )  # fmt: skip
     return out

@@ -124,15 +124,20 @@ def load_source(
 
     R = frame_matrix(frame, rotate_deg)
     asset = read_asset(path, kinds=("env_sh", "splitsum_probe"))
+    meta = {k[len("source_") :]: v for k, v in asset.attrs.items() if k.startswith("source_")}
+    recorded = (  # the provenance block's source_path is relative to the asset (FORMAT §2)
+        os.path.join(os.path.dirname(os.path.abspath(path)), meta["path"])
+        if meta.get("path")
+        else None
+    )
     if asset.kind == "splitsum_probe":
-        meta = {k[len("source_") :]: v for k, v in asset.attrs.items() if k.startswith("source_")}
         return ExportSource(
             name=os.path.splitext(os.path.basename(path))[0],
             irradiance9=None,
             lighting9=None,
             rotation=R,
             frame=frame,
-            env_path=env_path,
+            env_path=env_path or recorded,
             meta={
                 "sha256": meta.get("sha256"),
                 "negative_policy": meta.get("negative_policy", "clamp"),
@@ -142,14 +147,13 @@ def load_source(
         raise InputError(f"{path}: exports need /irradiance/sh with irradiance lmax >= 2")
     E = rotate(np.asarray(asset["/irradiance/sh"][:9], dtype=np.float64), R)
     L = rotate(np.asarray(asset["/lighting/sh"][:9], dtype=np.float64), R)
-    meta = {k[len("input_") :]: v for k, v in asset.attrs.items() if k.startswith("input_")}
     src = ExportSource(
         name=os.path.splitext(os.path.basename(path))[0],
         irradiance9=E,
         lighting9=L,
         rotation=R,
         frame=frame,
-        env_path=env_path or meta.get("abspath") or meta.get("path"),
+        env_path=env_path or recorded,
         meta=meta,
     )
     if "/sun/direction" in asset:

@@ -1,0 +1,61 @@
+"""SH-exp v2 and the paper's SH-exp against both split-sums on the six shared maps.
+
+Usage: ``python bench/probe_eval.py [--jobs 2] [--size 32] [--truth-samples 2048] [MAP …]``
+
+Runs :func:`shbake.batch.probe_eval.evaluate_maps` (2 materials × the paper's
+six α × 4 views per map) with one process per map (``--jobs`` at a time,
+numba on one thread each) and writes ``bench/results/probe_eval.json`` (every
+case) and ``bench/results/probe_eval.md`` (win rates per α and material, bytes
+per probe, the per-map table and every case). ``SHBAKE_TRUTH_CACHE=DIR`` keeps
+the ground truths there (they do not depend on the probes) for re-runs. ``tests/test_probe_eval.py``
+asserts the figures of the JSON.
+"""
+
+import argparse
+import json
+import os
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
+RESULTS = ROOT / "bench" / "results"
+
+
+def one_map(args):
+    path, size, samples = args
+    import numba
+
+    numba.set_num_threads(1)
+    from shbake.batch.probe_eval import evaluate_maps
+
+    return evaluate_maps([path], size, samples, cache_dir=os.environ.get("SHBAKE_TRUTH_CACHE"))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("maps", nargs="*")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--size", type=int, default=32)
+    ap.add_argument("--truth-samples", type=int, default=2048)
+    ap.add_argument("--out", default=str(RESULTS / "probe_eval"))
+    args = ap.parse_args()
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    paths = args.maps or [str(ROOT.parent / "shared" / "hdri" / f"{m}.exr") for m in MAPS]
+    work = [(p, args.size, args.truth_samples) for p in paths]
+    with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
+        parts = list(pool.map(one_map, work))
+    result = parts[0]
+    for part in parts[1:]:
+        result["maps"].update(part["maps"])
+    from shbake.batch.probe_eval import markdown_report
+
+    Path(args.out + ".json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
+    report = markdown_report(result)
+    Path(args.out + ".md").write_text(report)
+    print(report.split("\n\n")[0])
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,162 @@
+"""One place that turns everything a run can raise into one line and an exit status.
+
+``run(call)`` installs the signal handlers (:mod:`shbake.signals`), runs the command
+inside one output transaction (:mod:`shbake.format.atomic`), records warnings
+(numpy, numba) instead of printing them as they come, and maps the outcome:
+
+=======  ===================================================================
+status   meaning
+=======  ===================================================================
+0        success (recorded warnings summarised on stderr, one line each)
+1        :class:`~shbake.errors.ShbakeError`, ``OSError``, ``MemoryError`` or
+         any other failure: one line ``shbake: error: …``
+2        usage error (click)
+130/143  SIGINT / SIGTERM: ``shbake: error: interrupted``
+=======  ===================================================================
+
+No traceback is printed unless ``SHBAKE_DEBUG=1``.
+"""
+
+import os
+import sys
+import warnings
+
+import click
+
+from shbake import resources, signals
+from shbake.errors import ShbakeError
+from shbake.format import atomic
+
+MAX_MESSAGE = 400
+"""Characters of an error message kept (arrays are never printed in full)."""
+MAX_WARNINGS = 3
+"""Distinct warnings summarised after a successful run."""
+
+
+class Interrupted(Exception):
+    """A run stopped by SIGINT or SIGTERM (raised past click, which would print a blank line)."""
+
+
+def one_line(text) -> str:
+    """Collapse a message to one bounded line."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= MAX_MESSAGE else text[: MAX_MESSAGE - 1] + "…"
+
+
+def message_of(e: BaseException) -> str:
+    """The one-line message of a failure."""
+    if isinstance(e, ShbakeError):
+        return one_line(e)
+    if isinstance(e, MemoryError):
+        return one_line(
+            f"out of memory (budget {resources.human(resources.memory_budget())}); lower the "
+            "sizes, lmax or sample counts, or set --max-memory"
+        )
+    if isinstance(e, OSError):
+        return one_line(atomic.os_error_message(e))
+    if isinstance(e, UnicodeError):
+        return one_line(f"text is not valid UTF-8 ({e.reason})")
+    return one_line(f"internal error: {type(e).__name__}: {e} (SHBAKE_DEBUG=1 shows the traceback)")
+
+
+def guarded_invoke(invoke):
+    """Call ``invoke()`` (a command body) as one transaction; interrupts become
+    :class:`Interrupted` so that click does not handle them."""
+    try:
+        with atomic.transaction():
+            result = invoke()
+            signals.raise_if_interrupted()
+            return result
+    except KeyboardInterrupt:
+        raise Interrupted() from None
+
+
+QUIET_CATEGORIES = (DeprecationWarning, PendingDeprecationWarning, FutureWarning,
+                    ImportWarning, ResourceWarning)  # fmt: skip
+"""Library housekeeping warnings that say nothing about the user's run: not shown."""
+
+
+def _summarise(records, quiet: bool) -> None:
+    records = [w for w in records if not issubclass(w.category, QUIET_CATEGORIES)]
+    if quiet or not records:
+        return
+    seen = {}
+    for w in records:
+        key = (w.category.__name__, one_line(w.message)[:160])
+        seen[key] = seen.get(key, 0) + 1
+    for (cat, msg), n in list(seen.items())[:MAX_WARNINGS]:
+        times = f" ({n}×)" if n > 1 else ""
+        click.echo(f"shbake: warning: {cat}: {msg}{times}", err=True)
+    if len(seen) > MAX_WARNINGS:
+        click.echo(f"shbake: warning: and {len(seen) - MAX_WARNINGS} more kinds", err=True)
+
+
+def _error(msg: str) -> None:
+    try:
+        click.echo(f"shbake: error: {msg}", err=True)
+    except OSError:
+        pass
+
+
+def run(call, argv) -> int:
+    """Run ``call()`` (the click group's ``main``); return the exit status."""
+    signals.install()
+    quiet = "-q" in argv or "--quiet" in argv
+    code = 0
+    with warnings.catch_warnings(record=True) as records:
+        warnings.simplefilter("always")
+        try:
+            try:
+                call()
+            except (Interrupted, KeyboardInterrupt):
+                raise
+            except click.exceptions.Abort:
+                raise KeyboardInterrupt from None
+        except (Interrupted, KeyboardInterrupt):
+            atomic.abort_active()
+            if signals.claim_finish():
+                signals.finish_message()
+            return signals.exit_code()
+        except click.exceptions.UsageError as e:
+            _error(one_line(e.format_message()))
+            return 2
+        except click.exceptions.Exit as e:
+            return e.exit_code
+        except click.exceptions.ClickException as e:
+            _error(one_line(e.format_message()))
+            return 1
+        except BaseException as e:  # noqa: BLE001 - the one place every failure ends
+            if isinstance(e, SystemExit):
+                return e.code if isinstance(e.code, int) else 1
+            if os.environ.get("SHBAKE_DEBUG"):
+                import traceback
+
+                traceback.print_exc()
+            _error(message_of(e))
+            _drain_stdout()
+            return 1
+        try:
+            sys.stdout.flush()
+        except OSError as e:
+            _silence_stdout()
+            _error(f"cannot write to stdout ({e.strerror or type(e).__name__})")
+            return 1
+        _summarise(records, quiet)
+    return code
+
+
+def _drain_stdout() -> None:
+    """Flush stdout after an error; if that fails too, silence it (no exit-time traceback)."""
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError):
+        _silence_stdout()
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's last flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass

@@ -1,0 +1,143 @@
+"""``shbake shrm``: Spherical Harmonic Reflection Maps (Ramamoorthi & Hanrahan 2002)."""
+
+import click
+from shbake_cli.options import (
+    colorspace_opt,
+    emit_json,
+    exr_dir_opt,
+    fix_nonfinite_opt,
+    info,
+    json_opt,
+    layout_opt,
+    negative_opt,
+    output_opt,
+    quiet_opt,
+    report_opt,
+)
+
+from shbake.bakers.shrm import bake_to_file
+
+
+def _params(values) -> dict:
+    out = {}
+    for item in values:
+        if "=" not in item:
+            raise click.UsageError(f"-p expects NAME=VALUE, got {item!r}")
+        k, v = item.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out
+
+
+@click.command("shrm")
+@click.argument("env", type=click.Path(dir_okay=False))
+@output_opt("The SHRM asset (.h5)")
+@click.option(
+    "--brdf",
+    default="microfacet",
+    show_default=True,
+    help="Isotropic BRDF: microfacet (RH02 eq. 11), phong-lobe (radially symmetric, P=0), "
+    "kajiya-kay (tangent), lafortune, or a brdf-table model (ggx, phong, ward, merl, ...).",
+)
+@click.option(
+    "-p",
+    "--param",
+    "params",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="BRDF parameter (repeatable), e.g. -p sigma=0.2, -p alpha=0.16.",
+)
+@click.option(
+    "--merl",
+    "merl_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="MERL .binary file (--brdf merl).",
+)
+@click.option(
+    "--eps",
+    "--tol",
+    "eps",
+    type=float,
+    default=0.03,
+    show_default=True,
+    help="Error tolerance in (0, 1): the fraction of BRDF energy left out; chooses F and P "
+    "(RH02 §5.1).",
+)
+@click.option(
+    "--F",
+    "F",
+    type=int,
+    default=None,
+    help="Light × BRDF band limit F (0…64), instead of choosing it from --eps.",
+)
+@click.option(
+    "--P",
+    "P",
+    type=int,
+    default=None,
+    help="View band limit P (0…16), instead of choosing it from --eps.",
+)
+@click.option(
+    "--face-size",
+    type=int,
+    default=None,
+    help="Cube face size in texels (4…1024) [default: power of two nearest 5F, 16…256].",
+)
+@exr_dir_opt("the B_pq cubes shrm_p<p>.exr and reflection.exr (eq. 12 for --view)")
+@click.option(
+    "--view",
+    default="0,0,1",
+    show_default=True,
+    metavar="X,Y,Z",
+    help="World view direction (toward the viewer) of reflection.exr.",
+)
+@report_opt
+@layout_opt
+@colorspace_opt
+@negative_opt
+@fix_nonfinite_opt
+@json_opt
+@quiet_opt
+def shrm(env, output, brdf, params, merl_path, eps, F, P, face_size, exr_dir, view, report,
+         layout, colorspace, negative, fix_nonfinite, as_json, quiet):  # fmt: skip
+    """Bake ENV into a Spherical Harmonic Reflection Map for an isotropic BRDF."""
+    summary = bake_to_file(
+        env,
+        output,
+        brdf,
+        _params(params),
+        merl_path,
+        eps,
+        F,
+        P,
+        face_size,
+        exr_dir,
+        view,
+        report,
+        layout,
+        colorspace,
+        negative,
+        fix_nonfinite,
+        quiet,
+    )
+    info(
+        f"shrm: {output}: {brdf} F={summary['F']} P={summary['P']} face {summary['face_size']} "
+        f"BRDF energy left out {summary['eps_brdf']:.4f} (bound {summary['eps_bound']:.2e}), "
+        f"{summary['bytes']} bytes, {summary['seconds']['total']:.3f} s",
+        quiet,
+    )
+    if report and not as_json:
+        click.echo(
+            "F\tP\tpredicted\tbound\tmeasured_energy\tmeasured_rel_rms\tseconds\tbytes", err=True
+        )
+        for r in summary["report"]:
+            m = "-\t-"
+            if r["measured_rel_rms"] is not None:
+                m = f"{r['measured_rel_energy']:.2e}\t{r['measured_rel_rms']:.4f}"
+            click.echo(
+                f"{r['F']}\t{r['P']}\t{r['eps_brdf']:.4f}\t{r['eps_bound']:.2e}\t{m}\t"
+                f"{r['seconds']:.3f}\t{r['bytes']}",
+                err=True,
+            )
+    if as_json:
+        emit_json(summary)

@@ -1,0 +1,143 @@
+"""``probe-fit`` as one library call: maps (or a probe list) → SH-exp probes, in batch.
+
+Outputs: one ``shexp_probe`` file per map into ``out_dir`` (or the list's
+named outputs), or all probes in one ``shexp_probe_set`` file (``output``),
+written only when every probe succeeded. ``report``/``tol`` study the first
+map (:mod:`shbake.bakers.shexp_report`) before the batch.
+"""
+
+import os
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from shbake.bakers.shexp import FitConfig
+from shbake.batch.probe_jobs import ProbeJob, fit_plan, run_dask, run_local, shared_dfg_table
+from shbake.errors import InputError, ParameterError
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs
+from shbake.resources import read_bounded
+
+PROBE_LIST_MAX_BYTES = 16 << 20
+"""Largest probe list read (bytes)."""
+
+
+def read_probe_list(path: str) -> list[tuple[str, str | None]]:
+    """Lines ``MAP [OUTPUT]``; blank lines and ``#`` comments skipped; relative paths
+    are relative to the list's folder."""
+    base = Path(path).parent
+    try:
+        raw = read_bounded(path, PROBE_LIST_MAX_BYTES, "probe list (--list)")
+        lines = raw.decode("utf-8").splitlines()
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: the probe list is not UTF-8 text (byte {e.start})") from None
+    except OSError as e:
+        raise InputError(f"{path}: cannot read the probe list ({e.strerror})") from None
+    out = []
+    for n, line in enumerate(lines, 1):
+        parts = line.split("#", 1)[0].split()
+        if not parts:
+            continue
+        if len(parts) > 2:
+            raise InputError(f"{path}:{n}: expected 'MAP [OUTPUT]', got {line.strip()!r}")
+        out.append((str(base / parts[0]), str(base / parts[1]) if len(parts) == 2 else None))
+    return out
+
+
+def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, output=None):
+    """One :class:`ProbeJob` per map; with ``output`` (a set file) the jobs write nothing."""
+    entries = [(m, None) for m in maps] + (read_probe_list(probe_list) if probe_list else [])
+    if not entries:
+        raise ParameterError("give maps as arguments or a --list file")
+    if output is not None:
+        check_output_path(output, "-o/--output")
+        return [ProbeJob(os.path.abspath(src), None, config, negative, fix_nonfinite)
+                for src, _ in entries]  # fmt: skip
+    jobs, seen = [], set()
+    for src, out in entries:
+        if out is None:
+            check_output_dir(out_dir, "--out-dir")
+            makedirs(out_dir)
+            out = os.path.join(out_dir, Path(src).stem + ".h5")
+        out = os.path.abspath(out)
+        if out in seen:
+            raise ParameterError(f"two probes would write {out}; name outputs in a --list file")
+        seen.add(out)
+        check_output_path(out)
+        jobs.append(ProbeJob(os.path.abspath(src), out, config, negative, fix_nonfinite))
+    return jobs
+
+
+def settings_study(job: ProbeJob, config: FitConfig, report: bool, tol):
+    """``tol`` and ``report`` on the first map: (config to use, study, report text)."""
+    from shbake.bakers.shexp_report import (
+        alpha_rows,
+        format_report,
+        orders_study,
+        pick_samples,
+        samples_study,
+    )
+    from shbake.envmap import load_environment
+
+    if config.targets != "quadrature":
+        raise ParameterError("--report and --tol study the quadrature targets")
+    env = load_environment(job.source, negative=job.negative, fix_nonfinite=job.fix_nonfinite,
+                           quiet=True)  # fmt: skip
+    if env.layout != "latlong":
+        raise InputError(f"{job.source}: probe-fit takes lat-long maps (2:1), got {env.layout}")
+    samples_rows = samples_study(env.pixels, config)
+    study = {"samples_study": samples_rows}
+    if tol is not None:
+        config = replace(config, samples=pick_samples(samples_rows, tol))
+        study["chosen_samples"] = config.samples
+    text = None
+    if report:
+        plan = fit_plan(config, env.shape)
+        e0 = plan.targets.e0(env.pixels)
+        study["orders_study"] = orders_study(env.pixels, config, e0)
+        study["alpha_study"] = alpha_rows(config, plan.fit_targets(e0).stats)
+        text = format_report(samples_rows, study["orders_study"], study["alpha_study"])
+    return config, study, text
+
+
+def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
+    """Write the probes of ``results`` as one set asset; return the summaries without arrays."""
+    from shbake.format.asset import write_asset
+    from shbake.format.shexp import build_shexp_set_asset
+
+    probes = [r | {"name": Path(r["source"]).stem} for r in results]
+    write_asset(path, build_shexp_set_asset(probes, config, shared_dfg_table()))
+    return [{k: r[k] for k in ("source", "bytes")} | r["stats"] | {"output": path}
+            for r in results]  # fmt: skip
+
+
+DEFAULT_CONFIG = FitConfig()
+
+
+def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_CONFIG,
+               negative="clamp", fix_nonfinite=None, report=False, tol=None, n_jobs=1,
+               scheduler=None, progress=None, notes=None) -> dict:  # fmt: skip
+    """Fit SH-exp probes to ``maps`` (and the lines of ``probe_list``); the summary
+    ``{"probes", "seconds", "probes_per_second", "config", …study}``. ``notes(text)``
+    receives the ``--tol`` choice and the ``--report`` tables."""
+    jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, output)
+    study = {}
+    if report or tol is not None:
+        config, study, text = settings_study(jobs[0], config, report, tol)
+        jobs = [replace(job, config=config) for job in jobs]
+        if notes and tol is not None:
+            notes(f"probe-fit: --tol {tol:g} → --samples {config.samples}")
+        if notes and text:
+            notes(text)
+    if scheduler and n_jobs != 1:
+        raise ParameterError("use --jobs or --scheduler, not both")
+    t0 = time.perf_counter()
+    if scheduler:
+        results = run_dask(jobs, scheduler, progress)
+    else:
+        results = run_local(jobs, n_jobs, progress)
+    if output:
+        results = write_set(output, results, config)
+    seconds = time.perf_counter() - t0
+    rate = len(jobs) / seconds if seconds > 0 else float("inf")
+    return {"probes": results, "seconds": seconds, "probes_per_second": rate,
+            "config": config.as_dict(), **study}  # fmt: skip

@@ -1,0 +1,106 @@
+"""The provenance block every asset carries (``docs/FORMAT.md`` §3).
+
+``source_path`` is recorded relative to the asset's folder where possible, so a
+folder of maps and assets can move as a whole and a probe baked on any runner
+has the same bytes; :func:`resolve_source` finds the file again from the asset.
+"""
+
+import os
+
+from shbake import resources
+from shbake.errors import FormatError, ImageReadError
+
+MAP_META_KEYS = (
+    "width", "height", "layout", "stored_format", "channels", "colorspace_in", "colorspace",
+    "nonfinite_repaired", "negative_count", "negative_energy_change",
+)  # fmt: skip
+"""Keys of an environment's ``meta`` recorded as ``source_<key>`` besides the block."""
+
+
+def no_source() -> dict:
+    """The provenance block of an asset with no input file (an analytic BRDF table)."""
+    return {
+        "source_path": "",
+        "source_sha256": "",
+        "source_size": 0,
+        "source_nonfinite_policy": "",
+        "source_negative_policy": "",
+    }
+
+
+def file_source(path: str) -> dict:
+    """The provenance block of a non-map input file (a MERL BRDF): path, size, SHA-256."""
+    return no_source() | {
+        "source_path": os.path.abspath(path),
+        "source_sha256": resources.sha256_of(path),
+        "source_size": os.stat(path).st_size,
+    }
+
+
+def map_source(meta: dict) -> dict:
+    """The provenance block of an environment map from its ``meta`` (``load_environment``)."""
+    block = {
+        "source_path": os.path.abspath(str(meta["path"])),
+        "source_sha256": meta["sha256"],
+        "source_size": int(meta["size"]),
+        "source_nonfinite_policy": meta["nonfinite_policy"],
+        "source_negative_policy": meta["negative_policy"],
+    }
+    return block | {f"source_{k}": meta[k] for k in MAP_META_KEYS if k in meta}
+
+
+def relativise(attrs: dict, asset_path: str) -> dict:
+    """``attrs`` with ``source_path`` (and those of ``probe_sources``) relative to the folder
+    of ``asset_path`` where possible (same file system root); absolute otherwise."""
+    folder = os.path.dirname(os.path.abspath(asset_path))
+
+    def rel(p):
+        if not p or not os.path.isabs(p):
+            return p
+        try:
+            return os.path.relpath(p, folder)
+        except ValueError:  # another drive
+            return p
+
+    out = dict(attrs)
+    if "source_path" in out:
+        out["source_path"] = rel(out["source_path"])
+    if isinstance(out.get("probe_sources"), list):
+        out["probe_sources"] = [
+            s | {"source_path": rel(s.get("source_path", ""))} for s in out["probe_sources"]
+        ]
+    return out
+
+
+def resolve_source(attrs: dict, asset_path: str, given: str | None = None) -> str:
+    """The input file of an asset: ``given`` (``--source``) if any, else ``source_path``
+    relative to the asset's folder; its SHA-256 must match ``source_sha256``.
+
+    The hash is bounded by the file size; FIFOs, devices and folders are refused
+    before opening. Raises :class:`ImageReadError` (not found) or
+    :class:`FormatError` (hash differs).
+    """
+    recorded = attrs.get("source_path", "")
+    if given:
+        path = given
+    elif recorded:
+        folder = os.path.dirname(os.path.abspath(asset_path))
+        path = os.path.join(folder, recorded)
+    else:
+        raise ImageReadError("the asset records no source map; give it with --source")
+    if not os.path.exists(path):
+        if given:
+            raise ImageReadError(f"{given}: no such file (--source)")
+        raise ImageReadError(
+            f"source map {recorded!r} (recorded relative to the asset) not found at {path}; "
+            "give it with --source"
+        )
+    resources.check_regular_file(path, "--source" if given else "recorded source map")
+    digest = resources.sha256_of(path)
+    want = attrs.get("source_sha256", "")
+    if digest != want:
+        raise FormatError(
+            f"{path}: SHA-256 {digest[:12]}… differs from the one recorded in the asset "
+            f"({str(want)[:12]}…); not the map this asset was baked from"
+        )
+    return path

@@ -1,0 +1,203 @@
+"""Bounded resources: special files refused before opening, bounded reads and hashes, and the
+memory budget every allocation that scales with parameters or image size is checked against.
+
+The budget is ``--max-memory`` (``shbake --max-memory 4G …``), else the environment variable
+``SHBAKE_MAX_MEMORY``, else 80 % of the memory the kernel reports available
+(``MemAvailable`` in ``/proc/meminfo``; 8 GiB where that cannot be read). An estimate above
+it is refused with one line naming the estimate, before anything is allocated.
+"""
+
+import hashlib
+import os
+import re
+import stat
+
+from shbake.errors import ImageReadError, ParameterError, ResourceError
+
+DEFAULT_BUDGET_FRACTION = 0.8
+"""Share of the available memory a run may plan to use by default."""
+FALLBACK_BUDGET = 8 << 30
+"""Budget where the available memory cannot be read (bytes)."""
+
+_budget_override: int | None = None
+_inputs: list[str] = []
+_outputs: list[str] = []
+_tracking = False
+
+_UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+
+
+def parse_size(text: str) -> int:
+    """``"4G"``, ``"512M"``, ``"1.5g"``, ``"1000000"`` → bytes (binary units)."""
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([kKmMgGtT]?)(i?[bB])?\s*", str(text))
+    if not m:
+        raise ParameterError(f"--max-memory {text!r}: expected a size such as 4G or 512M")
+    value = int(float(m.group(1)) * _UNITS[m.group(2).lower()])
+    if value <= 0:
+        raise ParameterError(f"--max-memory {text!r}: must be positive")
+    return value
+
+
+def set_memory_budget(nbytes: int | None) -> None:
+    """Set (or with ``None`` reset) the budget for this process."""
+    global _budget_override
+    _budget_override = nbytes
+
+
+def available_memory() -> int | None:
+    """``MemAvailable`` from ``/proc/meminfo`` in bytes, or ``None``."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def memory_budget() -> int:
+    """The memory budget in bytes (see the module docstring)."""
+    if _budget_override is not None:
+        return _budget_override
+    env = os.environ.get("SHBAKE_MAX_MEMORY")
+    if env:
+        return parse_size(env)
+    avail = available_memory()
+    return int(avail * DEFAULT_BUDGET_FRACTION) if avail else FALLBACK_BUDGET
+
+
+def human(nbytes: float) -> str:
+    """``1.5 GiB``-style text."""
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if abs(nbytes) < 1024 or unit == "TiB":
+            return f"{nbytes:.0f} {unit}" if unit == "B" else f"{nbytes:.1f} {unit}"
+        nbytes /= 1024
+    return f"{nbytes:.1f} TiB"
+
+
+def check_memory(nbytes: float, what: str) -> None:
+    """Refuse a plan whose memory estimate ``nbytes`` exceeds the budget."""
+    budget = memory_budget()
+    if nbytes > budget:
+        raise ResourceError(
+            f"{what} needs an estimated {human(nbytes)}, above the memory budget of "
+            f"{human(budget)} (set --max-memory to change it)"
+        )
+
+
+def note_input(path: str) -> None:
+    """Record that this process reads ``path``: no output may then replace it
+    (:func:`shbake.format.atomic.check_not_input`). Refuses at once an input that is a
+    declared output (:func:`declare_output`), before any work is done on it."""
+    if not _tracking:
+        return
+    p = os.path.abspath(os.fspath(path))
+    for out in _outputs:
+        if _same(out, p):
+            from shbake.errors import OutputError
+
+            raise OutputError(
+                f"{out}: is the input {path}; writing it would destroy the input "
+                "(choose another output)"
+            )
+    if p not in _inputs:
+        _inputs.append(p)
+
+
+def declare_output(path: str) -> None:
+    """Record an output path checked before the run (inputs read later are compared)."""
+    if not _tracking:
+        return
+    p = os.path.abspath(os.fspath(path))
+    for src in _inputs:
+        if _same(p, src):
+            from shbake.errors import OutputError
+
+            raise OutputError(
+                f"{path}: is the input {src}; writing it would destroy the input "
+                "(choose another output)"
+            )
+    if p not in _outputs:
+        _outputs.append(p)
+
+
+def _same(a: str, b: str) -> bool:
+    try:
+        return os.path.exists(a) and os.path.exists(b) and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def inputs() -> list[str]:
+    """Every input file this process has read (absolute paths, first-read order)."""
+    return list(_inputs)
+
+
+def end_run() -> None:
+    """End a command run: stop tracking inputs and outputs."""
+    global _tracking
+    _tracking = False
+    _inputs.clear()
+    _outputs.clear()
+
+
+def start_run() -> None:
+    """Start a command run: forget earlier inputs and outputs, and track them from now on
+    (library calls outside a run are not tracked: a program may write then read a file)."""
+    global _tracking
+    _inputs.clear()
+    _outputs.clear()
+    _tracking = True
+
+
+def check_regular_file(path: str, what: str = "input") -> os.stat_result:
+    """``os.stat`` of ``path`` after refusing folders, FIFOs, sockets and devices.
+
+    Called before a file is opened, so that reading it cannot block (FIFO) or run
+    forever (``/dev/zero``). Records ``path`` as an input (:func:`note_input`).
+    """
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise ImageReadError(f"{path}: no such file ({what})") from None
+    except OSError as e:
+        raise ImageReadError(f"{path}: cannot read ({what}: {e.strerror})") from None
+    mode = st.st_mode
+    if stat.S_ISDIR(mode):
+        raise ImageReadError(f"{path}: is a directory, not a file ({what})")
+    if not stat.S_ISREG(mode):
+        kind = (
+            "a FIFO" if stat.S_ISFIFO(mode)
+            else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+            else "a socket" if stat.S_ISSOCK(mode)
+            else "not a regular file"
+        )  # fmt: skip
+        raise ResourceError(f"{path}: is {kind}, not a regular file ({what})")
+    note_input(path)
+    return st
+
+
+def read_bounded(path: str, limit: int, what: str = "input") -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes (read at most ``limit + 1``)."""
+    check_regular_file(path, what)
+    with open(path, "rb") as f:
+        data = f.read(limit + 1)
+    if len(data) > limit:
+        raise ResourceError(f"{path}: larger than the {human(limit)} a {what} can be")
+    return data
+
+
+def sha256_of(path: str) -> str:
+    """Hex SHA-256 of a regular file's bytes, reading no more than its size at open time."""
+    st = check_regular_file(path, "hashed file")
+    h = hashlib.sha256()
+    left = st.st_size
+    with open(path, "rb") as f:
+        while left > 0:
+            chunk = f.read(min(1 << 20, left))
+            if not chunk:
+                break
+            h.update(chunk)
+            left -= len(chunk)
+    return h.hexdigest()

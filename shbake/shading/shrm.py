@@ -1,0 +1,143 @@
+"""Shading with a Spherical Harmonic Reflection Map (Ramamoorthi & Hanrahan 2002, §7.5).
+
+An SHRM is a cube map ``(6, S, S, n, 3)`` of coefficients: ``n = (P+1)²``
+global coefficients ``B̃_ps`` (``surface`` and ``lobe`` kinds), or ``n = P+1``
+coefficients ``B_p0`` indexed by the fibre tangent (``tangent`` kind).
+
+Per frame, for a distant viewer ``V`` (unit, from the surface toward the
+eye), eq. 12 sums the dynamic reflection cube map::
+
+    B̃(R) = Σ_{p ≤ P} Σ_s B̃_ps(R) y_ps(V)                      (surface, lobe)
+    B(T)  = Σ_{p ≤ P} B_p0(T) y_p0(T·V)                          (tangent)
+
+and each pixel reads it by a seam-correct bilinear cube fetch
+(:mod:`shbake.texture.cube`) at the reflection vector ``R = 2(n·V)n − V``
+(or at the tangent ``T``). :func:`evaluate_shrm` is the per-pixel form
+(eq. 7) for a different ``V`` at every point: the coefficients are fetched
+bilinearly at ``R`` and dotted with ``y(V)``. Reads nothing but the asset's
+arrays.
+"""
+
+import numpy as np
+
+from shbake.errors import ParameterError
+from shbake.sh.basis import real_sh
+from shbake.texture.cube import cube_directions, sample_cube
+
+SHRM_KINDS = ("surface", "lobe", "tangent")
+
+
+def _terms(shrm, kind: str) -> int:
+    if kind not in SHRM_KINDS:
+        raise ParameterError(f"unknown SHRM kind {kind!r} (allowed: {', '.join(SHRM_KINDS)})")
+    s = np.shape(shrm)
+    if len(s) != 5 or s[0] != 6 or s[1] != s[2] or s[4] != 3:
+        raise ParameterError(f"an SHRM has shape (6, S, S, n, 3), got {s}")
+    n = s[3]
+    P = n - 1 if kind == "tangent" else int(round(np.sqrt(n))) - 1
+    if kind != "tangent" and (P + 1) ** 2 != n:
+        raise ParameterError(f"{n} coefficients per texel is not (P+1)² for any P")
+    return P
+
+
+def _unit(v, name: str) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    if v.shape[-1:] != (3,) or not np.all(np.isfinite(v)):
+        raise ParameterError(f"{name} must be finite (..., 3) vectors")
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    if np.any(n == 0.0):
+        raise ParameterError(f"{name} must be non-zero")
+    return v / n
+
+
+def reflection_cube(shrm, view, kind: str = "surface") -> np.ndarray:
+    """Eq. 12: the dynamic reflection cube map ``(6, S, S, 3)`` for one view ``V``."""
+    P = _terms(shrm, kind)
+    v = _unit(view, "view")
+    if kind == "tangent":
+        dirs = cube_directions(shrm.shape[1])
+        x = np.clip(dirs @ v, -1.0, 1.0)
+        d = np.stack([np.sqrt(1.0 - x * x), np.zeros_like(x), x], axis=-1)
+        y = real_sh(d, P)[..., [p * (p + 1) for p in range(P + 1)]]  # y_p0(T·V)
+        return np.einsum("fijnc,fijn->fijc", shrm, y)
+    s = np.asarray(shrm)
+    if s.dtype not in (np.float32, np.float64):
+        s = s.astype(np.float64)
+    # in the asset's precision (float32, as a GPU would), one small product per texel
+    y = real_sh(v, P).astype(s.dtype)
+    out = np.matmul(y, s.reshape(-1, s.shape[3], 3))
+    return out.reshape(s.shape[:3] + (3,)).astype(np.float64)
+
+
+def reflect(normals, view) -> np.ndarray:
+    """Reflection vectors ``R = 2(n·V)n − V`` ``(N, 3)`` of unit normals about a view."""
+    n = _unit(normals, "normals")
+    v = np.broadcast_to(_unit(view, "view"), n.shape)
+    return 2.0 * np.sum(n * v, axis=-1, keepdims=True) * n - v
+
+
+def shade(cube, normals, view, tangents=None) -> np.ndarray:
+    """Radiance ``(N, 3)``: the reflection cube of :func:`reflection_cube` read at ``R``
+    (or at ``tangents`` for the tangent kind)."""
+    lookup = _unit(tangents, "tangents") if tangents is not None else reflect(normals, view)
+    return sample_cube(cube, lookup)
+
+
+def evaluate_shrm(shrm, views, normals, kind: str = "surface", tangents=None) -> np.ndarray:
+    """Eq. 7 per point: radiance ``(N, 3)`` at world ``views``/``normals`` ``(N, 3)``.
+
+    The ``n × 3`` coefficients are fetched bilinearly at ``R`` (tangent kind:
+    at ``tangents``) and dotted with ``y(V)`` (``y_p0(T·V)``).
+    """
+    P = _terms(shrm, kind)
+    v = _unit(views, "views").reshape(-1, 3)
+    s = np.asarray(shrm, dtype=np.float64)
+    flat = s.reshape(6, s.shape[1], s.shape[2], -1)
+    if kind == "tangent":
+        t = _unit(tangents, "tangents").reshape(-1, 3)
+        coef = sample_cube(flat, t).reshape(-1, P + 1, 3)
+        x = np.clip(np.sum(t * v, axis=1), -1.0, 1.0)
+        d = np.stack([np.sqrt(1.0 - x * x), np.zeros_like(x), x], axis=-1)
+        y = real_sh(d, P)[:, [p * (p + 1) for p in range(P + 1)]]
+    else:
+        n = _unit(normals, "normals").reshape(-1, 3)
+        r = 2.0 * np.sum(n * v, axis=1, keepdims=True) * n - v
+        coef = sample_cube(flat, r).reshape(-1, s.shape[3], 3)
+        y = real_sh(v, P)
+    return np.einsum("nkc,nk->nc", coef, y)
+
+
+def evaluate_ggx_shrm(levels, views, normals, alpha, f0) -> np.ndarray:
+    """GGX radiance ``(N, 3)`` from SHRMs of ``E0`` and ``E1`` at several widths.
+
+    ``levels``: sequence of ``(alpha_k, shrm_E0, shrm_E1)`` sorted by
+    ``alpha_k`` (GGX width, ``α = r²`` of perceptual roughness ``r``); each
+    SHRM baked with Schlick ``F0 = 1`` (``E0``) and ``F0 = 0`` (``E1``). The
+    result ``F0 E0 + (1 − F0) E1`` (Silvennoinen et al. 2025, eq. 6–8) is
+    interpolated linearly in ``α`` between the two bracketing levels (exact
+    at a baked ``α``); ``alpha`` is a scalar, ``f0`` a scalar or RGB.
+    """
+    if not levels:
+        raise ParameterError("no GGX SHRM levels")
+    alphas = np.array([lv[0] for lv in levels], dtype=float)
+    a = float(alpha)
+    if np.any(np.diff(alphas) <= 0):
+        raise ParameterError("GGX SHRM levels must be sorted by increasing alpha")
+    if not alphas[0] - 1e-9 <= a <= alphas[-1] + 1e-9:
+        raise ParameterError(f"alpha {a:g} outside the baked range [{alphas[0]:g}, {alphas[-1]:g}]")
+    f0 = np.broadcast_to(np.asarray(f0, dtype=float), (3,))
+    k = int(np.clip(np.searchsorted(alphas, a) - 1, 0, max(len(alphas) - 2, 0)))
+    picks = [(k, 1.0)]
+    if len(alphas) > 1:
+        t = (a - alphas[k]) / (alphas[k + 1] - alphas[k])
+        t = float(np.clip(t, 0.0, 1.0))
+        picks = [(k, 1.0 - t), (k + 1, t)]
+    out = 0.0
+    for idx, w in picks:
+        if w == 0.0:
+            continue
+        _, s0, s1 = levels[idx]
+        e0 = evaluate_shrm(s0, views, normals)
+        e1 = evaluate_shrm(s1, views, normals)
+        out = out + w * (f0 * e0 + (1.0 - f0) * e1)
+    return out

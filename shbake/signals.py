@@ -1,0 +1,152 @@
+"""SIGINT and SIGTERM: stop within about a second wherever the run is, leave nothing behind.
+
+:func:`install` (called by the ``shbake`` entry point) sets Python-level handlers that
+raise ``KeyboardInterrupt`` in the main thread, and a watcher thread fed by
+:func:`signal.set_wakeup_fd`: CPython's C handler writes the signal number there at once,
+even while the main thread is inside a numba kernel or an HDF5 write that holds no
+Python frame. The main thread normally unwinds, its transaction
+(:mod:`shbake.format.atomic`) removes every temporary, and the CLI prints
+``shbake: error: interrupted`` and exits 130 (SIGINT) or 143 (SIGTERM). If it has not
+finished within :data:`GRACE_SECONDS` (a long native kernel), the watcher removes the
+temporaries itself, prints the same line and ends the process with ``os._exit``.
+Forked children reset the handlers and ask the kernel to kill them with their parent
+(``PR_SET_PDEATHSIG``); spawned workers are ended by their pool.
+"""
+
+import os
+import signal
+import sys
+import threading
+
+GRACE_SECONDS = 1.0
+"""How long the main thread has to clean up before the watcher does it and exits."""
+EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
+
+_received: list[int] = []
+_finished = threading.Event()
+_finishing = threading.Lock()
+_installed = False
+
+
+def received() -> int | None:
+    """The first signal received (``None`` if none)."""
+    return _received[0] if _received else None
+
+
+def exit_code() -> int:
+    """130 for SIGINT, 143 for SIGTERM."""
+    return EXIT_CODES.get(received() or signal.SIGINT, 130)
+
+
+def raise_if_interrupted() -> None:
+    """Raise ``KeyboardInterrupt`` if a signal arrived (loops over chunks call this;
+    a transaction calls it before committing, so a swallowed interrupt never commits)."""
+    if _received:
+        raise KeyboardInterrupt
+
+
+def _handler(signum, frame):
+    if not _received:
+        _received.append(signum)
+    raise KeyboardInterrupt
+
+
+def _watch(fd: int) -> None:
+    while True:
+        try:
+            data = os.read(fd, 64)
+        except InterruptedError:
+            continue
+        except OSError:
+            return
+        sigs = [b for b in data if b in EXIT_CODES]
+        if sigs:
+            break
+    if not _received:
+        _received.append(sigs[0])
+    if _finished.wait(GRACE_SECONDS):
+        return
+    if not _finishing.acquire(blocking=False):
+        return  # the main thread is reporting; it exits by itself
+    from shbake.format import atomic
+
+    atomic.abort_active()
+    finish_message()
+    os._exit(exit_code())
+
+
+def finish_message() -> None:
+    """Write the one line of an interrupted run."""
+    try:
+        os.write(2, b"shbake: error: interrupted\n")
+    except OSError:
+        pass
+
+
+def claim_finish() -> bool:
+    """The main thread's turn to report an interrupt (``False``: the watcher does it)."""
+    ok = _finishing.acquire(timeout=5.0)
+    _finished.set()
+    return ok
+
+
+def _child_after_fork() -> None:
+    global _installed
+    _installed = False
+    _received.clear()
+    try:
+        signal.set_wakeup_fd(-1)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    except ValueError:
+        pass
+    die_with_parent()
+
+
+def die_with_parent() -> None:
+    """Ask Linux to send SIGKILL when the parent exits (pool workers call this)."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+
+def exit_quietly_on_signal() -> None:
+    """After the run: a late SIGINT/SIGTERM (during interpreter shutdown) ends the process
+    with 130/143 and no ``Exception ignored`` noise."""
+    for sig, code in EXIT_CODES.items():
+        signal.signal(sig, lambda s, f, code=code: os._exit(code))
+
+
+def worker_init() -> None:
+    """Initialiser of pool worker processes: the parent handles SIGINT (a terminal sends
+    it to the whole process group), SIGTERM ends the worker at once, and the worker dies
+    with its parent; its warnings are not printed (they would interleave with the parent's
+    one-line messages). Does nothing in a thread (a Dask worker's task thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    import warnings
+
+    warnings.simplefilter("ignore")  # a worker's stderr is the user's terminal: one-line rule
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    die_with_parent()
+
+
+def install() -> bool:
+    """Install the handlers and the watcher (main thread only; once per process)."""
+    global _installed
+    if _installed or threading.current_thread() is not threading.main_thread():
+        return False
+    r, w = os.pipe()
+    os.set_blocking(w, False)
+    signal.set_wakeup_fd(w, warn_on_full_buffer=False)
+    signal.signal(signal.SIGINT, _handler)
+    signal.signal(signal.SIGTERM, _handler)
+    threading.Thread(target=_watch, args=(r,), name="shbake-signals", daemon=True).start()
+    os.register_at_fork(after_in_child=_child_after_fork)
+    _installed = True
+    return True

@@ -1,0 +1,714 @@
+"""Issue 11: hostile inputs, corrupt assets, full disks and signals on every command.
+
+Every failure case checks the same promise: exit 1 (2 for usage errors, 130/143 for
+signals), exactly one ``shbake: error:`` line and no traceback, no hang (subprocess
+cases are time-limited), no new file (temporaries included) and every pre-existing
+file byte-identical. Cases that could hang or crash the interpreter run in a
+subprocess; the rest run in-process (``run_cli``). Full-disk and read-only cases use a
+small tmpfs when the tests run as root, else an injected ``ENOSPC`` / read-only check.
+"""
+
+import contextlib
+import errno
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from shbake.format.asset import write_asset
+from tests.assets_examples import example, write_map
+from tests.test_registry import CORRUPTIONS, corrupt
+
+TIMEOUT = 120
+"""Seconds any subprocess case may take (a hang fails the test instead of the suite)."""
+
+
+# -- helpers --------------------------------------------------------------------------------
+
+
+def shbake(*args, timeout=TIMEOUT, stdout=subprocess.PIPE, env=None):
+    """Run ``shbake ARGS`` in a subprocess; ``(status, stdout, stderr)``."""
+    full_env = dict(os.environ, NUMBA_NUM_THREADS="1", **(env or {}))
+    p = subprocess.run(
+        [sys.executable, "-m", "shbake_cli.main", *map(str, args)],
+        stdout=stdout, stderr=subprocess.PIPE, text=True, timeout=timeout, env=full_env,
+    )  # fmt: skip
+    return p.returncode, p.stdout or "", p.stderr
+
+
+def snapshot(*folders) -> dict:
+    """``path → bytes`` (or ``"dir"``) of everything under ``folders``, hidden files too."""
+    out = {}
+    for folder in folders:
+        for root, dirs, files in os.walk(folder):
+            for d in dirs:
+                out[os.path.join(root, d)] = "dir"
+            for f in files:
+                p = os.path.join(root, f)
+                if os.path.isfile(p) and not os.path.islink(p):
+                    out[p] = Path(p).read_bytes()
+                else:
+                    out[p] = "special"
+    return out
+
+
+def assert_failed(result, code=1, fragment=None):
+    """Exit ``code``, one ``shbake: error:`` line, no traceback; return the message."""
+    status, _, err = result
+    lines = [x for x in err.splitlines() if x.startswith("shbake: error:")]
+    assert status == code, f"exit {status}, stderr: {err[-2000:]}"
+    assert len(lines) == 1, err[-2000:]
+    assert "Traceback" not in err and "Exception ignored" not in err, err[-2000:]
+    if fragment is not None:
+        assert fragment in lines[0], lines[0]
+    return lines[0]
+
+
+@contextlib.contextmanager
+def unchanged(*folders):
+    """Assert that the block leaves ``folders`` exactly as they were (no new file)."""
+    before = snapshot(*folders)
+    yield
+    after = snapshot(*folders)
+    new = sorted(set(after) - set(before))
+    gone = sorted(set(before) - set(after))
+    changed = sorted(p for p in before if p in after and before[p] != after[p])
+    assert not (new or gone or changed), f"new {new}, gone {gone}, changed {changed}"
+
+
+def dead_pid() -> int:
+    """A process id that does not exist."""
+    pid = 4_000_000
+    while True:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return pid
+        except PermissionError:
+            pass
+        pid -= 1
+
+
+@pytest.fixture(scope="module")
+def ws(tmp_path_factory):
+    """A workspace: a tiny map, an env_sh asset of it, old outputs, a probe and a table."""
+    root = tmp_path_factory.mktemp("faults")
+    m = write_map(root / "map.exr")
+    write_map(root / "other.exr", seed=3)
+    for kind in ("env_sh", "shexp_probe", "splitsum_probe", "brdf_table"):
+        write_asset(str(root / f"{kind}.h5"), example(kind, m))
+    (root / "old.h5").write_bytes((root / "env_sh.h5").read_bytes())
+    return root
+
+
+@pytest.fixture
+def box(tmp_path, ws):
+    """A fresh folder with a copy of the map and of the env_sh asset."""
+    (tmp_path / "map.exr").write_bytes((ws / "map.exr").read_bytes())
+    (tmp_path / "env.h5").write_bytes((ws / "env_sh.h5").read_bytes())
+    return tmp_path
+
+
+TMPFS_SIZE = "2m"
+
+
+def _can_mount() -> bool:
+    return hasattr(os, "geteuid") and os.geteuid() == 0 and sys.platform.startswith("linux")
+
+
+@pytest.fixture
+def tmpfs(tmp_path):
+    """A 2 MB tmpfs (root only), unmounted afterwards."""
+    if not _can_mount():
+        pytest.skip("needs root to mount a tmpfs (the injected-ENOSPC test covers this)")
+    mnt = tmp_path / "mnt"
+    mnt.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={TMPFS_SIZE}", "tmpfs", str(mnt)],
+                       capture_output=True)  # fmt: skip
+    if r.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs: {r.stderr.decode().strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+def fill(folder: Path) -> None:
+    """Fill the file system of ``folder`` to the last byte."""
+    fd = os.open(folder / "filler", os.O_WRONLY | os.O_CREAT, 0o644)
+    try:
+        for size in (65536, 4096, 1):
+            with contextlib.suppress(OSError):
+                while os.write(fd, b"\0" * size) == size:
+                    pass
+    finally:
+        os.close(fd)
+
+
+# -- 1. output = input; output locations checked before any work --------------------------
+
+
+class TestOutputIsInput:
+    """Item 1: an output that is an input (same inode, through links, in lists) is refused."""
+
+    def test_project_env(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "map.exr"),
+                          fragment="destroy the input")  # fmt: skip
+
+    def test_split_sum_through_symlink(self, run_cli, box):
+        (box / "link.exr").symlink_to(box / "map.exr")
+        with unchanged(box):
+            assert_failed(run_cli("split-sum", box / "link.exr", "-o", box / "map.exr"),
+                          fragment="destroy the input")  # fmt: skip
+
+    def test_hard_link(self, run_cli, box):
+        os.link(box / "map.exr", box / "hard.exr")
+        with unchanged(box):
+            assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "hard.exr"),
+                          fragment="destroy the input")  # fmt: skip
+
+    def test_brdf_table_merl(self, run_cli, box):
+        from tests.helpers import write_merl
+
+        merl = box / "m.binary"
+        write_merl(merl, np.full((3, 90, 90, 180), 0.1))
+        with unchanged(box):
+            assert_failed(run_cli("brdf-table", "merl", "--merl", merl, "-o", merl),
+                          fragment="destroy the input")  # fmt: skip
+
+    def test_probe_list_line(self, run_cli, box):
+        (box / "list.txt").write_text("map.exr map.exr\n")
+        with unchanged(box):
+            assert_failed(run_cli("probe-fit", "--list", box / "list.txt"),
+                          fragment="destroy the input")  # fmt: skip
+
+    def test_probe_eval_markdown(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("probe-eval", box / "map.exr", "--markdown", box / "map.exr"),
+                          fragment="destroy the input")  # fmt: skip
+
+    def test_preview_diff_onto_source(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("preview", box / "env.h5", "--diff", "--size", 8,
+                                  "-o", box / "map.exr"))  # fmt: skip
+
+
+class TestOutputLocations:
+    """Items 1 and 8: empty, folder, missing or file parent, read-only — refused before work."""
+
+    COMMANDS = {
+        "project-env": ["project-env", "{map}"],
+        "split-sum": ["split-sum", "{map}"],
+        "brdf-table": ["brdf-table", "phong"],
+        "preview": ["preview", "{env}"],
+    }
+
+    def _args(self, box, name):
+        return [a.format(map=box / "map.exr", env=box / "env.h5") for a in self.COMMANDS[name]]
+
+    @pytest.mark.parametrize("name", list(COMMANDS))
+    @pytest.mark.parametrize("where", ["empty", "directory", "missing-parent", "file-parent"])
+    def test_bad_output(self, run_cli, box, name, where):
+        (box / "afile").write_text("x")
+        out = {"empty": "", "directory": str(box), "missing-parent": str(box / "no" / "x.h5"),
+               "file-parent": str(box / "afile" / "x.h5")}[where]  # fmt: skip
+        with unchanged(box):  # click refuses a folder for a file option: a usage error
+            assert_failed(run_cli(*self._args(box, name), "-o", out),
+                          code=2 if where == "directory" else 1)  # fmt: skip
+
+    def test_exr_dir_under_a_file(self, run_cli, box):
+        (box / "afile").write_text("x")
+        with unchanged(box):
+            assert_failed(
+                run_cli(
+                    "project-env",
+                    box / "map.exr",
+                    "-o",
+                    box / "e.h5",
+                    "--exr-dir",
+                    box / "afile" / "maps",
+                ),
+                fragment="not a folder",
+            )
+
+    def test_out_dir_under_a_file(self, run_cli, box):
+        (box / "afile").write_text("x")
+        with unchanged(box):
+            assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "afile" / "d"),
+                          fragment="not a folder")  # fmt: skip
+
+    @pytest.mark.parametrize("option", ["-o", "--markdown"])
+    def test_empty_set_or_markdown(self, run_cli, box, option):
+        cmd = "probe-fit" if option == "-o" else "probe-eval"
+        with unchanged(box):
+            assert_failed(run_cli(cmd, box / "map.exr", option, ""), fragment="empty")
+
+    def test_injected_erofs(self, run_cli, box, monkeypatch):
+        """Without root: the file system reports read-only."""
+        from shbake.format import atomic
+
+        monkeypatch.setattr(atomic, "_read_only_fs", lambda folder: True)
+        with unchanged(box):
+            assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "env.h5"),
+                          fragment="read-only")  # fmt: skip
+
+    def test_read_only_file_system(self, run_cli, box, tmpfs):
+        (tmpfs / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        if subprocess.run(["mount", "-o", "remount,ro", str(tmpfs)]).returncode != 0:
+            pytest.skip("cannot remount the tmpfs read-only")
+        with unchanged(tmpfs, box):
+            assert_failed(run_cli("project-env", box / "map.exr", "-o", tmpfs / "old.h5"),
+                          fragment="read-only")  # fmt: skip
+            assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", tmpfs / "d"),
+                          fragment="read-only")  # fmt: skip
+
+
+# -- 2. full disk ----------------------------------------------------------------------------
+
+
+class TestFullDisk:
+    """Item 2: a full disk is one line naming the file, never a segfault; old files survive."""
+
+    CASES = {
+        "project-env": ["project-env", "{map}", "-o", "{out}/old.h5", "--exr-dir", "{out}/maps"],
+        "split-sum": ["split-sum", "{map}", "-o", "{out}/old.h5", "--size", "16", "--min-size",
+                      "8", "--levels", "2", "--samples", "64"],
+        "brdf-table": ["brdf-table", "phong", "-o", "{out}/old.h5", "--size", "8", "--lmax", "2",
+                       "--samples", "64", "--exr-dir", "{out}/bands"],
+        "preview": ["preview", "{env}", "-o", "{out}/p.exr", "--size", "8", "--png"],
+    }  # fmt: skip
+
+    @pytest.mark.parametrize("name", list(CASES))
+    def test_tmpfs(self, box, tmpfs, name):
+        (tmpfs / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        fill(tmpfs)
+        args = [a.format(map=box / "map.exr", env=box / "env.h5", out=tmpfs)
+                for a in self.CASES[name]]  # fmt: skip
+        with unchanged(tmpfs, box):
+            assert_failed(shbake(*args), fragment="no space left on device writing")
+
+    def test_injected_enospc(self, run_cli, box, monkeypatch):
+        """Without root: the HDF5 write raises ENOSPC."""
+        import shbake.format.asset as asset_module
+
+        real = asset_module.h5py.File
+
+        def full(path, mode="r", *a, **k):
+            if mode == "w":
+                raise OSError(errno.ENOSPC, "No space left on device", path)
+            return real(path, mode, *a, **k)
+
+        monkeypatch.setattr(asset_module.h5py, "File", full)
+        (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        with unchanged(box):
+            assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "old.h5"),
+                          fragment="no space left on device writing")  # fmt: skip
+
+
+# -- 3. companion files: all outputs or none ----------------------------------------------
+
+
+class TestCompanionFiles:
+    """Item 3: when an EXR map, export or image fails, the asset is not written either."""
+
+    def test_map_name_is_a_directory(self, run_cli, box):
+        (box / "maps" / "irradiance.exr").mkdir(parents=True)
+        (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        with unchanged(box):
+            assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "old.h5",
+                                  "--exr-dir", box / "maps"), fragment="directory")  # fmt: skip
+
+    def test_export_name_is_a_directory(self, run_cli, box):
+        (box / "old.gltf").mkdir()
+        (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        with unchanged(box):
+            assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "old.h5",
+                                  "--export", "gltf"), fragment="directory")  # fmt: skip
+
+    def test_half_overflow(self, run_cli, box):
+        write_map(box / "bright.exr", scale=1e6)
+        with unchanged(box):
+            assert_failed(run_cli("project-env", box / "bright.exr", "-o", box / "old.h5",
+                                  "--exr-dir", box / "maps"), fragment="half")  # fmt: skip
+
+    def test_preview_second_image_fails(self, run_cli, box):
+        (box / "p-reference.exr").mkdir()
+        with unchanged(box):
+            assert_failed(run_cli("preview", box / "env.h5", "--diff", "--size", 8,
+                                  "-o", box / "p.exr"), fragment="directory")  # fmt: skip
+
+
+# -- 4. special files: no hang -----------------------------------------------------------
+
+
+class TestSpecialFiles:
+    """Item 4: FIFOs and devices are refused before opening (these would hang)."""
+
+    @pytest.fixture
+    def fifo(self, box):
+        p = box / "pipe"
+        os.mkfifo(p)
+        return p
+
+    def test_fifo_merl(self, box, fifo):
+        assert_failed(shbake("brdf-table", "merl", "--merl", fifo, "-o", box / "t.h5",
+                             timeout=60), fragment="FIFO")  # fmt: skip
+
+    def test_fifo_list(self, box, fifo):
+        assert_failed(shbake("probe-fit", "--list", fifo, timeout=60), fragment="FIFO")
+
+    def test_fifo_asset(self, box, fifo):
+        assert_failed(shbake("preview", fifo, "-o", box / "p.exr", timeout=60), fragment="FIFO")
+
+    def test_fifo_source(self, box, fifo):
+        assert_failed(shbake("preview", box / "env.h5", "--diff", "--source", fifo, "--size", 8,
+                             "-o", box / "p.exr", timeout=60), fragment="FIFO")  # fmt: skip
+
+    def test_dev_zero_source(self, box):
+        assert_failed(
+            shbake(
+                "preview",
+                box / "env.h5",
+                "--diff",
+                "--source",
+                "/dev/zero",
+                "--size",
+                8,
+                "-o",
+                box / "p.exr",
+                timeout=60,
+            ),
+            fragment="device",
+        )
+
+    def test_recorded_source_dev_zero(self, box):
+        with h5py.File(box / "env.h5", "r+") as f:
+            f.attrs["source_path"] = "/dev/zero"
+        assert_failed(shbake("preview", box / "env.h5", "--diff", "--size", 8,
+                             "-o", box / "p.exr", timeout=60), fragment="device")  # fmt: skip
+
+
+# -- 5. memory bombs -------------------------------------------------------------------------
+
+
+def _huge_header_exr(path: Path, width: int, height: int) -> None:
+    """A tiny EXR whose header claims ``width × height`` (pixels never written)."""
+    write_map(path)
+    data = bytearray(path.read_bytes())
+    for name in (b"dataWindow\0box2i\0", b"displayWindow\0box2i\0"):
+        i = data.index(name) + len(name) + 4
+        data[i : i + 16] = np.array([0, 0, width - 1, height - 1], "<i4").tobytes()
+    path.write_bytes(bytes(data))
+
+
+class TestMemory:
+    """Item 5: estimates refused above the budget; readers never load undeclared data."""
+
+    def test_merl_dev_zero(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("brdf-table", "merl", "--merl", "/dev/zero", "-o",
+                                  box / "t.h5"), fragment="device")  # fmt: skip
+
+    def test_unwritten_huge_dataset_ignored(self, run_cli, box):
+        with h5py.File(box / "env.h5", "r+") as f:
+            f.create_dataset("/extra", shape=(35000, 35000), dtype="f8")
+        code, _, err = run_cli("preview", box / "env.h5", "-o", box / "p.exr", "--size", 8, "-q")
+        assert code == 0, err
+
+    def test_huge_decoded_image(self, run_cli, box):
+        _huge_header_exr(box / "huge.exr", 23168, 11584)
+        with unchanged(box):  # OpenImageIO's header check or shbake's decoded-bytes guard
+            assert_failed(run_cli("project-env", box / "huge.exr", "-o", box / "x.h5"))
+
+    def test_decoded_bytes_guard(self, box, monkeypatch):
+        from shbake.envmap import image_io
+        from shbake.errors import ImageReadError
+
+        monkeypatch.setattr(image_io, "MAX_DECODED_BYTES", 1000)
+        with pytest.raises(ImageReadError, match="decodes to"):
+            image_io.read_image(str(box / "map.exr"))
+
+    def test_table_estimate(self, run_cli, box):
+        with unchanged(box):
+            msg = assert_failed(
+                run_cli("brdf-table", "phong", "-o", box / "t.h5", "--size", 4096, "--lmax", 16),
+                fragment="needs an estimated",
+            )
+        assert "GiB" in msg and "--max-memory" in msg
+
+    def test_max_memory_option(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("--max-memory", "4k", "project-env", box / "map.exr", "-o",
+                                  box / "x.h5"), fragment="memory budget")  # fmt: skip
+
+    def test_max_memory_bad_value(self, run_cli, box):
+        assert_failed(run_cli("--max-memory", "lots", "project-env", box / "map.exr", "-o",
+                              box / "x.h5"), fragment="--max-memory")  # fmt: skip
+
+
+# -- 6, 7 (and issue 10). corrupt assets ----------------------------------------------------
+
+
+PREVIEW_OF_KIND = {
+    "env_sh": lambda a, out: ["preview", a, "-o", out, "--size", 8],
+    "shexp_probe": lambda a, out: ["preview", a, "-o", out, "--size", 8],
+    "shexp_probe_set": lambda a, out: ["preview", a, "-o", out, "--size", 8],
+    "splitsum_probe": lambda a, out: ["preview", a, "-o", out, "--size", 8],
+}
+
+
+class TestCorruptAssets:
+    """Items 6 and 7, issue 10: every corrupt asset is one line and exit 1 in every command
+    that reads assets (preview of each kind; preview --table for tables)."""
+
+    @pytest.mark.parametrize("case", list(CORRUPTIONS))
+    def test_preview(self, run_cli, ws, tmp_path, case):
+        path, fragment = corrupt(case, ws / "map.exr", tmp_path)
+        kind = CORRUPTIONS[case][0]
+        out = tmp_path / "p.exr"
+        if kind == "brdf_table":
+            args = ["preview", ws / "env_sh.h5", "--pass", "kautz", "--table", path, "-o", out,
+                    "--size", 8]  # fmt: skip
+        else:
+            args = PREVIEW_OF_KIND[kind](path, out)
+        with unchanged(tmp_path):
+            assert_failed(run_cli(*args), fragment=fragment)
+
+    @pytest.mark.parametrize("case", [c for c, v in CORRUPTIONS.items() if v[0] == "env_sh"])
+    def test_export(self, run_cli, ws, tmp_path, case):
+        path, fragment = corrupt(case, ws / "map.exr", tmp_path)
+        with unchanged(tmp_path):
+            assert_failed(run_cli("export", path, "--to", "threejs", "-o", tmp_path / "x.json"),
+                          fragment=fragment)  # fmt: skip
+
+    def test_truncated(self, run_cli, ws, tmp_path):
+        data = (ws / "env_sh.h5").read_bytes()
+        (tmp_path / "t.h5").write_bytes(data[: len(data) // 2])
+        with unchanged(tmp_path):
+            assert_failed(run_cli("preview", tmp_path / "t.h5", "-o", tmp_path / "p.exr"))
+
+    def test_exr_renamed(self, run_cli, ws, tmp_path):
+        (tmp_path / "m.h5").write_bytes((ws / "map.exr").read_bytes())
+        with unchanged(tmp_path):
+            assert_failed(run_cli("preview", tmp_path / "m.h5", "-o", tmp_path / "p.exr"),
+                          fragment="not a readable HDF5 asset")  # fmt: skip
+
+    def test_source_hash_mismatch(self, run_cli, ws, tmp_path):
+        (tmp_path / "env.h5").write_bytes((ws / "env_sh.h5").read_bytes())
+        with unchanged(tmp_path):
+            assert_failed(run_cli("preview", tmp_path / "env.h5", "--diff", "--size", 8,
+                                  "--source", ws / "other.exr", "-o", tmp_path / "p.exr"),
+                          fragment="SHA-256")  # fmt: skip
+
+
+# -- 8, 9. other tracebacks; one line ----------------------------------------------------
+
+
+class TestOneLine:
+    """Items 8 and 9: no traceback for odd inputs; warnings never add lines to an error."""
+
+    def test_non_utf8_list(self, run_cli, box):
+        (box / "list.txt").write_bytes(b"\xff\xfe map.exr\n")
+        assert_failed(run_cli("probe-fit", "--list", box / "list.txt"), fragment="UTF-8")
+
+    def test_scheduler_not_a_url(self, run_cli, box):
+        assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "d",
+                              "--scheduler", "not a url"), fragment="--scheduler")  # fmt: skip
+        assert not (box / "d").exists()
+
+    def test_json_stdout_full(self, box):
+        with open("/dev/full", "w") as full:
+            r = shbake("project-env", box / "map.exr", "-o", box / "e2.h5", "--json",
+                       stdout=full, timeout=60)  # fmt: skip
+        assert_failed(r, fragment="stdout")
+
+    def test_warnings_then_error_is_one_line(self, capfd):
+        import warnings
+
+        from shbake_cli.guard import run
+
+        from shbake.errors import InputError
+
+        def call():
+            warnings.warn("overflow encountered in multiply", RuntimeWarning, stacklevel=1)
+            np.float32(3e38) * np.float32(10)
+            raise InputError("bad\nthings " + "x" * 2000)
+
+        code = run(call, [])
+        _, err = capfd.readouterr()
+        assert_failed((code, "", err))
+        assert len(err.splitlines()) == 1 and len(err) < 500
+
+    def test_truncated_plan_cache_entry_rebuilt(self, tmp_path):
+        from shbake.batch import plan_cache
+
+        p = tmp_path / "plan-x.npz"
+        p.write_bytes(b"PK\x03\x04 truncated")
+        assert plan_cache._load(p) is None
+
+
+# -- 10. signals --------------------------------------------------------------------------
+
+
+LONG_TABLE = ["brdf-table", "phong", "--size", "256", "--lmax", "8", "--samples", "4096"]
+
+
+class TestSignals:
+    """Item 10: SIGINT/SIGTERM stop within about a second anywhere, clean up, exit 130/143."""
+
+    @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+    def test_interrupt_long_kernel(self, box, sig, code):
+        (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        with unchanged(box):
+            p = subprocess.Popen(
+                [sys.executable, "-m", "shbake_cli.main", *LONG_TABLE, "-o", box / "old.h5",
+                 "--exr-dir", box / "bands"],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                env=dict(os.environ, NUMBA_NUM_THREADS="1"),
+            )  # fmt: skip
+            time.sleep(6.0)
+            assert p.poll() is None, p.communicate()[1]
+            t0 = time.monotonic()
+            p.send_signal(sig)
+            _, err = p.communicate(timeout=30)
+            waited = time.monotonic() - t0
+        assert_failed((p.returncode, "", err), code=code, fragment="interrupted")
+        assert waited < 10.0, waited  # ~1 s; generous for a loaded machine (not a timing test)
+
+    def test_stale_temporary_removed_live_kept(self, run_cli, box):
+        dead = box / f".out.h5.shbake-{dead_pid()}-1.tmp.h5"
+        live = box / f".out.h5.shbake-{os.getpid()}-99.tmp.h5"
+        other = box / f".other.h5.shbake-{dead_pid()}-1.tmp.h5"
+        for p in (dead, live, other):
+            p.write_bytes(b"partial")
+        code, _, err = run_cli("project-env", box / "map.exr", "-o", box / "out.h5", "-q")
+        assert code == 0, err
+        assert not dead.exists() and live.exists() and other.exists()
+
+
+# -- 11. determinism --------------------------------------------------------------------------
+
+
+class TestDeterminism:
+    """Item 11: every output type is byte-identical across runs (a second apart: EXR
+    ``capDate`` has one-second resolution)."""
+
+    RUNS = {
+        "project-env": ["project-env", "{map}", "-o", "{out}/e.h5", "--exr-dir", "{out}/maps",
+                        "--png", "--export", "gltf", "--lmax", "4", "-q"],
+        "brdf-table": ["brdf-table", "phong", "-o", "{out}/t.h5", "--size", "8", "--lmax", "2",
+                       "--samples", "64", "--exr-dir", "{out}/bands", "--reproducible", "-q"],
+        "preview": ["preview", "{env}", "-o", "{out}/p.exr", "--size", "8", "--diff", "--png",
+                    "-q"],
+        "split-sum": ["split-sum", "{map}", "-o", "{out}/s.h5", "--size", "16", "--min-size",
+                      "8", "--levels", "2", "--samples", "64", "-q"],
+    }  # fmt: skip
+
+    @pytest.mark.parametrize("name", list(RUNS))
+    def test_identical_bytes(self, run_cli, box, name):
+        results = []
+        out = box / "out"
+        args = [a.format(map=box / "map.exr", env=box / "env.h5", out=out) for a in self.RUNS[name]]
+        for i in range(2):  # the same command line (assets record it), a second apart
+            out.mkdir()
+            code, _, err = run_cli(*args)
+            assert code == 0, err
+            results.append({str(Path(p).relative_to(out)): b for p, b in snapshot(out).items()})
+            out.rename(box / f"run{i}")
+            time.sleep(1.1)
+        assert results[0].keys() == results[1].keys()
+        assert any(k.endswith(".exr") or k.endswith(".h5") for k in results[0])
+        differ = [k for k in results[0] if results[0][k] != results[1][k]]
+        assert not differ, differ
+
+
+# -- 12. batches --------------------------------------------------------------------------
+
+
+class TestBatches:
+    """Item 12: a bad map fails the batch (exit 1) without half-written probes; empty set or
+    markdown paths are refused (covered in TestOutputLocations)."""
+
+    def test_bad_map_in_batch(self, run_cli, box):
+        (box / "bad.exr").write_bytes(b"not an image")
+        with unchanged(box):
+            assert_failed(run_cli("probe-fit", box / "bad.exr", box / "map.exr", "--out-dir",
+                                  box, "--samples", 64))  # fmt: skip
+
+    def test_completed_probes_stay_valid(self, run_cli, box):
+        """Per-probe atomic files: the probe fitted before the bad map is complete and valid;
+        nothing half-written is left."""
+        from shbake.format.asset import read_asset
+
+        (box / "zbad.exr").write_bytes(b"not an image")
+        before = set(os.listdir(box))
+        assert_failed(run_cli("probe-fit", box / "map.exr", box / "zbad.exr", "--out-dir",
+                              box / "probes", "--samples", 64))  # fmt: skip
+        assert set(os.listdir(box)) == before | {"probes"}
+        assert os.listdir(box / "probes") == ["map.h5"]
+        assert read_asset(str(box / "probes" / "map.h5")).kind == "shexp_probe"
+
+    def test_set_is_all_or_nothing(self, run_cli, box):
+        (box / "bad.exr").write_bytes(b"not an image")
+        with unchanged(box):
+            assert_failed(run_cli("probe-fit", box / "map.exr", box / "bad.exr", "-o",
+                                  box / "set.h5", "--samples", 64))  # fmt: skip
+
+
+# -- minor ------------------------------------------------------------------------------------
+
+
+class TestMinor:
+    """The issue's minor items."""
+
+    def test_8bit_warning_and_colorspace(self, run_cli, box):
+        import OpenImageIO as oiio
+
+        img = (np.random.default_rng(0).random((16, 32, 3)) * 255).astype(np.uint8)
+        out = oiio.ImageOutput.create(str(box / "ldr.png"))
+        out.open(str(box / "ldr.png"), oiio.ImageSpec(32, 16, 3, "uint8"))
+        out.write_image(img)
+        out.close()
+        code, _, err = run_cli("project-env", box / "ldr.png", "-o", box / "a.h5")
+        assert code == 0 and "display-referred" in err and "--colorspace" in err
+        code, _, err = run_cli("project-env", box / "ldr.png", "-o", box / "b.h5",
+                               "--colorspace", "sRGB-display", "--json")  # fmt: skip
+        assert code == 0 and "display-referred" not in err
+
+    def test_json_summary_still_one_document(self, run_cli, box):
+        code, out, _ = run_cli("project-env", box / "map.exr", "-o", box / "c.h5", "--json")
+        assert code == 0
+        json.loads(out)
+
+    def test_layout_detection_agrees_with_layout_option(self):
+        from shbake.envmap.layouts import LAYOUTS, check_layout, detect_layout
+        from shbake.errors import LayoutError
+
+        for h in range(1, 25):
+            for w in range(1, 25):
+                fitting = []
+                for layout in LAYOUTS:
+                    with contextlib.suppress(LayoutError):
+                        fitting.append(check_layout(layout, h, w))
+                try:
+                    found = detect_layout(h, w)
+                except LayoutError:
+                    found = None
+                assert (found is None) == (not fitting), (h, w)
+                assert found is None or found in fitting, (h, w)
+
+    def test_two_by_one_refused_one_line(self, run_cli, box):
+        from tests.helpers import write_test_exr
+
+        write_test_exr(box / "two.exr", np.ones((1, 2, 3)))
+        for extra in ([], ["--layout", "latlong"]):
+            with unchanged(box):
+                assert_failed(run_cli("project-env", box / "two.exr", "-o", box / "t.h5", *extra))
