@@ -2,7 +2,7 @@
 
 Maps: black, constant, a one-texel 1e5 sun on a dim sky, a 1e-6 dim real map,
 a tiny (4 × 8) and a large (1024 × 2048) map. Settings: lmax 0 and 64,
-roughness at both ends (0.05 … 1 for the probes, α 1e-4 … 1 for GGX tables),
+GGX width at both ends (SH-exp fit α 0.05 … 1, split-sum α 0.0025 … 1, GGX tables 1e-4 … 1),
 exponents to 1e4, views grazing to 1e-4. Nothing non-finite in any asset,
 and where a closed form exists the value is checked against it (constant map:
 E = π c; black map: zeros).
@@ -113,10 +113,10 @@ class TestBrdfTableExtremes:
 
 class TestProbeExtremes:
     @pytest.mark.parametrize("kind", MAPS)
-    @pytest.mark.parametrize("rough", [(0.05, 0.1), (0.9, 1.0)])
+    @pytest.mark.parametrize("rough", [(0.05, 0.1), (0.9, 1.0)])  # GGX width α (its lowest)
     def test_shexp_fit_finite(self, maps, kind, rough):
         env = load_environment(maps[kind], quiet=True)
-        config = FitConfig(roughness_min=rough[0], roughness_max=rough[1], roughness_count=2,
+        config = FitConfig(alpha_min=rough[0], alpha_max=rough[1], alpha_count=3, sets=2,
                            samples=64, normals=16, views=16)  # fmt: skip
         probe = FitPlan(config, env.shape).fit(env.pixels)
         assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
@@ -126,8 +126,8 @@ class TestProbeExtremes:
     @pytest.mark.parametrize("rough", [(0.05, 0.1), (0.9, 1.0)])
     def test_splitsum_finite(self, maps, kind, rough):
         env = load_environment(maps[kind], quiet=True)
-        config = SplitSumConfig(top=16, min_size=8, levels=2, roughness_min=rough[0],
-                                roughness_max=rough[1], samples=64)  # fmt: skip
+        config = SplitSumConfig(top=16, min_size=8, alphas=(rough[0] ** 2, rough[1] ** 2),
+                                samples=64)  # fmt: skip
         for level in prefilter_chain(env.pixels, config):
             assert np.all(np.isfinite(level))
         if kind == "black":

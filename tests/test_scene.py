@@ -70,9 +70,9 @@ class TestLoadScene:
             ('kind = "fibre"', 'kind = "fibre"\nshiny = true', 26, "materials[1].shiny"),
             ("irradiance = 0.05", 'irradiance = "small"', 7, "tolerances.irradiance"),
             ("maps/sunset.exr", "maps/nowhere.exr", 16, "environments[1].map"),
-            ("glossy_probe = 0.25", "glossy_probe = 0", 10, "tolerances.glossy_probe"),
-            ("glossy_probe = 0.25", "glossy_probe = 1.5", 10, "tolerances.glossy_probe"),
-            ("roughness = [0.4, 0.8]", "roughness = [0.8, 0.4]", 41, "materials[4].roughness"),
+            ("glossy_probe = 0.3", "glossy_probe = 0", 10, "tolerances.glossy_probe"),
+            ("glossy_probe = 0.3", "glossy_probe = 1.5", 10, "tolerances.glossy_probe"),
+            ("roughness = [0.5, 0.9]", "roughness = [0.9, 0.5]", 41, "materials[4].roughness"),
             ('nu = 4', 'nu = -4', 31, "materials[2].params"),
         ],
     )

@@ -7,7 +7,7 @@ Rules (one asset per map or per BRDF, shared by every material that needs it):
   asset's Kajiya–Kay tangent irradiance (one projection per map for both).
 * ``anisotropic`` / ``measured`` → one ``brdf_table`` per distinct BRDF.
 * ``glossy`` (GGX) → one SH-exp probe per map covering the materials whose
-  roughness starts at :data:`SHEXP_MIN_ROUGHNESS` or above, when the fit's
+  GGX width α = r² starts at :data:`SHEXP_MIN_ALPHA` or above, when the fit's
   predicted error meets ``glossy_probe``; a split-sum probe per map for the
   rest (low roughness, or a fit that misses the tolerance).
 
@@ -46,7 +46,7 @@ import numpy as np
 
 from shbake.bakers.env_sh import band_energy
 from shbake.bakers.kautz_report import probe_views, product_energy
-from shbake.bakers.shexp import FitConfig
+from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
 from shbake.bakers.splitsum import SplitSumConfig
 from shbake.batch.scene import Scene, _param_strings
 from shbake.brdf import make_brdf
@@ -61,14 +61,15 @@ from shbake.texture.parabolic import fetch
 ERROR_LMAX = 32
 """Band to which a map is projected once to predict truncation error."""
 MAX_IRRADIANCE_LMAX = 16
-SHEXP_MIN_ROUGHNESS = 0.2
-"""Lowest roughness the SH-exp fit covers (FitConfig's default range); below: split-sum."""
+SHEXP_MIN_ALPHA = FIT_ALPHA_MIN
+"""Lowest GGX width α = r² the SH-exp fit takes (:data:`shbake.bakers.shexp.FIT_ALPHA_MIN`);
+materials whose roughness range starts below ``sqrt(SHEXP_MIN_ALPHA)`` get split-sum."""
 FIT_PREDICT_HEIGHT = 32
 TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
 REFERENCE_SAMPLES = 16384
-PLAN_VERSION = 3
+PLAN_VERSION = 4
 
 
 def file_hash(path: str) -> str:
@@ -224,11 +225,13 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
 
 
 def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
-    """An SH-exp probe over roughness ``[lo, hi]``: error and time from a fit on a small map."""
+    """An SH-exp probe over perceptual roughness ``[lo, hi]`` (α = r²): the paper's fit
+    (one set, 4 α samples, 256 samples per target); error and time from a fit on a small map."""
     from shbake.bakers.shexp import FitPlan
 
-    config = FitConfig(roughness_min=lo, roughness_max=hi, roughness_count=4 if hi > lo else 1,
-                       samples=256)  # fmt: skip
+    a_lo, a_hi = lo * lo, hi * hi
+    config = FitConfig.paper(alpha_min=a_lo, alpha_max=a_hi,
+                             alpha_count=4 if a_hi > a_lo else 1, samples=256)  # fmt: skip
     small = _downsample(env.pixels, FIT_PREDICT_HEIGHT)
     plan = FitPlan(config, small.shape[:2])  # the bake loads its plan from the plan cache
     probe = plan.fit(small)
@@ -243,16 +246,17 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
 
 
 def plan_splitsum(env: EnvMap, lo: float, hi: float) -> dict:
-    """A split-sum probe covering roughness ``[lo, hi]`` (no error model: see module docstring).
+    """A split-sum probe covering perceptual roughness ``[lo, hi]`` (4 levels, α = r²
+    evenly spaced); no error model (module docstring).
 
     Time: the chain prefiltered at half the size, scaled by texel count.
     """
     from shbake.bakers.splitsum import prefilter_chain
 
-    lo = max(lo, 0.05)
-    hi = max(hi, lo + 0.05)
-    config = SplitSumConfig(top=64, min_size=16, levels=4, roughness_min=lo,
-                            roughness_max=min(hi, 1.0), samples=256)  # fmt: skip
+    a_lo = max(lo * lo, 1e-3)
+    a_hi = max(hi * hi, a_lo + 0.01)
+    alphas = tuple(float(a) for a in np.linspace(a_lo, min(a_hi, 1.0), 4))
+    config = SplitSumConfig(top=64, min_size=16, alphas=alphas, samples=256)
     small = SplitSumConfig(**(config.as_dict() | {"top": 32, "min_size": 8}))
     t = _cold("splitsum", prefilter_chain, env.pixels, small)
     texels = sum(s * s for s in config.sizes)
@@ -331,8 +335,8 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 })  # fmt: skip
         if glossy:
             tol, tkey = scene.tolerance("glossy_probe", env)
-            high = [m for m in glossy if m.roughness[0] >= SHEXP_MIN_ROUGHNESS]
-            low = [m for m in glossy if m.roughness[0] < SHEXP_MIN_ROUGHNESS]
+            high = [m for m in glossy if m.roughness[0] ** 2 >= SHEXP_MIN_ALPHA]
+            low = [m for m in glossy if m.roughness[0] ** 2 < SHEXP_MIN_ALPHA]
             if high:
                 lo = min(m.roughness[0] for m in high)
                 hi = max(m.roughness[1] for m in high)
@@ -420,14 +424,14 @@ def format_plan(plan: dict) -> str:
             text = f"lmax {s['lmax']} size {s['size']} samples {s['samples']}"
         elif a["kind"] == "shexp":
             f = s["fit"]
-            text = (f"P{f['lmax_p']} Q{f['lmax_q']} r {f['roughness_min']:g}-"
-                    f"{f['roughness_max']:g} samples {f['samples']}")  # fmt: skip
+            text = (f"P{f['lmax_p']} Q{f['lmax_q']} a {f['alpha_min']:.3g}-"
+                    f"{f['alpha_max']:.3g} samples {f['samples']}")  # fmt: skip
         elif a["kind"] == "export":
             text = f"{s['target']} of {s['env_sh']}"
         else:
             c = s["splitsum"]
-            text = (f"{c['levels']} levels {c['top']}..{c['min_size']} r "
-                    f"{c['roughness_min']:g}-{c['roughness_max']:g}")  # fmt: skip
+            text = (f"{len(c['alphas'])} levels {c['top']}..{c['min_size']} a "
+                    f"{c['alphas'][0]:.3g}-{c['alphas'][-1]:.3g}")  # fmt: skip
         err = ", ".join(f"{v:.3g} ({a['tolerances'].get(k, float('nan')):g})"
                         for k, v in a["predicted_error"].items()) or "n/a"  # fmt: skip
         secs = "n/a" if a["predicted_seconds"] is None else f"{a['predicted_seconds']:.2f}"

@@ -124,7 +124,8 @@ def _bake_splitsum(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.format.splitsum import build_splitsum_asset
 
     t0 = time.perf_counter()
-    config = SplitSumConfig(**a["settings"]["splitsum"])
+    c = a["settings"]["splitsum"]
+    config = SplitSumConfig(**(c | {"alphas": tuple(c["alphas"])}))
     env = load_environment(a["inputs"][0], quiet=True)
     chain = prefilter_chain(env.pixels, config)
     write_asset(a["output"], build_splitsum_asset(chain, config, shared_dfg_table(), env.meta))
