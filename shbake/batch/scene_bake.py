@@ -13,6 +13,7 @@ and rewrites the lock (atomically).
 import json
 import os
 import time
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -20,7 +21,7 @@ from shbake.batch.plan import file_hash, plan_scene, settings_text
 from shbake.batch.probe_jobs import _single_thread
 from shbake.batch.scene import Scene, _param_strings
 from shbake.errors import ParameterError
-from shbake.format.atomic import atomic_path, write_text
+from shbake.format.atomic import atomic_path, detached, transaction, write_text
 
 LOCK_NAME = "scene.lock.json"
 STAMP_DIR = ".stamps"
@@ -33,6 +34,15 @@ def lock_path(scene: Scene) -> str:
 def stamp_path(out_dir: str, aid: str) -> str:
     """The settings stamp of asset ``aid`` (what make depends on)."""
     return os.path.join(out_dir, STAMP_DIR, aid.replace("/", "--") + ".json")
+
+
+@contextmanager
+def _committed():
+    """Each asset's files commit on their own when its baker returns (outside the command's
+    transaction), so the bake can hash and measure them, and completed assets stay when a
+    later one fails."""
+    with detached(), transaction():
+        yield
 
 
 def _rel_rms(got, ref) -> float:
@@ -49,11 +59,12 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
 
     s = a["settings"]
     t0 = time.perf_counter()
-    summary = project_environment(
-        a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
-        irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
-        extract_sun=s["extract_sun"], quiet=True,
-    )  # fmt: skip
+    with _committed():
+        summary = project_environment(
+            a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
+            irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
+            extract_sun=s["extract_sun"], quiet=True,
+        )  # fmt: skip
     seconds = time.perf_counter() - t0
     outputs = summary["outputs"]
     if not measure:
@@ -75,9 +86,10 @@ def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
 
     s = a["settings"]
     t0 = time.perf_counter()
-    bake_brdf_table(s["model"], a["output"], params=_param_strings(s["params"]),
-                    merl_path=s["merl"], lmax=s["lmax"], size=(s["size"], s["size"]),
-                    samples=s["samples"], reproducible=True)  # fmt: skip
+    with _committed():
+        bake_brdf_table(s["model"], a["output"], params=_param_strings(s["params"]),
+                        merl_path=s["merl"], lmax=s["lmax"], size=(s["size"], s["size"]),
+                        samples=s["samples"], reproducible=True)  # fmt: skip
     seconds = time.perf_counter() - t0
     if not measure:
         return {"outputs": [a["output"]], "bake_seconds": seconds}, {}
@@ -111,7 +123,9 @@ def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.batch.probe_jobs import ProbeJob, run_probe_job
 
     t0 = time.perf_counter()
-    res = run_probe_job(ProbeJob(a["inputs"][0], a["output"], FitConfig(**a["settings"]["fit"])))
+    with _committed():
+        res = run_probe_job(ProbeJob(a["inputs"][0], a["output"],
+                                     FitConfig(**a["settings"]["fit"])))  # fmt: skip
     return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0},
             {"glossy_probe": float(res["log_rms"])})  # fmt: skip
 
@@ -128,7 +142,9 @@ def _bake_splitsum(a: dict, measure: bool = True) -> tuple[dict, dict]:
     config = SplitSumConfig(**(c | {"alphas": tuple(c["alphas"])}))
     env = load_environment(a["inputs"][0], quiet=True)
     chain = prefilter_chain(env.pixels, config)
-    write_asset(a["output"], build_splitsum_asset(chain, config, shared_dfg_table(), env.meta))
+    with _committed():
+        write_asset(a["output"], build_splitsum_asset(chain, config, shared_dfg_table(),
+                                                      env.meta))  # fmt: skip
     return {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}, {}
 
 
@@ -138,9 +154,12 @@ def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
     t0 = time.perf_counter()
     folder = os.path.dirname(a["output"])
     env_map, env_sh = a["inputs"]
-    files = export_assets([env_sh], a["settings"]["target"], folder, env_path=env_map, many=True)
+    with _committed():
+        files = export_assets([env_sh], a["settings"]["target"], folder, env_path=env_map,
+                              many=True)  # fmt: skip
     listing = {os.path.relpath(f, folder): file_hash(f) for f in sorted(files)}
-    write_text(a["output"], json.dumps(listing, indent=1, sort_keys=True) + "\n")
+    with _committed():
+        write_text(a["output"], json.dumps(listing, indent=1, sort_keys=True) + "\n")
     return {"outputs": [a["output"]] + sorted(files),
             "bake_seconds": time.perf_counter() - t0}, {}  # fmt: skip
 
@@ -239,6 +258,12 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     ``only``: bake just this asset id from its stamp (what the make rules run);
     the lock is then left alone (make's own timestamps track it).
     """
+    from shbake import resources
+
+    # A scene bake reads its own outputs back (measured errors, exports of env_sh assets),
+    # in an order it controls: the single-command guard against an output replacing an
+    # input read earlier in the run does not apply. Outputs stay atomic, per asset.
+    resources.end_run()
     if only is not None:
         path = stamp_path(scene.out_dir, only)
         try:
