@@ -81,6 +81,10 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
               help="Local worker processes.")  # fmt: skip
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Dask distributed scheduler (tcp://host:port).")  # fmt: skip
+@click.option("--manifest", type=click.Path(dir_okay=False), default=None,
+              help="JSON file listing every probe as written or not (with its SHA-256) and "
+              "the run's status; written even when the batch fails, so a rerun can resume "
+              "(a file).")  # fmt: skip
 @deprecated("--set", "output", "-o/--output", type=click.Path(dir_okay=False))
 @deprecated("--roughness-count", "alpha_count", "--alpha-count", type=int)
 @negative_opt
@@ -97,7 +101,7 @@ def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, a
     """
     lo, hi = fit_alpha_range(alpha_range, roughness_range)
     run = {k: settings.pop(k) for k in ("negative", "fix_nonfinite", "report", "tol", "n_jobs",
-                                        "scheduler")}  # fmt: skip
+                                        "scheduler", "manifest")}  # fmt: skip
     if output and probe_list is None and not maps:
         raise ParameterError("give maps as arguments or a --list file")
     config = FitConfig(alpha_count=alpha_count, alpha_min=lo, alpha_max=hi, **settings)

@@ -12,6 +12,7 @@ import contextlib
 import errno
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -280,7 +281,7 @@ class TestFullDisk:
     CASES = {
         "project-env": ["project-env", "{map}", "-o", "{out}/old.h5", "--exr-dir", "{out}/maps"],
         "split-sum": ["split-sum", "{map}", "-o", "{out}/old.h5", "--size", "16", "--min-size",
-                      "8", "--levels", "2", "--samples", "64"],
+                      "8", "--alphas", "0.25,1", "--samples", "64"],
         "brdf-table": ["brdf-table", "phong", "-o", "{out}/old.h5", "--size", "8", "--lmax", "2",
                        "--samples", "64", "--exr-dir", "{out}/bands"],
         "preview": ["preview", "{env}", "-o", "{out}/p.exr", "--size", "8", "--png"],
@@ -609,7 +610,7 @@ class TestDeterminism:
         "preview": ["preview", "{env}", "-o", "{out}/p.exr", "--size", "8", "--diff", "--png",
                     "-q"],
         "split-sum": ["split-sum", "{map}", "-o", "{out}/s.h5", "--size", "16", "--min-size",
-                      "8", "--levels", "2", "--samples", "64", "-q"],
+                      "8", "--alphas", "0.25,1", "--samples", "64", "-q"],
     }  # fmt: skip
 
     @pytest.mark.parametrize("name", list(RUNS))
@@ -646,15 +647,48 @@ class TestBatches:
     def test_completed_probes_stay_valid(self, run_cli, box):
         """Per-probe atomic files: the probe fitted before the bad map is complete and valid;
         nothing half-written is left."""
+        from shbake.batch.probe_jobs import GATHER_BATCH
         from shbake.format.asset import read_asset
 
+        # one gather pass of good maps, then the bad one in the next pass
+        good = []
+        for i in range(GATHER_BATCH):
+            shutil.copy(box / "map.exr", box / f"m{i}.exr")
+            good.append(box / f"m{i}.exr")
         (box / "zbad.exr").write_bytes(b"not an image")
         before = set(os.listdir(box))
-        assert_failed(run_cli("probe-fit", box / "map.exr", box / "zbad.exr", "--out-dir",
+        assert_failed(run_cli("probe-fit", *good, box / "zbad.exr", "--out-dir",
                               box / "probes", "--samples", 64))  # fmt: skip
         assert set(os.listdir(box)) == before | {"probes"}
-        assert os.listdir(box / "probes") == ["map.h5"]
-        assert read_asset(str(box / "probes" / "map.h5")).kind == "shexp_probe"
+        assert sorted(os.listdir(box / "probes")) == sorted(f"m{i}.h5" for i in range(len(good)))
+        for i in range(len(good)):
+            assert read_asset(str(box / "probes" / f"m{i}.h5")).kind == "shexp_probe"
+
+    def test_manifest_lists_what_succeeded(self, run_cli, box):
+        """``--manifest``: written even when the batch fails; the probes of the completed
+        gather pass are ``written`` with their SHA-256, the rest ``not written``."""
+        import hashlib
+        import json
+
+        from shbake.batch.probe_jobs import GATHER_BATCH
+
+        good = []
+        for i in range(GATHER_BATCH):
+            shutil.copy(box / "map.exr", box / f"m{i}.exr")
+            good.append(box / f"m{i}.exr")
+        (box / "zbad.exr").write_bytes(b"not an image")
+        manifest = box / "manifest.json"
+        assert_failed(run_cli("probe-fit", *good, box / "zbad.exr", "--out-dir", box / "probes",
+                              "--samples", 64, "--manifest", manifest))  # fmt: skip
+        doc = json.loads(manifest.read_text())
+        assert doc["status"].startswith("failed:")
+        rows = {os.path.basename(r["source"]): r for r in doc["probes"]}
+        assert rows["zbad.exr"]["status"] == "not written"
+        for i in range(len(good)):
+            row = rows[f"m{i}.exr"]
+            assert row["status"] == "written"
+            digest = hashlib.sha256((box / "probes" / f"m{i}.h5").read_bytes()).hexdigest()
+            assert row["sha256"] == digest
 
     def test_set_is_all_or_nothing(self, run_cli, box):
         (box / "bad.exr").write_bytes(b"not an image")

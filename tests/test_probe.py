@@ -341,7 +341,9 @@ class TestProbeAsset:
         from shbake.format.shexp import build_shexp_asset
 
         plan = FitPlan(SMALL, (32, 64))
-        asset = build_shexp_asset(plan.fit(smooth_map(32)), SMALL, dfg_table(8, 64), {})
+        meta = {"path": "m.exr", "sha256": "0" * 64, "size": 1, "nonfinite_policy": "error",
+                "negative_policy": "clamp"}  # fmt: skip
+        asset = build_shexp_asset(plan.fit(smooth_map(32)), SMALL, dfg_table(8, 64), meta)
         assert check_probe_alpha(asset, 0.2) == 0.2 and check_probe_alpha(asset, 1.0) == 1.0
         for bad in (0.19, 1.01, float("nan")):
             with pytest.raises(ValueError, match="outside this probe's range"):

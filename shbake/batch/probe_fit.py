@@ -113,9 +113,38 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 DEFAULT_CONFIG = FitConfig()
 
 
+def write_manifest(path: str, jobs, finished: list, output, error) -> None:
+    """``--manifest``: one JSON line per job — source, output, ``written`` / ``not written``
+    and the output's SHA-256 — plus the run's status, written atomically on its own even
+    when the run failed (so ``make`` or a Dask rerun can resume from it). With ``-o`` (a
+    set) the probes are written together or not at all."""
+    import hashlib
+    import json
+
+    from shbake.format.atomic import detached, write_text
+
+    def sha256_of(path):  # an output of this run: hashed as such, not read as an input
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+    done = {r["source"] for r in finished if r.get("output")} if output is None else set()
+    set_written = output is not None and error is None
+    rows = []
+    for job in jobs:
+        target = output if output is not None else job.output
+        ok = set_written or job.source in done
+        rows.append({"source": job.source, "output": target,
+                     "status": "written" if ok else "not written",
+                     "sha256": sha256_of(target) if ok else None})  # fmt: skip
+    reason = (str(error).splitlines() or [type(error).__name__])[0] if error else ""
+    status = "ok" if error is None else f"failed: {reason}"
+    doc = {"status": status, "probes": rows}
+    with detached():
+        write_text(path, json.dumps(doc, indent=1, sort_keys=True) + "\n")
+
+
 def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_CONFIG,
                negative="clamp", fix_nonfinite=None, report=False, tol=None, n_jobs=1,
-               scheduler=None, progress=None, notes=None) -> dict:  # fmt: skip
+               scheduler=None, progress=None, notes=None, manifest=None) -> dict:  # fmt: skip
     """Fit SH-exp probes to ``maps`` (and the lines of ``probe_list``); the summary
     ``{"probes", "seconds", "probes_per_second", "config", …study}``. ``notes(text)``
     receives the ``--tol`` choice and the ``--report`` tables."""
@@ -130,13 +159,24 @@ def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_C
             notes(text)
     if scheduler and n_jobs != 1:
         raise ParameterError("use --jobs or --scheduler, not both")
+    if manifest is not None:
+        check_output_path(manifest, "--manifest")
     t0 = time.perf_counter()
-    if scheduler:
-        results = run_dask(jobs, scheduler, progress)
-    else:
-        results = run_local(jobs, n_jobs, progress)
-    if output:
-        results = write_set(output, results, config)
+    finished: list = []
+    error = None
+    try:
+        if scheduler:
+            results = run_dask(jobs, scheduler, progress, finished)
+        else:
+            results = run_local(jobs, n_jobs, progress, finished)
+        if output:
+            results = write_set(output, results, config)
+    except BaseException as e:
+        error = e
+        raise
+    finally:
+        if manifest is not None:
+            write_manifest(manifest, jobs, finished, output, error)
     seconds = time.perf_counter() - t0
     rate = len(jobs) / seconds if seconds > 0 else float("inf")
     return {"probes": results, "seconds": seconds, "probes_per_second": rate,

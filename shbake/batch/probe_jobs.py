@@ -124,18 +124,24 @@ def check_jobs(jobs: list[ProbeJob]) -> None:
     refuse_same_file([j.output for j in jobs if j.output], [j.source for j in jobs])
 
 
-def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict]:
+def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None,
+              finished: list | None = None) -> list[dict]:  # fmt: skip
     """Run jobs in this process (``n_jobs = 1``) or ``n_jobs`` worker processes.
 
-    Worker processes (spawned) run numba on one thread each. Results keep the job order.
+    Worker processes (spawned) run numba on one thread each. Results keep the job order;
+    ``finished`` (a list) receives each job's summary as soon as it is done, so a caller
+    still knows what completed when a later job fails.
     """
     check_jobs(jobs)
+    done = finished if finished is not None else []
     if not 1 <= n_jobs <= (os.cpu_count() or 1) * 4:
         raise ParameterError(f"--jobs must be in [1, {(os.cpu_count() or 1) * 4}], got {n_jobs}")
     results = []
     if n_jobs == 1:
         for i in range(0, len(jobs), GATHER_BATCH):
-            results.extend(run_probe_batch(jobs[i : i + GATHER_BATCH]))
+            batch = run_probe_batch(jobs[i : i + GATHER_BATCH])
+            results.extend(batch)
+            done.extend(batch)
             if progress:
                 progress(len(results), len(jobs))
         return results
@@ -146,6 +152,7 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None) -> list[dict
     with ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread) as pool:
         for batch in pool.map(run_probe_batch, batches):
             results.extend(batch)
+            done.extend(batch)
             if progress:
                 progress(len(results), len(jobs))
     return results
@@ -160,8 +167,10 @@ SCHEDULER_ADDRESS = re.compile(r"((tcp|tls|inproc|ucx|ws|wss)://)?[A-Za-z0-9_.\-
 """What a Dask scheduler address looks like (checked before connecting, which can take 20 s)."""
 
 
-def run_dask(jobs: list[ProbeJob], address: str, progress=None) -> list[dict]:
-    """Run jobs on the Dask distributed scheduler at ``address``; results keep job order."""
+def run_dask(jobs: list[ProbeJob], address: str, progress=None,
+             finished: list | None = None) -> list[dict]:  # fmt: skip
+    """Run jobs on the Dask distributed scheduler at ``address``; results keep job order
+    (``finished`` as in :func:`run_local`, in completion order)."""
     check_jobs(jobs)
     if not SCHEDULER_ADDRESS.fullmatch(str(address)):
         raise ParameterError(
@@ -181,6 +190,8 @@ def run_dask(jobs: list[ProbeJob], address: str, progress=None) -> list[dict]:
         results = [None] * len(jobs)
         for done, fut in enumerate(as_completed(futures, loop=client.loop), 1):
             results[index[fut.key]] = fut.result()
+            if finished is not None:
+                finished.append(results[index[fut.key]])
             if progress:
                 progress(done, len(jobs))
     return results
