@@ -13,7 +13,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 ENGINES := tests/engines
 
-.PHONY: demo test test-all bench bench-speed lint clean engines format-doc
+.PHONY: demo test test-all test-extremes bench bench-speed lint clean engines format-doc
 
 $(STAMP): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,8 @@ demo: $(STAMP)
 	  $(BIN)/shbake preview $(OUT)/probes/$$n.h5 --roughness 0.6 --f0 0.04 --size 128 \
 	      -o $(OUT)/$$n-glossy.exr --diff --source $$m --json > $(OUT)/$$n-glossy.json || exit 1; \
 	done
+	$(BIN)/shbake tradeoff env_sh --map data_samples/sunset.exr --tol 0.02 \
+	    -o $(OUT)/tradeoff-env_sh.png --csv $(OUT)/tradeoff-env_sh.csv
 	$(BIN)/shbake overview $(OUT) -o $(OUT)/index.html --title "shbake demo: the six sample maps"
 	@echo "demo: open $(OUT)/index.html (assets, previews and contact sheets in $(OUT)/)" >&2
 
@@ -47,6 +49,9 @@ $(ENGINES)/node_modules/.package-lock.json: $(ENGINES)/package.json $(ENGINES)/p
 
 test: $(STAMP) engines
 	$(BIN)/python -m pytest -q -n 2
+
+test-extremes: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2 -m extremes tests/test_extremes.py
 
 test-all: $(STAMP) engines
 	$(BIN)/python -m pytest -q -n 2 -m ''

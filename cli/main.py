@@ -32,6 +32,9 @@ COMMANDS = {
     "overview": "overview:overview",
     "export": "export:export",
     "shrm": "shrm:shrm",
+    "plan": "plan:plan",
+    "bake": "plan:bake",
+    "tradeoff": "tradeoff:tradeoff_cmd",
 }
 """Subcommand → ``module:attribute`` in ``shbake_cli``, imported on use."""
 

@@ -1,9 +1,9 @@
 """Every ``shbake`` example of README.md runs as written, on the sample maps.
 
 The examples run in order (later ones read what earlier ones wrote) in a
-scratch folder holding ``sky.exr`` (a copy of a sample map), ``probes.txt``
-and a link to ``data_samples/``; the one Dask example gets a local cluster's
-address in place of ``tcp://host:8786``.
+scratch folder holding ``sky.exr`` (a copy of a sample map), ``probes.txt``,
+``scene.toml`` (tests/scenes/readme.toml) and a link to ``data_samples/``; the
+one Dask example gets a local cluster's address in place of ``tcp://host:8786``.
 """
 
 import os
@@ -40,6 +40,7 @@ def workdir(tmp_path_factory):
     folder = tmp_path_factory.mktemp("readme")
     os.symlink(ROOT / "data_samples", folder / "data_samples")
     shutil.copy(ROOT / "data_samples" / "forest.exr", folder / "sky.exr")
+    shutil.copy(ROOT / "tests" / "scenes" / "readme.toml", folder / "scene.toml")
     (folder / "probes.txt").write_text(
         "# MAP [OUTPUT]\ndata_samples/city.exr\ndata_samples/night.exr night-probe.h5\n"
     )

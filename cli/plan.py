@@ -1,0 +1,66 @@
+"""``shbake plan`` and ``shbake bake``: a scene's assets, their settings, and baking them."""
+
+import click
+from shbake_cli.options import emit_json, info, json_opt, quiet_opt
+
+from shbake.batch.plan import format_plan, plan_scene
+from shbake.batch.scene import SceneError, load_scene
+from shbake.batch.scene_bake import bake_scene, emit_make, format_bake
+
+
+def _scene(path):
+    try:
+        return load_scene(path)
+    except SceneError as e:
+        raise click.UsageError(str(e)) from None
+
+
+@click.command("plan")
+@click.argument("scene", type=click.Path(dir_okay=False))
+@click.option("--emit-make", "emit", type=click.Path(dir_okay=False), default=None,
+              help="Also write a Makefile fragment (one rule per asset) to this file.")
+@click.option("--shbake", "shbake_cmd", default="shbake", show_default=True,
+              help="How the fragment's rules call shbake (overridable as $(SHBAKE)).")
+@json_opt
+@quiet_opt
+def plan(scene, emit, shbake_cmd, as_json, quiet):
+    """Decide which assets SCENE (a TOML scene file) needs and at which settings.
+
+    Prints asset, settings, predicted error (tolerance), predicted seconds and
+    bytes per asset; a malformed scene is one line FILE:LINE: KEY: … (exit 2).
+    """
+    sc = _scene(scene)
+    try:
+        result = plan_scene(sc)
+    except SceneError as e:
+        raise click.UsageError(str(e)) from None
+    if emit:
+        emit_make(sc, result, emit, shbake_cmd)
+        info(f"plan: wrote {emit} ({len(result['assets'])} rules)", quiet)
+    if as_json:
+        emit_json(result)
+    elif not quiet:
+        click.echo(format_plan(result))
+
+
+@click.command("bake")
+@click.argument("scene", type=click.Path(dir_okay=False))
+@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
+              help="Local worker processes.")
+@click.option("--scheduler", default=None, metavar="ADDR",
+              help="Bake on the Dask distributed scheduler at ADDR instead.")
+@click.option("--asset", "only", default=None, metavar="ID",
+              help="Bake only this asset from its settings stamp (what make rules run).")
+@json_opt
+@quiet_opt
+def bake(scene, jobs, scheduler, only, as_json, quiet):
+    """Bake what SCENE needs and is out of date (scene.lock.json in the scene's out_dir)."""
+    sc = _scene(scene)
+    try:
+        summary = bake_scene(sc, jobs=jobs, scheduler=scheduler, only=only)
+    except SceneError as e:
+        raise click.UsageError(str(e)) from None
+    if as_json:
+        emit_json(summary)
+    else:
+        info(format_bake(summary), quiet)

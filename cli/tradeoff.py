@@ -1,0 +1,48 @@
+"""``shbake tradeoff``: error against time and bytes for one asset kind's candidate settings."""
+
+import click
+from shbake_cli.options import (
+    NameValue,
+    emit_json,
+    info,
+    json_opt,
+    output_opt,
+    quiet_opt,
+    samples_opt,
+)
+
+from shbake.batch.tradeoff import KINDS, tradeoff, write_tradeoff
+from shbake.brdf import MODELS
+
+
+@click.command("tradeoff")
+@click.argument("kind", type=click.Choice(KINDS))
+@click.option("--map", "map_path", type=click.Path(dir_okay=False), default=None,
+              help="The environment map (env_sh).")
+@click.option("--model", type=click.Choice(list(MODELS)), default=None,
+              help="The BRDF model (brdf_table).")
+@click.option("-p", "--param", "params", type=NameValue(), multiple=True,
+              help="Model parameter NAME=VALUE (repeatable; brdf_table).")
+@click.option("--tol", type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
+              default=0.05, show_default=True,
+              help="Error tolerance in (0, 1): drawn, and the cheapest setting meeting it is "
+              "marked (env_sh: relative RMS irradiance error; brdf_table: relative L2 of f*).")
+@samples_opt(256, "per strategy per table texel (brdf_table)")
+@output_opt("The plot (PNG)")
+@click.option("--csv", "csv_path", type=click.Path(dir_okay=False), default=None,
+              help="Also write the numbers as CSV.")
+@click.option("--json-file", "json_path", type=click.Path(dir_okay=False), default=None,
+              help="Also write the numbers as JSON.")
+@json_opt
+@quiet_opt
+def tradeoff_cmd(kind, map_path, model, params, tol, samples, output, csv_path, json_path,
+                 as_json, quiet):  # fmt: skip
+    """Plot error vs time and bytes of KIND's candidate settings (env_sh: lmax; brdf_table:
+    lmax × size), the tolerance and the chosen point."""
+    result = tradeoff(kind, tol, map_path, model, dict(params), samples)
+    write_tradeoff(result, output, csv_path, json_path)
+    if as_json:
+        emit_json(result)
+    else:
+        info(f"tradeoff: {output}: {len(result['rows'])} settings, chosen "
+             f"{result['chosen'] or 'none (tolerance not met)'}", quiet)  # fmt: skip

@@ -1,0 +1,388 @@
+"""Baking a planned scene: one function per asset, the same for make, a local pool and Dask.
+
+:func:`bake_asset` takes an asset of the plan (:mod:`shbake.batch.plan`),
+writes its file atomically (:func:`shbake.format.asset.write_asset`) and
+returns a record with the output's hash, the measured error and the time.
+Nothing in an asset depends on where or when it was baked (no times, no
+command lines), so ``make -j``, ``bake --jobs`` and ``bake --scheduler``
+write identical bytes. :func:`bake_scene` plans, skips every asset whose
+plan key, inputs and output hash match ``scene.lock.json``, bakes the rest
+and rewrites the lock (atomically).
+"""
+
+import json
+import os
+import time
+from contextlib import contextmanager
+
+import numpy as np
+
+from shbake.batch.plan import file_hash, plan_scene, settings_text
+from shbake.batch.probe_jobs import _single_thread
+from shbake.batch.scene import Scene, _param_strings
+from shbake.errors import ParameterError
+from shbake.format.atomic import atomic_path, detached, transaction, write_text
+
+LOCK_NAME = "scene.lock.json"
+STAMP_DIR = ".stamps"
+
+
+def lock_path(scene: Scene) -> str:
+    return os.path.join(scene.out_dir, LOCK_NAME)
+
+
+def stamp_path(out_dir: str, aid: str) -> str:
+    """The settings stamp of asset ``aid`` (what make depends on)."""
+    return os.path.join(out_dir, STAMP_DIR, aid.replace("/", "--") + ".json")
+
+
+@contextmanager
+def _committed():
+    """Each asset's files commit on their own when its baker returns (outside the command's
+    transaction), so the bake can hash and measure them, and completed assets stay when a
+    later one fails."""
+    with detached(), transaction():
+        yield
+
+
+def _rel_rms(got, ref) -> float:
+    return float(np.sqrt(np.mean((got - ref) ** 2) / max(np.mean(ref**2), 1e-300)))
+
+
+def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    from shbake.batch.project_env import project_environment
+    from shbake.conventions import REC709_LUMINANCE
+    from shbake.envmap import load_environment
+    from shbake.evaluation.env_sh import brute_force_reference
+    from shbake.format.asset import read_asset
+    from shbake.shading.env_sh import irradiance
+
+    s = a["settings"]
+    t0 = time.perf_counter()
+    with _committed():
+        summary = project_environment(
+            a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
+            irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
+            extract_sun=s["extract_sun"], quiet=True,
+        )  # fmt: skip
+    seconds = time.perf_counter() - t0
+    outputs = summary["outputs"]
+    if not measure:
+        return {"outputs": outputs, "bake_seconds": seconds}, {}
+    env = load_environment(a["inputs"][0], quiet=True)
+    ref = brute_force_reference(env, n_dirs=1024)
+    asset = read_asset(a["output"])
+    errors = {}
+    for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
+        if f"/{name}/sh" in asset:
+            got = irradiance(asset, ref["dirs"], tangent=tangent) @ REC709_LUMINANCE
+            errors[name] = _rel_rms(got, ref[name])
+    return {"outputs": outputs, "bake_seconds": seconds}, errors
+
+
+def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    from shbake.batch.brdf_table import bake_brdf_table
+    from shbake.brdf import make_brdf
+
+    s = a["settings"]
+    t0 = time.perf_counter()
+    with _committed():
+        bake_brdf_table(s["model"], a["output"], params=_param_strings(s["params"]),
+                        merl_path=s["merl"], lmax=s["lmax"], size=(s["size"], s["size"]),
+                        samples=s["samples"], reproducible=True)  # fmt: skip
+    seconds = time.perf_counter() - t0
+    if not measure:
+        return {"outputs": [a["output"]], "bake_seconds": seconds}, {}
+    brdf = make_brdf(s["model"], merl_path=s["merl"], **_param_strings(s["params"]))
+    from shbake.bakers.kautz_report import probe_views
+    from shbake.format.asset import read_asset
+    from shbake.format.kautz_table import table_at
+
+    # measured on views the plan did not use, against the table actually written
+    errs = _table_file_error(brdf, table_at(read_asset(a["output"])).coeffs, s["lmax"],
+                             probe_views(32, seed=23))  # fmt: skip
+    return {"outputs": [a["output"]], "bake_seconds": seconds}, {"brdf_table": errs}
+
+
+def _table_file_error(brdf, table, lmax, views) -> float:
+    from shbake.bakers.kautz_report import product_energy
+    from shbake.batch.plan import REFERENCE_SAMPLES
+    from shbake.brdf.tabulate import project_views
+    from shbake.texture.parabolic import fetch
+
+    energy = product_energy(brdf, views, 256).sum(axis=1)
+    ref, _ = project_views(brdf, views, lmax, samples=REFERENCE_SAMPLES)
+    got = fetch(np.asarray(table), views)
+    trunc2 = np.clip(energy - np.sum(ref * ref, axis=(1, 2)), 0, None)
+    err2 = np.sum((got - ref) ** 2, axis=(1, 2)) + trunc2
+    return float(np.mean(np.sqrt(err2 / np.maximum(energy, 1e-300))))
+
+
+def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    from shbake.bakers.shexp import FitConfig
+    from shbake.batch.probe_jobs import ProbeJob, run_probe_job
+
+    t0 = time.perf_counter()
+    with _committed():
+        res = run_probe_job(ProbeJob(a["inputs"][0], a["output"],
+                                     FitConfig(**a["settings"]["fit"])))  # fmt: skip
+    return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0},
+            {"glossy_probe": float(res["log_rms"])})  # fmt: skip
+
+
+def _bake_splitsum(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
+    from shbake.batch.probe_jobs import shared_dfg_table
+    from shbake.envmap import load_environment
+    from shbake.format.asset import write_asset
+    from shbake.format.splitsum import build_splitsum_asset
+
+    t0 = time.perf_counter()
+    c = a["settings"]["splitsum"]
+    config = SplitSumConfig(**(c | {"alphas": tuple(c["alphas"])}))
+    env = load_environment(a["inputs"][0], quiet=True)
+    chain = prefilter_chain(env.pixels, config)
+    with _committed():
+        write_asset(a["output"], build_splitsum_asset(chain, config, shared_dfg_table(),
+                                                      env.meta))  # fmt: skip
+    return {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}, {}
+
+
+def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    from shbake.batch.export import export_assets
+
+    t0 = time.perf_counter()
+    folder = os.path.dirname(a["output"])
+    env_map, env_sh = a["inputs"]
+    with _committed():
+        files = export_assets([env_sh], a["settings"]["target"], folder, env_path=env_map,
+                              many=True)  # fmt: skip
+    listing = {os.path.relpath(f, folder): file_hash(f) for f in sorted(files)}
+    with _committed():
+        write_text(a["output"], json.dumps(listing, indent=1, sort_keys=True) + "\n")
+    return {"outputs": [a["output"]] + sorted(files),
+            "bake_seconds": time.perf_counter() - t0}, {}  # fmt: skip
+
+
+BAKERS = {"export": _bake_export, "env_sh": _bake_env_sh, "brdf_table": _bake_brdf_table,
+          "shexp": _bake_shexp,
+          "splitsum": _bake_splitsum}  # fmt: skip
+
+
+_WARM: set[str] = set()
+
+
+def bake_asset(asset: dict, measure: bool = True) -> dict:
+    """Bake one planned asset; its lock record (outputs' hashes, measured error, seconds).
+
+    ``measure``: also measure its error against the references (what the lock records).
+    """
+    os.makedirs(os.path.dirname(asset["output"]), exist_ok=True)
+    if measure and asset["kind"] not in _WARM:
+        # the first asset of a kind in this process is baked once into a scratch folder so
+        # that the time recorded is warm (numba cache loads excluded), as the plan predicts
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            scratch = dict(asset, output=os.path.join(tmp, "warm.h5"))
+            BAKERS[asset["kind"]](scratch, False)
+        _WARM.add(asset["kind"])
+    t0 = time.perf_counter()
+    info, errors = BAKERS[asset["kind"]](asset, measure)
+    wall = time.perf_counter() - t0
+    return {
+        "id": asset["id"],
+        "plan_key": asset["plan_key"],
+        "settings": asset["settings"],
+        "inputs": {p: file_hash(p) for p in asset["inputs"]},
+        "outputs": {os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p)
+                    for p in info["outputs"]},  # fmt: skip
+        "measured_error": errors,
+        "tolerances": asset["tolerances"],
+        "predicted_error": asset["predicted_error"],
+        "predicted_seconds": asset["predicted_seconds"],
+        "bake_seconds": info["bake_seconds"],
+        "seconds_with_check": wall,
+    }
+
+
+def _dask_bake(asset: dict) -> dict:
+    import numba
+
+    numba.set_num_threads(1)
+    return bake_asset(asset)
+
+
+def _up_to_date(asset: dict, rec: dict | None) -> bool:
+    if not rec or (rec.get("plan_key"), rec.get("settings")) != (asset["plan_key"],
+                                                                  asset["settings"]):
+        return False
+    if any(not os.path.exists(p) or file_hash(p) != rec["inputs"].get(p) for p in asset["inputs"]):
+        return False
+    base = os.path.dirname(asset["output"])
+    return all(os.path.exists(os.path.join(base, r)) and file_hash(os.path.join(base, r)) == h
+               for r, h in rec["outputs"].items())  # fmt: skip
+
+
+def read_lock(path: str) -> dict:
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return {}
+
+
+def write_stamps(plan: dict) -> list[str]:
+    """Write each asset's settings stamp, only where its text changed (make sees no change
+    otherwise). Returns the stamps written."""
+    written = []
+    for a in plan["assets"]:
+        path = stamp_path(plan["out_dir"], a["id"])
+        text = settings_text(a)
+        try:
+            with open(path) as f:
+                if f.read() == text:
+                    continue
+        except OSError:
+            pass
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        write_text(path, text)
+        written.append(path)
+    return written
+
+
+def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
+               only: str | None = None, progress=None) -> dict:  # fmt: skip
+    """Plan ``scene`` and bake what is out of date; the summary (baked, skipped, records).
+
+    ``only``: bake just this asset id from its stamp (what the make rules run);
+    the lock is then left alone (make's own timestamps track it).
+    """
+    from shbake import resources
+
+    # A scene bake reads its own outputs back (measured errors, exports of env_sh assets),
+    # in an order it controls: the single-command guard against an output replacing an
+    # input read earlier in the run does not apply. Outputs stay atomic, per asset.
+    resources.end_run()
+    if only is not None:
+        path = stamp_path(scene.out_dir, only)
+        try:
+            with open(path) as f:
+                asset = json.load(f)
+        except OSError:
+            raise ParameterError(f"{path}: no settings stamp for {only!r}; run shbake plan "
+                                 "--emit-make first") from None  # fmt: skip
+        full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0)
+        rec = bake_asset(full, measure=False)
+        return {"baked": [only], "skipped": [], "records": {only: rec}}
+    lock_file = lock_path(scene)
+    lock = read_lock(lock_file)
+    plan = plan_scene(scene, cache=lock.get("plans", {}))
+    todo = [a for a in plan["assets"] if not _up_to_date(a, lock.get("assets", {}).get(a["id"]))]
+    ids = {a["id"] for a in todo}
+    todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
+             and a["settings"]["env_sh"] in ids]  # fmt: skip
+    # two waves: exports read the env_sh assets of the first
+    waves = [[a for a in todo if a["kind"] != "export"], [a for a in todo if a["kind"] == "export"]]
+    results = []
+    if scheduler:
+        from distributed import Client
+
+        with Client(scheduler, timeout=10, set_as_default=False) as client:
+            for wave in waves:
+                results += client.gather(client.map(_dask_bake, wave, pure=False))
+    elif jobs > 1 and len(todo) > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_single_thread) as pool:
+            for wave in waves:
+                results += list(pool.map(bake_asset, wave))
+    else:
+        results = [bake_asset(a) for wave in waves for a in wave]
+    records = dict(lock.get("assets", {}))
+    records = {a["id"]: records[a["id"]] for a in plan["assets"] if a["id"] in records}
+    for r in results:
+        records[r["id"]] = r
+    os.makedirs(scene.out_dir, exist_ok=True)
+    write_stamps(plan)
+    keys = {a["plan_key"] for a in plan["assets"]}
+    new_lock = {
+        "scene": os.path.basename(scene.path),
+        "assets": dict(sorted(records.items())),
+        "plans": {k: v for k, v in sorted(lock.get("plans", {}).items()) if k in keys}
+        | {a["plan_key"]: _plan_entry(a) for a in plan["assets"]},
+    }
+    with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
+        json.dump(new_lock, f, indent=1, sort_keys=True)
+    done = {r["id"] for r in results}
+    return {"baked": [r["id"] for r in results],
+            "skipped": [a["id"] for a in plan["assets"] if a["id"] not in done],
+            "records": records, "lock": lock_file}  # fmt: skip
+
+
+def _plan_entry(a: dict) -> dict:
+    return {k: a[k] for k in ("settings", "predicted_error", "predicted_seconds", "bytes", "note")}
+
+
+def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> str:
+    """Write the Makefile fragment of ``plan`` to ``path`` (atomically) and the stamps.
+
+    One rule per asset: it depends on its inputs (maps, MERL files) and on its
+    settings stamp, which :func:`write_stamps` rewrites only when the asset's
+    settings change, so a changed tolerance rebuilds only what it affects. The
+    fragment remakes itself (and the stamps) when the scene file changes; GNU
+    make then restarts with the new rules.
+    """
+    write_stamps(plan)
+    scene_path = os.path.abspath(scene.path)
+    frag = os.path.abspath(path)
+    outs = [a["output"] for a in plan["assets"]]
+    lines = [
+        f"# generated by: shbake plan {scene.path} --emit-make {path}  (do not edit)",
+        ".DELETE_ON_ERROR:",
+        f"SHBAKE ?= {shbake}",
+        f"SCENE_{_var(scene.name)}_ASSETS := " + " ".join(_q(o) for o in outs),
+        ".PHONY: scene-assets",
+        f"scene-assets: $(SCENE_{_var(scene.name)}_ASSETS)",
+        "",
+        f"{_q(frag)}: {_q(scene_path)}",
+        f"\t$(SHBAKE) plan {_q(scene_path)} --emit-make {_q(frag)} --quiet",
+        "",
+    ]
+    for a in plan["assets"]:
+        deps = [_q(os.path.abspath(p)) for p in a["inputs"]]
+        deps.append(_q(stamp_path(plan["out_dir"], a["id"])))
+        lines += [
+            f"{_q(a['output'])}: {' '.join(deps)}",
+            f"\t$(SHBAKE) bake {_q(scene_path)} --asset {a['id']} --quiet",
+            "",
+        ]
+    text = "\n".join(lines)
+    write_text(path, text)
+    return text
+
+
+def _var(name: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in name).upper()
+
+
+def _q(path: str) -> str:
+    if any(c in path for c in " #$:"):
+        raise ParameterError(f"{path}: make cannot name files with spaces, '#', '$' or ':'")
+    return path
+
+
+def format_bake(summary: dict) -> str:
+    """One line per baked asset (measured error vs tolerance, measured vs predicted time)."""
+    lines = []
+    for aid in summary["baked"]:
+        r = summary["records"][aid]
+        err = ", ".join(f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"]
+                                         else "") for k, v in r["measured_error"].items())
+        pred = r["predicted_seconds"]
+        pred = "not predicted" if pred is None else f"predicted {pred:.2f} s"
+        lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s ({pred})")
+    lines.append(f"bake: {len(summary['baked'])} baked, {len(summary['skipped'])} up to date")
+    return "\n".join(lines)

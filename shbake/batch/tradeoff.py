@@ -1,0 +1,134 @@
+"""``shbake tradeoff``: error against time and bytes for the settings the planner considers.
+
+One row per candidate setting, with the error model of :mod:`shbake.batch.plan`
+(the same numbers the planner compares with a tolerance), the measured warm
+time of the baker's own work at that setting and the asset's payload bytes;
+the chosen setting (the cheapest meeting ``tol``, as ``shbake plan`` picks) is
+marked. Written as a PNG (matplotlib: error vs time and error vs bytes, log
+axes, tolerance line, chosen point), a CSV and a JSON file.
+"""
+
+import csv
+import io
+import json
+import os
+
+import numpy as np
+
+from shbake.batch.plan import (
+    ERROR_LMAX,
+    MAX_IRRADIANCE_LMAX,
+    TABLE_LMAX,
+    TABLE_SIZES,
+    _cold,
+    irradiance_truncation,
+    table_errors,
+)
+from shbake.batch.scene import _param_strings
+from shbake.brdf import make_brdf
+from shbake.brdf.tabulate import tabulate
+from shbake.conventions import n_coeffs
+from shbake.envmap import load_environment
+from shbake.envmap.sun import extract_sun
+from shbake.errors import ParameterError
+from shbake.format.atomic import atomic_path, write_text
+from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
+
+KINDS = ("env_sh", "brdf_table")
+
+
+def env_sh_tradeoff(map_path: str, tol: float, sun: bool = True) -> dict:
+    """Rows ``lmax, error (irradiance / tangent), seconds, bytes`` for ``lmax = 0 … 16``."""
+    env = load_environment(map_path, quiet=True)
+    residual = extract_sun(env)[1] if sun else env
+    coeffs = residual.project(ERROR_LMAX)
+    e_irr = irradiance_truncation(coeffs, lambert_kernel)
+    e_tan = irradiance_truncation(coeffs, kajiya_kay_kernel)
+    rows = []
+    for L in range(MAX_IRRADIANCE_LMAX + 1):
+        rows.append({"setting": f"lmax {L}", "lmax": L, "error": float(max(e_irr[L], e_tan[L])),
+                     "irradiance_error": float(e_irr[L]), "tangent_error": float(e_tan[L]),
+                     "seconds": _cold("env_sh", residual.project, L),
+                     "bytes": 3 * n_coeffs(L) * 3 * 8})  # fmt: skip
+    return _finish("env_sh", rows, tol, "relative RMS irradiance error (Parseval)", map_path)
+
+
+def brdf_table_tradeoff(model: str, params: dict, tol: float, samples: int = 256) -> dict:
+    """Rows ``(lmax, size)`` over TABLE_LMAX × TABLE_SIZES[:3] at ``samples``."""
+    brdf = make_brdf(model, **_param_strings(params))
+    rows = []
+    for L in TABLE_LMAX:
+        for size in TABLE_SIZES[:3]:
+            errs = table_errors(brdf, L, size, samples)
+            rows.append({"setting": f"lmax {L} size {size}", "lmax": L, "size": size,
+                         "samples": samples, "error": errs["total"], **{
+                             f"{k}_error": v for k, v in errs.items() if k != "total"},
+                         "seconds": _cold("brdf_table", tabulate, brdf, L, (size, size),
+                                          samples=samples),
+                         "bytes": size * size * n_coeffs(L) * 3 * 8})  # fmt: skip
+    return _finish("brdf_table", rows, tol, "relative L2 error of f*", model)
+
+
+def _finish(kind, rows, tol, error_label, source) -> dict:
+    ok = [r for r in rows if r["error"] <= tol]
+    chosen = min(ok, key=lambda r: (r["seconds"], r["bytes"])) if ok else None
+    if kind == "env_sh" and ok:
+        chosen = min(ok, key=lambda r: r["lmax"])  # the planner's rule: smallest lmax
+    return {"kind": kind, "source": source, "tolerance": tol, "error_label": error_label,
+            "rows": rows, "chosen": chosen and chosen["setting"]}  # fmt: skip
+
+
+def write_tradeoff(result: dict, output: str, csv_path: str | None, json_path: str | None):
+    """The PNG at ``output`` and the numbers as CSV / JSON (each atomically)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = result["rows"]
+    err = np.array([max(r["error"], 1e-12) for r in rows])
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=100)
+    for ax, key, label in ((axes[0], "seconds", "time (s, warm)"), (axes[1], "bytes", "bytes")):
+        x = np.array([max(r[key], 1e-6) for r in rows], float)
+        ax.scatter(x, err, s=14, c="tab:blue", label="settings considered")
+        for r, xi, ei in zip(rows, x, err, strict=True):
+            if r["setting"] == result["chosen"]:
+                ax.scatter([xi], [ei], s=90, facecolors="none", edgecolors="tab:red",
+                           linewidths=2, label=f"chosen: {r['setting']}")  # fmt: skip
+        ax.axhline(result["tolerance"], color="tab:red", ls="--",
+                   label=f"tolerance {result['tolerance']:g}")  # fmt: skip
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(label)
+        ax.set_ylabel(result["error_label"])
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"{result['kind']}: {os.path.basename(str(result['source']))}")
+    fig.tight_layout()
+    with atomic_path(output) as tmp:
+        fig.savefig(tmp, format="png", metadata={"Software": None})
+    plt.close(fig)
+    if csv_path:
+        keys = list(dict.fromkeys(k for r in rows for k in r))
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, keys + ["chosen"], lineterminator="\n")
+        w.writeheader()
+        for r in rows:
+            w.writerow(r | {"chosen": int(r["setting"] == result["chosen"])})
+        write_text(csv_path, buf.getvalue())
+    if json_path:
+        write_text(json_path, json.dumps(result, indent=1) + "\n")
+
+
+def tradeoff(kind: str, tol: float, map_path: str | None = None, model: str | None = None,
+             params: dict | None = None, samples: int = 256) -> dict:  # fmt: skip
+    """Dispatch on ``kind`` (one of :data:`KINDS`), validating what it needs."""
+    if not 0.0 < tol < 1.0:
+        raise ParameterError(f"--tol must be in (0, 1), got {tol}")
+    if kind == "env_sh":
+        if map_path is None:
+            raise ParameterError("tradeoff env_sh needs --map")
+        return env_sh_tradeoff(map_path, tol)
+    if model is None:
+        raise ParameterError("tradeoff brdf_table needs --model")
+    return brdf_table_tradeoff(model, params or {}, tol, samples)

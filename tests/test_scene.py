@@ -1,0 +1,219 @@
+"""Scene files, ``shbake plan`` and ``shbake bake``: validation, plans, pipelines, the lock.
+
+The pipeline tests bake a two-map scene (tests/scenes/two-maps.toml) with
+make -j2 from the emitted fragment, ``bake --jobs 2`` and a 2-worker Dask
+LocalCluster, and compare bytes; errors are measured against brute force
+(irradiance) and a converged projection (BRDF table), independent of the plan.
+"""
+
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import ROOT, map_path, write_test_exr
+
+from shbake.batch.plan import irradiance_truncation, plan_scene
+from shbake.batch.scene import SceneError, key_lines, load_scene
+from shbake.batch.scene_bake import bake_scene
+from shbake.envmap.image_io import read_image
+from shbake.sh.kernels import lambert_kernel
+
+SHBAKE = str(Path(sys.executable).with_name("shbake"))
+TWO_MAPS = ROOT / "tests" / "scenes" / "two-maps.toml"
+
+
+def make_scene(folder: Path, text: str | None = None) -> Path:
+    """The two-map scene in ``folder`` with its maps copied beside it (so tests may touch them)."""
+    maps = folder / "maps"
+    maps.mkdir(exist_ok=True)
+    for name in ("studio", "sunset"):
+        shutil.copy(map_path(name), maps / f"{name}.exr")
+    path = folder / "scene.toml"
+    path.write_text((text or TWO_MAPS.read_text()).replace("MAPS/", "maps/"))
+    return path
+
+
+def hashes(folder: Path) -> dict:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()
+            and ".stamps" not in p.parts and p.name != "scene.lock.json"}  # fmt: skip
+
+
+class TestKeyLines:
+    def test_tables_arrays_and_dotted_keys(self):
+        text = ('a = 1\n[t]\nx.y = 2\n[[arr]]\nk = "v # no"\n[[arr]]\nk = [\n 1,\n 2]\n'
+                '[arr.sub]\nz = 3\n')  # fmt: skip
+        lines = key_lines(text)
+        assert lines["a"] == 1 and lines["t.x.y"] == 3
+        assert lines["arr[0].k"] == 5 and lines["arr[1].k"] == 7
+        assert lines["arr[1].sub.z"] == 11
+
+
+class TestLoadScene:
+    def test_example_scene(self):
+        scene = load_scene(str(ROOT / "configs" / "example-scene.toml"))
+        assert [e.name for e in scene.environments] == [
+            "city", "esplanade", "forest", "night", "studio", "sunset"]  # fmt: skip
+        assert {m.kind for m in scene.materials} == {
+            "diffuse", "fibre", "anisotropic", "glossy"}  # fmt: skip
+
+    @pytest.mark.parametrize(
+        "old, new, line, key",
+        [
+            ('kind = "fibre"', 'kind = "fibre"\nshiny = true', 26, "materials[1].shiny"),
+            ("irradiance = 0.05", 'irradiance = "small"', 7, "tolerances.irradiance"),
+            ("maps/sunset.exr", "maps/nowhere.exr", 16, "environments[1].map"),
+            ("glossy_probe = 0.3", "glossy_probe = 0", 10, "tolerances.glossy_probe"),
+            ("glossy_probe = 0.3", "glossy_probe = 1.5", 10, "tolerances.glossy_probe"),
+            ("roughness = [0.5, 0.9]", "roughness = [0.9, 0.5]", 41, "materials[4].roughness"),
+            ('nu = 4', 'nu = -4', 31, "materials[2].params"),
+        ],
+    )
+    def test_malformed_scene_is_one_line_with_file_line_key_exit_2(
+        self, tmp_path, run_cli, old, new, line, key
+    ):
+        text = TWO_MAPS.read_text().replace("MAPS/", "maps/")
+        assert old in text
+        path = make_scene(tmp_path, text.replace(old, new, 1))
+        with pytest.raises(SceneError, match=re.escape(f":{line}: {key}: ")):
+            load_scene(str(path))
+        code, out, err = run_cli("plan", path)
+        assert code == 2 and out == ""
+        assert err.count("\n") == 1 and err.startswith(f"shbake: error: {path}:{line}: {key}: ")
+
+    def test_unreachable_tolerance_names_its_key(self, tmp_path, run_cli):
+        text = TWO_MAPS.read_text().replace("brdf_table = 0.25", "brdf_table = 0.001")
+        path = make_scene(tmp_path, text)
+        code, _, err = run_cli("plan", path, "--quiet")
+        assert code == 2 and err.count("\n") == 1
+        assert f"{path}:9: tolerances.brdf_table: impossible tolerance 0.001" in err
+
+
+class TestIrradianceTruncation:
+    def test_parseval_against_dense_quadrature(self, random_coeffs):
+        # E truncated at L vs E to lmax 8, both evaluated on a dense sphere: RMS matches
+        from helpers import gauss_legendre_sphere
+
+        from shbake.sh.basis import real_sh
+
+        c = random_coeffs(8) / (1 + np.arange(81))[:, None]
+        err = irradiance_truncation(c, lambert_kernel)
+        d, w = gauss_legendre_sphere(16)
+        k = lambert_kernel(8)[np.repeat(np.arange(9), 2 * np.arange(9) + 1)]
+        full = real_sh(d, 8) @ (c * k[:, None])
+        for L in (0, 1, 2, 4):
+            n = (L + 1) ** 2
+            part = real_sh(d, L) @ (c[:n] * k[:n, None])
+            rel = np.sqrt(w @ ((part - full) ** 2) / (w @ full**2))
+            assert err[L] == pytest.approx(rel.max(), rel=1e-6)
+
+
+@pytest.fixture(scope="module")
+def baked(tmp_path_factory):
+    """The two-map scene planned and baked with --jobs 2 (module-wide: tests read it)."""
+    folder = tmp_path_factory.mktemp("scene")
+    path = make_scene(folder)
+    scene = load_scene(str(path))
+    summary = bake_scene(scene, jobs=2)
+    return folder, path, scene, summary
+
+
+class TestPlan:
+    def test_assets_per_material_kind(self, baked):
+        _, _, scene, summary = baked
+        plan = plan_scene(scene)
+        ids = [a["id"] for a in plan["assets"]]
+        assert {"env_sh/studio", "splitsum/studio", "export/threejs/studio"} <= set(ids)
+        assert "brdf_table/brushed" in ids and ids.count("brdf_table/brushed") == 1
+        # chrome (roughness from 0.05) is split-sum everywhere; varnish is SH-exp where the fit
+        # meets the tolerance
+        assert all("splitsum/" + e.name in ids for e in scene.environments)
+        assert plan["materials"]["hair"] == ["env_sh/studio", "env_sh/dusk"]
+        for a in plan["assets"]:
+            for k, v in a["predicted_error"].items():
+                assert v <= a["tolerances"][k]
+
+    def test_measured_errors_within_tolerance(self, baked):
+        _, _, _, summary = baked
+        for rec in summary["records"].values():
+            for k, v in rec["measured_error"].items():
+                assert np.isfinite(v) and v <= rec["tolerances"][k], (rec["id"], k, v)
+
+    def test_plan_json(self, baked, run_cli):
+        _, path, _, _ = baked
+        code, out, _ = run_cli("plan", path, "--json", "--quiet")
+        assert code == 0
+        data = json.loads(out)
+        assert {a["kind"] for a in data["assets"]} >= {"env_sh", "brdf_table", "splitsum"}
+
+
+class TestPipelines:
+    def test_make_jobs_and_dask_identical_and_incremental(self, baked, tmp_path):
+        folder, path, scene, _ = baked
+        out = Path(scene.out_dir)
+        by_jobs = hashes(out)
+        assert len(by_jobs) >= 7
+        lock = json.loads((out / "scene.lock.json").read_text())
+        assert set(lock["assets"]) == {a["id"] for a in plan_scene(scene)["assets"]}
+
+        # a second bake does nothing
+        again = bake_scene(load_scene(str(path)), jobs=2)
+        assert again["baked"] == []
+
+        # make -j2 from the emitted fragment: same bytes
+        shutil.rmtree(out)
+        frag = folder / "scene.mk"
+        subprocess.run([SHBAKE, "plan", str(path), "--emit-make", str(frag), "--quiet",
+                        "--shbake", SHBAKE], check=True)  # fmt: skip
+        (folder / "Makefile").write_text(f"include {frag}\n")
+        subprocess.run(["make", "-j2", "scene-assets"], cwd=folder, check=True,
+                       capture_output=True)  # fmt: skip
+        assert hashes(out) == by_jobs
+        # a second make does nothing
+        q = subprocess.run(["make", "-q", "scene-assets"], cwd=folder)
+        assert q.returncode == 0
+        # touching one map rebuilds only its assets
+        os.utime(folder / "maps" / "sunset.exr")
+        dry = subprocess.run(["make", "-n", "scene-assets"], cwd=folder, capture_output=True,
+                             text=True, check=True).stdout  # fmt: skip
+        rebuilt = sorted(line.split("--asset ")[1].split()[0] for line in dry.splitlines()
+                         if "--asset" in line)  # fmt: skip
+        assert rebuilt == sorted(a for a in lock["assets"] if a.endswith("/dusk"))
+        # a changed tolerance rebuilds only what it affects (irradiance: env_sh assets)
+        subprocess.run(["make", "scene-assets"], cwd=folder, check=True, capture_output=True)
+        path.write_text(path.read_text().replace("irradiance = 0.05", "irradiance = 0.01"))
+        dry = subprocess.run(["make", "-n", "scene-assets"], cwd=folder, capture_output=True,
+                             text=True, check=True).stdout  # fmt: skip
+        rebuilt = [line.split("--asset ")[1].split()[0] for line in dry.splitlines()
+                   if "--asset" in line]  # fmt: skip
+        # (their exports depend on them)
+        assert rebuilt and all(a.startswith(("env_sh/", "export/")) for a in rebuilt)
+        assert {a.split("/")[-1] for a in rebuilt if a.startswith("export/")} <= {
+            a.split("/")[-1] for a in rebuilt if a.startswith("env_sh/")}  # fmt: skip
+        path.write_text(path.read_text().replace("irradiance = 0.01", "irradiance = 0.05"))
+
+        # Dask LocalCluster with 2 workers: same bytes
+        from distributed import LocalCluster
+
+        shutil.rmtree(out)
+        with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                          dashboard_address=":0") as cluster:  # fmt: skip
+            bake_scene(load_scene(str(path)), scheduler=cluster.scheduler_address)
+        assert hashes(out) == by_jobs
+
+    def test_bake_rebuilds_only_a_changed_map(self, tmp_path):
+        path = make_scene(tmp_path)
+        first = bake_scene(load_scene(str(path)))
+        assert len(first["baked"]) >= 6
+        m = tmp_path / "maps" / "studio.exr"
+        px, _ = read_image(str(m))
+        write_test_exr(m, px * 2.0)
+        second = bake_scene(load_scene(str(path)))
+        assert sorted(second["baked"]) == sorted(a for a in first["baked"] if a.endswith("/studio"))

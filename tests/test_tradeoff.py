@@ -1,0 +1,55 @@
+"""``shbake tradeoff``: the numbers behind the plot agree with the planner's error model."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from helpers import map_path
+
+from shbake.batch.plan import irradiance_truncation
+from shbake.envmap import load_environment
+from shbake.envmap.sun import extract_sun
+from shbake.sh.kernels import lambert_kernel
+
+
+class TestTradeoffCommand:
+    def test_env_sh(self, tmp_path, run_cli):
+        png, csv_path, js = tmp_path / "t.png", tmp_path / "t.csv", tmp_path / "t.json"
+        code, _, err = run_cli("tradeoff", "env_sh", "--map", map_path("studio"), "--tol", "0.02",
+                               "-o", png, "--csv", csv_path, "--json-file", js)  # fmt: skip
+        assert code == 0, err
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        data = json.loads(js.read_text())
+        rows = list(csv.DictReader(csv_path.open()))
+        assert [int(r["lmax"]) for r in rows] == list(range(17))
+        chosen = [r for r in rows if r["chosen"] == "1"]
+        assert len(chosen) == 1 and chosen[0]["setting"] == data["chosen"]
+        # the chosen lmax is the smallest whose error meets the tolerance
+        errs = [float(r["error"]) for r in rows]
+        L = int(chosen[0]["lmax"])
+        assert errs[L] <= 0.02 and all(e > 0.02 for e in errs[:L])
+        # independent of the command: the Lambert error of the sun-free map at that lmax
+        env = load_environment(str(map_path("studio")), quiet=True)
+        e = irradiance_truncation(extract_sun(env)[1].project(32), lambert_kernel)
+        assert float(rows[L]["irradiance_error"]) == pytest.approx(e[L], rel=1e-9)
+        assert np.all(np.diff([int(r["bytes"]) for r in rows]) > 0)
+
+    def test_brdf_table(self, tmp_path, run_cli):
+        code, out, err = run_cli("tradeoff", "brdf_table", "--model", "ashikhmin-shirley",
+                                 "-p", "nu=4", "-p", "nv=1", "--tol", "0.25",
+                                 "-o", tmp_path / "b.png", "--json", "-q")  # fmt: skip
+        assert code == 0, err
+        data = json.loads(out)
+        assert len(data["rows"]) == 12
+        chosen = next(r for r in data["rows"] if r["setting"] == data["chosen"])
+        assert chosen["error"] <= 0.25
+        # truncation does not depend on the size; the look-up error shrinks with it
+        for L in (2, 4, 6, 8):
+            rows = [r for r in data["rows"] if r["lmax"] == L]
+            assert len({round(r["truncation_error"], 12) for r in rows}) == 1
+            assert rows[0]["lookup_error"] > rows[-1]["lookup_error"]
+
+    def test_needs_its_input(self, tmp_path, run_cli):
+        code, _, err = run_cli("tradeoff", "env_sh", "-o", tmp_path / "x.png")
+        assert code == 1 and "needs --map" in err
