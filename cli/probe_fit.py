@@ -113,6 +113,8 @@ def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, a
 
     summary = fit_probes(maps, probe_list, output, out_dir, config, progress=progress,
                          notes=lambda text: info(text, quiet), **run)  # fmt: skip
+    for w in summary["warnings"]:
+        info(f"shbake: warning: {w}", quiet)
     info(f"probe-fit: {len(summary['probes'])} probes in {summary['seconds']:.2f} s "
          f"({summary['probes_per_second']:.1f} probes/s)", quiet)  # fmt: skip
     if as_json:

@@ -111,6 +111,21 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 
 
 DEFAULT_CONFIG = FitConfig()
+FIT_ERROR_WARNING = 0.25
+"""Shaded relative RMS error of a fit (against its own targets) above which probe-fit warns."""
+
+
+def fit_warnings(results: list[dict]) -> list[str]:
+    """Plain-language warnings about poorly fitted probes, with what to try."""
+    errors = [(r.get("shaded_relative_rms"), r.get("source", "?")) for r in results]
+    bad = [(e, s) for e, s in errors if e is not None and e > FIT_ERROR_WARNING]
+    if not bad:
+        return []
+    worst, where = max(bad)
+    return [f"{len(bad)} of {len(results)} probes fit their targets with a shaded relative "
+            f"RMS error above {FIT_ERROR_WARNING:.0%} (worst {worst:.0%}, {where}): sharp lobes "
+            "or compact lights; try --sets 3, a narrower --alpha-range, or split-sum / shrm "
+            "for low α"]  # fmt: skip
 
 
 def write_manifest(path: str, jobs, finished: list, output, error) -> None:
@@ -180,4 +195,4 @@ def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_C
     seconds = time.perf_counter() - t0
     rate = len(jobs) / seconds if seconds > 0 else float("inf")
     return {"probes": results, "seconds": seconds, "probes_per_second": rate,
-            "config": config.as_dict(), **study}  # fmt: skip
+            "config": config.as_dict(), "warnings": fit_warnings(results), **study}  # fmt: skip
