@@ -94,13 +94,7 @@ def note_input(path: str) -> None:
         return
     p = os.path.abspath(os.fspath(path))
     for out in _outputs:
-        if _same(out, p):
-            from shbake.errors import OutputError
-
-            raise OutputError(
-                f"{out}: is the input {path}; writing it would destroy the input "
-                "(choose another output)"
-            )
+        _refuse_same(out, p, out, path)
     if p not in _inputs:
         _inputs.append(p)
 
@@ -111,15 +105,20 @@ def declare_output(path: str) -> None:
         return
     p = os.path.abspath(os.fspath(path))
     for src in _inputs:
-        if _same(p, src):
-            from shbake.errors import OutputError
-
-            raise OutputError(
-                f"{path}: is the input {src}; writing it would destroy the input "
-                "(choose another output)"
-            )
+        _refuse_same(p, src, path, src)
     if p not in _outputs:
         _outputs.append(p)
+
+
+def _refuse_same(output: str, source: str, shown_output, shown_source) -> None:
+    """Refuse, in one line, an ``output`` that is the same file as an input ``source``."""
+    if _same(output, source):
+        from shbake.errors import OutputError
+
+        raise OutputError(
+            f"{shown_output}: is the input {shown_source}; writing it would destroy the input "
+            "(choose another output)"
+        )
 
 
 def _same(a: str, b: str) -> bool:
