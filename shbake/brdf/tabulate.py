@@ -271,17 +271,16 @@ def cc_tables(levels: int = R_MAX_LEVEL) -> tuple[np.ndarray, np.ndarray]:
 def _point(kind, model, prm, data, has_lobe, vx, vy, vz, ca, sa, u0, u1, x, f):
     """One node of a rule: its weight (``0``: skip) and direction; ``f`` gets ``f(s, v)``.
 
-    Hemisphere (``kind`` 0): ``θ = π/2 · x`` on the line ``(cos φ, sin φ) = (ca, sa)``,
-    weight ``π/2 sin θ cos θ · p_c/(p_c + p_l)``. Lobe (``kind`` 1): ``u_r = u0 + (u1 − u0) x``
+    Hemisphere (``kind`` 0): ``θ = x`` on the line ``(cos φ, sin φ) = (ca, sa)``,
+    weight ``sin θ cos θ · p_c/(p_c + p_l)``. Lobe (``kind`` 1): ``u_r = u0 + (u1 − u0) x``
     on the line ``u_a = ca``, weight ``(u1 − u0) s_z/(p_c + p_l)``.
     """
     if kind == 0:
-        if x <= 0.0 or x >= 1.0:  # the pole (sin θ = 0) and the horizon (s_z = 0)
+        if x <= 0.0 or x >= HALF_PI:  # the pole (sin θ = 0) and the horizon (s_z = 0)
             return 0.0, 0.0, 0.0, 0.0
-        theta = HALF_PI * x
-        st, sz = np.sin(theta), np.cos(theta)
+        st, sz = np.sin(x), np.cos(x)
         sx, sy = st * ca, st * sa
-        w = HALF_PI * st * sz
+        w = st * sz
         if has_lobe:
             pc = cosine_pdf(sz)
             w *= pc / (pc + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz))
@@ -302,7 +301,7 @@ def _point(kind, model, prm, data, has_lobe, vx, vy, vz, ca, sa, u0, u1, x, f):
 
 @jit
 def _fill(kind, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b,
-          rx, r0, r1, lc, ls, lu0, lu1, lw, lborn, j0, j1, level_a, tc, tf, y, f):  # fmt: skip
+          rx, rj, r0, r1, lc, ls, lu0, lu1, lw, lborn, j0, j1, level_a, tc, tf, y, f):  # fmt: skip
     """Add the nodes ``rows r0…r1 × lines j0…j1`` to the per-row sums ``tc``/``tf``.
 
     A line born at the current azimuthal level ``level_a`` adds to ``tf`` (absent
@@ -316,7 +315,7 @@ def _fill(kind, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b,
                                    lc[j], ls[j], lu0[j], lu1[j], x, f)  # fmt: skip
             if w == 0.0:
                 continue
-            w *= lw[j]
+            w *= lw[j] * rj[r]
             sh_eval_into(sx, sy, sz, lmax, qmm, a, b, y)
             f0, f1, f2 = w * f[0], w * f[1], w * f[2]
             t = tf if lborn[j] == level_a else tc
@@ -366,8 +365,28 @@ def _add_lines(kind, model, prm, vx, vy, vz, level, pc, pw, pm, lc, ls, lu0, lu1
 
 
 @jit
-def _cc_node(k, n):
-    return 0.5 * (1.0 - np.cos(np.pi * k / n))
+def _add_rows(g, k, m, level, tv, rx, rj, rk, rb, tc, tf, r):
+    """Append Clenshaw–Curtis node ``k`` of ``m`` intervals at row ``r``; the new row count.
+
+    The lobe rule (``g`` 1) maps it to ``x ∈ [0, 1]``; the hemisphere rule
+    (``g`` 0) to ``θ`` on each of ``[0, θ_v]`` and ``[θ_v, π/2]`` (two rows): a
+    model's ``f`` may kink at ``s_z = v_z`` (Ashikhmin–Shirley's
+    ``1/max(s_z, v_z)``), which a rule spanning ``θ_v`` would converge on
+    only algebraically, its successive levels then agreeing by accident.
+    """
+    x = 0.5 * (1.0 - np.cos(np.pi * k / m))
+    for p in range(2 if g == 0 else 1):
+        if g == 0:
+            lo, hi = (0.0, tv) if p == 0 else (tv, HALF_PI)
+            rx[r], rj[r] = lo + (hi - lo) * x, hi - lo
+        else:
+            rx[r], rj[r] = x, 1.0
+        rk[r] = k
+        rb[r] = level
+        tc[r] = 0.0
+        tf[r] = 0.0
+        r += 1
+    return r
 
 
 @jit
@@ -400,10 +419,12 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
     """
     n = (lmax + 1) * (lmax + 1)
     rules = 2 if has_lobe else 1
-    rcap = (R_BASE << R_MAX_LEVEL) + 1
+    rcap = 2 * ((R_BASE << R_MAX_LEVEL) + 1)
+    tv = np.arccos(vz)
     tc = np.empty((rules, rcap, n, 3))
     tf = np.empty((rules, rcap, n, 3))
     rx = np.empty((rules, rcap))
+    rj = np.empty((rules, rcap))
     rk = np.empty((rules, rcap), np.int64)
     rb = np.empty((rules, rcap), np.int64)
     lc = np.empty((rules, line_cap))
@@ -432,16 +453,12 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
                 pm[k] = m + (m % 2)
     for g in range(rules):
         for k in range(R_BASE + 1):
-            rx[g, k] = _cc_node(k, R_BASE)
-            rk[g, k] = k
-            rb[g, k] = 0 if k % 2 == 1 else -1
-        nrow[g] = R_BASE + 1
-        tc[g, : R_BASE + 1] = 0.0
-        tf[g, : R_BASE + 1] = 0.0
+            nrow[g] = _add_rows(g, k, R_BASE, 0 if k % 2 == 1 else -1, tv, rx[g], rj[g], rk[g],
+                                rb[g], tc[g], tf[g], nrow[g])  # fmt: skip
         gp = (no_pieces, no_pieces, pm[:0]) if g == 0 else (pc, pw, pm)
         nline[g] = _add_lines(g, model, prm, vx, vy, vz, 0, gp[0], gp[1], gp[2],
                               lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0)  # fmt: skip
-        _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], 0, nrow[g],
+        _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g], 0, nrow[g],
               lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0, nline[g], 0,
               tc[g], tf[g], y, f)  # fmt: skip
     q = np.empty((rules, n, 3))
@@ -474,7 +491,8 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
             grow_a = 2 * nline[g] + (0 if g == 0 else pc.size)
             for ax in range(2):
                 if ax == 0:
-                    fits = lr[g] < R_MAX_LEVEL and (2 * nrow[g] - 1) * nline[g] <= max_samples
+                    grow_r = nrow[g] + (2 - g) * (R_BASE << lr[g])  # new odd nodes, per piece
+                    fits = lr[g] < R_MAX_LEVEL and grow_r * nline[g] <= max_samples
                     d = qr[g]
                 else:
                     fits = grow_a <= line_cap and nrow[g] * grow_a <= max_samples
@@ -492,15 +510,10 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
             m = R_BASE << lr[g]
             r0 = nrow[g]
             for k in range(1, m, 2):
-                r = nrow[g]
-                rx[g, r] = _cc_node(k, m)
-                rk[g, r] = k
-                rb[g, r] = lr[g]
-                tc[g, r] = 0.0
-                tf[g, r] = 0.0
-                nrow[g] += 1
-            _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], r0, nrow[g],
-                  lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0, nline[g], la[g],
+                nrow[g] = _add_rows(g, k, m, lr[g], tv, rx[g], rj[g], rk[g], rb[g], tc[g], tf[g],
+                                    nrow[g])  # fmt: skip
+            _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g],
+                  r0, nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0, nline[g], la[g],
                   tc[g], tf[g], y, f)  # fmt: skip
         else:  # azimuthal doubling: last level's new lines join the coarse rule
             la[g] += 1
@@ -513,8 +526,8 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
             gp = (no_pieces, no_pieces, pm[:0]) if g == 0 else (pc, pw, pm)
             nline[g] = _add_lines(g, model, prm, vx, vy, vz, la[g], gp[0], gp[1], gp[2],
                                   lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], j0)  # fmt: skip
-            _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], 0, nrow[g],
-                  lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], j0, nline[g], la[g],
+            _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g],
+                  0, nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], j0, nline[g], la[g],
                   tc[g], tf[g], y, f)  # fmt: skip
     for i in range(n):
         for c in range(3):
