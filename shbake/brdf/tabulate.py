@@ -29,7 +29,20 @@ Diffuse models (no lobe) use the first rule alone. ``N`` samples per strategy
 means ``n_r = round(sqrt(N/2))`` radial by ``2 n_r`` azimuthal nodes. The
 error estimate is the largest change of any coefficient from ``N/2`` to ``N``
 samples, times ``sqrt(4π)`` (it reads as an error of the white-furnace value
-``Q = sqrt(4π) c_0``); ``tol`` doubles ``N`` until it is met.
+``Q = sqrt(4π) c_0``).
+
+With ``tol`` each view is refined on *nested* rules instead (Gauss–Legendre
+levels share no nodes, so doubling them redoes every sample): Clenshaw–Curtis
+radially (Clenshaw & Curtis 1960; the hemisphere's ``θ`` split at ``θ_v``, where
+Ashikhmin–Shirley's ``1/max(s_z, v_z)`` kinks), the trapezoid azimuthally
+(periodic, or after the sin² substitution on the pieces above). A doubling adds
+only the new nodes. Each rule's embedded coarse rules — every second radial node,
+every second azimuthal line — come from the same samples; the estimate is
+``sqrt(4π) max_i Σ_axes |c_i − c_i,coarse|`` over the 4 axes (2 per strategy),
+and the axis with the largest difference is doubled until the estimate is at
+most ``tol``. It measures the coarse rules' error, so it bounds the accepted
+(finer) rule's; the rules adapt per axis (frontal views refine ``θ``, grazing
+views ``u_a``).
 
 Every model here satisfies ``f(σs, σv) = f(s, v)`` for the mirrors
 ``σ: x → −x`` and ``y → −y``, so only one quadrant of the parabolic map is
@@ -632,8 +645,9 @@ def project_views(
     samples : int, optional
         Points per strategy (≥ 16). Ignored when ``tol`` is given.
     tol : float, optional
-        Double the sample count from ``start_samples`` until the error estimate
-        is at most ``tol`` or the next step would pass ``max_samples``.
+        Refine each view's nested rules (module docstring) until the error
+        estimate is at most ``tol`` or no doubling fits ``max_samples`` points
+        per strategy (or 2048 radial intervals).
     progress : callable(samples, error), optional
 
     Returns
