@@ -146,18 +146,19 @@ def fine_gl_projection(brdf, views, lmax, n_r=384, n_a=1536):
 class TestNestedRefinement:
     """``project_views(tol=…)``: the nested rules' error estimate bounds the true error."""
 
-    BRDF = {"nu": 24, "nv": 8, "Rs": 0.8, "Rd": 0.2}
-
-    def test_true_error_within_tol_against_plain_quadrature(self):
-        brdf = make_brdf("ashikhmin-shirley", **self.BRDF)
+    @pytest.mark.parametrize("name", list(FURNACE_MODELS))
+    def test_true_error_within_tol_against_plain_quadrature(self, name):
+        # AS: with a hemisphere rule spanning the kink at θ_v, one of these views (lmax 3) had
+        # an estimate of 6.1e-5 for a true error of 7.2e-5
+        brdf = make_brdf(name, **FURNACE_MODELS[name])
         views = hemi(10, np.random.default_rng(60))
         views = views[views[:, 2] >= 0.05]
-        c, conv = project_views(brdf, views, lmax=3, samples=None, tol=1e-4, max_samples=1 << 18)
-        ref = np.array([dense_projection(brdf, v, 3) for v in views])
+        c, conv = project_views(brdf, views, lmax=4, samples=None, tol=1e-4, max_samples=1 << 18)
+        ref = np.array([dense_projection(brdf, v, 4) for v in views])
         true = SQRT_4PI * np.abs(c - ref).max(axis=(1, 2))
         assert conv.view_errors.max() <= 1e-4
         assert np.all(true <= 1e-4)
-        assert np.all(true <= conv.view_errors)  # the estimate is an upper bound here
+        assert np.all(true <= conv.view_errors)  # the estimate bounds the error here
 
     def test_grazing_true_error_within_tol_against_fine_rule(self):
         # views where the previous rule's level-doubling estimate was fooled (BENCHMARKS.md)
