@@ -597,7 +597,10 @@ class Convergence:
 
     ``samples``: the most points per strategy any view used; ``error``: the
     largest per-view error estimate; ``view_errors``/``view_samples``: per view;
-    ``history``: one entry per refinement step (views still refined, time).
+    ``history``: one entry per sample level (``samples``, ``views``,
+    ``error_estimate``, cumulative ``seconds``). With ``tol`` the levels are
+    powers of two of points: the views refined into each and their largest
+    estimate there; the seconds are apportioned by the points evaluated.
     """
 
     samples: int
