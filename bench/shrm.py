@@ -23,7 +23,8 @@ Sections (all in one process, same machine state; ``--sections`` picks):
 Threads: numba uses ``NUMBA_NUM_THREADS`` (2 on these machines); the figures
 were taken while other jobs shared the 2 cores, so they are provisional.
 
-    NUMBA_NUM_THREADS=2 .venv/bin/python bench/shrm.py [--sections phong,micro,speed,energy] [--out F]
+    NUMBA_NUM_THREADS=2 .venv/bin/python bench/shrm.py [--sections phong,micro,speed,energy]
+        [--out F]
 
 (the energy section alone: ``--sections energy --out bench/results/shrm_energy.md``)
 
