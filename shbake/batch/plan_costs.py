@@ -114,8 +114,9 @@ def _tiny_assets(out: str, tiny_map: str) -> dict:
             alpha_min=0.25, alpha_max=0.81, alpha_count=4, samples=256).as_dict()}),  # fmt: skip
         "splitsum": asset("splitsum/tiny", "splitsum", {"splitsum": SplitSumConfig(
             top=16, min_size=8, alphas=(0.01, 0.5), samples=64).as_dict()}),  # fmt: skip
-        "shrm": asset("shrm/tiny/m", "shrm", {"brdf": "phong", "params": {"n": 8}, "merl": None,
-                                              "eps": 0.5, "F": 2, "P": 1, "face_size": 8}),  # fmt: skip
+        "shrm": asset("shrm/tiny/m", "shrm", {
+            "brdf": "phong", "params": {"n": 8}, "merl": None, "eps": 0.5, "F": 2, "P": 1,
+            "face_size": 8}),  # fmt: skip
     }
     from shbake.batch.scene import EXPORTS
 
