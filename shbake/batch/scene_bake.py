@@ -317,7 +317,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
         return {"baked": [only], "skipped": [], "records": {only: rec}}
     lock_file = lock_path(scene)
     lock = read_lock(lock_file)
-    plan = plan_scene(scene, cache=lock.get("plans", {}))
+    units = dict(lock.get("plans", {}))  # per-unit plans (measured once), filled by the plan
+    plan = plan_scene(scene, cache=units)
     todo = [a for a in plan["assets"] if not _up_to_date(a, lock.get("assets", {}).get(a["id"]))]
     ids = {a["id"] for a in todo}
     todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
@@ -351,8 +352,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     new_lock = {
         "scene": os.path.basename(scene.path),
         "assets": dict(sorted(records.items())),
-        "plans": {k: v for k, v in sorted(lock.get("plans", {}).items()) if k in keys}
-        | {a["plan_key"]: _plan_entry(a) for a in plan["assets"]},
+        "plans": {k: units[k] for k in sorted(keys) if k in units},
     }
     with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
         json.dump(new_lock, f, indent=1, sort_keys=True)
@@ -360,10 +360,6 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     return {"baked": [r["id"] for r in results],
             "skipped": [a["id"] for a in plan["assets"] if a["id"] not in done],
             "records": records, "lock": lock_file}  # fmt: skip
-
-
-def _plan_entry(a: dict) -> dict:
-    return {k: a[k] for k in ("settings", "predicted_error", "predicted_seconds", "bytes", "note")}
 
 
 def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> str:
