@@ -9,7 +9,10 @@ Rules (one asset per map or per BRDF, shared by every material that needs it):
 * ``glossy`` (GGX) → one SH-exp probe per map covering the materials whose
   GGX width α = r² starts at :data:`SHEXP_MIN_ALPHA` or above, when the fit's
   predicted error meets ``glossy_probe``; a split-sum probe per map for the
-  rest (low roughness, or a fit that misses the tolerance).
+  rest (low roughness, or a fit that misses the tolerance) — except a material
+  with ONE roughness whose SHRM orders meet ``shrm``: it gets an SHRM.
+* ``glossy`` with another isotropic ``model`` (Phong, Blinn–Phong, Ward,
+  microfacet σ, Lafortune…) → one SHRM per map and distinct BRDF.
 
 Error models (cheap, each measured, never assumed):
 
@@ -30,10 +33,13 @@ Error models (cheap, each measured, never assumed):
   :data:`FIT_PREDICT_HEIGHT` rows (said in the plan's ``note``).
 * split-sum: no error model in shbake (its approximation error is not a
   quadrature error); the plan says so instead of predicting one.
+* SHRM: the BRDF energy the orders ``F``, ``P`` leave out (RH02 §5.1,
+  :func:`shbake.bakers.shrm.select_orders`).
 
-Predicted times are measured at plan time on the same machine: map loading,
-the projection at the chosen ``L``, a small table scaled by texel count, a
-fit on the downsampled map scaled by texel count.
+Predicted times are CPU seconds of each asset's make recipe: the recipe's
+fixed part (:func:`shbake.batch.plan_costs.recipe_overheads`, once per
+machine) plus the map load and the baker's work, CPU time measured here
+(:mod:`shbake.batch.plan_costs` says what the number means).
 """
 
 import hashlib

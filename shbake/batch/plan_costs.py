@@ -84,10 +84,11 @@ def run_recipe(scene: str, aid: str, env: dict | None = None) -> tuple[float, fl
 def _code_key() -> str:
     h = hashlib.sha256()
     h.update(f"{COSTS_FORMAT} {shbake.__version__} {sys.executable}".encode())
-    import shbake_cli
+    import importlib.util
 
-    for pkg in (shbake, shbake_cli):
-        root = Path(pkg.__file__).parent
+    cli = importlib.util.find_spec("shbake_cli")  # the recipe's command code (not imported)
+    roots = [Path(shbake.__file__).parent] + ([Path(cli.origin).parent] if cli else [])
+    for root in roots:
         for p in sorted(root.rglob("*.py")):
             h.update(p.relative_to(root).as_posix().encode())
             h.update(p.read_bytes())

@@ -12,16 +12,18 @@ Schema (every key optional unless marked *required*)::
 
     [scene]        name (str), out_dir (str, relative to the scene file; default "<stem>-assets"),
                    exports (list of str from EXPORTS)
-    [tolerances]   irradiance, tangent_irradiance, brdf_table, glossy_probe: float in (0, 1)
-                   (the error each asset kind must stay within; see TOLERANCES)
+    [tolerances]   irradiance, tangent_irradiance, brdf_table, glossy_probe, shrm: float in
+                   (0, 1) (the error each asset kind must stay within; see TOLERANCES)
     [[environments]]  map (str, required: a path or a glob, relative to the scene file),
-                   name (str; default: the map's file stem), position ([x, y, z]),
-                   rotation_deg (float, about +Z), tolerances (table: per-probe overrides)
+                   name (str; default: the map's file stem), position ([x, y, z], recorded
+                   in its assets), rotation_deg (float: turns the environment about world
+                   up +Y, shbake.envmap.turn), tolerances (table: per-probe overrides)
     [[materials]]  name (str, required), kind (required: one of MATERIAL_KINDS),
-                   model (str, brdf-table's model name; anisotropic/measured),
-                   params (table: model parameters as brdf-table's -p takes them),
+                   model (str, brdf-table's model name; anisotropic/measured; glossy: an
+                   isotropic model other than ggx gets an SHRM),
+                   params (table: model parameters as brdf-table's / shrm's -p take them),
                    merl (str: a MERL .binary file, kind "measured"),
-                   roughness ([lo, hi] perceptual, glossy; or one number)
+                   roughness ([lo, hi] perceptual, glossy GGX; or one number)
 """
 
 import glob
