@@ -154,8 +154,8 @@ class TestPlan:
     def test_shrm_for_glossy_non_ggx(self, baked):
         _, _, scene, summary = baked
         plan = plan_scene(scene)
-        assert plan["materials"]["satin"] == ["shrm/studio/satin", "shrm/dusk/satin"]
-        a = next(x for x in plan["assets"] if x["id"] == "shrm/dusk/satin")
+        assert plan["materials"]["satin"] == ["shrm/satin/studio", "shrm/satin/dusk"]
+        a = next(x for x in plan["assets"] if x["id"] == "shrm/satin/dusk")
         assert a["settings"]["pose"] == {"position": [1.0, 2.0, 3.0], "rotation_deg": 90.0}
         # the orders are the smallest meeting the tolerance: one band less in F misses it
         from shbake.bakers.shrm import brdf_coefficients, make_reflection_brdf
@@ -164,7 +164,7 @@ class TestPlan:
         cap = co.captured()
         s = a["settings"]
         assert 1 - cap[s["F"], s["P"]] <= 0.03 < 1 - cap[s["F"] - 1, s["P"]]
-        rec = summary["records"]["shrm/dusk/satin"]
+        rec = summary["records"]["shrm/satin/dusk"]
         assert rec["measured_error"]["shrm"] <= 0.03  # brute-force shading, turned map
 
     def test_ggx_single_roughness_shrm_or_splitsum(self, tmp_path):
@@ -176,7 +176,7 @@ class TestPlan:
             '[[materials]]\nname = "a"\nkind = "glossy"\nroughness = 0.5\n'
             '[[materials]]\nname = "b"\nkind = "glossy"\nroughness = 0.1\n')
         plan = plan_scene(load_scene(str(make_scene(tmp_path, text))))
-        assert plan["materials"] == {"a": ["shrm/studio/a"], "b": ["splitsum/studio"]}
+        assert plan["materials"] == {"a": ["shrm/a/studio"], "b": ["splitsum/studio"]}
         a = plan["assets"][0]
         assert a["settings"]["brdf"] == "ggx" and a["settings"]["params"] == {"alpha": 0.25}
         assert a["predicted_error"]["shrm"] <= 0.03

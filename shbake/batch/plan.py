@@ -485,7 +485,7 @@ def _plan_shrm_asset(scene, env, m, model, params, digest, get_env, cache, asset
     ``None`` when ``optional`` and no orders meet the ``shrm`` tolerance."""
     tol, tkey = scene.tolerance("shrm", env)
     key = _digest(["shrm", PLAN_VERSION, digest, model, params, tol])
-    aid = f"shrm/{env.name}/{m.name}"
+    aid = f"shrm/{m.name}/{env.name}"
     if key not in cache:
         env_map, load_s = get_env(with_load=True)
         cache[key] = plan_shrm(env_map, model, params, tol)
@@ -499,7 +499,7 @@ def _plan_shrm_asset(scene, env, m, model, params, digest, get_env, cache, asset
         raise scene.error(tkey, f"impossible tolerance {tol:g} for {m.name} on {env.name}: "
                           f"F {F_LIMIT}, P {P_LIMIT} leave {left:.3g} of the BRDF energy out")
     for a in assets:
-        if a["plan_key"] == key and a["id"].startswith(f"shrm/{env.name}/"):
+        if (a["kind"], a["plan_key"], a["id"].split("/")[-1]) == ("shrm", key, env.name):
             return a["id"]
     add(aid, "shrm", p, [env.map], {"map": digest}, key, {"shrm": (tol, tkey)}, env)
     return aid
