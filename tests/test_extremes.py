@@ -306,3 +306,31 @@ class TestShrmExtremes:
         b = bake_shrm(env, make_reflection_brdf("phong-lobe", {"s": "8"}), 0.5, 4, 0, 8)
         np.testing.assert_allclose(reflection_cube(b.cube, [0, 0, 1], "surface"), 0.75,
                                    rtol=1e-3)  # fmt: skip
+
+
+class TestHugeAndTinyMaps:
+    """The tiny (4 × 8) and the large (1024 × 2048, a 1e5 texel) map through the bakers the
+    other classes run on 32-row maps: finite everywhere."""
+
+    @pytest.mark.parametrize("kind", ["tiny", "large"])
+    def test_splitsum_shrm_and_export(self, maps, tmp_path, kind):
+        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+
+        env = load_environment(maps[kind], quiet=True)
+        config = SplitSumConfig(top=16, min_size=8, alphas=(0.01, 1.0), samples=64)
+        assert all(np.all(np.isfinite(lv)) for lv in prefilter_chain(env.pixels, config))
+        b = bake_shrm(env, make_reflection_brdf("microfacet", {"sigma": "0.2"}), 0.5, 8, 2, 8)
+        assert np.all(np.isfinite(b.cube))
+        asset, _ = bake_env_sh(env, lmax=2, sun=kind == "large")
+        path = str(tmp_path / f"{kind}.h5")
+        write_asset(path, asset)
+        _exported_finite(export_assets([path], "ktx2", str(tmp_path / "out"), many=True,
+                                       **SMALL_CUBES))  # fmt: skip
+
+    @pytest.mark.parametrize("kind", ["tiny", "large"])
+    def test_shexp_fit(self, maps, kind):
+        env = load_environment(maps[kind], quiet=True)
+        config = FitConfig(alpha_min=0.05, alpha_max=1.0, alpha_count=3, sets=1, samples=64,
+                           normals=16, views=16)  # fmt: skip
+        probe = FitPlan(config, env.shape).fit(env.pixels)
+        assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
