@@ -68,6 +68,8 @@ SETTINGS = {
              "F": 8, "P": 2, "face_size": 16},
     "splitsum": {"splitsum": {"top": 16, "min_size": 8, "alphas": [0.1, 0.5],
                               "samples": 64}},
+    "shexp": {"fit": {"alpha_min": 0.25, "alpha_max": 0.81, "alpha_count": 2, "sets": 1,
+                      "samples": 64, "normals": 64, "views": 16}},
 }  # fmt: skip
 
 
@@ -97,6 +99,7 @@ class TestRotatedProbeEqualsRotatedMap:
                     "/sun/direction"), 1e-6),
         ("shrm", ("/shrm", "/lighting/sh"), 1e-5),
         ("splitsum", None, 0.0),
+        ("shexp", ("/p", "/q"), 0.0),
     ])  # fmt: skip
     def test_same_asset(self, maps, kind, paths, atol):
         folder, src, rolled = maps
