@@ -75,6 +75,8 @@ class TestLoadScene:
             ("roughness = [0.5, 0.9]", "roughness = [0.9, 0.5]", 43, "materials[4].roughness"),
             ('nu = 4', 'nu = -4', 33, "materials[2].params"),
             ("sigma = 0.3", "sigma = 9", 49, "materials[5].params"),
+            ("roughness = [0.5, 0.9]", "roughness = [0.5, 0.9]\nparams = { n = 3 }", 44,
+             "materials[4].params"),
             ('model = "microfacet"', 'model = "kajiya-kay"', 48, "materials[5].model"),
             ("sigma = 0.3 }", "sigma = 0.3 }\nroughness = 0.5", 50, "materials[5].roughness"),
             ("rotation_deg = 90", 'rotation_deg = "east"', 18, "environments[1].rotation_deg"),
@@ -168,18 +170,25 @@ class TestPlan:
         assert rec["measured_error"]["shrm"] <= 0.03  # brute-force shading, turned map
 
     def test_ggx_single_roughness_shrm_or_splitsum(self, tmp_path):
-        # the SH-exp fit misses a tolerance of 0.01: roughness 0.5 (α 0.25) gets an SHRM,
-        # roughness 0.1 (α 0.01) cannot be reached by F <= 64 and gets split-sum
+        # the SH-exp fit misses a tolerance of 0.01: roughness 0.5 (α 0.25) gets an SHRM of
+        # GGX at F0 = 1 (the model's default) and 0.5; at F0 = 0.04 the Schlick tail leaves
+        # 6.6 % of the energy out at F 64, P 16, and roughness 0.1 (α 0.01) 80 %: split-sum
         text = TWO_MAPS.read_text().replace("glossy_probe = 0.3", "glossy_probe = 0.01")
         text = text.split("[[environments]]\nmap = \"MAPS/sunset.exr\"")[0]
         text = text.split("[[materials]]")[0] + (
             '[[materials]]\nname = "a"\nkind = "glossy"\nroughness = 0.5\n'
-            '[[materials]]\nname = "b"\nkind = "glossy"\nroughness = 0.1\n')
+            '[[materials]]\nname = "b"\nkind = "glossy"\nroughness = 0.1\n'
+            '[[materials]]\nname = "c"\nkind = "glossy"\nroughness = 0.5\n'
+            'params = { F0 = 0.5 }\n'
+            '[[materials]]\nname = "d"\nkind = "glossy"\nroughness = 0.5\n'
+            'params = { F0 = 0.04 }\n')
         plan = plan_scene(load_scene(str(make_scene(tmp_path, text))))
-        assert plan["materials"] == {"a": ["shrm/a/studio"], "b": ["splitsum/studio"]}
-        a = plan["assets"][0]
+        assert plan["materials"] == {"a": ["shrm/a/studio"], "b": ["splitsum/studio"],
+                                     "c": ["shrm/c/studio"], "d": ["splitsum/studio"]}  # fmt: skip
+        a, c = plan["assets"][:2]
         assert a["settings"]["brdf"] == "ggx" and a["settings"]["params"] == {"alpha": 0.25}
-        assert a["predicted_error"]["shrm"] <= 0.03
+        assert c["settings"]["params"] == {"alpha": 0.25, "F0": 0.5}
+        assert max(a["predicted_error"]["shrm"], c["predicted_error"]["shrm"]) <= 0.03
 
     def test_plan_json(self, baked, run_cli):
         _, path, _, _ = baked

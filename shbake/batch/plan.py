@@ -432,13 +432,16 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                         used[m.name].append(aid)
                 else:
                     low += high
-            # one GGX roughness the probe misses: an SHRM when its orders meet `shrm`
+            # one GGX roughness the probe misses: an SHRM of GGX at that width and the
+            # material's F0 (the SHRM bakes the whole BRDF, Schlick Fresnel included; the
+            # probes leave F0 to shading) when its orders meet `shrm`
             for m in [m for m in low if m.roughness[0] == m.roughness[1]]:
                 alpha = max(m.roughness[0] ** 2, 1e-4)
-                aid = _plan_shrm_asset(scene, env, m, "ggx", {"alpha": alpha}, digest, get_env,
-                                       cache, assets, add, optional=True)
-                if aid:
-                    used[m.name].append(aid)
+                terms = [("", {"alpha": alpha, **m.params})]
+                aids = _plan_shrm_asset(scene, env, m, "ggx", terms, digest, get_env, cache,
+                                        assets, add, optional=True)  # fmt: skip
+                if aids:
+                    used[m.name] += aids
                     low.remove(m)
             if low:
                 lo = min(m.roughness[0] for m in low)
@@ -452,9 +455,8 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 for m in low:
                     used[m.name].append(aid)
         for m in reflective:
-            aid = _plan_shrm_asset(scene, env, m, m.model, m.params, digest, get_env, cache,
-                                   assets, add)  # fmt: skip
-            used[m.name].append(aid)
+            used[m.name] += _plan_shrm_asset(scene, env, m, m.model, [("", m.params)], digest,
+                                             get_env, cache, assets, add)  # fmt: skip
     tables = {}
     for m in scene.materials:
         if m.kind not in ("anisotropic", "measured"):
@@ -479,30 +481,36 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
             "assets": assets, "materials": used}  # fmt: skip
 
 
-def _plan_shrm_asset(scene, env, m, model, params, digest, get_env, cache, assets, add,
-                     optional=False):  # fmt: skip
-    """Plan ``m``'s SHRM on ``env`` (shared by materials with the same BRDF); its asset id, or
-    ``None`` when ``optional`` and no orders meet the ``shrm`` tolerance."""
+def _plan_shrm_asset(scene, env, m, model, terms, digest, get_env, cache, assets, add,
+                     optional=False) -> list[str] | None:  # fmt: skip
+    """Plan ``m``'s SHRMs on ``env``, one per ``(id suffix, params)`` of ``terms`` (an asset
+    is shared by materials with the same BRDF); their asset ids, or ``None`` when
+    ``optional`` and some term's orders cannot meet the ``shrm`` tolerance."""
     tol, tkey = scene.tolerance("shrm", env)
-    key = _digest(["shrm", PLAN_VERSION, digest, model, params, tol])
-    aid = f"shrm/{m.name}/{env.name}"
-    if key not in cache:
-        env_map, load_s = get_env(with_load=True)
-        cache[key] = plan_shrm(env_map, model, params, tol)
-        if "work_seconds" in cache[key]:
-            cache[key]["work_seconds"] += load_s
-    p = cache[key]
-    if "impossible" in p:
-        if optional:
-            return None
-        left = p["impossible"]["shrm"]
-        raise scene.error(tkey, f"impossible tolerance {tol:g} for {m.name} on {env.name}: "
-                          f"F {F_LIMIT}, P {P_LIMIT} leave {left:.3g} of the BRDF energy out")
-    for a in assets:
-        if (a["kind"], a["plan_key"], a["id"].split("/")[-1]) == ("shrm", key, env.name):
-            return a["id"]
-    add(aid, "shrm", p, [env.map], {"map": digest}, key, {"shrm": (tol, tkey)}, env)
-    return aid
+    units = []
+    for suffix, params in terms:
+        key = _digest(["shrm", PLAN_VERSION, digest, model, params, tol])
+        if key not in cache:
+            env_map, load_s = get_env(with_load=True)
+            cache[key] = plan_shrm(env_map, model, params, tol)
+            if "work_seconds" in cache[key]:
+                cache[key]["work_seconds"] += load_s
+        p = cache[key]
+        if "impossible" in p:
+            if optional:
+                return None
+            left = p["impossible"]["shrm"]
+            raise scene.error(tkey, f"impossible tolerance {tol:g} for {m.name} on {env.name}: "
+                              f"F {F_LIMIT}, P {P_LIMIT} leave {left:.3g} of the BRDF energy out")
+        units.append((f"shrm/{m.name}{suffix}/{env.name}", key, p))
+    aids = []
+    for aid, key, p in units:
+        shared = [a["id"] for a in assets
+                  if (a["kind"], a["plan_key"], a["id"].split("/")[-1]) == ("shrm", key, env.name)]
+        if not shared:
+            add(aid, "shrm", p, [env.map], {"map": digest}, key, {"shrm": (tol, tkey)}, env)
+        aids.append(shared[0] if shared else aid)
+    return aids
 
 
 def _asset(aid, kind, scene, p, inputs, hashes, key, tolerances, env=None) -> dict:

@@ -310,9 +310,16 @@ def load_scene(path: str) -> Scene:
         for k, v in params.items():
             if isinstance(v, bool) or not isinstance(v, (int, float, str, list)):
                 chk.fail(f"{key}.params.{k}", f"must be a number, a string or an array, got {v!r}")
+        if kind == "glossy" and model in (None, "ggx") and set(params) - {"F0"}:
+            chk.fail(f"{key}.params", "a GGX glossy material takes 'roughness' and at most "
+                     "params.F0 (Schlick F0, used by an SHRM; the probes apply F0 at shading)")
         if kind == "glossy" and model in (None, "ggx") and params:
-            chk.fail(f"{key}.params", "a GGX glossy material takes 'roughness' only (F0 is "
-                     "applied at shading time: the probes store prefiltered light)")
+            try:
+                from shbake.bakers.shrm import make_reflection_brdf
+
+                make_reflection_brdf("ggx", {"alpha": "0.5", **_param_strings(params)})
+            except ParameterError as e:
+                chk.fail(f"{key}.params", str(e))
         if model is not None and kind != "glossy":
             try:  # brdf-table's own validation of the parameters
                 from shbake.brdf import make_brdf
