@@ -88,8 +88,13 @@ def project_environment(
     command_line: str = "",
     quiet: bool = False,
     progress=NO_PROGRESS,
+    pose: dict | None = None,
 ) -> dict:
     """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the summary.
+
+    ``pose``: a scene probe's ``{"position": [x, y, z], "rotation_deg": θ}``, recorded in
+    the asset (``probe_position``, ``probe_rotation_deg``); the SH are turned by ``θ``
+    (:mod:`shbake.envmap.turn`).
 
     ``exr_dir``: lat-long irradiance / tangent-irradiance EXRs of ``map_size``
     rows (``2 × map_size`` columns), half floats unless ``float_exr``, PNGs
@@ -106,6 +111,11 @@ def project_environment(
         check_output_dir(exr_dir, "--exr-dir")
     environment = load_environment(env_path, layout, colorspace, negative, fix_nonfinite, quiet)
     provenance = {"command_line": command_line}
+    rotation = None
+    if pose is not None:
+        from shbake.envmap.turn import apply_pose
+
+        rotation = apply_pose(environment, pose)
     asset, summary = bake_env_sh(
         environment,
         lmax=lmax,
@@ -116,6 +126,7 @@ def project_environment(
         sun=extract_sun,
         sun_radius_deg=sun_radius,
         provenance=provenance,
+        rotation=rotation,
     )
     maps = {}
     if exr_dir is not None:

@@ -53,6 +53,7 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.batch.project_env import project_environment
     from shbake.conventions import REC709_LUMINANCE
     from shbake.envmap import load_environment
+    from shbake.envmap.turn import turn_matrix
     from shbake.evaluation.env_sh import brute_force_reference
     from shbake.format.asset import read_asset
     from shbake.shading.env_sh import irradiance
@@ -63,19 +64,20 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
         summary = project_environment(
             a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
             irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
-            extract_sun=s["extract_sun"], quiet=True,
+            extract_sun=s["extract_sun"], quiet=True, pose=s.get("pose"),
         )  # fmt: skip
     seconds = time.perf_counter() - t0
     outputs = summary["outputs"]
     if not measure:
         return {"outputs": outputs, "bake_seconds": seconds}, {}
     env = load_environment(a["inputs"][0], quiet=True)
-    ref = brute_force_reference(env, n_dirs=1024)
+    ref = brute_force_reference(env, n_dirs=1024)  # of the map as it is, unturned
     asset = read_asset(a["output"])
+    turn = turn_matrix(s.get("pose", {}).get("rotation_deg", 0.0))
     errors = {}
     for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
-        if f"/{name}/sh" in asset:
-            got = irradiance(asset, ref["dirs"], tangent=tangent) @ REC709_LUMINANCE
+        if f"/{name}/sh" in asset:  # the turned probe at R d sees the map's d
+            got = irradiance(asset, ref["dirs"] @ turn.T, tangent=tangent) @ REC709_LUMINANCE
             errors[name] = _rel_rms(got, ref[name])
     return {"outputs": outputs, "bake_seconds": seconds}, errors
 
@@ -118,34 +120,72 @@ def _table_file_error(brdf, table, lmax, views) -> float:
     return float(np.mean(np.sqrt(err2 / np.maximum(energy, 1e-300))))
 
 
+def _posed_env(a: dict, turn_pixels: bool):
+    """The asset's map, its probe pose recorded (and its pixels turned with ``turn_pixels``);
+    ``(environment, SH turn or None)``."""
+    from shbake.envmap import load_environment
+    from shbake.envmap.turn import apply_pose
+
+    env = load_environment(a["inputs"][0], quiet=True)
+    pose = a["settings"].get("pose")
+    rotation = apply_pose(env, pose, turn_pixels) if pose is not None else None
+    return env, rotation
+
+
 def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.bakers.shexp import FitConfig
-    from shbake.batch.probe_jobs import ProbeJob, run_probe_job
+    from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
+    from shbake.format.asset import write_asset
+    from shbake.format.shexp import build_shexp_asset
 
     t0 = time.perf_counter()
+    env, _ = _posed_env(a, turn_pixels=True)
+    if env.layout != "latlong":
+        raise ParameterError(f"{a['inputs'][0]}: SH-exp probes take lat-long maps (2:1)")
+    config = FitConfig(**a["settings"]["fit"])
+    probe = fit_plan(config, env.shape).fit_many([env.pixels])[0]
     with _committed():
-        res = run_probe_job(ProbeJob(a["inputs"][0], a["output"],
-                                     FitConfig(**a["settings"]["fit"])))  # fmt: skip
+        write_asset(a["output"], build_shexp_asset(probe, config, shared_dfg_table(), env.meta))
     return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0},
-            {"glossy_probe": float(res["log_rms"])})  # fmt: skip
+            {"glossy_probe": float(probe.stats["log_rms"])})  # fmt: skip
 
 
 def _bake_splitsum(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
     from shbake.batch.probe_jobs import shared_dfg_table
-    from shbake.envmap import load_environment
     from shbake.format.asset import write_asset
     from shbake.format.splitsum import build_splitsum_asset
 
     t0 = time.perf_counter()
     c = a["settings"]["splitsum"]
     config = SplitSumConfig(**(c | {"alphas": tuple(c["alphas"])}))
-    env = load_environment(a["inputs"][0], quiet=True)
+    env, _ = _posed_env(a, turn_pixels=True)
     chain = prefilter_chain(env.pixels, config)
     with _committed():
         write_asset(a["output"], build_splitsum_asset(chain, config, shared_dfg_table(),
                                                       env.meta))  # fmt: skip
     return {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}, {}
+
+
+def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    """An SHRM at the planned ``F``, ``P`` and face size; measured: the relative energy of
+    the shading error on a sphere against brute force under the (turned) map
+    (:class:`shbake.bakers.shrm.ShadingCheck`), comparable with the BRDF energy left out."""
+    from shbake.bakers.shrm import ShadingCheck, bake_shrm, make_reflection_brdf
+    from shbake.format.shrm import build_shrm_asset, write_shrm
+
+    s = a["settings"]
+    t0 = time.perf_counter()
+    env, rotation = _posed_env(a, turn_pixels=False)
+    rb = make_reflection_brdf(s["brdf"], _param_strings(s["params"]), s["merl"])
+    bake = bake_shrm(env, rb, s["eps"], s["F"], s["P"], s["face_size"], rotation=rotation)
+    with _committed():
+        write_shrm(a["output"], build_shrm_asset(bake, env.meta))
+    info = {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}
+    if not measure:
+        return info, {}
+    check = ShadingCheck(env, rb, rotation=rotation)
+    return info, ({"shrm": check.rel_energy(bake.cube)} if check.ref is not None else {})
 
 
 def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
@@ -165,7 +205,7 @@ def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
 
 
 BAKERS = {"export": _bake_export, "env_sh": _bake_env_sh, "brdf_table": _bake_brdf_table,
-          "shexp": _bake_shexp,
+          "shexp": _bake_shexp, "shrm": _bake_shrm,
           "splitsum": _bake_splitsum}  # fmt: skip
 
 
@@ -277,7 +317,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
         return {"baked": [only], "skipped": [], "records": {only: rec}}
     lock_file = lock_path(scene)
     lock = read_lock(lock_file)
-    plan = plan_scene(scene, cache=lock.get("plans", {}))
+    units = dict(lock.get("plans", {}))  # per-unit plans (measured once), filled by the plan
+    plan = plan_scene(scene, cache=units)
     todo = [a for a in plan["assets"] if not _up_to_date(a, lock.get("assets", {}).get(a["id"]))]
     ids = {a["id"] for a in todo}
     todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
@@ -311,8 +352,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     new_lock = {
         "scene": os.path.basename(scene.path),
         "assets": dict(sorted(records.items())),
-        "plans": {k: v for k, v in sorted(lock.get("plans", {}).items()) if k in keys}
-        | {a["plan_key"]: _plan_entry(a) for a in plan["assets"]},
+        "plans": {k: units[k] for k in sorted(keys) if k in units},
     }
     with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
         json.dump(new_lock, f, indent=1, sort_keys=True)
@@ -320,10 +360,6 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     return {"baked": [r["id"] for r in results],
             "skipped": [a["id"] for a in plan["assets"] if a["id"] not in done],
             "records": records, "lock": lock_file}  # fmt: skip
-
-
-def _plan_entry(a: dict) -> dict:
-    return {k: a[k] for k in ("settings", "predicted_error", "predicted_seconds", "bytes", "note")}
 
 
 def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> str:
@@ -382,7 +418,8 @@ def format_bake(summary: dict) -> str:
         err = ", ".join(f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"]
                                          else "") for k, v in r["measured_error"].items())
         pred = r["predicted_seconds"]
-        pred = "not predicted" if pred is None else f"predicted {pred:.2f} s"
-        lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s ({pred})")
+        pred = "" if pred is None else f"; its make recipe: {pred:.2f} CPU s predicted"
+        lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s warm "
+                     f"in this process{pred}")  # fmt: skip
     lines.append(f"bake: {len(summary['baked'])} baked, {len(summary['skipped'])} up to date")
     return "\n".join(lines)
