@@ -741,6 +741,87 @@ class TestSignals:
         assert not dead.exists() and live.exists() and other.exists()
 
 
+def descendants(pid: int) -> set[int]:
+    """Every live descendant process of ``pid`` (Linux ``/proc``)."""
+    parents = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                stat = Path(f"/proc/{entry}/stat").read_text()
+            except OSError:
+                continue
+            parents[int(entry)] = int(stat.rsplit(")", 1)[1].split()[1])
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {p for p, pp in parents.items() if pp in frontier} - found
+        found |= frontier
+    return found
+
+
+def cmdline(pid: int) -> str:
+    """The command line of ``pid`` ("" once it is gone)."""
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_text(errors="replace")
+    except OSError:
+        return ""
+
+
+def alive(pid: int) -> bool:
+    """Whether ``pid`` exists and is not a zombie."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+class TestPoolWorkers:
+    """Item 10: the workers of ``probe-fit --jobs`` die with their parent, however it ends
+    (SIGKILL included: the kernel sends them SIGTERM, ``PR_SET_PDEATHSIG``), and leave no
+    temporary (each removes its own before exiting)."""
+
+    @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+    def test_workers_die_with_parent(self, box, sig):
+        from tests.helpers import write_test_exr
+
+        rng = np.random.default_rng(5)
+        maps = []
+        for i in range(24):  # 3 gather batches per worker: busy for tens of seconds
+            write_test_exr(box / f"m{i}.exr", 0.5 + rng.random((32, 64, 3)))
+            maps.append(box / f"m{i}.exr")
+        env = dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR=str(box / "cache"))
+        p = subprocess.Popen(
+            [sys.executable, "-m", "shbake_cli.main", "probe-fit", *map(str, maps), "--out-dir",
+             str(box / "out"), "--jobs", "2", "-q"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        )  # fmt: skip
+        try:
+            deadline = time.monotonic() + TIMEOUT
+            workers = set()
+            while time.monotonic() < deadline and p.poll() is None:
+                workers = {c for c in descendants(p.pid) if "spawn_main" in cmdline(c)}
+                if len(workers) >= 2:
+                    break
+                time.sleep(0.2)
+            assert len(workers) >= 2 and p.poll() is None, p.communicate()[1][-2000:]
+            children = descendants(p.pid)
+            time.sleep(4.0)  # the workers are importing or fitting
+            p.send_signal(sig)
+            _, err = p.communicate(timeout=60)
+            end = time.monotonic() + 30
+            while time.monotonic() < end and any(alive(c) for c in children):
+                time.sleep(0.1)
+            assert not [c for c in children if alive(c)], "a worker outlived its parent"
+        finally:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        if sig == signal.SIGTERM:
+            assert_failed((p.returncode, "", err), code=143, fragment="interrupted")
+        left = [str(f) for f in box.rglob("*") if ".shbake-" in f.name]
+        assert not left, left
+        assert not (box / "out").exists() or all(f.suffix == ".h5" for f in (box / "out").iterdir())
+
+
 # -- 11. determinism --------------------------------------------------------------------------
 
 

@@ -10,6 +10,7 @@ weights, the design matrix) and the DFG table — is built once per process
 and reused by every job that shares its configuration and map shape.
 """
 
+import contextlib
 import functools
 import multiprocessing
 import os
@@ -137,6 +138,34 @@ def _single_thread():
     numba.set_num_threads(1)
 
 
+STOP_SECONDS = 5.0
+"""How long a stopped pool's workers have to remove their temporaries and exit."""
+
+
+@contextlib.contextmanager
+def worker_pool(n_jobs: int):
+    """A spawned process pool whose workers run numba on one thread each
+    (:func:`shbake.signals.worker_init`: they die with this process). When the block
+    fails or is interrupted, the workers are sent SIGTERM at once — each removes its
+    temporaries and exits — instead of finishing their current jobs."""
+    # spawn, not fork: forking a process whose numba thread pool is running is unsafe
+    context = multiprocessing.get_context("spawn")
+    pool = ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread)
+    try:
+        yield pool
+    except BaseException:
+        workers = list((getattr(pool, "_processes", None) or {}).values())
+        for w in workers:
+            with contextlib.suppress(OSError, ValueError):
+                w.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        for w in workers:
+            with contextlib.suppress(OSError, ValueError, AssertionError):
+                w.join(STOP_SECONDS)
+        raise
+    pool.shutdown(wait=True)
+
+
 def check_jobs(jobs: list[ProbeJob]) -> None:
     """Refuse, before any work, a job whose output is any job's map (same file)."""
     refuse_same_file([j.output for j in jobs if j.output], [j.source for j in jobs])
@@ -164,10 +193,8 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None,
                 progress(len(results), len(jobs))
         return results
     _warm_plan_cache(jobs, n_jobs)
-    # spawn, not fork: forking a process whose numba thread pool is running is unsafe
-    context = multiprocessing.get_context("spawn")
     batches = [jobs[i : i + GATHER_BATCH] for i in range(0, len(jobs), GATHER_BATCH)]
-    with ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread) as pool:
+    with worker_pool(n_jobs) as pool:
         for batch in pool.map(run_probe_batch, batches):
             results.extend(batch)
             done.extend(batch)

@@ -18,7 +18,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from shbake.batch.plan import file_hash, plan_scene, settings_text
-from shbake.batch.probe_jobs import _single_thread
+from shbake.batch.probe_jobs import worker_pool
 from shbake.batch.scene import Scene, _param_strings
 from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, detached, transaction, write_text
@@ -195,8 +195,10 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
         "plan_key": asset["plan_key"],
         "settings": asset["settings"],
         "inputs": {p: file_hash(p) for p in asset["inputs"]},
-        "outputs": {os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p)
-                    for p in info["outputs"]},  # fmt: skip
+        "outputs": {
+            os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p)
+            for p in info["outputs"]
+        },  # fmt: skip
         "measured_error": errors,
         "tolerances": asset["tolerances"],
         "predicted_error": asset["predicted_error"],
@@ -214,8 +216,10 @@ def _dask_bake(asset: dict) -> dict:
 
 
 def _up_to_date(asset: dict, rec: dict | None) -> bool:
-    if not rec or (rec.get("plan_key"), rec.get("settings")) != (asset["plan_key"],
-                                                                  asset["settings"]):
+    if not rec or (rec.get("plan_key"), rec.get("settings")) != (
+        asset["plan_key"],
+        asset["settings"],
+    ):
         return False
     if any(not os.path.exists(p) or file_hash(p) != rec["inputs"].get(p) for p in asset["inputs"]):
         return False
@@ -292,11 +296,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
             for wave in waves:
                 results += client.gather(client.map(_dask_bake, wave, pure=False))
     elif jobs > 1 and len(todo) > 1:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_single_thread) as pool:
+        with worker_pool(jobs) as pool:
             for wave in waves:
                 results += list(pool.map(bake_asset, wave))
     else:
@@ -379,8 +379,10 @@ def format_bake(summary: dict) -> str:
     lines = []
     for aid in summary["baked"]:
         r = summary["records"][aid]
-        err = ", ".join(f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"]
-                                         else "") for k, v in r["measured_error"].items())
+        err = ", ".join(
+            f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"] else "")
+            for k, v in r["measured_error"].items()
+        )
         pred = r["predicted_seconds"]
         pred = "not predicted" if pred is None else f"predicted {pred:.2f} s"
         lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s ({pred})")
