@@ -5,7 +5,8 @@ signals), exactly one ``shbake: error:`` line and no traceback, no hang (subproc
 cases are time-limited), no new file (temporaries included) and every pre-existing
 file byte-identical. Cases that could hang or crash the interpreter run in a
 subprocess; the rest run in-process (``run_cli``). Full-disk and read-only cases use a
-small tmpfs when the tests run as root, else an injected ``ENOSPC`` / read-only check.
+small tmpfs when the tests run as root, else a file size limit (``EFBIG`` on every write
+past a file's end) / an injected read-only check: no case is skipped.
 """
 
 import contextlib
@@ -34,12 +35,13 @@ TIMEOUT = 120
 # -- helpers --------------------------------------------------------------------------------
 
 
-def shbake(*args, timeout=TIMEOUT, stdout=subprocess.PIPE, env=None):
+def shbake(*args, timeout=TIMEOUT, stdout=subprocess.PIPE, env=None, preexec=None):
     """Run ``shbake ARGS`` in a subprocess; ``(status, stdout, stderr)``."""
     full_env = dict(os.environ, NUMBA_NUM_THREADS="1", **(env or {}))
     p = subprocess.run(
         [sys.executable, "-m", "shbake_cli.main", *map(str, args)],
         stdout=stdout, stderr=subprocess.PIPE, text=True, timeout=timeout, env=full_env,
+        preexec_fn=preexec,
     )  # fmt: skip
     return p.returncode, p.stdout or "", p.stderr
 
@@ -121,24 +123,37 @@ TMPFS_SIZE = "2m"
 
 
 def _can_mount() -> bool:
+    """Root on Linux (``SHBAKE_TEST_NO_MOUNT=1`` tries the injected faults instead)."""
+    if os.environ.get("SHBAKE_TEST_NO_MOUNT"):
+        return False
     return hasattr(os, "geteuid") and os.geteuid() == 0 and sys.platform.startswith("linux")
 
 
 @pytest.fixture
 def tmpfs(tmp_path):
-    """A 2 MB tmpfs (root only), unmounted afterwards."""
-    if not _can_mount():
-        pytest.skip("needs root to mount a tmpfs (the injected-ENOSPC test covers this)")
+    """A folder on a 2 MB tmpfs when the tests may mount one (root), else a plain folder;
+    ``(folder, mounted)``. Tests inject the fault themselves when ``mounted`` is false, so
+    every case runs for every user."""
     mnt = tmp_path / "mnt"
     mnt.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={TMPFS_SIZE}", "tmpfs", str(mnt)],
-                       capture_output=True)  # fmt: skip
-    if r.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs: {r.stderr.decode().strip()}")
+    mounted = _can_mount() and subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={TMPFS_SIZE}", "tmpfs", str(mnt)],
+        capture_output=True,
+    ).returncode == 0  # fmt: skip
     try:
-        yield mnt
+        yield mnt, mounted
     finally:
-        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+        if mounted:
+            subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+def _file_size_limit():
+    """``preexec_fn``: writing past a file's current end fails (``EFBIG``, ``SIGXFSZ``
+    ignored) — a full disk for a user who cannot mount one."""
+    import resource
+
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
 
 
 def fill(folder: Path) -> None:
@@ -261,10 +276,17 @@ class TestOutputLocations:
             assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "env.h5"),
                           fragment="read-only")  # fmt: skip
 
-    def test_read_only_file_system(self, run_cli, box, tmpfs):
+    def test_read_only_file_system(self, run_cli, box, tmpfs, monkeypatch):
+        """A read-only tmpfs (root), else a folder the file system check reports read-only."""
+        from shbake.format import atomic
+
+        tmpfs, mounted = tmpfs
         (tmpfs / "old.h5").write_bytes((box / "env.h5").read_bytes())
-        if subprocess.run(["mount", "-o", "remount,ro", str(tmpfs)]).returncode != 0:
-            pytest.skip("cannot remount the tmpfs read-only")
+        remount = ["mount", "-o", "remount,ro", str(tmpfs)]
+        if not (mounted and subprocess.run(remount, capture_output=True).returncode == 0):
+            real = atomic._read_only_fs
+            monkeypatch.setattr(atomic, "_read_only_fs",
+                                lambda f: str(f).startswith(str(tmpfs)) or real(f))  # fmt: skip
         with unchanged(tmpfs, box):
             assert_failed(run_cli("project-env", box / "map.exr", "-o", tmpfs / "old.h5"),
                           fragment="read-only")  # fmt: skip
@@ -289,12 +311,25 @@ class TestFullDisk:
 
     @pytest.mark.parametrize("name", list(CASES))
     def test_tmpfs(self, box, tmpfs, name):
+        """A filled 2 MB tmpfs (root); else every write past a file's end fails (the
+        process's file size limit, after a first run has filled the numba caches)."""
+        tmpfs, mounted = tmpfs
         (tmpfs / "old.h5").write_bytes((box / "env.h5").read_bytes())
-        fill(tmpfs)
-        args = [a.format(map=box / "map.exr", env=box / "env.h5", out=tmpfs)
-                for a in self.CASES[name]]  # fmt: skip
+
+        def args(out):
+            return [a.format(map=box / "map.exr", env=box / "env.h5", out=out)
+                    for a in self.CASES[name]]  # fmt: skip
+
+        if mounted:
+            fill(tmpfs)
+            run, fragment = (lambda: shbake(*args(tmpfs))), "no space left on device writing"
+        else:
+            (box / "warm").mkdir()
+            assert shbake(*args(box / "warm"))[0] == 0
+            shutil.rmtree(box / "warm")
+            run, fragment = (lambda: shbake(*args(tmpfs), preexec=_file_size_limit)), "writing"
         with unchanged(tmpfs, box):
-            assert_failed(shbake(*args), fragment="no space left on device writing")
+            assert_failed(run(), fragment=fragment)
 
     def test_injected_enospc(self, run_cli, box, monkeypatch):
         """Without root: the HDF5 write raises ENOSPC."""

@@ -160,6 +160,8 @@ def os_error_message(e: OSError, path: str | None = None) -> str:
         return f"read-only file system writing {where}"
     if e.errno == errno.EDQUOT:
         return f"disk quota exceeded writing {where}"
+    if e.errno == errno.EFBIG or "errno = 27," in text or "File too large" in text:
+        return f"file size limit exceeded writing {where}"
     lines = text.strip().splitlines()
     reason = e.strerror or (lines[0][:160] if lines else type(e).__name__)
     return f"cannot write {where} ({reason})"
