@@ -15,6 +15,7 @@ import json
 import os
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -239,6 +240,16 @@ class TestOutputLocations:
         with unchanged(box):  # click refuses a folder for a file option: a usage error
             assert_failed(run_cli(*self._args(box, name), "-o", out),
                           code=2 if where == "directory" else 1)  # fmt: skip
+
+    @pytest.mark.parametrize("name", list(COMMANDS))
+    def test_fifo_output(self, run_cli, box, name):
+        """A special file as output is refused (its temporary would replace it: as root,
+        ``-o /dev/null`` would have replaced the device)."""
+        os.mkfifo(box / "out.fifo")
+        with unchanged(box):
+            assert_failed(run_cli(*self._args(box, name), "-o", box / "out.fifo"),
+                          fragment="is a FIFO, not a regular file")  # fmt: skip
+        assert stat.S_ISFIFO(os.stat(box / "out.fifo").st_mode)
 
     def test_exr_dir_under_a_file(self, run_cli, box):
         (box / "afile").write_text("x")
