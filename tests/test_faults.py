@@ -615,7 +615,7 @@ class TestProbeFitMemory:
     def test_estimate_bounds_measured_peak(self, changes):
         from shbake.bakers.shexp import FitConfig, FitPlan
 
-        cfg = FitConfig(normals=32, views=16, samples=256, **changes)
+        cfg = FitConfig(normals=16, views=8, samples=256, **changes)
         pixels = 0.5 + np.random.default_rng(0).random((64, 128, 3))
         FitPlan(cfg, pixels.shape[:2]).fit_many([pixels, pixels])  # compile outside
         peak = traced_peak(lambda: FitPlan(cfg, pixels.shape[:2]).fit_many([pixels, pixels]))
@@ -817,7 +817,7 @@ class TestSignals:
                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                 env=dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR="off"),
             )  # fmt: skip
-            time.sleep(8.0)
+            time.sleep(5.0)
             assert p.poll() is None, p.communicate()[1][-2000:]
             t0 = time.monotonic()
             p.send_signal(signal.SIGINT)
@@ -876,7 +876,7 @@ class TestPoolWorkers:
     temporary (each removes its own before exiting)."""
 
     @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
-    def test_workers_die_with_parent(self, box, sig):
+    def test_workers_die_with_parent(self, box, big, sig):
         from tests.helpers import write_test_exr
 
         rng = np.random.default_rng(5)
@@ -884,7 +884,8 @@ class TestPoolWorkers:
         for i in range(24):  # 3 gather batches per worker: busy for tens of seconds
             write_test_exr(box / f"m{i}.exr", 0.5 + rng.random((32, 64, 3)))
             maps.append(box / f"m{i}.exr")
-        env = dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR=str(box / "cache"))
+        # the plan cache is shared by both cases (the second loads the plan)
+        env = dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR=str(big / "cache"))
         p = subprocess.Popen(
             [sys.executable, "-m", "shbake_cli.main", "probe-fit", *map(str, maps), "--out-dir",
              str(box / "out"), "--jobs", "2", "-q"],

@@ -158,11 +158,13 @@ class FitConfig:
 
         Terms (float64 unless said): per fit sample (``T = normals × views × alpha_count``)
         :data:`SAMPLE_BYTES` of geometry, weights and targets, and ``samples`` int32 +
-        float32 quadrature entries twice (built, then compacted) — or the SH targets'
-        rotated lighting; per normal–view pair ``Y`` and its upper-triangle products
-        ``n (n+1)/2``; the Gram matrices ``n² × alpha_count × 3`` three times and the
-        normal matrices ``3 (K n)²`` twice; per map texel ``maps ×`` the filtered pyramid
-        (4/3 of the texels × 3) twice.
+        float32 quadrature entries twice (built, then compacted) — or the SH targets' GGX
+        tables (one per ``α``) and rotated lighting; per normal–view pair ``Y`` and its
+        upper-triangle products ``n (n+1)/2`` with the two factor copies numpy makes; the
+        Gram matrices ``n² × alpha_count × 3`` three times and the normal matrices
+        ``3 (K n)²`` twice; per map texel ``maps ×`` the filtered pyramid (4/3 of the
+        texels × 3) twice. An upper bound of the measured peak
+        (``tests/test_faults.py::TestProbeFitMemory``).
         """
         pairs = self.normals * self.views
         t = pairs * self.alpha_count
@@ -170,7 +172,11 @@ class FitConfig:
         total = t * SAMPLE_BYTES
         if self.targets == "quadrature":
             total += t * self.samples * 8 * 2
-        else:
+        else:  # one GGX table per α (brdf/tabulate.py) and the rotated lighting
+            from shbake.bakers.shexp_sh_targets import TABLE_RESOLUTION
+            from shbake.brdf.tabulate import table_bytes
+
+            total += self.alpha_count * table_bytes(1, TABLE_RESOLUTION, self.targets_lmax)
             total += t * n_coeffs(self.targets_lmax) * 3 * 8 * 2
         total += pairs * (n + 3 * n * (n + 1) // 2) * 8  # Y; Y_i Y_j and its two factors
         total += 3 * n * n * self.alpha_count * 3 * 8 + 2 * 3 * (self.sets * n) ** 2 * 8
