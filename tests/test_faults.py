@@ -436,6 +436,29 @@ class TestSpecialFiles:
             fragment="device",
         )
 
+    @pytest.mark.parametrize("command", ["plan", "bake"])
+    def test_fifo_scene(self, box, fifo, command):
+        with unchanged(box):
+            assert_failed(shbake(command, fifo, timeout=60), code=2, fragment="FIFO")
+
+    def test_dev_zero_scene(self, box):
+        """Read without a bound, ``/dev/zero`` as a scene grew without limit (12 GB)."""
+        assert_failed(shbake("plan", "/dev/zero", timeout=60), code=2, fragment="device")
+
+    def test_scene_state_fifo_not_read(self, fifo):
+        """A FIFO where the lock or a stamp should be is treated as missing, not read."""
+        from shbake.batch import scene_bake
+
+        assert scene_bake.read_lock(str(fifo)) == {}
+
+    def test_plan_hash_refuses_special_files(self, fifo):
+        from shbake.batch.plan import file_hash
+        from shbake.errors import ShbakeError
+
+        for path in (fifo, "/dev/zero"):
+            with pytest.raises(ShbakeError, match="not a regular file"):
+                file_hash(str(path))
+
     def test_recorded_source_dev_zero(self, box):
         with h5py.File(box / "env.h5", "r+") as f:
             f.attrs["source_path"] = "/dev/zero"

@@ -12,6 +12,7 @@ and rewrites the lock (atomically).
 
 import json
 import os
+import stat
 import time
 from contextlib import contextmanager
 
@@ -228,11 +229,28 @@ def _up_to_date(asset: dict, rec: dict | None) -> bool:
                for r, h in rec["outputs"].items())  # fmt: skip
 
 
-def read_lock(path: str) -> dict:
+STATE_MAX_BYTES = 64 << 20
+"""Largest lock or stamp file read back."""
+
+
+def _read_state(path: str) -> str | None:
+    """The text of a lock or stamp file, ``None`` if it is missing, unreadable or not a
+    regular file (a FIFO in the out_dir must not block the bake)."""
     try:
-        with open(path) as f:
-            return json.load(f)
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > STATE_MAX_BYTES:
+            return None
+        with open(path, encoding="utf-8") as f:
+            return f.read(STATE_MAX_BYTES)
     except (OSError, ValueError):
+        return None
+
+
+def read_lock(path: str) -> dict:
+    text = _read_state(path)
+    try:
+        return json.loads(text) if text is not None else {}
+    except ValueError:
         return {}
 
 
@@ -243,12 +261,8 @@ def write_stamps(plan: dict) -> list[str]:
     for a in plan["assets"]:
         path = stamp_path(plan["out_dir"], a["id"])
         text = settings_text(a)
-        try:
-            with open(path) as f:
-                if f.read() == text:
-                    continue
-        except OSError:
-            pass
+        if _read_state(path) == text:
+            continue
         os.makedirs(os.path.dirname(path), exist_ok=True)
         write_text(path, text)
         written.append(path)
@@ -271,9 +285,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     if only is not None:
         path = stamp_path(scene.out_dir, only)
         try:
-            with open(path) as f:
-                asset = json.load(f)
-        except OSError:
+            asset = json.loads(_read_state(path) or "")
+        except ValueError:
             raise ParameterError(f"{path}: no settings stamp for {only!r}; run shbake plan "
                                  "--emit-make first") from None  # fmt: skip
         full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0)
