@@ -735,6 +735,21 @@ class TestOneLine:
         (box / "list.txt").write_bytes(b"\xff\xfe map.exr\n")
         assert_failed(run_cli("probe-fit", "--list", box / "list.txt"), fragment="UTF-8")
 
+    @pytest.mark.parametrize("option", ["--list", "--merl"])
+    @pytest.mark.parametrize("what", ["missing", "symlink-loop"])
+    def test_unreadable_list_or_merl_names_the_reason(self, run_cli, box, option, what):
+        """Read errors of the probe list and the MERL file said ``(None)`` instead of why."""
+        path = box / "x.txt"
+        if what == "symlink-loop":
+            os.symlink(box / "y.txt", path)
+            os.symlink(path, box / "y.txt")
+        args = (["probe-fit", "--list", path] if option == "--list"
+                else ["brdf-table", "merl", "--merl", path, "-o", box / "t.h5"])  # fmt: skip
+        with unchanged(box):
+            msg = assert_failed(run_cli(*args))
+        assert "None" not in msg
+        assert ("no such file" if what == "missing" else "symbolic links") in msg
+
     def test_scheduler_not_a_url(self, run_cli, box):
         assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "d",
                               "--scheduler", "not a url"), fragment="--scheduler")  # fmt: skip
