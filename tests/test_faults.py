@@ -864,6 +864,62 @@ class TestSignals:
         assert_failed((p.returncode, "", err), code=130, fragment="interrupted")
         assert waited < 10.0, waited  # ~1 s; generous for a loaded machine (not a timing test)
 
+    WATCHED = """
+import sys, numba
+from shbake_cli.guard import run
+from shbake.format import atomic
+
+@numba.njit(nogil=True)  # as shbake.jit.jit / pjit compile every kernel
+def spin(n):  # holds the main thread in native code: no Python signal handler can run
+    s = 0.0
+    for i in range(n):
+        s += (i % 7) * 1e-9
+    return s
+
+def call():
+    with atomic.atomic_path(sys.argv[1]) as tmp:
+        with open(tmp, "wb") as f:
+            f.write(b"half-written")
+        spin(1)
+        print("staged", flush=True)
+        spin(10**12)
+    return 0
+
+sys.exit(run(call, []))
+"""
+
+    @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+    def test_watcher_removes_temporaries_of_a_run_held_in_a_kernel(self, box, sig, code):
+        """The main thread is inside a numba loop with an output staged: the watcher thread
+        removes the temporary, prints the one line and ends the process; the old output
+        stays byte-identical."""
+        (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        with unchanged(box):
+            p = subprocess.Popen(
+                [sys.executable, "-c", self.WATCHED, str(box / "old.h5")],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            )  # fmt: skip
+            assert p.stdout.readline().strip() == "staged", p.communicate()[1][-2000:]
+            assert any(".shbake-" in n for n in os.listdir(box))  # the temporary exists
+            time.sleep(0.5)
+            p.send_signal(sig)
+            _, err = p.communicate(timeout=30)
+        assert_failed((p.returncode, "", err), code=code, fragment="interrupted")
+
+    def test_every_kernel_releases_the_gil(self):
+        """The watcher thread needs the GIL while the main thread runs a kernel: every
+        kernel is compiled through shbake.jit, whose decorators pass ``nogil=True``."""
+        from shbake import jit
+
+        root = Path(jit.__file__).parent
+        tokens = ("numba.njit", "@njit", "numba.jit(")
+        direct = [str(p) for p in root.rglob("*.py")
+                  if p.name != "jit.py" and any(t in p.read_text() for t in tokens)]  # fmt: skip
+        assert not direct, direct
+        for deco in (jit.jit, jit.pjit):
+            kernel = deco(lambda x: x + 1)
+            assert kernel(1) == 2 and kernel.dispatcher.targetoptions.get("nogil") is True
+
     def test_stale_temporary_removed_live_kept(self, run_cli, box):
         dead = box / f".out.h5.shbake-{dead_pid()}-1.tmp.h5"
         live = box / f".out.h5.shbake-{os.getpid()}-99.tmp.h5"
