@@ -750,6 +750,20 @@ class TestOneLine:
         assert "None" not in msg
         assert ("no such file" if what == "missing" else "symbolic links") in msg
 
+    @pytest.mark.parametrize("args", [
+        ["preview", "{env}", "-o", "{box}/p.exr", "--roughness", "nan"],
+        ["export", "{env}", "--to", "threejs", "-o", "{box}/x.json", "--sun-radius", "nan"],
+        ["probe-fit", "{map}", "--out-dir", "{box}/d", "--floor", "nan"],
+        ["shrm", "{map}", "-o", "{box}/o.h5", "--brdf", "phong", "--eps", "inf"],
+        ["tradeoff", "env_sh", "--map", "{map}", "--tol", "nan", "-o", "{box}/t.png"],
+    ])  # fmt: skip
+    def test_nan_option_refused(self, run_cli, box, args):
+        """click's range check compares, and every comparison with NaN is false: NaN passed
+        every float option (and was then ignored or propagated)."""
+        args = [a.format(env=box / "env.h5", map=box / "map.exr", box=box) for a in args]
+        with unchanged(box):
+            assert_failed(run_cli(*args), code=2, fragment="not a finite number")
+
     def test_scheduler_not_a_url(self, run_cli, box):
         assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "d",
                               "--scheduler", "not a url"), fragment="--scheduler")  # fmt: skip
