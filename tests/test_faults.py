@@ -913,11 +913,16 @@ sys.exit(run(call, []))
                 [sys.executable, "-c", self.WATCHED, str(box / "old.h5")],
                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
             )  # fmt: skip
-            assert p.stdout.readline().strip() == "staged", p.communicate()[1][-2000:]
-            assert any(".shbake-" in n for n in os.listdir(box))  # the temporary exists
-            time.sleep(0.5)
-            p.send_signal(sig)
-            _, err = p.communicate(timeout=30)
+            try:
+                assert p.stdout.readline().strip() == "staged", p.communicate()[1][-2000:]
+                assert any(".shbake-" in n for n in os.listdir(box))  # the temporary exists
+                time.sleep(0.5)
+                p.send_signal(sig)
+                _, err = p.communicate(timeout=30)
+            finally:
+                if p.poll() is None:  # never leave a spinning process behind
+                    p.kill()
+                    p.wait()
         assert_failed((p.returncode, "", err), code=code, fragment="interrupted")
 
     def test_every_kernel_releases_the_gil(self):
