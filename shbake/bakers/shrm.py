@@ -69,6 +69,7 @@ from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
+from shbake.resources import check_memory
 from shbake.sh.basis import real_sh_numba
 from shbake.sh.rotation import SHRotation
 from shbake.texture.cube import cube_directions
@@ -509,6 +510,9 @@ def check_face_size(size, P: int, kind: str) -> int:
             f"a {size}² × 6 SHRM with {terms} terms would take {nbytes / 2**30:.1f} GiB "
             f"(limit {BYTES_LIMIT / 2**30:.0f} GiB); lower --face-size or --P"
         )
+    # the bake holds the cube in float64 and its per-texel result rows: 2 × 8 bytes a term
+    check_memory(6 * size * size * terms * 3 * 8 * 2,
+                 f"a {size}² × 6 SHRM with {terms} terms")  # fmt: skip
     return int(size)
 
 

@@ -80,12 +80,11 @@ PLAN_VERSION = 5
 
 
 def file_hash(path: str) -> str:
-    """SHA-256 of a file's bytes (hex)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+    """SHA-256 of a file's bytes (hex); special files (FIFO, ``/dev/zero``) are refused
+    and no more than the file's size is read (:func:`shbake.resources.sha256_of`)."""
+    from shbake import resources
+
+    return resources.sha256_of(path)
 
 
 def _digest(obj) -> str:

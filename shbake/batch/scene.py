@@ -221,11 +221,20 @@ class _Checker:
         return dict(data)
 
 
+MAX_SCENE_BYTES = 16 << 20
+"""Largest scene file read (a scene is a few kilobytes of TOML)."""
+
+
 def load_scene(path: str) -> Scene:
     """Read and validate the scene at ``path``; raises :class:`SceneError` (one line)."""
-    try:
-        with open(path, "rb") as f:
-            raw = f.read()
+    from shbake import resources
+    from shbake.errors import ShbakeError
+
+    try:  # a FIFO or /dev/zero would block or never end: refused before opening
+        raw = resources.read_bounded(path, MAX_SCENE_BYTES, "scene")
+    except ShbakeError as e:
+        reason = str(e).removeprefix(f"{path}: ")
+        raise SceneError(f"{path}:1: (file): {reason}") from None
     except OSError as e:
         raise SceneError(f"{path}:1: (file): cannot read: {e.strerror}") from None
     text = raw.decode("utf-8", errors="replace")

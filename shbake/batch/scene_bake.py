@@ -12,13 +12,14 @@ and rewrites the lock (atomically).
 
 import json
 import os
+import stat
 import time
 from contextlib import contextmanager
 
 import numpy as np
 
 from shbake.batch.plan import file_hash, plan_scene, settings_text
-from shbake.batch.probe_jobs import _single_thread
+from shbake.batch.probe_jobs import worker_pool
 from shbake.batch.scene import Scene, _param_strings
 from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, detached, transaction, write_text
@@ -235,8 +236,10 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
         "plan_key": asset["plan_key"],
         "settings": asset["settings"],
         "inputs": {p: file_hash(p) for p in asset["inputs"]},
-        "outputs": {os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p)
-                    for p in info["outputs"]},  # fmt: skip
+        "outputs": {
+            os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p)
+            for p in info["outputs"]
+        },  # fmt: skip
         "measured_error": errors,
         "tolerances": asset["tolerances"],
         "predicted_error": asset["predicted_error"],
@@ -254,8 +257,10 @@ def _dask_bake(asset: dict) -> dict:
 
 
 def _up_to_date(asset: dict, rec: dict | None) -> bool:
-    if not rec or (rec.get("plan_key"), rec.get("settings")) != (asset["plan_key"],
-                                                                  asset["settings"]):
+    if not rec or (rec.get("plan_key"), rec.get("settings")) != (
+        asset["plan_key"],
+        asset["settings"],
+    ):
         return False
     if any(not os.path.exists(p) or file_hash(p) != rec["inputs"].get(p) for p in asset["inputs"]):
         return False
@@ -264,11 +269,28 @@ def _up_to_date(asset: dict, rec: dict | None) -> bool:
                for r, h in rec["outputs"].items())  # fmt: skip
 
 
-def read_lock(path: str) -> dict:
+STATE_MAX_BYTES = 64 << 20
+"""Largest lock or stamp file read back."""
+
+
+def _read_state(path: str) -> str | None:
+    """The text of a lock or stamp file, ``None`` if it is missing, unreadable or not a
+    regular file (a FIFO in the out_dir must not block the bake)."""
     try:
-        with open(path) as f:
-            return json.load(f)
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > STATE_MAX_BYTES:
+            return None
+        with open(path, encoding="utf-8") as f:
+            return f.read(STATE_MAX_BYTES)
     except (OSError, ValueError):
+        return None
+
+
+def read_lock(path: str) -> dict:
+    text = _read_state(path)
+    try:
+        return json.loads(text) if text is not None else {}
+    except ValueError:
         return {}
 
 
@@ -279,12 +301,8 @@ def write_stamps(plan: dict) -> list[str]:
     for a in plan["assets"]:
         path = stamp_path(plan["out_dir"], a["id"])
         text = settings_text(a)
-        try:
-            with open(path) as f:
-                if f.read() == text:
-                    continue
-        except OSError:
-            pass
+        if _read_state(path) == text:
+            continue
         os.makedirs(os.path.dirname(path), exist_ok=True)
         write_text(path, text)
         written.append(path)
@@ -307,9 +325,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     if only is not None:
         path = stamp_path(scene.out_dir, only)
         try:
-            with open(path) as f:
-                asset = json.load(f)
-        except OSError:
+            asset = json.loads(_read_state(path) or "")
+        except ValueError:
             raise ParameterError(f"{path}: no settings stamp for {only!r}; run shbake plan "
                                  "--emit-make first") from None  # fmt: skip
         full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0)
@@ -333,11 +350,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
             for wave in waves:
                 results += client.gather(client.map(_dask_bake, wave, pure=False))
     elif jobs > 1 and len(todo) > 1:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_single_thread) as pool:
+        with worker_pool(jobs) as pool:
             for wave in waves:
                 results += list(pool.map(bake_asset, wave))
     else:
@@ -415,8 +428,10 @@ def format_bake(summary: dict) -> str:
     lines = []
     for aid in summary["baked"]:
         r = summary["records"][aid]
-        err = ", ".join(f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"]
-                                         else "") for k, v in r["measured_error"].items())
+        err = ", ".join(
+            f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"] else "")
+            for k, v in r["measured_error"].items()
+        )
         pred = r["predicted_seconds"]
         pred = "" if pred is None else f"; its make recipe: {pred:.2f} CPU s predicted"
         lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s warm "
