@@ -33,6 +33,7 @@ and start-up), :func:`sh_eval_into` (one direction, inside other kernels),
 stored).
 """
 
+import math
 from functools import cache
 
 import numpy as np
@@ -718,16 +719,15 @@ def _flat_directions(dirs) -> tuple[np.ndarray, tuple]:
 def _check_out(out, shape) -> np.ndarray:
     if out is None:
         return np.empty(shape)
+    size = math.prod(shape)
     if (
         not isinstance(out, np.ndarray)
         or out.dtype != np.float64
-        or out.size != int(np.prod(shape))
+        or out.size != size
         or not out.flags.c_contiguous
         or not out.flags.writeable
     ):
-        raise ParameterError(
-            f"out must be a writeable C-contiguous float64 array of {int(np.prod(shape))} values"
-        )
+        raise ParameterError(f"out must be a writeable C-contiguous float64 array of {size} values")
     return out
 
 
@@ -782,14 +782,24 @@ def real_sh_numba(dirs, lmax: int) -> np.ndarray:
     return real_sh_into(dirs, lmax)
 
 
+@cache
+def _pair_index(lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows ``l(l+1)+m`` (``m ≥ 0``), their ``l(l+1)+m`` and ``l(l+1)−m`` sources and the
+    ``m > 0`` subset, for :func:`_pair_coefficients`."""
+    l = np.repeat(np.arange(lmax + 1), np.arange(lmax + 1) + 1)
+    m = np.concatenate([np.arange(k + 1) for k in range(lmax + 1)])
+    pos = l * (l + 1) + m
+    neg = l * (l + 1) - m
+    return pos[m == 0], pos[m > 0], neg[m > 0]
+
+
 def _pair_coefficients(c: np.ndarray, lmax: int) -> np.ndarray:
     """``(n, 2, C)``: row ``l(l+1)+m`` (``m ≥ 0``) holds ``(√2 c_lm, √2 c_l,-m)``, ``(c_l0, 0)``."""
+    zonal, pos, neg = _pair_index(lmax)
     out = np.zeros((c.shape[0], 2, c.shape[1]))
-    for l in range(lmax + 1):
-        base = l * (l + 1)
-        out[base, 0] = c[base]
-        out[base + 1 : base + l + 1, 0] = SQRT2 * c[base + 1 : base + l + 1]
-        out[base + 1 : base + l + 1, 1] = SQRT2 * c[base - 1 : base - l - 1 : -1]
+    out[zonal, 0] = c[zonal]
+    out[pos, 0] = SQRT2 * c[pos]
+    out[pos, 1] = SQRT2 * c[neg]
     return out
 
 
