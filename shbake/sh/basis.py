@@ -45,8 +45,8 @@ from shbake.jit import jit, run_blocks
 SQRT2 = np.sqrt(2.0)
 
 BLOCK = 256
-"""Directions per block of the blocked evaluators: their scratch (≈ 12 arrays of
-``BLOCK`` doubles) stays in the L1 cache."""
+"""Directions per block of the blocked evaluators: their scratch (16 rows of ``BLOCK``
+doubles, 32 KiB) stays in the L1 cache (48 KiB here); 128 and 512 measured the same."""
 
 FUSED_CHANNELS = 3
 """Channels summed in one pass of :func:`evaluate`'s kernel (RGB)."""
