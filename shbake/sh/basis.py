@@ -615,8 +615,9 @@ def _column(s, w, nb, n, first, last):
 def _evaluate_blocks(d, coef, lmax, qmm, a, b, out, bad, b0, b1):
     """``out[i, c] = Σ_j coef[j, c] ȳ_j(d_i)`` for blocks ``b0 … b1-1`` (fused: no basis stored).
 
-    ``coef`` is ``(n_coeffs, 2, C)``: ``coef[l(l+1)+m] = (c_lm, c_l,-m)`` with the
-    √2 of ``m ≠ 0`` folded in (zeros for ``m = 0``'s second entry).
+    ``coef`` is ``(n_coeffs, C)`` in the flat index; the weights of order ``m > 0``
+    are ``(√2 c_lm, √2 c_l,-m)`` (the √2 of the basis folded in), of ``m = 0``
+    ``(c_l0, 0)``.
     ``bad[blk]`` receives the count of unusable directions. Check-free kernel.
 
     Per order ``m`` and :data:`FUSED_CHANNELS` channels, the partial sums
@@ -651,8 +652,15 @@ def _evaluate_blocks(d, coef, lmax, qmm, a, b, out, bad, b0, b1):
                         w[8 * j] = a[lj, m] if lj > m else qmm[m]
                         w[8 * j + 1] = b[lj, m] if lj > m else 0.0
                         for c in range(FUSED_CHANNELS):
-                            w[8 * j + 2 + 2 * c] = coef[i, 0, g + c] if c < ng else 0.0
-                            w[8 * j + 3 + 2 * c] = coef[i, 1, g + c] if c < ng else 0.0
+                            wp = 0.0
+                            wn = 0.0
+                            if c < ng and m == 0:
+                                wp = coef[i, g + c]
+                            elif c < ng:
+                                wp = 1.4142135623730951 * coef[i, g + c]
+                                wn = 1.4142135623730951 * coef[i - 2 * m, g + c]
+                            w[8 * j + 2 + 2 * c] = wp
+                            w[8 * j + 3 + 2 * c] = wn
                     _column(s, w, nb, nstep, l == m, l + nstep > lmax)
                     l += nstep
             for k in range(nb):
@@ -782,27 +790,6 @@ def real_sh_numba(dirs, lmax: int) -> np.ndarray:
     return real_sh_into(dirs, lmax)
 
 
-@cache
-def _pair_index(lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rows ``l(l+1)+m`` (``m ≥ 0``), their ``l(l+1)+m`` and ``l(l+1)−m`` sources and the
-    ``m > 0`` subset, for :func:`_pair_coefficients`."""
-    l = np.repeat(np.arange(lmax + 1), np.arange(lmax + 1) + 1)
-    m = np.concatenate([np.arange(k + 1) for k in range(lmax + 1)])
-    pos = l * (l + 1) + m
-    neg = l * (l + 1) - m
-    return pos[m == 0], pos[m > 0], neg[m > 0]
-
-
-def _pair_coefficients(c: np.ndarray, lmax: int) -> np.ndarray:
-    """``(n, 2, C)``: row ``l(l+1)+m`` (``m ≥ 0``) holds ``(√2 c_lm, √2 c_l,-m)``, ``(c_l0, 0)``."""
-    zonal, pos, neg = _pair_index(lmax)
-    out = np.zeros((c.shape[0], 2, c.shape[1]))
-    out[zonal, 0] = c[zonal]
-    out[pos, 0] = SQRT2 * c[pos]
-    out[pos, 1] = SQRT2 * c[neg]
-    return out
-
-
 SMALL_EVALUATION = 1 << 20
 """``method="auto"`` evaluates ``N × n_coeffs`` up to this with numpy (nothing compiled or
 loaded: loading numba costs ~0.35 s), larger jobs with numba; the choice depends on the
@@ -850,8 +837,8 @@ def evaluate(coeffs, dirs, out=None, method: str = "auto") -> np.ndarray:
             _check_out(out, res.shape)[...] = res.reshape(out.shape)
             return out
         return res.reshape(batch + c.shape[1:])
-    c2 = _pair_coefficients(c.reshape(c.shape[0], -1), lmax)
-    nc = c2.shape[2]
+    c2 = np.ascontiguousarray(c.reshape(c.shape[0], -1))
+    nc = c2.shape[1]
     res = _check_out(out, (d.shape[0], nc))
     n_blocks = -(-d.shape[0] // BLOCK)
     bad = np.zeros(n_blocks, dtype=np.int64)
