@@ -8,7 +8,10 @@ normal) and local view ``v``:
 3. fetch ``c(v_p)`` from the parabolic table, bilinearly;
 4. ``Q = Σ_i L_p,i c_i(v_p)`` per channel.
 
-Fixed light: ``L_p`` is computed once, a frame costs steps 2–4. Fixed view:
+A full frame (light and view both changing) runs steps 1–4 fused per block
+of pixels (:func:`shade_full`: the blocks of ``M(R_p)`` built together,
+vectorised across the block, ``L_p`` never stored). Fixed light: ``L_p`` is
+computed once, a frame costs steps 2–4. Fixed view:
 ``M(R)ᵀ c(v_p)`` is computed once, a frame (a lighting change) costs one dot
 product per point. A sun extracted into the environment asset is added to
 ``L`` as the SH projection of a directional light, ``E_sun y_i(s)``,
