@@ -23,7 +23,11 @@ END = "<!-- speed tables: end -->"
 SECTIONS = (
     ("Projection: shbake vs ducc0 vs the previous shbake", "projection.py"),
     ("SH reconstruction: evaluate vs sphericart + matmul", "evaluate.py"),
-    ("Whole process: project-env vs a plain OpenImageIO + ducc0 + h5py script", "end_to_end.py"),
+    (
+        "Whole process: project-env vs a plain OpenImageIO + ducc0 + h5py script; "
+        "preview passes at 512²",
+        "end_to_end.py",
+    ),
 )
 
 

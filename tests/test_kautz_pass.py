@@ -140,3 +140,59 @@ class TestBrdfTableCli:
         s = json.loads(stdout)
         assert set(s["modes"]) == {"full", "fixed_light", "fixed_view"}
         assert s["relative_rms_error"] < 0.1
+
+
+class TestKautzKernels:
+    """The pass's per-pixel kernels against the definition evaluated pixel by pixel
+    (SHRotation per frame, the parabolic fetch, numpy dot products)."""
+
+    @pytest.fixture(scope="class")
+    @classmethod
+    def scene(cls):
+        from shbake.preview.kautz_table import shading_frames
+        from shbake.sh.rotation import SHRotation, block_offsets
+        from shbake.texture.parabolic import fetch
+
+        lmax = 4
+        frames, views, _ = shading_frames(23)  # 400-odd pixels: a partial last block
+        rng = np.random.default_rng(4)
+        table = rng.normal(size=(6, 5, (lmax + 1) ** 2, 3))
+        L = rng.normal(size=((lmax + 1) ** 2, 3))
+        c = fetch(table, views)
+        rot = [SHRotation(R, lmax) for R in frames]
+        L_local = np.stack([r.apply(L) for r in rot])
+        q = np.einsum("pic,pic->pc", L_local, c)
+        c_world = np.stack([r.apply(ck, transpose=True) for r, ck in zip(rot, c, strict=True)])
+        off = block_offsets(lmax)
+        return dict(lmax=lmax, frames=frames, views=views, table=table, L=L, off=off,
+                    L_local=L_local, q=q, c_world=c_world)  # fmt: skip
+
+    def test_full_frame(self, scene):
+        from shbake.shading.kautz_table import shade_full
+
+        s = scene
+        out = np.empty((len(s["frames"]), 3))
+        shade_full(s["frames"], s["views"], s["table"], s["L"], s["lmax"], s["off"], out)
+        np.testing.assert_allclose(out, s["q"], rtol=0, atol=1e-12 * np.abs(s["q"]).max())
+
+    def test_rotated_lighting_and_fixed_light_frame(self, scene):
+        from shbake.shading.kautz_table import lookup_dot, rotate_lighting
+
+        s = scene
+        L_local = np.empty_like(s["L_local"])
+        rotate_lighting(s["frames"], s["L"], s["lmax"], s["off"], L_local)
+        np.testing.assert_allclose(L_local, s["L_local"], rtol=0, atol=1e-13)
+        out = np.empty((len(s["frames"]), 3))
+        lookup_dot(s["views"], s["table"], L_local, out)
+        np.testing.assert_allclose(out, s["q"], rtol=0, atol=1e-12 * np.abs(s["q"]).max())
+
+    def test_fixed_view_frame(self, scene):
+        from shbake.shading.kautz_table import dot_world, rotate_coeffs_to_world
+
+        s = scene
+        cw = np.empty_like(s["c_world"])
+        rotate_coeffs_to_world(s["frames"], s["views"], s["table"], s["lmax"], s["off"], cw)
+        np.testing.assert_allclose(cw, s["c_world"], rtol=0, atol=1e-13)
+        out = np.empty((len(s["frames"]), 3))
+        dot_world(cw, s["L"], out)
+        np.testing.assert_allclose(out, s["q"], rtol=0, atol=1e-12 * np.abs(s["q"]).max())

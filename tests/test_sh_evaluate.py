@@ -107,3 +107,57 @@ class TestEvaluate:
             evaluate(np.ones(9), d)
         with pytest.raises(ParameterError):
             evaluate(np.ones(9), np.ones((5, 2)))
+
+
+class TestEvaluateKernel:
+    """The fused numba kernel itself (``method="numba"``), whatever the job size."""
+
+    @pytest.mark.parametrize("lmax", [0, 1, 2, 3, 4, 5, 8, 13, 30])
+    @pytest.mark.parametrize("channels", [1, 3, 4, 7])
+    def test_matches_sphericart_times_coefficients(self, lmax, channels):
+        # 700 directions: two full blocks and a partial one; every column length
+        # (1 … lmax+1, so every chunk variant of the kernel) occurs.
+        d = directions(700, seed=lmax + 100 * channels)
+        c = np.random.default_rng(lmax + 1).normal(size=((lmax + 1) ** 2, channels))
+        ref = oracle(d, lmax) @ c
+        got = evaluate(c, d, method="numba")
+        assert np.abs(got - ref).max() < 1e-12 * np.abs(ref).max()
+
+    def test_tiny_huge_and_float32_directions(self):
+        d = directions(600)
+        d[10] = [1e-200, -3e-201, 2e-200]
+        d[11] = [1e200, 1e199, -5e200]
+        d[12] = [0.0, 0.0, -1e-310]  # subnormal
+        c = np.random.default_rng(3).normal(size=(81, 3))
+        ref = oracle(d, 8) @ c
+        got = evaluate(c, d, method="numba")
+        assert np.abs(got - ref).max() < 1e-12 * np.abs(ref).max()
+        d32 = d[20:].astype(np.float32)
+        ref32 = oracle(d32.astype(np.float64), 8) @ c
+        got32 = evaluate(c, d32, method="numba")
+        assert np.abs(got32 - ref32).max() < 1e-12 * np.abs(ref32).max()
+
+    @pytest.mark.parametrize("lmax", [2, 8, 30])
+    def test_agrees_with_the_numpy_path(self, lmax):
+        # numpy path: stored basis (real_sh) then a matrix product, another summation order.
+        d = directions(900, seed=lmax)
+        c = np.random.default_rng(lmax).normal(size=((lmax + 1) ** 2, 3))
+        ref = evaluate(c, d, method="numpy")
+        got = evaluate(c, d, method="numba")
+        assert np.abs(got - ref).max() < 1e-12 * np.abs(ref).max()
+
+    def test_same_bytes_for_any_thread_count(self, monkeypatch):
+        d = directions(300_000, seed=5)
+        c = np.random.default_rng(5).normal(size=(81, 3))
+        res = []
+        for threads in ("1", "2", "3"):
+            monkeypatch.setenv("SHBAKE_THREADS", threads)
+            res.append(evaluate(c, d, method="numba"))
+        assert res[0].tobytes() == res[1].tobytes() == res[2].tobytes()
+
+    @pytest.mark.parametrize("bad", [[0.0, 0.0, 0.0], [np.nan, 0, 1], [0, -np.inf, 0]])
+    def test_counts_unusable_directions(self, bad):
+        d = directions(600)
+        d[[5, 400]] = bad
+        with pytest.raises(ParameterError, match="2 directions"):
+            evaluate(np.ones(16), d, method="numba")

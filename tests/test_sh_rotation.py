@@ -57,3 +57,60 @@ class TestSHRotation:
             SHRotation(np.diag([1.0, 1.0, -1.0]), 2)
         with pytest.raises(ParameterError):
             SHRotation(np.eye(3) * 2, 2)
+
+
+class TestRotationBlocksMany:
+    """Many rotations at once, vectorised across them (the per-pixel rotations of previews)."""
+
+    def test_each_satisfies_the_defining_identity(self):
+        # y(R d) = M(R) y(d) for every rotation of a partial block (37 of 64), lmax 8:
+        # checked with real_sh, independent of the recurrence.
+        from shbake.sh.rotation import (
+            block_offsets,
+            p_rows,
+            rotation_blocks_many,
+            rotation_coefficients,
+        )
+
+        lmax, nb, width = 8, 37, 64
+        off = block_offsets(lmax)
+        uvw = np.empty(3 * off[-1])
+        rotation_coefficients(lmax, off, uvw)
+        Rs = Rotation.random(nb, random_state=7).as_matrix()
+        r1 = np.zeros((3, 3, width))
+        perm = [1, 2, 0]
+        for k in range(nb):
+            r1[:, :, k] = Rs[k][np.ix_(perm, perm)]
+        out = np.full((off[-1], width), np.nan)
+        rotation_blocks_many(r1, lmax, off, uvw, np.empty((p_rows(lmax), width)), out, nb)
+        d = Rotation.random(5, random_state=8).as_matrix()[:, :, 0]
+        y = real_sh(d, lmax)
+        for k in range(nb):
+            M = np.zeros(((lmax + 1) ** 2,) * 2)
+            for l in range(lmax + 1):
+                s = slice(l * l, (l + 1) ** 2)
+                M[s, s] = out[off[l] : off[l + 1], k].reshape(2 * l + 1, 2 * l + 1)
+            np.testing.assert_allclose(y @ M.T, real_sh(d @ Rs[k].T, lmax), atol=1e-12)
+        assert np.isnan(out[:, nb:]).all()  # columns past nb untouched
+
+    def test_one_rotation_is_the_same_code(self):
+        # SHRotation (B = 1) and a block of many give the same bytes.
+        from shbake.sh.rotation import (
+            block_offsets,
+            p_rows,
+            rotation_blocks_many,
+            rotation_coefficients,
+        )
+
+        lmax = 6
+        off = block_offsets(lmax)
+        uvw = np.empty(3 * off[-1])
+        rotation_coefficients(lmax, off, uvw)
+        Rs = Rotation.random(9, random_state=3).as_matrix()
+        r1 = np.stack([R[np.ix_([1, 2, 0], [1, 2, 0])] for R in Rs], axis=-1).copy()
+        out = np.empty((off[-1], 9))
+        rotation_blocks_many(r1, lmax, off, uvw, np.empty((p_rows(lmax), 9)), out, 9)
+        for k, R in enumerate(Rs):
+            single = SHRotation(R, lmax)
+            for l in range(lmax + 1):
+                assert single.block(l).tobytes() == out[off[l] : off[l + 1], k].tobytes()

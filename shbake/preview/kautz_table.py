@@ -20,6 +20,7 @@ from shbake.shading.kautz_table import (
     lookup_dot,
     rotate_coeffs_to_world,
     rotate_lighting,
+    shade_full,
 )
 
 
@@ -47,8 +48,7 @@ def render_kautz(env_asset, table, size: int = 192) -> tuple[np.ndarray, dict]:
     q = np.empty((P, 3))
 
     def full():
-        rotate_lighting(frames, L, lmax, offsets, L_local)
-        lookup_dot(views, coeffs, L_local, q)
+        shade_full(frames, views, coeffs, L, lmax, offsets, q)
 
     def fixed_light():
         lookup_dot(views, coeffs, L_local, q)
@@ -58,6 +58,7 @@ def render_kautz(env_asset, table, size: int = 192) -> tuple[np.ndarray, dict]:
 
     timing = {}
     rotate_coeffs_to_world(frames, views, coeffs, lmax, offsets, c_world)
+    rotate_lighting(frames, L, lmax, offsets, L_local)
     for name, run in (("fixed_view", fixed_view), ("fixed_light", fixed_light), ("full", full)):
         run()  # compile / warm
         t0 = time.perf_counter()

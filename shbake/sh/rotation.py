@@ -40,18 +40,6 @@ def block_offsets(lmax: int) -> np.ndarray:
 
 
 @jit
-def _p(i, a, b, l, r1, prev):
-    # Helper P of Ivanic–Ruedenberg; r1 is indexed [i+1, j+1], prev is the
-    # (2l-1)² block of band l-1 indexed [a+l-1, b+l-1].
-    o = l - 1
-    if b == l:
-        return r1[i + 1, 2] * prev[a + o, 2 * o] - r1[i + 1, 0] * prev[a + o, 0]
-    if b == -l:
-        return r1[i + 1, 2] * prev[a + o, 0] + r1[i + 1, 0] * prev[a + o, 2 * o]
-    return r1[i + 1, 1] * prev[a + o, b + o]
-
-
-@jit
 def rotation_coefficients(lmax, offsets, uvw):
     """The ``u, v, w`` factors of Ivanic–Ruedenberg for every ``(l, m, n)``, ``l ≥ 2``.
 
@@ -78,49 +66,115 @@ def rotation_coefficients(lmax, offsets, uvw):
 
 
 @jit
-def rotation_blocks_with(r1, lmax, offsets, uvw, out):
-    """:func:`rotation_blocks` with the factors of :func:`rotation_coefficients` given."""
-    out[0] = 1.0
+def p_rows(lmax):
+    """Rows of the ``P`` scratch of :func:`rotation_blocks_many` (the last one is all zeros)."""
+    return 3 * max(2 * lmax - 1, 1) * (2 * lmax + 1) + 1
+
+
+@jit
+def rotation_blocks_many(r1, lmax, offsets, uvw, pbuf, out, nb):
+    """The flat blocks of ``nb`` rotations at once, vectorised across them (check-free kernel).
+
+    ``r1`` is ``(3, 3, B)``: the ``l = 1`` blocks (``R`` permuted, module
+    docstring) of rotations ``k < nb``; ``out`` is ``(offsets[-1], B)``, entry
+    ``e`` of rotation ``k`` at ``out[e, k]``; ``pbuf`` is ``(p_rows(lmax), B)``
+    scratch; ``uvw`` from :func:`rotation_coefficients`.
+
+    Ivanic–Ruedenberg per band ``l ≥ 2``: first the helper
+    ``P(i, a, b) = R_i,· · M_{l-1}[a, ·]`` (their eq. 5.x: one product for
+    ``|b| < l``, two at ``b = ±l``) for every ``i ∈ {-1, 0, 1}``, ``|a| < l``,
+    ``|b| ≤ l``; then every entry ``u P(0, m, n) + v V + w W`` with ``V, W``
+    the sums of ``P`` of the paper's table (absent terms read the zero row).
+    Every loop runs over the rotations, so it vectorises; the arithmetic of
+    each entry is the same, in the same order, as for one rotation
+    (:func:`rotation_blocks_with` calls this with ``B = 1``).
+    """
+    zero = pbuf.shape[0] - 1
+    for k in range(nb):
+        out[0, k] = 1.0
+        pbuf[zero, k] = 0.0
     if lmax == 0:
         return
     for i in range(3):
         for j in range(3):
-            out[offsets[1] + 3 * i + j] = r1[i, j]
+            for k in range(nb):
+                out[offsets[1] + 3 * i + j, k] = r1[i, j, k]
     for l in range(2, lmax + 1):
         size = 2 * l + 1
         psize = 2 * l - 1
-        prev = out[offsets[l - 1] : offsets[l]].reshape((psize, psize))
-        cur = out[offsets[l] : offsets[l + 1]].reshape((size, size))
+        o = l - 1
+        po = offsets[l - 1]
+        for i in range(3):  # P(i - 1, a, b)
+            for a in range(psize):
+                row = po + a * psize
+                for b in range(size):
+                    idx = (i * psize + a) * size + b
+                    if b == size - 1:  # b = l
+                        for k in range(nb):
+                            pbuf[idx, k] = (
+                                r1[i, 2, k] * out[row + 2 * o, k] - r1[i, 0, k] * out[row, k]
+                            )
+                    elif b == 0:  # b = -l
+                        for k in range(nb):
+                            pbuf[idx, k] = (
+                                r1[i, 2, k] * out[row, k] + r1[i, 0, k] * out[row + 2 * o, k]
+                            )
+                    else:
+                        for k in range(nb):
+                            pbuf[idx, k] = r1[i, 1, k] * out[row + b - 1, k]
         for m in range(-l, l + 1):
+            am = abs(m)
+            dm = 1.0 if am == 1 else 0.0
             for n in range(-l, l + 1):
-                k = 3 * (offsets[l] + (m + l) * size + (n + l))
-                u = uvw[k]
-                v = uvw[k + 1]
-                w = uvw[k + 2]
-                val = 0.0
-                if u != 0.0:
-                    val += u * _p(0, m, n, l, r1, prev)
+                e = offsets[l] + (m + l) * size + (n + l)
+                u = uvw[3 * e]
+                v = uvw[3 * e + 1]
+                w = uvw[3 * e + 2]
+                nb_ = n + l
+                # rows of P(i, a, n): ((i+1) psize + a + o) size + n + l
+                ia = ((1 * psize + m + o) * size + nb_) if u != 0.0 else zero
+                ib = ic = id_ = ie = zero
+                g = 1.0
+                sc = 1.0
+                se = 1.0
                 if v != 0.0:
                     if m == 0:
-                        vv = _p(1, 1, n, l, r1, prev) + _p(-1, -1, n, l, r1, prev)
+                        ib = (2 * psize + 1 + o) * size + nb_
+                        ic = (0 * psize - 1 + o) * size + nb_
                     elif m > 0:
-                        dm = 1.0 if m == 1 else 0.0
-                        vv = _p(1, m - 1, n, l, r1, prev) * np.sqrt(1.0 + dm)
+                        g = np.sqrt(1.0 + dm)
+                        ib = (2 * psize + m - 1 + o) * size + nb_
                         if dm == 0.0:
-                            vv -= _p(-1, -m + 1, n, l, r1, prev)
+                            ic = (0 * psize - m + 1 + o) * size + nb_
+                            sc = -1.0
                     else:
-                        dm = 1.0 if m == -1 else 0.0
-                        vv = _p(-1, -m - 1, n, l, r1, prev) * np.sqrt(1.0 + dm)
+                        g = np.sqrt(1.0 + dm)
+                        ib = (0 * psize - m - 1 + o) * size + nb_
                         if dm == 0.0:
-                            vv += _p(1, m + 1, n, l, r1, prev)
-                    val += v * vv
+                            ic = (2 * psize + m + 1 + o) * size + nb_
                 if w != 0.0:
                     if m > 0:
-                        ww = _p(1, m + 1, n, l, r1, prev) + _p(-1, -m - 1, n, l, r1, prev)
+                        id_ = (2 * psize + m + 1 + o) * size + nb_
+                        ie = (0 * psize - m - 1 + o) * size + nb_
                     else:
-                        ww = _p(1, m - 1, n, l, r1, prev) - _p(-1, -m + 1, n, l, r1, prev)
-                    val += w * ww
-                cur[m + l, n + l] = val
+                        id_ = (2 * psize + m - 1 + o) * size + nb_
+                        ie = (0 * psize - m + 1 + o) * size + nb_
+                        se = -1.0
+                for k in range(nb):
+                    val = 0.0 + u * pbuf[ia, k]
+                    val += v * (pbuf[ib, k] * g + sc * pbuf[ic, k])
+                    val += w * (pbuf[id_, k] + se * pbuf[ie, k])
+                    out[e, k] = val
+
+
+@jit
+def rotation_blocks_with(r1, lmax, offsets, uvw, out):
+    """:func:`rotation_blocks` with the factors of :func:`rotation_coefficients` given
+    (one rotation: :func:`rotation_blocks_many` with ``B = 1``)."""
+    pbuf = np.empty((p_rows(lmax), 1))
+    rotation_blocks_many(
+        r1.reshape((3, 3, 1)), lmax, offsets, uvw, pbuf, out.reshape((out.shape[0], 1)), 1
+    )
 
 
 @jit

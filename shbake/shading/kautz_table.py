@@ -8,7 +8,10 @@ normal) and local view ``v``:
 3. fetch ``c(v_p)`` from the parabolic table, bilinearly;
 4. ``Q = Σ_i L_p,i c_i(v_p)`` per channel.
 
-Fixed light: ``L_p`` is computed once, a frame costs steps 2–4. Fixed view:
+A full frame (light and view both changing) runs steps 1–4 fused per block
+of pixels (:func:`shade_full`: the blocks of ``M(R_p)`` built together,
+vectorised across the block, ``L_p`` never stored). Fixed light: ``L_p`` is
+computed once, a frame costs steps 2–4. Fixed view:
 ``M(R)ᵀ c(v_p)`` is computed once, a frame (a lighting change) costs one dot
 product per point. A sun extracted into the environment asset is added to
 ``L`` as the SH projection of a directional light, ``E_sun y_i(s)``,
@@ -18,13 +21,20 @@ band-limited like the rest.
 import numpy as np
 
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit, prange
+from shbake.jit import jit, run_blocks
 from shbake.sh.basis import real_sh
-from shbake.sh.rotation import rotation_blocks_with, rotation_coefficients
-from shbake.texture.parabolic import fetch_into
+from shbake.sh.rotation import (
+    p_rows,
+    rotation_blocks_many,
+    rotation_blocks_with,
+    rotation_coefficients,
+)
+from shbake.texture.parabolic import fetch_flat_into, fetch_into
 
 PIXEL_BLOCK = 64
-"""Pixels per work item of the per-pixel rotations: scratch is allocated once per block."""
+"""Pixels per block of the per-pixel rotations: their blocks of ``M(R_p)`` are built
+together, vectorised across the block (:func:`~shbake.sh.rotation.rotation_blocks_many`),
+in scratch allocated once per range of blocks."""
 
 
 @jit
@@ -51,78 +61,212 @@ def frame_blocks(R, lmax, offsets):
     return flat
 
 
-@pjit
+@jit
+def _block_frames(frames, lmax, offsets, uvw, p0, nb, r1, pbuf, flat):
+    """``flat[:, k]`` = blocks of ``M(R_{p0+k})``, ``k < nb`` (the ``l = 1`` blocks are ``R``
+    permuted, rotation.py)."""
+    for i in range(3):
+        for j in range(3):
+            for k in range(nb):
+                r1[i, j, k] = frames[p0 + k, (i + 1) % 3, (j + 1) % 3]
+    rotation_blocks_many(r1, lmax, offsets, uvw, pbuf, flat, nb)
+
+
+@jit
+def _apply_blocks(flat, L, lmax, offsets, nb, acc):
+    """``acc[:, :, k] = M(R_k) L`` from the blocks ``flat[:, k]``, ``k < nb`` (vectorised across
+    the pixels; each entry summed over ``j`` ascending from 0.0)."""
+    for l in range(lmax + 1):
+        size = 2 * l + 1
+        o = offsets[l]
+        base = l * l
+        for i in range(size):
+            r = base + i
+            for k in range(nb):
+                acc[r, 0, k] = 0.0
+                acc[r, 1, k] = 0.0
+                acc[r, 2, k] = 0.0
+            for j in range(size):
+                e = o + i * size + j
+                l0 = L[base + j, 0]
+                l1 = L[base + j, 1]
+                l2 = L[base + j, 2]
+                for k in range(nb):
+                    f = flat[e, k]
+                    acc[r, 0, k] += f * l0
+                    acc[r, 1, k] += f * l1
+                    acc[r, 2, k] += f * l2
+
+
+@jit
+def _rotate_lighting_blocks(frames, L, lmax, offsets, uvw, out, b0, b1):
+    n_pix = frames.shape[0]
+    bs = PIXEL_BLOCK
+    r1 = np.empty((3, 3, bs))
+    pbuf = np.empty((p_rows(lmax), bs))
+    flat = np.empty((offsets[-1], bs))
+    n = L.shape[0]
+    acc = np.empty((n, 3, bs))
+    for blk in range(b0, b1):
+        p0 = blk * bs
+        nb = min(bs, n_pix - p0)
+        _block_frames(frames, lmax, offsets, uvw, p0, nb, r1, pbuf, flat)
+        _apply_blocks(flat, L, lmax, offsets, nb, acc)
+        for k in range(nb):
+            for i in range(n):
+                out[p0 + k, i, 0] = acc[i, 0, k]
+                out[p0 + k, i, 1] = acc[i, 1, k]
+                out[p0 + k, i, 2] = acc[i, 2, k]
+
+
+def _blocks(n_pix: int) -> int:
+    return -(-n_pix // PIXEL_BLOCK)
+
+
 def rotate_lighting(frames, L, lmax, offsets, out):
-    """``out[p] = M(R_p) L`` (block-diagonal), for every pixel.
+    """``out[p] = M(R_p) L`` (block-diagonal), for every pixel (step 1).
 
     The recurrence's ``u, v, w`` factors are computed once per call; pixels go
-    in blocks of :data:`PIXEL_BLOCK`, each allocating its rotation scratch
-    once and rebuilding the blocks in place per pixel.
+    in blocks of :data:`PIXEL_BLOCK` whose rotation blocks are built together
+    (vectorised across the pixels) in scratch allocated once per range of
+    blocks, then applied to ``L``; :func:`shbake.jit.run_blocks` runs the ranges.
+    Check-free: ``frames (P, 3, 3)``, ``L (n, 3)``, ``out (P, n, 3)`` float64
+    C-contiguous, ``offsets`` from :func:`~shbake.sh.rotation.block_offsets`.
     """
-    n_pix = frames.shape[0]
-    uvw = np.empty(3 * offsets[-1])
+    uvw = np.empty(3 * int(offsets[-1]))
     rotation_coefficients(lmax, offsets, uvw)
-    for blk in prange((n_pix + PIXEL_BLOCK - 1) // PIXEL_BLOCK):
-        r1 = np.empty((3, 3))
-        flat = np.empty(offsets[-1])
-        for p in range(blk * PIXEL_BLOCK, min(n_pix, (blk + 1) * PIXEL_BLOCK)):
-            frame_blocks_into(frames[p], lmax, offsets, uvw, r1, flat)
-            for l in range(lmax + 1):
-                size = 2 * l + 1
-                o = offsets[l]
-                base = l * l
-                for i in range(size):
-                    for c in range(3):
-                        acc = 0.0
-                        for j in range(size):
-                            acc += flat[o + i * size + j] * L[base + j, c]
-                        out[p, base + i, c] = acc
+    n_pix = frames.shape[0]
+    run_blocks(_rotate_lighting_blocks, _blocks(n_pix), n_pix * 12.0 * offsets[-1],
+               frames, L, lmax, offsets, uvw, out)  # fmt: skip
 
 
-@pjit
-def rotate_coeffs_to_world(frames, views, table, lmax, offsets, out):
-    """``out[p] = M(R_p)ᵀ c(v_p)`` (the fixed-view precomputation)."""
+@jit
+def _to_world_blocks(frames, views, table, lmax, offsets, uvw, out, b0, b1):
+    n_pix = frames.shape[0]
     n = (lmax + 1) * (lmax + 1)
-    for p in prange(frames.shape[0]):
-        flat = frame_blocks(frames[p], lmax, offsets)
-        c = np.empty((n, 3))
-        fetch_into(table, views[p, 0], views[p, 1], views[p, 2], c)
+    bs = PIXEL_BLOCK
+    r1 = np.empty((3, 3, bs))
+    pbuf = np.empty((p_rows(lmax), bs))
+    flat = np.empty((offsets[-1], bs))
+    c = np.empty((n, 3))
+    cb = np.empty((n, 3, bs))
+    for blk in range(b0, b1):
+        p0 = blk * bs
+        nb = min(bs, n_pix - p0)
+        _block_frames(frames, lmax, offsets, uvw, p0, nb, r1, pbuf, flat)
+        for k in range(nb):
+            p = p0 + k
+            fetch_into(table, views[p, 0], views[p, 1], views[p, 2], c)
+            for i in range(n):
+                for ch in range(3):
+                    cb[i, ch, k] = c[i, ch]
         for l in range(lmax + 1):
             size = 2 * l + 1
-            blk = flat[offsets[l] : offsets[l + 1]].reshape((size, size))
+            o = offsets[l]
             base = l * l
             for j in range(size):
                 for ch in range(3):
-                    acc = 0.0
-                    for i in range(size):
-                        acc += blk[i, j] * c[base + i, ch]
-                    out[p, base + j, ch] = acc
+                    for k in range(nb):
+                        acc = 0.0
+                        for i in range(size):
+                            acc += flat[o + i * size + j, k] * cb[base + i, ch, k]
+                        out[p0 + k, base + j, ch] = acc
 
 
-@pjit
+def rotate_coeffs_to_world(frames, views, table, lmax, offsets, out):
+    """``out[p] = M(R_p)ᵀ c(v_p)`` (the fixed-view precomputation; blocked as
+    :func:`rotate_lighting`). Check-free."""
+    uvw = np.empty(3 * int(offsets[-1]))
+    rotation_coefficients(lmax, offsets, uvw)
+    n_pix = frames.shape[0]
+    run_blocks(_to_world_blocks, _blocks(n_pix), n_pix * 12.0 * offsets[-1],
+               frames, views, table, lmax, offsets, uvw, out)  # fmt: skip
+
+
+@jit
+def _dot3(Lp, c):
+    """``Σ_i Lp[i, ch] c[3i + ch]`` per channel, ``i`` ascending (three chains interleaved)."""
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
+    for i in range(Lp.shape[0]):
+        a0 += Lp[i, 0] * c[3 * i]
+        a1 += Lp[i, 1] * c[3 * i + 1]
+        a2 += Lp[i, 2] * c[3 * i + 2]
+    return a0, a1, a2
+
+
+@jit
+def _lookup_dot_blocks(views, table, L_local, out, b0, b1):
+    c = np.empty(table.shape[2])
+    for p in range(b0 * PIXEL_BLOCK, min(views.shape[0], b1 * PIXEL_BLOCK)):
+        fetch_flat_into(table, views[p, 0], views[p, 1], views[p, 2], c)
+        out[p, 0], out[p, 1], out[p, 2] = _dot3(L_local[p], c)
+
+
+@jit
+def _shade_full_blocks(frames, views, table, L, lmax, offsets, uvw, out, b0, b1):
+    n_pix = frames.shape[0]
+    n = (lmax + 1) * (lmax + 1)
+    bs = PIXEL_BLOCK
+    r1 = np.empty((3, 3, bs))
+    pbuf = np.empty((p_rows(lmax), bs))
+    flat = np.empty((offsets[-1], bs))
+    acc = np.empty((n, 3, bs))
+    c = np.empty(table.shape[2])
+    for blk in range(b0, b1):
+        p0 = blk * bs
+        nb = min(bs, n_pix - p0)
+        _block_frames(frames, lmax, offsets, uvw, p0, nb, r1, pbuf, flat)
+        _apply_blocks(flat, L, lmax, offsets, nb, acc)
+        for k in range(nb):
+            p = p0 + k
+            fetch_flat_into(table, views[p, 0], views[p, 1], views[p, 2], c)
+            out[p, 0], out[p, 1], out[p, 2] = _dot3(acc[:, :, k], c)
+
+
+def shade_full(frames, views, table, L, lmax, offsets, out):
+    """Steps 1–4 fused, one frame with both light and view changing: ``out[p] = Σ_i
+    (M(R_p) L)_i c_i(v_p)``, the same values and summation order as
+    :func:`rotate_lighting` then :func:`lookup_dot`, without storing ``M(R_p) L``.
+
+    Rotation blocks built per pixel block (:data:`PIXEL_BLOCK`, vectorised
+    across it) in scratch allocated once per range of blocks. Check-free.
+    """
+    uvw = np.empty(3 * int(offsets[-1]))
+    rotation_coefficients(lmax, offsets, uvw)
+    n_pix = frames.shape[0]
+    flat = table.reshape(table.shape[0], table.shape[1], -1)
+    run_blocks(_shade_full_blocks, _blocks(n_pix), n_pix * 16.0 * offsets[-1],
+               frames, views, flat, L, lmax, offsets, uvw, out)  # fmt: skip
+
+
 def lookup_dot(views, table, L_local, out):
-    """Steps 3–4 with pre-rotated lighting (fixed-light frame)."""
-    n = table.shape[2]
-    for p in prange(views.shape[0]):
-        c = np.empty((n, 3))
-        fetch_into(table, views[p, 0], views[p, 1], views[p, 2], c)
-        for ch in range(3):
-            acc = 0.0
-            for i in range(n):
-                acc += L_local[p, i, ch] * c[i, ch]
-            out[p, ch] = acc
+    """Steps 3–4 with pre-rotated lighting (fixed-light frame): the bilinear fetch of
+    :func:`~shbake.texture.parabolic.fetch_into` fused with the dot product (nothing
+    allocated per pixel). Check-free."""
+    n_pix = views.shape[0]
+    flat = table.reshape(table.shape[0], table.shape[1], -1)
+    run_blocks(_lookup_dot_blocks, _blocks(n_pix), n_pix * 10.0 * flat.shape[2],
+               views, flat, L_local, out)  # fmt: skip
 
 
-@pjit
-def dot_world(coeffs_world, L, out):
-    """The fixed-view frame: ``Q = Σ_i L_i (M(R_p)ᵀ c)_i``."""
+@jit
+def _dot_world_blocks(coeffs_world, L, out, b0, b1):
     n = L.shape[0]
-    for p in prange(coeffs_world.shape[0]):
+    for p in range(b0 * PIXEL_BLOCK, min(coeffs_world.shape[0], b1 * PIXEL_BLOCK)):
         for ch in range(3):
             acc = 0.0
             for i in range(n):
                 acc += L[i, ch] * coeffs_world[p, i, ch]
             out[p, ch] = acc
+
+
+def dot_world(coeffs_world, L, out):
+    """The fixed-view frame: ``Q = Σ_i L_i (M(R_p)ᵀ c)_i``. Check-free."""
+    n_pix = coeffs_world.shape[0]
+    run_blocks(_dot_world_blocks, _blocks(n_pix), n_pix * 6.0 * L.shape[0],
+               coeffs_world, L, out)  # fmt: skip
 
 
 def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:

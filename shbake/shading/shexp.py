@@ -15,10 +15,9 @@ coefficients are continuous in ``α`` (no seam). Full radiance:
 Fitted by :mod:`shbake.bakers.shexp`.
 """
 
-import numba
 import numpy as np
 
-from shbake.jit import jit, pjit
+from shbake.jit import jit, run_blocks
 from shbake.sh.basis import recurrence_tables, sh_eval_into
 from shbake.shading.dfg import dfg_at
 
@@ -71,13 +70,32 @@ def mirror_and_half(views, normals) -> tuple[np.ndarray, np.ndarray]:
     return rho, h / np.linalg.norm(h, axis=-1, keepdims=True)
 
 
-@pjit
-def _evaluate(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qmm, a, b, table, out):
+PIXEL_BLOCK = 256
+"""Shading points per work item of :func:`evaluate_shexp` (scratch is allocated once per
+range of items, never per point)."""
+
+
+@jit
+def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qmm, a, b, table,
+                     out, b0, b1):  # fmt: skip
+    """Points ``b0·PIXEL_BLOCK … b1·PIXEL_BLOCK − 1`` of :func:`evaluate_shexp` (check-free).
+
+    Per distinct ``α`` (a run of equal ``α`` reuses them): the vMF factors
+    ``exp(−l(l+1)α/2)`` once per band (eq. 12; not per channel) and the
+    hat-blended coefficients ``Σ_k h_k(α) p_k``. Per point: the two SH
+    evaluations, the sums, ``exp`` and the DFG term.
+    """
     n_sets = knots.shape[0]
-    for k in numba.prange(views.shape[0]):
-        yp = np.empty((lmax_p + 1) ** 2)
-        yq = np.empty((lmax_q + 1) ** 2)
-        hw = np.empty(n_sets)
+    n_p = (lmax_p + 1) ** 2
+    n_q = (lmax_q + 1) ** 2
+    yp = np.empty(n_p)
+    yq = np.empty(n_q)
+    hw = np.empty(n_sets)
+    g = np.empty(max(lmax_p, lmax_q) + 1)
+    cp = np.empty((n_p, 3))
+    cq = np.empty((n_q, 3))
+    al_prev = np.nan
+    for k in range(b0 * PIXEL_BLOCK, min(views.shape[0], b1 * PIXEL_BLOCK)):
         vx, vy, vz = views[k, 0], views[k, 1], views[k, 2]
         nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
         nv = nx * vx + ny * vy + nz * vz
@@ -87,26 +105,33 @@ def _evaluate(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qmm, a, b
         sh_eval_into(rx, ry, rz, lmax_p, qmm, a, b, yp)
         sh_eval_into(hx / hn, hy / hn, hz / hn, lmax_q, qmm, a, b, yq)
         al = alphas[k]
-        for s in range(n_sets):
-            hw[s] = hat_weight(knots, al, s)
+        if al != al_prev:
+            al_prev = al
+            for s in range(n_sets):
+                hw[s] = hat_weight(knots, al, s)
+            for l in range(g.shape[0]):
+                g[l] = np.exp(-l * (l + 1) * al / 2.0)
+            for c in range(3):
+                for i in range(n_p):
+                    coef = 0.0
+                    for s in range(n_sets):
+                        coef += hw[s] * p[s, i, c]
+                    cp[i, c] = coef
+                for i in range(1, n_q):
+                    coef = 0.0
+                    for s in range(n_sets):
+                        coef += hw[s] * q[s, i - 1, c]
+                    cq[i, c] = coef
         a0, a1 = dfg_at(table, nv, al)
         tail = a1 / a0 if a0 > 0.0 else 0.0
         for c in range(3):
             acc = 0.0
             for l in range(lmax_p + 1):
-                g = np.exp(-l * (l + 1) * al / 2.0)
                 for i in range(l * l, (l + 1) * (l + 1)):
-                    coef = 0.0
-                    for s in range(n_sets):
-                        coef += hw[s] * p[s, i, c]
-                    acc += g * yp[i] * coef
+                    acc += g[l] * yp[i] * cp[i, c]
             for l in range(1, lmax_q + 1):
-                g = np.exp(-l * (l + 1) * al / 2.0)
                 for i in range(l * l, (l + 1) * (l + 1)):
-                    coef = 0.0
-                    for s in range(n_sets):
-                        coef += hw[s] * q[s, i - 1, c]
-                    acc += g * yq[i] * coef
+                    acc += g[l] * yq[i] * cq[i, c]
             e0 = np.exp(acc)
             out[k, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
 
@@ -137,7 +162,8 @@ def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots
     out = np.empty((v.shape[0], 3))
     f0 = np.broadcast_to(np.asarray(f0, float), (3,)).copy()
     qmm, a, b = recurrence_tables(max(lmax_p, lmax_q))
-    _evaluate(
+    run_blocks(
+        _evaluate_blocks, -(-v.shape[0] // PIXEL_BLOCK), v.shape[0] * 20.0 * p.shape[1],
         v, n, al, f0, np.ascontiguousarray(p), np.ascontiguousarray(q), knots, lmax_p, lmax_q,
         qmm, a, b, np.asarray(table, float), out,
     )  # fmt: skip

@@ -47,15 +47,37 @@ def texel_views(height: int, width: int) -> np.ndarray:
 
 
 @jit
+def taps(h, w, vx, vy, vz):
+    """Bilinear taps of unit view ``v`` in an ``h × w`` map: ``(y0, y1, fy, x0, x1, fx)``.
+
+    Check-free kernel; views below the horizon read the rim.
+    """
+    z = vz if vz > 0.0 else 0.0
+    y0, y1, fy = axis((vy / (1.0 + z) + 1.0) * 0.5 * h - 0.5, h)
+    x0, x1, fx = axis((vx / (1.0 + z) + 1.0) * 0.5 * w - 0.5, w)
+    return y0, y1, fy, x0, x1, fx
+
+
+@jit
+def fetch_flat_into(table, vx, vy, vz, out):
+    """``out (M,) = c(v)`` for a C-contiguous ``table (H, W, M)``: :func:`fetch_into` on the
+    texels' values flattened (one loop over them, which vectorises). Check-free kernel."""
+    y0, y1, fy, x0, x1, fx = taps(table.shape[0], table.shape[1], vx, vy, vz)
+    t00 = table[y0, x0]
+    t01 = table[y0, x1]
+    t10 = table[y1, x0]
+    t11 = table[y1, x1]
+    for e in range(out.shape[0]):
+        out[e] = blend(t00[e], t01[e], t10[e], t11[e], fy, fx)
+
+
+@jit
 def fetch_into(table, vx, vy, vz, out):
     """``out (n, C) = c(v)`` by bilinear filtering of ``table (H, W, n, C)``, edges clamped.
 
     Check-free kernel: ``v`` unit; views below the horizon read the rim.
     """
-    h, w = table.shape[0], table.shape[1]
-    z = vz if vz > 0.0 else 0.0
-    y0, y1, fy = axis((vy / (1.0 + z) + 1.0) * 0.5 * h - 0.5, h)
-    x0, x1, fx = axis((vx / (1.0 + z) + 1.0) * 0.5 * w - 0.5, w)
+    y0, y1, fy, x0, x1, fx = taps(table.shape[0], table.shape[1], vx, vy, vz)
     for i in range(table.shape[2]):
         for c in range(table.shape[3]):
             out[i, c] = blend(
