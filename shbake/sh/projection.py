@@ -333,7 +333,9 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
             _dots(buf, 1, nc, nj, j0, cos_t, 1, nm, acc, False)  # odd m: O · cos
             _dots(buf, 2, nc, nj, j0, sin_t, 2, nm, acc, True)  # even m > 0: DO · sin
             _dots(buf, 3, nc, nj, j0, sin_t, 1, nm, acc, True)  # odd m: DE · sin
-        out[i] = acc
+        for c in range(nc):
+            for k in range(2 * nm - 1):
+                out[c, k, i] = acc[c, k]
 
 
 @jit(fastmath=_FAST)
@@ -369,7 +371,9 @@ def _row_sums_half(img, cos_t, sin_t, out, b0, b1):
             _dots(buf, 0, nc, nj, j0, cos_t, 1, nm, acc, False)
             _dots(buf, 1, nc, nj, j0, sin_t, 1, nm, acc, True)
             _dots(buf, 1, nc, nj, j0, sin_t, 2, nm, acc, True)
-        out[i] = acc
+        for c in range(nc):
+            for k in range(2 * nm - 1):
+                out[c, k, i] = acc[c, k]
 
 
 def _row_sums_fft(img, lmax):
@@ -418,7 +422,8 @@ def row_sums(img, lmax: int, method: str = "numba") -> np.ndarray:
     ``img`` is ``(H, W, C)`` float32/float64 (read in place when C-contiguous).
     Table kernels below :data:`FFT_MIN_LMAX` (or when ``2 lmax ≥ W``), a real
     FFT above. ``method="numba"``: the folded kernels, threads by
-    :func:`shbake.jit.run_blocks` (SPEC §6); ``"blas"``: :func:`_row_sums_blas`.
+    :func:`shbake.jit.run_blocks` (SPEC §6), returning a view of a
+    ``(C, 2 lmax+1, H)`` array; ``"blas"``: :func:`_row_sums_blas`.
     """
     h, w, nc = img.shape
     if lmax >= FFT_MIN_LMAX and 2 * lmax < w:
@@ -427,64 +432,114 @@ def row_sums(img, lmax: int, method: str = "numba") -> np.ndarray:
         return _row_sums_blas(img, lmax)
     img = np.ascontiguousarray(img)
     cos_t, sin_t = azimuth_tables(w, lmax)
-    out = np.empty((h, nc, 2 * lmax + 1))
+    out = np.empty((nc, 2 * lmax + 1, h))  # the latitude stage reads rows contiguously
     kernel = _row_sums_quarter if w % 4 == 0 else _row_sums_half
     n_blocks = -(-h // ROWS_PER_BLOCK)
     work = h * w * nc * (lmax + 2)
     run_blocks(kernel, n_blocks, work, img, cos_t, sin_t, out)
-    return out
+    return out.transpose(2, 0, 1)
 
 
-@jit(fastmath={"contract"})
-def _legendre_sums(plus, minus, z, scale0, sin_t, lmax, qmm, a, b, out):
+@jit(fastmath=_FAST)
+def _legendre_sums(sums, z, scale0, sin_t, lmax, qmm, a, b, out):
     """Latitude stage: ``out[l(l+1)±m, c] = Σ_i P̄_l^m(z_i) w_i √2^[m>0] S_i[c, cos|sin m]``.
 
-    Rows are paired with their mirror ``H-1-i`` (``z → -z``, ``P̄_l^m → (-1)^{l-m} P̄_l^m``):
-    ``plus``/``minus`` hold ``S_i ± S_{H-1-i}`` as ``(C, 2 lmax+1, ⌈H/2⌉)``, so each
-    ``(l, m, c)`` term is one dot product over half the rows, with ``Q_l^m`` from
-    :func:`~shbake.sh.basis.legendre_next` vectorised over rows. ``scale0`` = row
-    weights, ``sin_t`` = ``sin θ_i``. Check-free kernel.
+    ``sums`` holds the row sums ``S`` as ``(C, 2 lmax+1, H)``. Rows are paired
+    with their mirror ``H-1-i`` (``z → -z``, ``P̄_l^m → (-1)^{l-m} P̄_l^m``):
+    for each ``m`` the pair sums and differences of the ``cos mφ'`` and
+    ``sin mφ'`` columns are formed once over the ``⌈H/2⌉`` upper rows (the
+    equator row of an odd ``H`` is its own mirror), then every ``l`` is one pass
+    over those rows that advances ``Q_l^m`` by
+    :func:`~shbake.sh.basis.legendre_next` and accumulates the ``2C`` sums
+    (summed in vector lanes: ``fastmath`` reassociation). ``z = cos θ_i``,
+    ``scale0`` = row weights, ``sin_t = sin θ_i`` for the upper rows.
+    Check-free kernel.
     """
-    nc = plus.shape[0]
+    nc = sums.shape[0]
+    h = sums.shape[2]
     n = z.shape[0]
     q1 = np.empty(n)
     q2 = np.empty(n)
     scale = np.empty(n)
-    qs = np.empty(n)
+    pc = np.empty((nc, n))  # cos column: S_i + S_{H-1-i}
+    mc = np.empty((nc, n))  # cos column: S_i - S_{H-1-i}
+    ps = np.zeros((nc, n))  # sin column (m > 0)
+    ms = np.zeros((nc, n))
     for i in range(n):
         scale[i] = scale0[i]
     for m in range(lmax + 1):
         kc = 0 if m == 0 else 2 * m - 1
         f = 1.0 if m == 0 else 1.4142135623730951
+        for c in range(nc):
+            col = sums[c, kc]
+            rev = col[::-1]
+            for i in range(n):
+                pc[c, i] = col[i] + rev[i]
+                mc[c, i] = col[i] - rev[i]
+            if m > 0:
+                col = sums[c, 2 * m]
+                rev = col[::-1]
+                for i in range(n):
+                    ps[c, i] = col[i] + rev[i]
+                    ms[c, i] = col[i] - rev[i]
+            if h % 2 == 1:  # the equator row pairs with itself
+                pc[c, n - 1] = mc[c, n - 1] = sums[c, kc, n - 1]
+                if m > 0:
+                    ps[c, n - 1] = ms[c, n - 1] = sums[c, 2 * m, n - 1]
         for i in range(n):
             if m > 0:
                 scale[i] *= sin_t[i]
-            q1[i] = qmm[m]
+            q1[i] = qmm[m] * scale[i]  # Q_m^m w_i sin^m θ_i: the recurrence is linear
             q2[i] = 0.0
         for l in range(m, lmax + 1):
-            if l > m:
-                for i in range(n):
-                    q = legendre_next(a[l, m], b[l, m], z[i], q1[i], q2[i])
-                    q2[i] = q1[i]
-                    q1[i] = q
-            for i in range(n):
-                qs[i] = q1[i] * scale[i] * f
-            src = plus if (l - m) % 2 == 0 else minus
+            even = (l - m) % 2 == 0
+            xc = pc if even else mc
+            xs = ps if even else ms
+            alm = a[l, m]
+            blm = b[l, m]
             base = l * (l + 1)
-            for c in range(nc):
-                acc = 0.0
+            if nc == 3:
+                c0 = c1 = c2 = s0 = s1 = s2 = 0.0
                 for i in range(n):
-                    acc += qs[i] * src[c, kc, i]
-                out[base + m, c] = acc
+                    if l > m:
+                        q = legendre_next(alm, blm, z[i], q1[i], q2[i])
+                        q2[i] = q1[i]
+                        q1[i] = q
+                    else:
+                        q = q1[i]
+                    c0 += q * xc[0, i]
+                    c1 += q * xc[1, i]
+                    c2 += q * xc[2, i]
+                    s0 += q * xs[0, i]
+                    s1 += q * xs[1, i]
+                    s2 += q * xs[2, i]
+                out[base + m, 0] = f * c0
+                out[base + m, 1] = f * c1
+                out[base + m, 2] = f * c2
                 if m > 0:
-                    acc = 0.0
+                    out[base - m, 0] = f * s0
+                    out[base - m, 1] = f * s1
+                    out[base - m, 2] = f * s2
+            else:
+                if l > m:
                     for i in range(n):
-                        acc += qs[i] * src[c, 2 * m, i]
-                    out[base - m, c] = acc
+                        q = legendre_next(alm, blm, z[i], q1[i], q2[i])
+                        q2[i] = q1[i]
+                        q1[i] = q
+                for c in range(nc):
+                    cs = 0.0
+                    ss = 0.0
+                    for i in range(n):
+                        cs += q1[i] * xc[c, i]
+                        ss += q1[i] * xs[c, i]
+                    out[base + m, c] = f * cs
+                    if m > 0:
+                        out[base - m, c] = f * ss
 
 
 def _legendre_sums_numpy(plus, minus, z, scale0, sin_t, lmax, qmm, a, b, out):
-    """:func:`_legendre_sums` with numpy: the recurrence vectorised over rows (no numba)."""
+    """:func:`_legendre_sums` with numpy (no numba): the mirror pair sums given as ``plus``
+    and ``minus``, ``(C, 2 lmax+1, ⌈H/2⌉)``; the recurrence vectorised over rows."""
     step = legendre_next.py_func
     scale = np.array(scale0, dtype=np.float64)
     for m in range(lmax + 1):
@@ -531,6 +586,15 @@ def project_latlong_image_frame(img, lmax: int, method: str = "numba") -> np.nda
     h, w, nc = img.shape
     sums = row_sums(img, lmax, method)
     n = (h + 1) // 2
+    theta = np.pi * (np.arange(n) + 0.5) / h
+    z, sin_t = np.cos(theta), np.sin(theta)
+    weights = fejer_row_weights(h, w)[:n]
+    qmm, a, b = recurrence_tables(lmax)
+    out = np.empty((n_coeffs(lmax), nc))
+    if method != "blas":
+        rows = np.ascontiguousarray(sums.transpose(1, 2, 0))  # no copy after the numba kernels
+        _legendre_sums(rows, z, weights, sin_t, lmax, qmm, a, b, out)
+        return out
     top = sums[:n]
     bottom = sums[::-1][:n]
     plus = top + bottom
@@ -540,22 +604,7 @@ def project_latlong_image_frame(img, lmax: int, method: str = "numba") -> np.nda
         minus[n - 1] = top[n - 1]
     plus = np.ascontiguousarray(plus.transpose(1, 2, 0))
     minus = np.ascontiguousarray(minus.transpose(1, 2, 0))
-    theta = np.pi * (np.arange(n) + 0.5) / h
-    qmm, a, b = recurrence_tables(lmax)
-    out = np.empty((n_coeffs(lmax), nc))
-    stage = _legendre_sums_numpy if method == "blas" else _legendre_sums
-    stage(
-        plus,
-        minus,
-        np.cos(theta),
-        fejer_row_weights(h, w)[:n],
-        np.sin(theta),
-        lmax,
-        qmm,
-        a,
-        b,
-        out,
-    )
+    _legendre_sums_numpy(plus, minus, z, weights, sin_t, lmax, qmm, a, b, out)
     return out
 
 
