@@ -93,6 +93,7 @@ COLUMN_BLOCK = 256
 of the block stay in L1 while every ``m`` reads them."""
 
 _FAST = {"reassoc", "contract"}
+_U = np.uint64
 
 
 @jit(fastmath=_FAST, inline="always")
@@ -264,11 +265,11 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     cache-blocked ``(C × W/4) · (W/4 × 2 lmax+1)`` product, :func:`_dots`).
 
     The fold reads the row as one flat run of ``W C`` values: columns ``j``
-    and ``W/2+j`` forwards, columns ``W-1-j`` and ``W/2-1-j`` through a
-    reversed view (channel ``c`` of column ``W-1-j`` is element ``C j + C-1-c``
-    of ``row[::-1]``), so every access is a unit-stride run and the RGB fold
-    vectorises (de-interleave, float32 → float64, butterflies). No zero-fill,
-    no copy of the image. Check-free kernel.
+    and ``W/2+j`` forwards, columns ``W-1-j`` and ``W/2-1-j`` backwards with
+    unsigned indices (no negative-index wrap, so LLVM sees reversed
+    interleaved runs, not gathers), and the RGB fold vectorises
+    (de-interleave, float32 → float64, butterflies). No zero-fill, no copy of
+    the image. Check-free kernel.
     """
     h, w, nc = img.shape
     nq = w // 4
@@ -283,50 +284,36 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
             nj = min(COLUMN_BLOCK, nq - j0)
             fa = f[nc * j0 :]  # column j0 + j
             fd = f[nc * (half + j0) :]  # column W/2 + j0 + j
-            fb = f[: nc * (w - j0)][::-1]  # column W-1-j0-j, channels reversed
-            fc = f[: nc * (half - j0)][::-1]  # column W/2-1-j0-j, channels reversed
+            rb = _U(nc * (w - 1 - j0))  # column W-1-j0-j starts at rb - C j
+            rc = _U(nc * (half - 1 - j0))  # column W/2-1-j0-j starts at rc - C j
             if nc == 3:  # RGB: channels unrolled (one interleaved group per access)
                 for j in range(nj):
                     k = 3 * j
-                    _butterfly4(
-                        np.float64(fa[k]),
-                        np.float64(fb[k + 2]),
-                        np.float64(fc[k + 2]),
-                        np.float64(fd[k]),
-                        buf,
-                        0,
-                        j,
-                    )
-                    _butterfly4(
-                        np.float64(fa[k + 1]),
-                        np.float64(fb[k + 1]),
-                        np.float64(fc[k + 1]),
-                        np.float64(fd[k + 1]),
-                        buf,
-                        1,
-                        j,
-                    )
-                    _butterfly4(
-                        np.float64(fa[k + 2]),
-                        np.float64(fb[k]),
-                        np.float64(fc[k]),
-                        np.float64(fd[k + 2]),
-                        buf,
-                        2,
-                        j,
-                    )
+                    b = rb - _U(k)
+                    c = rc - _U(k)
+                    for ch in range(3):
+                        _butterfly4(
+                            np.float64(fa[k + ch]),
+                            np.float64(f[b + _U(ch)]),
+                            np.float64(f[c + _U(ch)]),
+                            np.float64(fd[k + ch]),
+                            buf,
+                            ch,
+                            j,
+                        )
             else:
                 for j in range(nj):
                     k = nc * j
-                    for c in range(nc):
-                        r = k + nc - 1 - c
+                    b = rb - _U(k)
+                    c = rc - _U(k)
+                    for ch in range(nc):
                         _butterfly4(
-                            np.float64(fa[k + c]),
-                            np.float64(fb[r]),
-                            np.float64(fc[r]),
-                            np.float64(fd[k + c]),
+                            np.float64(fa[k + ch]),
+                            np.float64(f[b + _U(ch)]),
+                            np.float64(f[c + _U(ch)]),
+                            np.float64(fd[k + ch]),
                             buf,
-                            c,
+                            ch,
                             j,
                         )
             _dots(buf, 0, nc, nj, j0, cos_t, 0, nm, acc, False)  # even m: E · cos
@@ -355,12 +342,13 @@ def _row_sums_half(img, cos_t, sin_t, out, b0, b1):
             nj = min(COLUMN_BLOCK, nh - j0)
             npair = min(nj, pairs - j0)
             fa = f[nc * j0 :]
-            fb = f[: nc * (w - j0)][::-1]
+            rb = _U(nc * (w - 1 - j0))
             for j in range(npair):
                 k = nc * j
+                b = rb - _U(k)
                 for c in range(nc):
                     va = np.float64(fa[k + c])
-                    vb = np.float64(fb[k + nc - 1 - c])
+                    vb = np.float64(f[b + _U(c)])
                     buf[0, c, j] = va + vb
                     buf[1, c, j] = va - vb
             if npair < nj:  # odd width: the middle column, φ' = -π
