@@ -392,15 +392,19 @@ def _full_table(width: int, lmax: int) -> np.ndarray:
 
 
 def _row_sums_blas(img, lmax):
-    """:func:`row_sums` by BLAS: rows converted to float64 in ~4 MB chunks, one matrix
-    product per chunk against the whole-row table (no numba)."""
+    """:func:`row_sums` by BLAS (no numba): rows converted to float64 channel-major in ~4 MB
+    chunks — one strided cast, ``(R, W, C) → (R, C, W)`` — and one ``(R C × W) · (W × 2 lmax+1)``
+    matrix product per chunk against the whole-row table."""
     h, w, nc = img.shape
     table = _full_table(w, lmax)
     out = np.empty((h, nc, 2 * lmax + 1))
     rows = max(1, (4 << 20) // (w * nc * 8))
+    buf = np.empty((min(rows, h), nc, w))
     for r0 in range(0, h, rows):
-        chunk = img[r0 : r0 + rows].astype(np.float64)
-        np.matmul(chunk.transpose(0, 2, 1), table, out=out[r0 : r0 + rows])
+        r1 = min(h, r0 + rows)
+        chunk = buf[: r1 - r0]
+        np.copyto(chunk, img[r0:r1].transpose(0, 2, 1))
+        np.matmul(chunk.reshape(-1, w), table, out=out[r0:r1].reshape(-1, 2 * lmax + 1))
     return out
 
 
