@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from shbake.envmap import load_environment
+from shbake.envmap.repair import apply_negative_policy
 from shbake.sh import projection
 from shbake.sh.projection import project_latlong
 from tests.helpers import SHARED_MAPS, map_path
@@ -124,3 +125,36 @@ def _direct_table(w, lmax):
     for m in range(1, lmax + 1):
         cols += [np.cos(m * phi), np.sin(m * phi)]
     return np.stack(cols, axis=1)
+
+
+class TestApplyNegativePolicy:
+    """The clamp writes only the negatives (issue 15); same pixels as ``np.maximum``."""
+
+    def test_clamp_matches_maximum_and_energy(self):
+        rng = np.random.default_rng(5)
+        px = (rng.random((16, 32, 3)) - 0.2).astype(np.float32)
+        omega = rng.random((16, 32))
+        ref = np.maximum(px, 0.0)
+        energy = ((ref - px).astype(np.float64) * omega[:, :, None]).sum(axis=(0, 1))
+        for inplace in (False, True):
+            src = px.copy()
+            out, count, change = apply_negative_policy(
+                src, omega, "clamp", "x", quiet=True, inplace=inplace
+            )
+            assert out.tobytes() == ref.tobytes()
+            assert (out is src) == inplace
+            if not inplace:
+                assert src.tobytes() == px.tobytes()
+            assert count == int(np.any(px < 0, axis=2).sum())
+            np.testing.assert_allclose(change, energy, rtol=1e-12)
+
+    def test_non_contiguous_pixels(self):
+        px = (np.random.default_rng(6).random((8, 8, 4)) - 0.5).astype(np.float32)
+        view = px[:, :, :3]  # RGB of RGBA: not contiguous
+        out, _, _ = apply_negative_policy(view, np.ones((8, 8)), "clamp", "x", True, True)
+        assert np.array_equal(px[:, :, :3], np.maximum(view, 0)) and out.min() >= 0
+
+    def test_no_negatives_returns_the_input(self):
+        px = np.ones((4, 8, 3), np.float32)
+        out, count, change = apply_negative_policy(px, np.ones((4, 8)), "clamp", "x")
+        assert out is px and count == 0 and not change.any()

@@ -62,10 +62,11 @@ def apply_negative_policy(
         raise ParameterError(f"unknown --negative {policy!r}; choose one of clamp, keep, error")
     nc = pixels.shape[2]
     change = np.zeros(nc)
-    if not pixels.size or pixels.min() >= 0:  # one read-only pass in the common case
+    negative = pixels < 0  # one pass; everything after it touches only the (few) negatives
+    if not negative.any():
         return pixels, 0, change
-    # The (few) negative values; everything else touches only them.
-    flat_idx = np.flatnonzero(pixels < 0)
+    flat_idx = np.flatnonzero(negative)  # C-order indices, as pixels.flat
+    del negative
     texel = flat_idx // nc
     count = int(np.count_nonzero(np.diff(texel))) + 1  # flat_idx is sorted
     values = pixels.reshape(-1)[flat_idx].astype(np.float64)
@@ -85,4 +86,6 @@ def apply_negative_policy(
             f"(min {float(values.min()):.6g}; ∫L dω change {np.array2string(change, precision=4)})",
             file=sys.stderr,
         )
-    return np.maximum(pixels, 0.0, out=pixels if inplace else None), count, change
+    out = pixels if inplace else pixels.copy()
+    out.flat[flat_idx] = 0.0  # the clamp writes the negatives only
+    return out, count, change
