@@ -1,6 +1,13 @@
 """SH-exp v2 and the paper's SH-exp against both split-sums on the six shared maps.
 
-Usage: ``python bench/probe_eval.py [--jobs 2] [--size 32] [--truth-samples 2048] [MAP …]``
+Usage: ``python bench/probe_eval.py [--jobs 2] [--size 32] [--truth-samples 2048]
+[--roughness R …] [--eps 0.01] [--face-size 64] [--no-shrm] [--out PREFIX] [MAP …]``
+
+The three-way table of ``docs/BENCHMARKS.md`` (SH-exp, split-sum, GGX SHRM at
+ε = 0.01; issue 13)::
+
+    python bench/probe_eval.py --jobs 2 --truth-samples 4096 --roughness 0.25 0.4 0.5 \
+        --out bench/results/probe_eval_shrm
 
 Runs :func:`shbake.batch.probe_eval.evaluate_maps` (2 materials × the paper's
 six α × 4 views per map) with one process per map (``--jobs`` at a time,
@@ -24,13 +31,14 @@ RESULTS = ROOT / "bench" / "results"
 
 
 def one_map(args):
-    path, size, samples = args
+    path, size, samples, roughness, eps, face_size = args
     import numba
 
     numba.set_num_threads(1)
     from shbake.batch.probe_eval import evaluate_maps
 
-    return evaluate_maps([path], size, samples, cache_dir=os.environ.get("SHBAKE_TRUTH_CACHE"))
+    return evaluate_maps([path], size, samples, cache_dir=os.environ.get("SHBAKE_TRUTH_CACHE"),
+                         roughness=roughness, shrm_eps=eps, shrm_face_size=face_size)
 
 
 def main():
@@ -39,11 +47,18 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--size", type=int, default=32)
     ap.add_argument("--truth-samples", type=int, default=2048)
+    ap.add_argument("--roughness", type=float, nargs="+", default=None,
+                    help="perceptual roughness of the cases (default: the paper's six)")
+    ap.add_argument("--eps", type=float, default=0.01, help="GGX SHRM tolerance")
+    ap.add_argument("--face-size", type=int, default=64, help="GGX SHRM face size")
+    ap.add_argument("--no-shrm", action="store_true", help="leave the GGX SHRM out")
     ap.add_argument("--out", default=str(RESULTS / "probe_eval"))
     args = ap.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     paths = args.maps or [str(ROOT.parent / "shared" / "hdri" / f"{m}.exr") for m in MAPS]
-    work = [(p, args.size, args.truth_samples) for p in paths]
+    eps = None if args.no_shrm else args.eps
+    work = [(p, args.size, args.truth_samples, args.roughness, eps, args.face_size)
+            for p in paths]  # fmt: skip
     with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
         parts = list(pool.map(one_map, work))
     result = parts[0]

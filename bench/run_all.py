@@ -14,7 +14,10 @@ SCRIPTS = (
     ["probe_fit.py"],
     ["probe_throughput.py", "--dask", "60"],
     ["probe_targets.py"],
-    ["probe_eval.py"],
+    ["probe_eval.py", "--no-shrm"],
+    ["probe_eval.py", "--truth-samples", "4096", "--roughness", "0.25", "0.4", "0.5",
+     "--out", str(HERE / "results" / "probe_eval_shrm")],
+    ["shrm.py", "--sections", "energy", "--out", str(HERE / "results" / "shrm_energy.md")],
 )
 
 for script, *args in SCRIPTS:

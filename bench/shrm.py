@@ -16,15 +16,17 @@ Sections (all in one process, same machine state; ``--sections`` picks):
 ``speed``   σ = 0.1 with ``F = 24``, ``P = 3`` at 64²×6 on the full 256×512 city map
             (paper: 1.55 s), best of 5; the eq. 12 update at 64²×6 (best of 20) and a
             192² sphere frame (eq. 12 + cube lookup).
-``ggx``     The GGX SHRM against ground truth (:func:`shbake.reference.ggx.ggx_integrals`,
-            4096 samples) and the split-sum probe (default config) on the six shared
-            maps × roughness 0.25, 0.4 (``α = r²``) × F0 1, 0.04 × 4 view yaws, 32²
-            spheres: MSE per case, wins, bytes per probe.
+``energy``  GGX: the BRDF energy captured vs F, P (E0, E1 at r 0.25, 0.4, 0.5, 0.8), why
+            ε = 0.01 is out of reach within F ≤ 64, P ≤ 16. The GGX SHRM against
+            ground truth, split-sum and SH-exp is ``probe-eval`` (``bench/probe_eval.py``).
 
 Threads: numba uses ``NUMBA_NUM_THREADS`` (2 on these machines); the figures
 were taken while other jobs shared the 2 cores, so they are provisional.
 
-    NUMBA_NUM_THREADS=2 .venv/bin/python bench/shrm.py [--sections phong,micro,speed,ggx]
+    NUMBA_NUM_THREADS=2 .venv/bin/python bench/shrm.py [--sections phong,micro,speed,energy]
+        [--out F]
+
+(the energy section alone: ``--sections energy --out bench/results/shrm_energy.md``)
 
 Writes ``bench/results/shrm.md``.
 """
@@ -48,14 +50,13 @@ from shbake.bakers.shrm_angular import angular_reflection_maps
 from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment
 from shbake.preview.sphere import sphere_geometry
-from shbake.shading.shrm import evaluate_ggx_shrm, reflection_cube, shade
+from shbake.shading.shrm import reflection_cube, shade
 from shbake.texture.cube import cube_directions
 
 HERE = Path(__file__).resolve().parent
 HDRI = HERE.parent.parent / "shared" / "hdri"
 if not HDRI.exists():
     HDRI = HERE.parent / "data_samples"
-MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
 TABLE4 = {8: 830.6, 16: 333.6, 32: 137.1, 64: 52.6, 128: 21.9, 256: 7.7, 512: 3.3}
 TABLE5 = {0.1: (24, 3, 923, 2.70, 1.55), 0.2: (12, 2, 2744, 1.55, 0.72),
           0.3: (7, 2, 5731, 1.49, 0.67), 0.4: (5, 2, 9034, 1.47, 0.65),
@@ -210,102 +211,54 @@ def section_speed(lines):
     ]
 
 
-GGX_CONFIG = {0.25: (48, 8, 64), 0.4: (32, 6, 64)}
-"""(F, P, face size) per perceptual roughness: ε = 0.01 is out of reach (see the section)."""
+def section_energy(lines, roughness=(0.25, 0.4, 0.5, 0.8)):
+    """Why ε = 0.01 is out of reach for GGX within F ≤ 64, P ≤ 16 (issue 13, item 7)."""
+    from shbake.bakers.shrm import P_LIMIT, _rho_grid, default_quadrature
 
-
-def section_ggx(lines, configs=GGX_CONFIG, maps=MAPS):
-    from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
-    from shbake.batch.probe_jobs import shared_dfg_table
-    from shbake.evaluation.probes import sphere_views
-    from shbake.reference.ggx import ggx_integrals
-    from shbake.shading.splitsum import evaluate_splitsum
-
-    # the paper's plain split-sum with its levels at exactly the evaluated widths α = r²
-    cfg = SplitSumConfig(alphas=tuple(r * r for r in sorted(configs)))
-    dfg = shared_dfg_table()
-    rows = []
-    caps = {}
-    for r in (0.25, 0.4):
-        F, P, S = configs[r]
+    Fs, Ps = (8, 16, 24, 32, 48, 64, 96, 128), (0, 2, 4, 8, 12, 16, 24, 32)
+    quad = default_quadrature("surface", 640, 128, 128)
+    lines += [
+        "## GGX: BRDF energy captured vs F, P (the ε rule of §5.1)",
+        "",
+        "Captured fraction `Σ_{l≤F, p≤P} Σ_q U_q ρ̂_lpq² / ∫∫ ρ̂² dω_i dω_o` of the "
+        "reparameterised GGX (separable Smith G, Schlick F0 = 1: E0; F0 = 0: E1) at "
+        "640 × 128 × 128 quadrature nodes (θ_i, θ_o, φ), computed to F = 128, P = 32 (past "
+        "the baker's caps F ≤ 64, P ≤ 16, for the trend). The fraction is a partial sum of "
+        "squares, monotone in F and P, so its value at (64, 16) bounds every choice within "
+        "the caps. Last line per case: the share of the total energy at views with "
+        "n·v below 0.05 / 0.1 / 0.2 / 0.3 (n·v = cos(θ_o/2) about R).",
+        "",
+    ]
+    for r in roughness:
         for f0 in (1.0, 0.0):
-            co = brdf_coefficients(
-                make_reflection_brdf("ggx", {"alpha": r * r, "F0": f0}), F_LIMIT, 16
-            )
-            o = select_orders(co, 0.01)
-            caps[(r, f0)] = (o, co.captured()[F, P], F, P)
-    bake_time = []
-    shrm_bytes_of = {}
-    for name in maps:
-        env = load_environment(str(HDRI / f"{name}.exr"), quiet=True)
-        chain = prefilter_chain(env.pixels, cfg)
-        split_bytes = sum(lv.nbytes for lv in chain) + dfg.astype(np.float32).nbytes
-        for r in (0.25, 0.4):
-            a = r * r
-            F, P, S = configs[r]
-            t0 = time.perf_counter()
-            b0 = bake_shrm(env, make_reflection_brdf("ggx", {"alpha": a, "F0": 1.0}), F=F, P=P,
-                           face_size=S)  # fmt: skip
-            b1 = bake_shrm(env, make_reflection_brdf("ggx", {"alpha": a, "F0": 0.0}), F=F, P=P,
-                           face_size=S)  # fmt: skip
-            bake_time.append(time.perf_counter() - t0)
-            levels = [(a, b0.cube, b1.cube)]
-            shrm_bytes = b0.cube.nbytes + b1.cube.nbytes
-            shrm_bytes_of[r] = shrm_bytes
-            for yaw in (0.0, 90.0, 180.0, 270.0):
-                n, v, _ = sphere_views(32, yaw)
-                V = np.broadcast_to(v, n.shape)
-                e0, e1 = ggx_integrals(env.pixels, V, n, a, 4096)
-                c0, c1 = ggx_integrals(env.pixels, V, n, a, 1024)
-                for mat, f0 in (("chrome", 1.0), ("dielectric", 0.04)):
-                    truth = f0 * e0 + (1 - f0) * e1
-                    noise = float(np.mean((f0 * c0 + (1 - f0) * c1 - truth) ** 2)) / 5
-                    sh = evaluate_ggx_shrm(levels, V, n, a, f0)
-                    ss = evaluate_splitsum(chain, cfg.alphas, dfg, V, n, a, (f0,) * 3)
-                    rows.append((name, r, mat, yaw, float(np.mean((sh - truth) ** 2)),
-                                 float(np.mean((ss - truth) ** 2)), noise, shrm_bytes,
-                                 split_bytes))  # fmt: skip
-        print(f"ggx {name} done", flush=True)
-    wins = sum(1 for row in rows if row[4] < row[5])
-    lines += [
-        "## GGX SHRM vs split-sum vs ground truth",
-        "",
-        f"Six maps × roughness 0.25, 0.4 (α = r²) × chrome (F0 1) / dielectric (F0 0.04) × "
-        f"yaws 0, 90, 180, 270 × 32² spheres = {len(rows)} cases. SHRM: E0 (F0 = 1) and "
-        f"E1 (F0 = 0) SHRMs at (F, P, face) = {configs[0.25]} for r 0.25 and "
-        f"{configs[0.4]} for r 0.4, combined F0 E0 + (1 − F0) E1 "
-        "(:func:`shbake.shading.shrm.evaluate_ggx_shrm`, per-pixel eq. 7). Truth: "
-        "ggx_integrals at α = r², 4096 samples (noise estimate from 1024). Split-sum: the "
-        "paper's plain split-sum (Karis, 1024 samples per texel) with levels at these α.",
-        "",
-        f"**SHRM MSE below split-sum's in {wins}/{len(rows)} cases "
-        f"({100 * wins / len(rows):.0f} %)**; goal ≥ 90 %.",
-        "",
-        "ε = 0.01 by the paper's energy rule is not reachable for GGX within F ≤ 64, P ≤ 16 "
-        "(the 4D energy of ρ̂ sits at grazing views): captured fraction at F = 64, P = 16 "
-        "(and at the F, P used):",
-        "",
-    ]
-    for (r, f0), (o, cap, F, P) in caps.items():
-        lines.append(f"- r {r}, F0 {f0:g}: {1 - o.eps_brdf:.3f} ({cap:.3f} at {F}, {P})")
-    lines += [
-        "",
-        "Bytes per probe: SHRM (two float32 cubes) "
-        + ", ".join(f"r {r}: {b:,}" for r, b in sorted(shrm_bytes_of.items()))
-        + f"; split-sum {rows[0][8]:,} (all levels + DFG table, float32, every roughness). "
-        f"SHRM bake per map and roughness (two SHRMs): median {np.median(bake_time):.1f} s.",
-        "",
-        "| map | r | material | yaw | MSE SHRM | MSE split-sum | truth noise |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for name, r, mat, yaw, ms, mp, noise, _, _ in rows:
-        lines.append(f"| {name} | {r} | {mat} | {yaw:.0f} | {ms:.3e} | {mp:.3e} | {noise:.1e} |")
-    lines.append("")
+            rb = make_reflection_brdf("ggx", {"alpha": r * r, "F0": f0})
+            cap = brdf_coefficients(rb, 128, 32, quad).captured()
+            default = brdf_coefficients(rb, F_LIMIT, P_LIMIT).captured()[F_LIMIT, P_LIMIT]
+            g = np.zeros(quad.shape + (3,))
+            _rho_grid(rb.kind_id, rb.model_id, rb.prm.astype(float), rb.data, quad.xi, quad.xo,
+                      quad.phi, g)  # fmt: skip
+            per_o = 2 * np.pi * np.tensordot(quad.wi, np.tensordot(g[..., 0] ** 2, quad.wphi, 1), 1)
+            per_o = per_o * quad.wo
+            mu = np.sqrt((1 + quad.xo) / 2)
+            share = [float(per_o[mu < m].sum() / per_o.sum()) for m in (0.05, 0.1, 0.2, 0.3)]
+            term = "E0" if f0 == 1.0 else "E1"
+            lines += [
+                f"**r {r} (α {r * r:.4g}), {term}**: at the caps (64, 16) "
+                f"{cap[F_LIMIT, P_LIMIT]:.4f} (baker's default quadrature {default:.4f})",
+                "",
+                "| F \\ P | " + " | ".join(str(p) for p in Ps) + " |",
+                "|---|" + "---|" * len(Ps),
+            ]
+            for F in Fs:
+                lines.append(f"| {F} | " + " | ".join(f"{cap[F, p]:.4f}" for p in Ps) + " |")
+            lines += ["", "energy share at n·v < 0.05 / 0.1 / 0.2 / 0.3: "
+                      + " / ".join(f"{x:.3f}" for x in share), ""]  # fmt: skip
+            print(f"energy r={r} {term}: {cap[F_LIMIT, P_LIMIT]:.4f}", flush=True)
 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--sections", default="phong,micro,speed,ggx")
+    ap.add_argument("--sections", default="phong,micro,speed,energy")
     ap.add_argument("--out", default=str(HERE / "results" / "shrm.md"))
     args = ap.parse_args()
     lines = [
@@ -318,7 +271,7 @@ def main():
     ]
     for name in args.sections.split(","):
         {"phong": section_phong, "micro": section_micro, "speed": section_speed,
-         "ggx": section_ggx}[name](lines)  # fmt: skip
+         "energy": section_energy}[name](lines)  # fmt: skip
         Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
 

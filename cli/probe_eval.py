@@ -1,4 +1,5 @@
-"""``shbake probe-eval``: SH-exp v2, the paper's SH-exp and both split-sums against ground truth."""
+"""``shbake probe-eval``: SH-exp v2, the paper's SH-exp, both split-sums and the GGX SHRM
+against ground truth."""
 
 import click
 from shbake_cli.options import (
@@ -10,9 +11,18 @@ from shbake_cli.options import (
     quiet_opt,
     samples_opt,
     size_opt,
+    warn,
 )
 
-from shbake.batch.probe_eval import COMPARISONS, evaluate_maps, markdown_report, win_table
+from shbake.batch.probe_eval import (
+    SHRM_EPS,
+    SHRM_FACE_SIZE,
+    evaluate_maps,
+    markdown_report,
+    present_comparisons,
+    shrm_shortfalls,
+    win_table,
+)
 from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 
 
@@ -24,6 +34,36 @@ from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 @deprecated("--truth-samples", "samples", "--samples", type=int)
 @deprecated("--markdown", "output", "-o/--output", type=click.Path(dir_okay=False))
 @click.option(
+    "--roughness",
+    multiple=True,
+    type=click.FloatRange(0.1, 1.0),
+    help="Cases at this perceptual roughness r (GGX width α = r²; repeatable) "
+    "[default: the paper's 0.5, 0.6, …, 1.0].",
+)
+@click.option(
+    "--eps",
+    "--tol",
+    "eps",
+    type=float,
+    default=SHRM_EPS,
+    show_default=True,
+    help="Error tolerance in (0, 1) of the GGX SHRM: the fraction of BRDF energy left out; "
+    "chooses F and P within F ≤ 64, P ≤ 16 (RH02 §5.1; a shortfall is reported).",
+)
+@click.option(
+    "--face-size",
+    type=int,
+    default=SHRM_FACE_SIZE,
+    show_default=True,
+    help="Cube face size in texels (4…1024) of the GGX SHRM.",
+)
+@click.option(
+    "--shrm/--no-shrm",
+    default=True,
+    show_default=True,
+    help="Evaluate the GGX SHRM (an E0 and an E1 SHRM per roughness).",
+)
+@click.option(
     "--sheet-dir",
     type=click.Path(file_okay=False),
     default=None,
@@ -31,14 +71,17 @@ from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 )
 @json_opt
 @quiet_opt
-def probe_eval(maps, output, size, samples, sheet_dir, as_json, quiet):
+def probe_eval(maps, output, size, samples, roughness, eps, face_size, shrm, sheet_dir, as_json,
+               quiet):  # fmt: skip
     """Measure the probes of MAPS against ground truth.
 
     Cases: chrome (F0 1) and dielectric (F0 0.04) × the paper's GGX widths
-    α = 0.25, 0.36, 0.49, 0.64, 0.81, 1 × four views; error: MSE over the
-    sphere. Probes: SH-exp v2 (default fit), the paper's SH-exp (--sets 1
-    --weights log), split-sum plain (1024 samples per texel, levels at those
-    α) and filtered (engine-grade).
+    α = 0.25, 0.36, 0.49, 0.64, 0.81, 1 (or --roughness) × four views; error:
+    MSE over the sphere. Probes: SH-exp v2 (default fit), the paper's SH-exp
+    (--sets 1 --weights log), split-sum plain (1024 samples per texel, levels
+    at those α), split-sum filtered (engine-grade) and the GGX SHRM (E0 and E1
+    SHRMs per α by the shrm command's baker, orders from --eps). A probe that
+    does not cover an α (SH-exp: α < 0.2) reports n/a there.
     """
 
     if output is not None:  # checked (and compared with every map read) before any work
@@ -46,11 +89,21 @@ def probe_eval(maps, output, size, samples, sheet_dir, as_json, quiet):
         refuse_same_file([output], maps)
 
     def progress(name, rows):
-        wins = sum(r["mse"]["shexp_v2"] < r["mse"]["splitsum_plain"] for r in rows)
-        info(f"probe-eval: {name}: SH-exp v2 beats plain split-sum in {wins}/{len(rows)}", quiet)
+        for m in ("shexp_v2", "shrm"):
+            pairs = [(r["mse"].get(m), r["mse"]["splitsum_plain"]) for r in rows]
+            pairs = [(a, b) for a, b in pairs if a is not None]
+            if pairs:
+                wins = sum(a < b for a, b in pairs)
+                info(f"probe-eval: {name}: {m} beats plain split-sum in {wins}/{len(pairs)}",
+                     quiet)  # fmt: skip
 
-    result = evaluate_maps(maps, size, samples, progress, sheet_dir=sheet_dir)
-    totals = {f"{m} vs {b}": win_table(result, m, b)["total"] for m, b in COMPARISONS}
+    result = evaluate_maps(maps, size, samples, progress, sheet_dir=sheet_dir,
+                           roughness=roughness or None, shrm_eps=eps if shrm else None,
+                           shrm_face_size=face_size)  # fmt: skip
+    for line in shrm_shortfalls(result):
+        warn(line, quiet)
+    totals = {f"{m} vs {b}": win_table(result, m, b)["total"]
+              for m, b in present_comparisons(result)}  # fmt: skip
     for k, (w, n) in totals.items():
         info(f"probe-eval: {k}: {w}/{n} ({w / n:.0%})", quiet)
     if output:

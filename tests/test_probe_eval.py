@@ -58,7 +58,8 @@ class TestReportedFigures:
 def test_recomputed_map_has_the_reported_winners(result, name):
     """One map from scratch (about 5 minutes on one core): every case's winner, for every
     comparison, is the committed one (MSEs to 1e-6 relative)."""
-    fresh = evaluate_maps([str(map_path(name))], result["size"], result["truth_samples"])
+    fresh = evaluate_maps([str(map_path(name))], result["size"], result["truth_samples"],
+                          shrm_eps=None)  # fmt: skip
     for old, new in zip(result["maps"][name], fresh["maps"][name], strict=True):
         assert (old["material"], old["alpha"], old["yaw"]) == (new["material"], new["alpha"],
                                                                new["yaw"])  # fmt: skip

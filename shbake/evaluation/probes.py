@@ -49,9 +49,25 @@ def sphere_views(size: int, yaw_deg: float):
     return normals[keep], view, mask2
 
 
+def covers(asset, alpha) -> bool:
+    """Whether a probe under test shades at ``α``: an asset's ``alpha_range``, or the
+    ``covers`` method of a shading object (one with ``shade(views, normals, α, F0)``)."""
+    if hasattr(asset, "shade"):
+        return bool(asset.covers(alpha))
+    try:
+        check_probe_alpha(asset, alpha)
+    except ParameterError:
+        return False
+    return True
+
+
 def shade_probe(asset, views, normals, alpha, f0) -> np.ndarray:
     """Radiance ``(T, 3)`` of a ``shexp_probe`` or ``splitsum_probe`` asset at ``(v, n, α)``
-    for Schlick ``F0`` (scalar), refusing ``α`` outside the probe's range."""
+    for Schlick ``F0`` (scalar), refusing ``α`` outside the probe's range; any other object
+    with a ``shade(views, normals, α, F0)`` method (the GGX SHRM probe of ``probe-eval``) is
+    shaded by it."""
+    if hasattr(asset, "shade"):
+        return asset.shade(views, normals, alpha, f0)
     check_probe_alpha(asset, alpha)
     f0s = (float(f0),) * 3
     if asset.kind == "shexp_probe":
@@ -120,7 +136,7 @@ def write_case_sheet(sheet_dir, label: str, material: str, alpha: float, yaw: fl
         return img
 
     title = f"{label}: {material}, α {alpha:.4g}, view yaw {yaw:.0f}°; result = {name}"
-    subtitle = "MSE " + ", ".join(f"{k} {v:.3g}" for k, v in mse.items())
+    subtitle = "MSE " + ", ".join(f"{k} {v:.3g}" for k, v in mse.items() if v is not None)
     path = str(Path(sheet_dir) / f"{label}-{material}-a{alpha:.4g}-yaw{yaw:.0f}-sheet.png")
     return write_contact_sheet(path, image(shaded[name]), mask, title, image(ref), subtitle,
                                labels=(name, "ground truth (MIS)"))  # fmt: skip
@@ -130,8 +146,10 @@ def evaluate_cases(pixels, assets: dict, size: int = 32, truth_samples: int = 40
                    alphas=ALPHAS, yaws=VIEW_YAWS, materials=MATERIALS,
                    cache_dir=None, sheet_dir=None, label: str = "map") -> list[dict]:  # fmt: skip
     """Rows ``{material, alpha, yaw, mse: {name: MSE}, mse_truth_estimate}`` for every case
-    of one map; ``assets``: name → probe asset; ``cache_dir``: :func:`case_truth`;
-    ``sheet_dir``: also write one contact sheet per case (:func:`write_case_sheet`)."""
+    of one map; ``assets``: name → probe asset (or shading object, :func:`shade_probe`);
+    a probe that does not cover ``α`` (:func:`covers`) gets MSE ``None``; ``cache_dir``:
+    :func:`case_truth`; ``sheet_dir``: also write one contact sheet per case
+    (:func:`write_case_sheet`)."""
     rows = []
     for a in alphas:
         for yaw in yaws:
@@ -139,8 +157,9 @@ def evaluate_cases(pixels, assets: dict, size: int = 32, truth_samples: int = 40
             for material, f0 in materials.items():
                 ref = truth.radiance(f0)
                 shaded = {name: shade_probe(asset, truth.views, truth.normals, a, f0)
-                          for name, asset in assets.items()}  # fmt: skip
-                mse = {name: float(np.mean((s - ref) ** 2)) for name, s in shaded.items()}
+                          for name, asset in assets.items() if covers(asset, a)}  # fmt: skip
+                mse = {name: None for name in assets}
+                mse.update({name: float(np.mean((s - ref) ** 2)) for name, s in shaded.items()})
                 err = float(np.mean((truth.radiance(f0, coarse=True) - ref) ** 2)) / 5.0
                 rows.append({"material": material, "alpha": float(a), "yaw": float(yaw),
                              "mse": mse, "mse_truth_estimate": err})  # fmt: skip

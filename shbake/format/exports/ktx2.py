@@ -5,7 +5,8 @@ libktx installed; Debian has no libktx package and nothing may be downloaded at
 run time, so this is a small writer of uncompressed KTX2 (no supercompression),
 checked against an independent reader: ``ktx-parse`` (Don McCurdy), the KTX2
 parser three.js vendors (``three/examples/jsm/libs/ktx-parse.module.js``),
-run under node by ``tests/test_exports.py``.
+run under node by ``tests/test_exports.py``; libktx itself (pyktx, ``ktx
+validate``) by hand with ``bench/ktx2_libktx.py``.
 
 Layout written (KTX 2.0 spec §3): identifier, header (``vkFormat`` 97
 ``R16G16B16A16_SFLOAT`` or 83 ``R16G16_SFLOAT``, ``typeSize`` 2, faces 6 or 1,
@@ -13,7 +14,9 @@ Layout written (KTX 2.0 spec §3): identifier, header (``vkFormat`` 97
 colour model, BT.709 primaries, linear transfer, one sample per channel
 flagged float|signed with lower −1.0f / upper 1.0f, KDFS 1.3 §5.6), key/value
 data sorted by key (``KTXwriter``, ``shbake.*``), then the mip levels from the
-smallest to the largest (spec §3.9), each at an 8-byte-aligned offset, faces
+smallest to the largest (spec §3.9), each at the first offset that is a
+multiple of ``lcm(texel block size, 4)`` (spec §3.9.7: 8 bytes for RGBA16F, 4
+for RG16F; ``ktx validate`` rejects any other padding), faces
 +X, −X, +Y, −Y, +Z, −Z inside a level, rows top first.
 
 The ``ktx2`` export target writes the GGX prefiltered cube chain of
@@ -25,6 +28,7 @@ RG16F KTX2 and an EXR (what cmgen ``--ibl-dfg`` provides): column ``j`` is
 """
 
 import json
+import math
 import os
 import struct
 
@@ -91,8 +95,9 @@ def encode_ktx2(levels: list[np.ndarray], cube: bool, kv: dict | None = None) ->
     pos = kvd_off + len(kvd)
     offsets = [0] * n_levels
     body = b""
+    align = math.lcm(2 * c, 4)  # texel block size (c half floats), spec §3.9.7 mip padding
     for i in reversed(range(n_levels)):  # smallest level first (spec §3.9)
-        pad = -pos % 8
+        pad = -pos % align
         body += b"\0" * pad
         pos += pad
         offsets[i] = pos
