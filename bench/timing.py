@@ -65,11 +65,11 @@ def ratio(num, den) -> str:
     return f"{statistics.median(r):.2f} ({min(r):.2f}–{max(r):.2f})"
 
 
-def previous_module(relpath: str, name: str):
-    """Import ``relpath`` as it was at :data:`PREVIOUS` (a same-run 'before' column), or None."""
+def previous_module(relpath: str, name: str, commit: str = PREVIOUS):
+    """Import ``relpath`` as it was at ``commit`` (a same-run 'before' column), or None."""
     try:
         src = subprocess.run(
-            ["git", "show", f"{PREVIOUS}:{relpath}"],
+            ["git", "show", f"{commit}:{relpath}"],
             cwd=ROOT,
             capture_output=True,
             text=True,

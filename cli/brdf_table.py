@@ -85,8 +85,8 @@ def list_params(ctx, _param, value):
 )
 @samples_opt(1024, "per strategy per view texel (ignored with --tol)", hi=1 << 22)
 @tol_opt(
-    "refine each view texel until its error estimate (sqrt(4π) × the largest coefficient "
-    "change between sample doublings) is at most TOL"
+    "refine each view texel's nested rules until its error estimate (sqrt(4π) × the largest "
+    "coefficient difference to the embedded coarser rules, summed over their 4 axes) is at most TOL"
 )
 @click.option(
     "--max-samples",

@@ -1,7 +1,7 @@
 """``shbake export``: env_sh (or split-sum) assets → engine-ready files (``docs/EXPORTS.md``)."""
 
 import click
-from shbake_cli.options import emit_json, info, json_opt, output_opt, quiet_opt, samples_opt
+from shbake_cli.options import FINITE, emit_json, info, json_opt, output_opt, quiet_opt, samples_opt
 
 from shbake.batch.export import export_assets
 from shbake.format.exports import TARGETS
@@ -33,7 +33,7 @@ from shbake.format.exports.source import FRAMES
 @click.option(
     "--rotate",
     "rotate_deg",
-    type=float,
+    type=FINITE,
     default=0.0,
     show_default=True,
     help="Turn the environment about the target's up axis, degrees counter-clockwise from above.",
@@ -67,7 +67,7 @@ from shbake.format.exports.source import FRAMES
 @samples_opt(None, "per cube texel, GGX with filtered importance sampling [gltf 256, others 512]")
 @click.option(
     "--sun-radius",
-    type=float,
+    type=FINITE,
     default=10.0,
     show_default=True,
     help="Radius the asset's sun was extracted with, degrees (to rebuild its residual map).",

@@ -18,6 +18,29 @@ import numpy as np
 from shbake.errors import OutputError, ParameterError
 from shbake.progress import Progress
 
+
+class FiniteRange(click.FloatRange):
+    """``click.FloatRange`` that also refuses NaN (every comparison with NaN is false, so
+    click's range check lets it through) and, without bounds, infinities."""
+
+    def convert(self, value, param, ctx):
+        rv = super().convert(value, param, ctx)
+        if not np.isfinite(rv):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return rv
+
+
+class _Finite(click.types.FloatParamType):
+    def convert(self, value, param, ctx):
+        rv = super().convert(value, param, ctx)
+        if not np.isfinite(rv):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return rv
+
+
+FINITE = _Finite()
+"""A finite float option (``type=FINITE`` instead of ``type=float``; shown as FLOAT)."""
+
 LAYOUT_CHOICES = ("latlong", "cube-strip", "cross-h", "cross-v")
 
 
@@ -68,7 +91,7 @@ def tol_opt(help_text: str):
     """``--tol X``: the cheapest setting whose measured error is at most ``X``."""
     return click.option(
         "--tol",
-        type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
+        type=FiniteRange(0.0, 1.0, min_open=True, max_open=True),
         default=None,
         help=f"Error tolerance in (0, 1): {help_text}.",
     )
@@ -143,14 +166,14 @@ def roughness_opts(default_roughness: float | None, what: str):
 
         wrapper = click.option(
             "--alpha",
-            type=click.FloatRange(0.0, 1.0),
+            type=FiniteRange(0.0, 1.0),
             default=None,
             help=f"{what}: GGX width α (Walter et al. 2007); same as --roughness sqrt(α).",
         )(wrapper)
         default = f" [default: {default_roughness}]" if default_roughness is not None else ""
         return click.option(
             "--roughness",
-            type=click.FloatRange(0.0, 1.0),
+            type=FiniteRange(0.0, 1.0),
             default=None,
             help=f"{what}: perceptual roughness r (GGX width α = r²){default}.",
         )(wrapper)

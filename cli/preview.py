@@ -3,6 +3,7 @@
 import click
 from shbake_cli.options import (
     BarProgress,
+    FiniteRange,
     NameValue,
     emit_json,
     info,
@@ -65,7 +66,7 @@ from shbake.preview.render import ALL_PASSES, preview_asset
 @roughness_opts(0.5, "Probes: the sphere's GGX roughness, within the probe's fitted range")
 @click.option(
     "--f0",
-    type=click.FloatRange(0.0, 1.0),
+    type=FiniteRange(0.0, 1.0),
     default=1.0,
     show_default=True,
     help="Probes: Schlick F0 of the sphere (1 chrome, 0.04 dielectric).",

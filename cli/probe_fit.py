@@ -4,6 +4,7 @@ import sys
 
 import click
 from shbake_cli.options import (
+    FINITE,
     deprecated,
     emit_json,
     fix_nonfinite_opt,
@@ -67,7 +68,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
               help="Gauss–Newton steps on the shaded error after the log fit (shaded-nv*; "
               "a step that does not lower it is dropped).")  # fmt: skip
 @samples_opt(1024, "per E0 fit target (filtered visible-normal samples)")
-@click.option("--floor", type=float, default=1e-4, show_default=True,
+@click.option("--floor", type=FINITE, default=1e-4, show_default=True,
               help="E0 floor before the log, × mean E0 per channel.")  # fmt: skip
 @click.option("--targets", type=click.Choice(TARGETS), default="quadrature", show_default=True,
               help="E0 at the fit samples: quadrature (filtered importance sampling) or sh "

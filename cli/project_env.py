@@ -3,6 +3,7 @@
 import click
 from shbake_cli.options import (
     BarProgress,
+    FiniteRange,
     command_line,
     deprecated,
     emit_json,
@@ -66,7 +67,7 @@ from shbake.sh.windows import WINDOW_METHODS
 )
 @click.option(
     "--sun-radius",
-    type=click.FloatRange(0.0, 45.0, min_open=True),
+    type=FiniteRange(0.0, 45.0, min_open=True),
     default=10.0,
     show_default=True,
     help="Largest angular radius of the extracted light, degrees (0…45].",

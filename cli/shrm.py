@@ -2,6 +2,7 @@
 
 import click
 from shbake_cli.options import (
+    FINITE,
     colorspace_opt,
     emit_json,
     exr_dir_opt,
@@ -57,7 +58,7 @@ def _params(values) -> dict:
     "--eps",
     "--tol",
     "eps",
-    type=float,
+    type=FINITE,
     default=0.03,
     show_default=True,
     help="Error tolerance in (0, 1): the fraction of BRDF energy left out; chooses F and P "

@@ -2,6 +2,7 @@
 
 import click
 from shbake_cli.options import (
+    FiniteRange,
     NameValue,
     emit_json,
     info,
@@ -23,7 +24,7 @@ from shbake.brdf import MODELS
               help="The BRDF model (brdf_table).")
 @click.option("-p", "--param", "params", type=NameValue(), multiple=True,
               help="Model parameter NAME=VALUE (repeatable; brdf_table).")
-@click.option("--tol", type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True),
+@click.option("--tol", type=FiniteRange(0.0, 1.0, min_open=True, max_open=True),
               default=0.05, show_default=True,
               help="Error tolerance in (0, 1): drawn, and the cheapest setting meeting it is "
               "marked (env_sh: relative RMS irradiance error; brdf_table: relative L2 of f*).")

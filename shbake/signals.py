@@ -10,7 +10,14 @@ Python frame. The main thread normally unwinds, its transaction
 finished within :data:`GRACE_SECONDS` (a long native kernel), the watcher removes the
 temporaries itself, prints the same line and ends the process with ``os._exit``.
 Forked children reset the handlers and ask the kernel to kill them with their parent
-(``PR_SET_PDEATHSIG``); spawned workers are ended by their pool.
+(``PR_SET_PDEATHSIG``).
+
+Pool workers (:func:`worker_init`) ignore SIGINT (the terminal sends it to the whole
+process group; the parent decides), ask the kernel to send them SIGTERM when their parent
+dies, for whatever reason, ``kill -9`` included, and answer SIGTERM at once from their
+watcher thread: remove the temporaries of their open transactions and ``os._exit(143)``,
+even inside a numba kernel. A worker therefore never outlives its parent by more than
+the time a thread needs to wake, and leaves no temporary behind.
 """
 
 import os
@@ -23,6 +30,8 @@ GRACE_SECONDS = 1.0
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
 _received: list[int] = []
+_grace = GRACE_SECONDS
+_quiet = False  # pool workers: the parent prints the one line
 _finished = threading.Event()
 _finishing = threading.Lock()
 _installed = False
@@ -64,14 +73,15 @@ def _watch(fd: int) -> None:
             break
     if not _received:
         _received.append(sigs[0])
-    if _finished.wait(GRACE_SECONDS):
+    if _finished.wait(_grace):
         return
     if not _finishing.acquire(blocking=False):
         return  # the main thread is reporting; it exits by itself
     from shbake.format import atomic
 
     atomic.abort_active()
-    finish_message()
+    if not _quiet:
+        finish_message()
     os._exit(exit_code())
 
 
@@ -103,15 +113,18 @@ def _child_after_fork() -> None:
     die_with_parent()
 
 
-def die_with_parent() -> None:
-    """Ask Linux to send SIGKILL when the parent exits (pool workers call this)."""
+def die_with_parent(sig: int = signal.SIGKILL, parent: int | None = None) -> None:
+    """Ask Linux to send ``sig`` when the parent exits (``PR_SET_PDEATHSIG``). With
+    ``parent`` (its pid), a parent that died before the request ends this process now."""
     if sys.platform.startswith("linux"):
         import ctypes
 
         try:
-            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(sig))  # PR_SET_PDEATHSIG
         except (OSError, AttributeError):
             pass
+    if parent is not None and os.getppid() != parent:
+        os.kill(os.getpid(), sig)
 
 
 def exit_quietly_on_signal() -> None:
@@ -121,19 +134,29 @@ def exit_quietly_on_signal() -> None:
         signal.signal(sig, lambda s, f, code=code: os._exit(code))
 
 
+def _ignore(signum, frame):
+    """A worker's Python-level handler: the watcher thread does the work."""
+
+
 def worker_init() -> None:
-    """Initialiser of pool worker processes: the parent handles SIGINT (a terminal sends
-    it to the whole process group), SIGTERM ends the worker at once, and the worker dies
-    with its parent; its warnings are not printed (they would interleave with the parent's
-    one-line messages). Does nothing in a thread (a Dask worker's task thread)."""
+    """Initialiser of pool worker processes (module docstring): the parent handles SIGINT,
+    SIGTERM removes the worker's temporaries and ends it at once (from the watcher thread,
+    so also inside a numba kernel), and the worker gets SIGTERM when its parent dies; its
+    warnings are not printed (they would interleave with the parent's one-line messages).
+    Does nothing in a thread (a Dask worker's task thread)."""
+    global _grace, _quiet
     if threading.current_thread() is not threading.main_thread():
         return
+    import multiprocessing
     import warnings
 
     warnings.simplefilter("ignore")  # a worker's stderr is the user's terminal: one-line rule
+    _grace, _quiet = 0.0, True
+    install()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    die_with_parent()
+    signal.signal(signal.SIGTERM, _ignore)
+    parent = multiprocessing.parent_process()
+    die_with_parent(signal.SIGTERM, parent.pid if parent is not None else None)
 
 
 def install() -> bool:

@@ -8,6 +8,9 @@ and where a closed form exists the value is checked against it (constant map:
 E = π c; black map: zeros).
 """
 
+import json
+import re
+
 import numpy as np
 import pytest
 from helpers import map_path, write_test_exr
@@ -15,10 +18,13 @@ from helpers import map_path, write_test_exr
 from shbake.bakers.env_sh import bake_env_sh
 from shbake.bakers.shexp import FitConfig, FitPlan
 from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
+from shbake.batch.export import export_assets
 from shbake.brdf import make_brdf
 from shbake.brdf.tabulate import project_views, tabulate
 from shbake.envmap import load_environment
 from shbake.envmap.image_io import read_image
+from shbake.format.asset import write_asset
+from shbake.format.exports import TARGETS
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.env_sh import irradiance
 
@@ -132,3 +138,199 @@ class TestProbeExtremes:
             assert np.all(np.isfinite(level))
         if kind == "black":
             assert all(np.all(lv == 0) for lv in prefilter_chain(env.pixels, config))
+
+
+def _ktx2_levels(path) -> list[np.ndarray]:
+    """Every level of a KTX2 RGBA16F file as float32 (KTX 2.0 §3.9 level index; an
+    independent reader of the bytes, not shbake's writer)."""
+    import struct
+
+    data = open(path, "rb").read()
+    n_levels = struct.unpack_from("<I", data, 12 + 4 * 7)[0]
+    out = []
+    for i in range(n_levels):
+        off, length, _ = struct.unpack_from("<3Q", data, 80 + 24 * i)
+        out.append(np.frombuffer(data[off : off + length], "<f2").astype(np.float32))
+    return out
+
+
+def _json_numbers(obj):
+    if isinstance(obj, dict):
+        for v in obj.values():
+            yield from _json_numbers(v)
+    elif isinstance(obj, list):
+        for v in obj:
+            yield from _json_numbers(v)
+    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
+        yield float(obj)
+
+
+def _exported_finite(files):
+    """Nothing non-finite in any exported file: JSON/glTF numbers, KTX2 halves, SH text."""
+    for f in files:
+        f = str(f)
+        if f.endswith((".json", ".gltf")):
+            with open(f) as fh:
+                text = fh.read()
+            assert "Infinity" not in text and "NaN" not in text, f
+            assert all(np.isfinite(x) for x in _json_numbers(json.loads(text))), f
+        elif f.endswith(".ktx2"):
+            for lv in _ktx2_levels(f):
+                assert np.all(np.isfinite(lv)), f
+        elif f.endswith(".txt"):
+            nums = [float(x) for x in re.findall(r"[-+]?[\d.]+(?:e[-+]?\d+)?|inf|nan",
+                                                  open(f).read().lower())]  # fmt: skip
+            assert all(np.isfinite(x) for x in nums), f
+
+SMALL_CUBES = {"size": 16, "floor": 4, "samples": 32}
+
+
+class TestExportExtremes:
+    """Every engine export of black, constant, sun (kept in the map and extracted), dim and
+    tiny maps: finite files; constant maps give the closed forms."""
+
+    @pytest.mark.parametrize("target", TARGETS)
+    @pytest.mark.parametrize("kind, sun", [("black", False), ("constant", False), ("sun", False),
+                                           ("sun", True), ("dim", False), ("tiny", False)])
+    def test_finite_exports(self, maps, tmp_path, target, kind, sun):
+        env = load_environment(maps[kind], quiet=True)
+        asset, _ = bake_env_sh(env, lmax=2, irradiance_lmax=2, sun=sun)
+        path = str(tmp_path / f"{kind}.h5")
+        write_asset(path, asset)
+        files = export_assets([path], target, str(tmp_path / "out"), many=True, **SMALL_CUBES)
+        assert files
+        _exported_finite(files)
+        if kind == "constant" and target == "ktx2":
+            # a constant radiance 0.75 prefilters to 0.75 at every level (RGB; A = 1)
+            for lv in _ktx2_levels(next(f for f in files if f.endswith(".ktx2")
+                                        and "_dfg" not in f)):  # fmt: skip
+                np.testing.assert_allclose(lv.reshape(-1, 4)[:, :3], 0.75, rtol=2e-3)
+        if kind == "constant" and target == "threejs":
+            data = json.loads(open(files[0]).read())
+            probe = next(o for o in _objects(data["object"]) if o.get("type") == "LightProbe")
+            sh = np.asarray(probe["sh"], float).reshape(9, 3)
+            # LightProbe.sh is radiance SH: L00 = c sqrt(4π), the rest 0
+            np.testing.assert_allclose(sh[0], 0.75 * np.sqrt(4 * np.pi), rtol=1e-4)
+            assert np.all(np.abs(sh[1:]) < 1e-6)
+
+
+def _objects(node):
+    yield node
+    for child in node.get("children", []):
+        yield from _objects(child)
+
+
+class TestHalfFloatOverflow:
+    """Engine textures in half floats: values beyond 65504 are clamped with one warning line
+    (docs/EXPORTS.md), never written as Inf."""
+
+    @pytest.mark.parametrize("target", ["ktx2", "filament"])
+    def test_clamped_with_one_warning(self, tmp_path, capsys, target):
+        px = np.full((32, 64, 3), 0.5)
+        px[8:10, 20:24] = 1e7  # a patch far beyond half range at every mirror texel it covers
+        m = write_test_exr(tmp_path / "hot.exr", px)
+        env = load_environment(str(m), quiet=True)
+        asset, _ = bake_env_sh(env, lmax=2, irradiance_lmax=2, sun=False)
+        path = str(tmp_path / "hot.h5")
+        write_asset(path, asset)
+        capsys.readouterr()
+        files = export_assets([path], target, str(tmp_path / "out"), many=True, **SMALL_CUBES)
+        err = capsys.readouterr().err
+        lines = [ln for ln in err.splitlines() if "half-float maximum 65504" in ln]
+        assert len(lines) == (1 if target == "ktx2" else 2)  # filament: _ibl and _skybox
+        assert lines[0].startswith("shbake: warning: ") and "clamped" in lines[0]
+        if target == "ktx2":
+            lv0 = _ktx2_levels(next(f for f in files if f.endswith(".ktx2") and "_dfg" not in f))
+            assert np.all(np.isfinite(lv0[0])) and lv0[0].max() == np.float32(65504.0)
+        _exported_finite(files)
+
+    def test_non_finite_refused(self, tmp_path):
+        from shbake.errors import OutputError
+        from shbake.format.images import clamp_to_half
+
+        with pytest.raises(OutputError, match="non-finite"):
+            clamp_to_half([np.array([[1.0, np.inf]])], str(tmp_path / "x.ktx2"))
+
+    def test_in_range_levels_untouched(self, tmp_path, capsys):
+        from shbake.format.images import clamp_to_half
+
+        a = np.array([[-65504.0, 0.0, 65504.0]])
+        out = clamp_to_half([a], str(tmp_path / "x.ktx2"))
+        assert np.array_equal(out[0], a) and capsys.readouterr().err == ""
+
+
+class TestDfgExtremes:
+    def test_table_bounded_and_smooth_limit(self):
+        from shbake.batch.plan_cache import cached_dfg_table
+        from shbake.shading.dfg import dfg_lookup
+
+        table = cached_dfg_table()  # the table every probe and export ships
+        assert np.all(np.isfinite(table))
+        a0, a1 = table[..., 0], table[..., 1]
+        # directional albedos of a BRDF with F = 1 and F = Schlick's tail: 0 <= A1 <= A0 <= 1
+        assert np.all(a1 >= 0) and np.all(a1 <= a0 + 1e-9) and np.all(a0 <= 1.0 + 1e-3)
+        # the smoothest GGX seen head-on is a mirror: all light reflected, no Fresnel tail
+        assert a0[-1, 0] == pytest.approx(1.0, abs=0.02) and a1[-1, 0] < 1e-3
+        # look-ups beyond the table (grazing to 1e-4, α 0 and 1) stay finite and bounded
+        for m in (1e-4, 1e-3, 1.0):
+            for alpha in (0.0, 1e-4, 1.0):
+                v = np.asarray(dfg_lookup(table, np.array([m]), np.array([alpha])))
+                assert np.all(np.isfinite(v)) and np.all(v >= 0) and np.all(v <= 1.0 + 1e-3)
+
+
+class TestShrmExtremes:
+    """SHRMs at both ends: F 0 and 64, Phong exponents 0 and 1e4, GGX α 1e-4 and 1, on black,
+    constant, sun, dim, tiny maps."""
+
+    @pytest.mark.parametrize("kind", MAPS + ("tiny",))
+    @pytest.mark.parametrize("brdf, params, F, P", [
+        ("phong", {"n": "0"}, 0, 0), ("phong", {"n": "1e4"}, 64, 1),
+        ("ggx", {"alpha": "1e-4"}, 16, 2), ("ggx", {"alpha": "1"}, 8, 2),
+        ("phong-lobe", {"s": "1e4"}, 64, 0)])  # fmt: skip
+    def test_finite(self, maps, kind, brdf, params, F, P):
+        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+
+        env = load_environment(maps[kind], quiet=True)
+        rb = make_reflection_brdf(brdf, params)
+        b = bake_shrm(env, rb, 0.5, F, P, face_size=8)
+        assert np.all(np.isfinite(b.cube)) and np.all(np.isfinite(b.coeffs.rho))
+        if kind == "black":
+            assert np.all(b.cube == 0)
+
+    def test_constant_map_lobe_is_the_constant(self, maps):
+        # the radially symmetric lobe integrates to 1 over the sphere: radiance c everywhere
+        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+        from shbake.shading.shrm import reflection_cube
+
+        env = load_environment(maps["constant"], quiet=True)
+        b = bake_shrm(env, make_reflection_brdf("phong-lobe", {"s": "8"}), 0.5, 4, 0, 8)
+        np.testing.assert_allclose(reflection_cube(b.cube, [0, 0, 1], "surface"), 0.75,
+                                   rtol=1e-3)  # fmt: skip
+
+
+class TestHugeAndTinyMaps:
+    """The tiny (4 × 8) and the large (1024 × 2048, a 1e5 texel) map through the bakers the
+    other classes run on 32-row maps: finite everywhere."""
+
+    @pytest.mark.parametrize("kind", ["tiny", "large"])
+    def test_splitsum_shrm_and_export(self, maps, tmp_path, kind):
+        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+
+        env = load_environment(maps[kind], quiet=True)
+        config = SplitSumConfig(top=16, min_size=8, alphas=(0.01, 1.0), samples=64)
+        assert all(np.all(np.isfinite(lv)) for lv in prefilter_chain(env.pixels, config))
+        b = bake_shrm(env, make_reflection_brdf("microfacet", {"sigma": "0.2"}), 0.5, 8, 2, 8)
+        assert np.all(np.isfinite(b.cube))
+        asset, _ = bake_env_sh(env, lmax=2, sun=kind == "large")
+        path = str(tmp_path / f"{kind}.h5")
+        write_asset(path, asset)
+        _exported_finite(export_assets([path], "ktx2", str(tmp_path / "out"), many=True,
+                                       **SMALL_CUBES))  # fmt: skip
+
+    @pytest.mark.parametrize("kind", ["tiny", "large"])
+    def test_shexp_fit(self, maps, kind):
+        env = load_environment(maps[kind], quiet=True)
+        config = FitConfig(alpha_min=0.05, alpha_max=1.0, alpha_count=3, sets=1, samples=64,
+                           normals=16, views=16)  # fmt: skip
+        probe = FitPlan(config, env.shape).fit(env.pixels)
+        assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))

@@ -5,7 +5,8 @@ signals), exactly one ``shbake: error:`` line and no traceback, no hang (subproc
 cases are time-limited), no new file (temporaries included) and every pre-existing
 file byte-identical. Cases that could hang or crash the interpreter run in a
 subprocess; the rest run in-process (``run_cli``). Full-disk and read-only cases use a
-small tmpfs when the tests run as root, else an injected ``ENOSPC`` / read-only check.
+small tmpfs when the tests run as root, else a file size limit (``EFBIG`` on every write
+past a file's end) / an injected read-only check: no case is skipped.
 """
 
 import contextlib
@@ -14,6 +15,7 @@ import json
 import os
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -34,12 +36,13 @@ TIMEOUT = 120
 # -- helpers --------------------------------------------------------------------------------
 
 
-def shbake(*args, timeout=TIMEOUT, stdout=subprocess.PIPE, env=None):
+def shbake(*args, timeout=TIMEOUT, stdout=subprocess.PIPE, env=None, preexec=None):
     """Run ``shbake ARGS`` in a subprocess; ``(status, stdout, stderr)``."""
     full_env = dict(os.environ, NUMBA_NUM_THREADS="1", **(env or {}))
     p = subprocess.run(
         [sys.executable, "-m", "shbake_cli.main", *map(str, args)],
         stdout=stdout, stderr=subprocess.PIPE, text=True, timeout=timeout, env=full_env,
+        preexec_fn=preexec,
     )  # fmt: skip
     return p.returncode, p.stdout or "", p.stderr
 
@@ -121,24 +124,37 @@ TMPFS_SIZE = "2m"
 
 
 def _can_mount() -> bool:
+    """Root on Linux (``SHBAKE_TEST_NO_MOUNT=1`` tries the injected faults instead)."""
+    if os.environ.get("SHBAKE_TEST_NO_MOUNT"):
+        return False
     return hasattr(os, "geteuid") and os.geteuid() == 0 and sys.platform.startswith("linux")
 
 
 @pytest.fixture
 def tmpfs(tmp_path):
-    """A 2 MB tmpfs (root only), unmounted afterwards."""
-    if not _can_mount():
-        pytest.skip("needs root to mount a tmpfs (the injected-ENOSPC test covers this)")
+    """A folder on a 2 MB tmpfs when the tests may mount one (root), else a plain folder;
+    ``(folder, mounted)``. Tests inject the fault themselves when ``mounted`` is false, so
+    every case runs for every user."""
     mnt = tmp_path / "mnt"
     mnt.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={TMPFS_SIZE}", "tmpfs", str(mnt)],
-                       capture_output=True)  # fmt: skip
-    if r.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs: {r.stderr.decode().strip()}")
+    mounted = _can_mount() and subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={TMPFS_SIZE}", "tmpfs", str(mnt)],
+        capture_output=True,
+    ).returncode == 0  # fmt: skip
     try:
-        yield mnt
+        yield mnt, mounted
     finally:
-        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+        if mounted:
+            subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+def _file_size_limit():
+    """``preexec_fn``: writing past a file's current end fails (``EFBIG``, ``SIGXFSZ``
+    ignored) — a full disk for a user who cannot mount one."""
+    import resource
+
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
 
 
 def fill(folder: Path) -> None:
@@ -225,6 +241,16 @@ class TestOutputLocations:
             assert_failed(run_cli(*self._args(box, name), "-o", out),
                           code=2 if where == "directory" else 1)  # fmt: skip
 
+    @pytest.mark.parametrize("name", list(COMMANDS))
+    def test_fifo_output(self, run_cli, box, name):
+        """A special file as output is refused (its temporary would replace it: as root,
+        ``-o /dev/null`` would have replaced the device)."""
+        os.mkfifo(box / "out.fifo")
+        with unchanged(box):
+            assert_failed(run_cli(*self._args(box, name), "-o", box / "out.fifo"),
+                          fragment="is a FIFO, not a regular file")  # fmt: skip
+        assert stat.S_ISFIFO(os.stat(box / "out.fifo").st_mode)
+
     def test_exr_dir_under_a_file(self, run_cli, box):
         (box / "afile").write_text("x")
         with unchanged(box):
@@ -261,10 +287,17 @@ class TestOutputLocations:
             assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "env.h5"),
                           fragment="read-only")  # fmt: skip
 
-    def test_read_only_file_system(self, run_cli, box, tmpfs):
+    def test_read_only_file_system(self, run_cli, box, tmpfs, monkeypatch):
+        """A read-only tmpfs (root), else a folder the file system check reports read-only."""
+        from shbake.format import atomic
+
+        tmpfs, mounted = tmpfs
         (tmpfs / "old.h5").write_bytes((box / "env.h5").read_bytes())
-        if subprocess.run(["mount", "-o", "remount,ro", str(tmpfs)]).returncode != 0:
-            pytest.skip("cannot remount the tmpfs read-only")
+        remount = ["mount", "-o", "remount,ro", str(tmpfs)]
+        if not (mounted and subprocess.run(remount, capture_output=True).returncode == 0):
+            real = atomic._read_only_fs
+            monkeypatch.setattr(atomic, "_read_only_fs",
+                                lambda f: str(f).startswith(str(tmpfs)) or real(f))  # fmt: skip
         with unchanged(tmpfs, box):
             assert_failed(run_cli("project-env", box / "map.exr", "-o", tmpfs / "old.h5"),
                           fragment="read-only")  # fmt: skip
@@ -289,12 +322,25 @@ class TestFullDisk:
 
     @pytest.mark.parametrize("name", list(CASES))
     def test_tmpfs(self, box, tmpfs, name):
+        """A filled 2 MB tmpfs (root); else every write past a file's end fails (the
+        process's file size limit, after a first run has filled the numba caches)."""
+        tmpfs, mounted = tmpfs
         (tmpfs / "old.h5").write_bytes((box / "env.h5").read_bytes())
-        fill(tmpfs)
-        args = [a.format(map=box / "map.exr", env=box / "env.h5", out=tmpfs)
-                for a in self.CASES[name]]  # fmt: skip
+
+        def args(out):
+            return [a.format(map=box / "map.exr", env=box / "env.h5", out=out)
+                    for a in self.CASES[name]]  # fmt: skip
+
+        if mounted:
+            fill(tmpfs)
+            run, fragment = (lambda: shbake(*args(tmpfs))), "no space left on device writing"
+        else:
+            (box / "warm").mkdir()
+            assert shbake(*args(box / "warm"))[0] == 0
+            shutil.rmtree(box / "warm")
+            run, fragment = (lambda: shbake(*args(tmpfs), preexec=_file_size_limit)), "writing"
         with unchanged(tmpfs, box):
-            assert_failed(shbake(*args), fragment="no space left on device writing")
+            assert_failed(run(), fragment=fragment)
 
     def test_injected_enospc(self, run_cli, box, monkeypatch):
         """Without root: the HDF5 write raises ENOSPC."""
@@ -390,6 +436,29 @@ class TestSpecialFiles:
             fragment="device",
         )
 
+    @pytest.mark.parametrize("command", ["plan", "bake"])
+    def test_fifo_scene(self, box, fifo, command):
+        with unchanged(box):
+            assert_failed(shbake(command, fifo, timeout=60), code=2, fragment="FIFO")
+
+    def test_dev_zero_scene(self, box):
+        """Read without a bound, ``/dev/zero`` as a scene grew without limit (12 GB)."""
+        assert_failed(shbake("plan", "/dev/zero", timeout=60), code=2, fragment="device")
+
+    def test_scene_state_fifo_not_read(self, fifo):
+        """A FIFO where the lock or a stamp should be is treated as missing, not read."""
+        from shbake.batch import scene_bake
+
+        assert scene_bake.read_lock(str(fifo)) == {}
+
+    def test_plan_hash_refuses_special_files(self, fifo):
+        from shbake.batch.plan import file_hash
+        from shbake.errors import ShbakeError
+
+        for path in (fifo, "/dev/zero"):
+            with pytest.raises(ShbakeError, match="not a regular file"):
+                file_hash(str(path))
+
     def test_recorded_source_dev_zero(self, box):
         with h5py.File(box / "env.h5", "r+") as f:
             f.attrs["source_path"] = "/dev/zero"
@@ -453,6 +522,152 @@ class TestMemory:
     def test_max_memory_bad_value(self, run_cli, box):
         assert_failed(run_cli("--max-memory", "lots", "project-env", box / "map.exr", "-o",
                               box / "x.h5"), fragment="--max-memory")  # fmt: skip
+
+
+def traced_peak(call) -> int:
+    """Peak bytes numpy and Python allocate during ``call()`` (tracemalloc; numpy reports
+    its buffers to it). An independent measurement of what an estimate predicts."""
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        call()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+class TestPreviewMemory:
+    """Item 5 for ``preview``: ``--size``, the reference pass and kautz coefficients are
+    estimated before any image is allocated; the estimate bounds the measured peak."""
+
+    def test_size_refused(self, run_cli, box):
+        with unchanged(box):
+            msg = assert_failed(run_cli("--max-memory", "1G", "preview", box / "env.h5", "-o",
+                                        box / "p.exr", "--size", 4096),
+                                fragment="4096x4096 preview needs an estimated")  # fmt: skip
+        assert "GiB" in msg and "--max-memory" in msg
+
+    def test_reference_counted(self):
+        from shbake.preview.render import preview_memory
+
+        assert preview_memory(512, reference=True) > preview_memory(512)
+        assert preview_memory(512, texels=10**6) - preview_memory(512) == 160 * 10**6
+
+    def test_kautz_coefficients_refused(self, run_cli, ws, box):
+        from shbake.preview.render import preview_memory
+
+        need = preview_memory(2048, coeffs=9)  # the example table: lmax 2
+        budget = (preview_memory(2048) + need) // 2
+        with unchanged(box):
+            assert_failed(run_cli("--max-memory", budget, "preview", box / "env.h5", "--pass",
+                                  "kautz", "--table", ws / "brdf_table.h5", "-o", box / "p.exr",
+                                  "--size", 2048), fragment="needs an estimated")  # fmt: skip
+
+    @pytest.mark.parametrize("diff", [False, True])
+    def test_estimate_bounds_measured_peak(self, box, diff):
+        from shbake.preview.render import preview_asset, preview_memory
+
+        size = 256
+        run = lambda: preview_asset(str(box / "env.h5"), str(box / "p.exr"), size=size,  # noqa: E731
+                                    diff=diff, source=str(box / "map.exr"))  # fmt: skip
+        run()  # compile / load caches outside the measurement
+        peak = traced_peak(run)
+        estimate = preview_memory(size, diff, texels=16 * 32)
+        assert peak <= estimate <= 3 * peak, (peak, estimate)
+
+
+class TestProjectEnvMemory:
+    """Item 5 for ``project-env``: the ``--report`` sweep and the ``--exr-dir`` maps."""
+
+    def test_report_refused_plain_run_accepted(self, run_cli, box):
+        from shbake.batch.project_env import project_memory
+
+        budget = project_memory(16 * 32, None, True) - 1  # the sweep alone does not fit
+        code, _, err = run_cli("--max-memory", budget, "project-env", box / "map.exr",
+                               "-o", box / "a.h5", "-q")  # fmt: skip
+        assert code == 0, err
+        with unchanged(box):
+            assert_failed(run_cli("--max-memory", budget, "project-env", box / "map.exr", "-o",
+                                  box / "b.h5", "--report"),
+                          fragment="--report over 32x16")  # fmt: skip
+
+    def test_exr_maps_refused(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("--max-memory", "1G", "project-env", box / "map.exr", "-o",
+                                  box / "b.h5", "--exr-dir", box / "maps", "--size", 4096),
+                          fragment="4096x8192 --exr-dir maps needs an estimated")  # fmt: skip
+
+    def test_report_estimate_bounds_measured_peak(self, tmp_path):
+        from shbake.batch.project_env import project_environment, project_memory
+        from shbake.envmap import load_environment
+        from tests.helpers import write_test_exr
+
+        h = 128
+        pixels = (0.5 + np.random.default_rng(2).random((h, 2 * h, 3))).astype(np.float32)
+        write_test_exr(tmp_path / "m.exr", pixels)
+        m = str(tmp_path / "m.exr")
+        run = lambda rep: project_environment(m, str(tmp_path / "o.h5"), report=rep)  # noqa: E731
+        run(True)
+        base = traced_peak(lambda: load_environment(m, quiet=True))
+        peak = traced_peak(lambda: run(True))
+        estimate = base + project_memory(h * 2 * h, None, True)
+        assert peak <= estimate <= 3 * peak, (peak, estimate)
+
+
+class TestProbeFitMemory:
+    """Item 5 for ``probe-fit``: the plan (per worker) and the fit's working arrays."""
+
+    def test_plan_refused(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("--max-memory", "1G", "probe-fit", box / "map.exr", "--out-dir",
+                                  box / "d", "--normals", 4096, "--views", 4096),
+                          fragment="probe fit (4096 normals x 4096 views")  # fmt: skip
+
+    def test_workers_multiply(self, run_cli, box):
+        from shbake.bakers.shexp import FitConfig
+
+        one = FitConfig().memory((16, 32), 1)
+        with unchanged(box):
+            assert_failed(run_cli("--max-memory", int(1.5 * one), "probe-fit", box / "map.exr",
+                                  "--out-dir", box / "d", "--jobs", 2),
+                          fragment="in each of 2 workers")  # fmt: skip
+
+    @pytest.mark.parametrize("changes", [{}, {"lmax_p": 6, "lmax_q": 6}, {"targets": "sh"}])
+    def test_estimate_bounds_measured_peak(self, changes):
+        from shbake.bakers.shexp import FitConfig, FitPlan
+
+        cfg = FitConfig(normals=16, views=8, samples=256, **changes)
+        pixels = 0.5 + np.random.default_rng(0).random((64, 128, 3))
+        FitPlan(cfg, pixels.shape[:2]).fit_many([pixels, pixels])  # compile outside
+        peak = traced_peak(lambda: FitPlan(cfg, pixels.shape[:2]).fit_many([pixels, pixels]))
+        estimate = cfg.memory(pixels.shape[:2], 2)
+        assert peak <= estimate <= 4 * peak, (peak, estimate)
+
+
+class TestOtherCommandsMemory:
+    """Item 5 for split-sum, export and shrm: their size parameters are estimated first."""
+
+    def test_split_sum_levels(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("--max-memory", "1G", "split-sum", box / "map.exr", "-o",
+                                  box / "s.h5", "--size", 2048, "--min-size", 2048, "--alphas",
+                                  ",".join(str(0.2 + 0.05 * i) for i in range(16))),
+                          fragment="split-sum chain of 16 levels")  # fmt: skip
+
+    def test_export_cube_size(self, run_cli, box):
+        assert run_cli("project-env", box / "map.exr", "-o", box / "e.h5", "-q")[0] == 0
+        with unchanged(box):
+            assert_failed(run_cli("export", box / "e.h5", "--to", "gltf", "-o", box / "x.gltf",
+                                  "--size", 1 << 16, "--floor", 8),
+                          fragment="cube chain of 65536")  # fmt: skip
+
+    def test_shrm_cube(self, run_cli, box):
+        with unchanged(box):
+            assert_failed(run_cli("--max-memory", "64M", "shrm", box / "map.exr", "-o",
+                                  box / "r.h5", "--brdf", "phong", "--F", 4, "--P", 4,
+                                  "--face-size", 256), fragment="SHRM with 25 terms")  # fmt: skip
 
 
 # -- 6, 7 (and issue 10). corrupt assets ----------------------------------------------------
@@ -520,6 +735,35 @@ class TestOneLine:
         (box / "list.txt").write_bytes(b"\xff\xfe map.exr\n")
         assert_failed(run_cli("probe-fit", "--list", box / "list.txt"), fragment="UTF-8")
 
+    @pytest.mark.parametrize("option", ["--list", "--merl"])
+    @pytest.mark.parametrize("what", ["missing", "symlink-loop"])
+    def test_unreadable_list_or_merl_names_the_reason(self, run_cli, box, option, what):
+        """Read errors of the probe list and the MERL file said ``(None)`` instead of why."""
+        path = box / "x.txt"
+        if what == "symlink-loop":
+            os.symlink(box / "y.txt", path)
+            os.symlink(path, box / "y.txt")
+        args = (["probe-fit", "--list", path] if option == "--list"
+                else ["brdf-table", "merl", "--merl", path, "-o", box / "t.h5"])  # fmt: skip
+        with unchanged(box):
+            msg = assert_failed(run_cli(*args))
+        assert "None" not in msg
+        assert ("no such file" if what == "missing" else "symbolic links") in msg
+
+    @pytest.mark.parametrize("args", [
+        ["preview", "{env}", "-o", "{box}/p.exr", "--roughness", "nan"],
+        ["export", "{env}", "--to", "threejs", "-o", "{box}/x.json", "--sun-radius", "nan"],
+        ["probe-fit", "{map}", "--out-dir", "{box}/d", "--floor", "nan"],
+        ["shrm", "{map}", "-o", "{box}/o.h5", "--brdf", "phong", "--eps", "inf"],
+        ["tradeoff", "env_sh", "--map", "{map}", "--tol", "nan", "-o", "{box}/t.png"],
+    ])  # fmt: skip
+    def test_nan_option_refused(self, run_cli, box, args):
+        """click's range check compares, and every comparison with NaN is false: NaN passed
+        every float option (and was then ignored or propagated)."""
+        args = [a.format(env=box / "env.h5", map=box / "map.exr", box=box) for a in args]
+        with unchanged(box):
+            assert_failed(run_cli(*args), code=2, fragment="not a finite number")
+
     def test_scheduler_not_a_url(self, run_cli, box):
         assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "d",
                               "--scheduler", "not a url"), fragment="--scheduler")  # fmt: skip
@@ -562,6 +806,22 @@ class TestOneLine:
 LONG_TABLE = ["brdf-table", "phong", "--size", "256", "--lmax", "8", "--samples", "4096"]
 
 
+@pytest.fixture(scope="module")
+def big(tmp_path_factory):
+    """A 256x512 map with an env_sh asset baked from it (references read the map), and a
+    1024x2048 map (a long --report sweep)."""
+    from shbake_cli.main import main
+
+    from tests.helpers import write_test_exr
+
+    root = tmp_path_factory.mktemp("big")
+    rng = np.random.default_rng(7)
+    write_test_exr(root / "big.exr", 0.2 + rng.random((256, 512, 3)))
+    write_test_exr(root / "huge.exr", 0.2 + rng.random((1024, 2048, 3)))
+    assert main(["project-env", str(root / "big.exr"), "-o", str(root / "big.h5"), "-q"]) == 0
+    return root
+
+
 class TestSignals:
     """Item 10: SIGINT/SIGTERM stop within about a second anywhere, clean up, exit 130/143."""
 
@@ -584,6 +844,101 @@ class TestSignals:
         assert_failed((p.returncode, "", err), code=code, fragment="interrupted")
         assert waited < 10.0, waited  # ~1 s; generous for a loaded machine (not a timing test)
 
+    KERNELS = {  # each runs for minutes uninterrupted; interrupted inside its numba kernel
+        "projection-report": ["project-env", "{big}/huge.exr", "-o", "{box}/old.h5", "--lmax", "64",
+                              "--report"],
+        "probe-fit": ["probe-fit", "{big}/big.exr", "-o", "{box}/old.h5", "--samples", "4096",
+                      "--normals", "128"],
+        "shrm": ["shrm", "{big}/big.exr", "-o", "{box}/old.h5", "--brdf", "phong", "--F", "48",
+                 "--P", "16", "--face-size", "128"],
+        "preview-reference": ["preview", "{big}/big.h5", "--pass", "reference", "--size", "1024",
+                              "-o", "{box}/old.exr"],
+    }  # fmt: skip
+
+    @pytest.mark.parametrize("name", list(KERNELS))
+    def test_sigint_in_kernel(self, box, big, name):
+        """Exit 130 with one line soon after SIGINT, old outputs byte-identical, no
+        temporary: the watcher thread aborts the transaction when the main thread is held
+        by a numba kernel (docs/CONVENTIONS.md, Signals)."""
+        (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        (box / "old.exr").write_bytes((box / "map.exr").read_bytes())
+        args = [a.format(big=big, box=box) for a in self.KERNELS[name]]
+        with unchanged(box, big):
+            p = subprocess.Popen(
+                [sys.executable, "-m", "shbake_cli.main", *args],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                env=dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR="off"),
+            )  # fmt: skip
+            time.sleep(5.0)
+            assert p.poll() is None, p.communicate()[1][-2000:]
+            t0 = time.monotonic()
+            p.send_signal(signal.SIGINT)
+            _, err = p.communicate(timeout=30)
+            waited = time.monotonic() - t0
+        assert_failed((p.returncode, "", err), code=130, fragment="interrupted")
+        assert waited < 10.0, waited  # ~1 s; generous for a loaded machine (not a timing test)
+
+    WATCHED = """
+import sys, numba
+from shbake_cli.guard import run
+from shbake.format import atomic
+
+@numba.njit(nogil=True)  # as shbake.jit.jit / pjit compile every kernel
+def spin(n):  # holds the main thread in native code: no Python signal handler can run
+    s = 0.0
+    for i in range(n):
+        s += (i % 7) * 1e-9
+    return s
+
+def call():
+    with atomic.atomic_path(sys.argv[1]) as tmp:
+        with open(tmp, "wb") as f:
+            f.write(b"half-written")
+        spin(1)
+        print("staged", flush=True)
+        spin(10**12)
+    return 0
+
+sys.exit(run(call, []))
+"""
+
+    @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+    def test_watcher_removes_temporaries_of_a_run_held_in_a_kernel(self, box, sig, code):
+        """The main thread is inside a numba loop with an output staged: the watcher thread
+        removes the temporary, prints the one line and ends the process; the old output
+        stays byte-identical."""
+        (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        with unchanged(box):
+            p = subprocess.Popen(
+                [sys.executable, "-c", self.WATCHED, str(box / "old.h5")],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            )  # fmt: skip
+            try:
+                assert p.stdout.readline().strip() == "staged", p.communicate()[1][-2000:]
+                assert any(".shbake-" in n for n in os.listdir(box))  # the temporary exists
+                time.sleep(0.5)
+                p.send_signal(sig)
+                _, err = p.communicate(timeout=30)
+            finally:
+                if p.poll() is None:  # never leave a spinning process behind
+                    p.kill()
+                    p.wait()
+        assert_failed((p.returncode, "", err), code=code, fragment="interrupted")
+
+    def test_every_kernel_releases_the_gil(self):
+        """The watcher thread needs the GIL while the main thread runs a kernel: every
+        kernel is compiled through shbake.jit, whose decorators pass ``nogil=True``."""
+        from shbake import jit
+
+        root = Path(jit.__file__).parent
+        tokens = ("numba.njit", "@njit", "numba.jit(")
+        direct = [str(p) for p in root.rglob("*.py")
+                  if p.name != "jit.py" and any(t in p.read_text() for t in tokens)]  # fmt: skip
+        assert not direct, direct
+        for deco in (jit.jit, jit.pjit):
+            kernel = deco(lambda x: x + 1)
+            assert kernel(1) == 2 and kernel.dispatcher.targetoptions.get("nogil") is True
+
     def test_stale_temporary_removed_live_kept(self, run_cli, box):
         dead = box / f".out.h5.shbake-{dead_pid()}-1.tmp.h5"
         live = box / f".out.h5.shbake-{os.getpid()}-99.tmp.h5"
@@ -593,6 +948,88 @@ class TestSignals:
         code, _, err = run_cli("project-env", box / "map.exr", "-o", box / "out.h5", "-q")
         assert code == 0, err
         assert not dead.exists() and live.exists() and other.exists()
+
+
+def descendants(pid: int) -> set[int]:
+    """Every live descendant process of ``pid`` (Linux ``/proc``)."""
+    parents = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                stat = Path(f"/proc/{entry}/stat").read_text()
+            except OSError:
+                continue
+            parents[int(entry)] = int(stat.rsplit(")", 1)[1].split()[1])
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {p for p, pp in parents.items() if pp in frontier} - found
+        found |= frontier
+    return found
+
+
+def cmdline(pid: int) -> str:
+    """The command line of ``pid`` ("" once it is gone)."""
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_text(errors="replace")
+    except OSError:
+        return ""
+
+
+def alive(pid: int) -> bool:
+    """Whether ``pid`` exists and is not a zombie."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+class TestPoolWorkers:
+    """Item 10: the workers of ``probe-fit --jobs`` die with their parent, however it ends
+    (SIGKILL included: the kernel sends them SIGTERM, ``PR_SET_PDEATHSIG``), and leave no
+    temporary (each removes its own before exiting)."""
+
+    @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+    def test_workers_die_with_parent(self, box, big, sig):
+        from tests.helpers import write_test_exr
+
+        rng = np.random.default_rng(5)
+        maps = []
+        for i in range(24):  # 3 gather batches per worker: busy for tens of seconds
+            write_test_exr(box / f"m{i}.exr", 0.5 + rng.random((32, 64, 3)))
+            maps.append(box / f"m{i}.exr")
+        # the plan cache is shared by both cases (the second loads the plan)
+        env = dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR=str(big / "cache"))
+        p = subprocess.Popen(
+            [sys.executable, "-m", "shbake_cli.main", "probe-fit", *map(str, maps), "--out-dir",
+             str(box / "out"), "--jobs", "2", "-q"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        )  # fmt: skip
+        try:
+            deadline = time.monotonic() + TIMEOUT
+            workers = set()
+            while time.monotonic() < deadline and p.poll() is None:
+                workers = {c for c in descendants(p.pid) if "spawn_main" in cmdline(c)}
+                if len(workers) >= 2:
+                    break
+                time.sleep(0.2)
+            assert len(workers) >= 2 and p.poll() is None, p.communicate()[1][-2000:]
+            children = descendants(p.pid)
+            time.sleep(4.0)  # the workers are importing or fitting
+            p.send_signal(sig)
+            _, err = p.communicate(timeout=60)
+            end = time.monotonic() + 30
+            while time.monotonic() < end and any(alive(c) for c in children):
+                time.sleep(0.1)
+            assert not [c for c in children if alive(c)], "a worker outlived its parent"
+        finally:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        if sig == signal.SIGTERM:
+            assert_failed((p.returncode, "", err), code=143, fragment="interrupted")
+        left = [str(f) for f in box.rglob("*") if ".shbake-" in f.name]
+        assert not left, left
+        assert not (box / "out").exists() or all(f.suffix == ".h5" for f in (box / "out").iterdir())
 
 
 # -- 11. determinism --------------------------------------------------------------------------

@@ -67,13 +67,20 @@ class TestLoadScene:
     @pytest.mark.parametrize(
         "old, new, line, key",
         [
-            ('kind = "fibre"', 'kind = "fibre"\nshiny = true', 26, "materials[1].shiny"),
+            ('kind = "fibre"', 'kind = "fibre"\nshiny = true', 28, "materials[1].shiny"),
             ("irradiance = 0.05", 'irradiance = "small"', 7, "tolerances.irradiance"),
             ("maps/sunset.exr", "maps/nowhere.exr", 16, "environments[1].map"),
             ("glossy_probe = 0.3", "glossy_probe = 0", 10, "tolerances.glossy_probe"),
             ("glossy_probe = 0.3", "glossy_probe = 1.5", 10, "tolerances.glossy_probe"),
-            ("roughness = [0.5, 0.9]", "roughness = [0.9, 0.5]", 41, "materials[4].roughness"),
-            ('nu = 4', 'nu = -4', 31, "materials[2].params"),
+            ("roughness = [0.5, 0.9]", "roughness = [0.9, 0.5]", 43, "materials[4].roughness"),
+            ('nu = 4', 'nu = -4', 33, "materials[2].params"),
+            ("sigma = 0.3", "sigma = 9", 49, "materials[5].params"),
+            ("roughness = [0.5, 0.9]", "roughness = [0.5, 0.9]\nparams = { n = 3 }", 44,
+             "materials[4].params"),
+            ('model = "microfacet"', 'model = "kajiya-kay"', 48, "materials[5].model"),
+            ("sigma = 0.3 }", "sigma = 0.3 }\nroughness = 0.5", 50, "materials[5].roughness"),
+            ("rotation_deg = 90", 'rotation_deg = "east"', 18, "environments[1].rotation_deg"),
+            ("glossy_probe = 0.3", "glossy_probe = 0.3\nshrm = 1", 11, "tolerances.shrm"),
         ],
     )
     def test_malformed_scene_is_one_line_with_file_line_key_exit_2(
@@ -146,6 +153,43 @@ class TestPlan:
             for k, v in rec["measured_error"].items():
                 assert np.isfinite(v) and v <= rec["tolerances"][k], (rec["id"], k, v)
 
+    def test_shrm_for_glossy_non_ggx(self, baked):
+        _, _, scene, summary = baked
+        plan = plan_scene(scene)
+        assert plan["materials"]["satin"] == ["shrm/satin/studio", "shrm/satin/dusk"]
+        a = next(x for x in plan["assets"] if x["id"] == "shrm/satin/dusk")
+        assert a["settings"]["pose"] == {"position": [1.0, 2.0, 3.0], "rotation_deg": 90.0}
+        # the orders are the smallest meeting the tolerance: one band less in F misses it
+        from shbake.bakers.shrm import brdf_coefficients, make_reflection_brdf
+
+        co = brdf_coefficients(make_reflection_brdf("microfacet", {"sigma": "0.3"}), 64, 16)
+        cap = co.captured()
+        s = a["settings"]
+        assert 1 - cap[s["F"], s["P"]] <= 0.03 < 1 - cap[s["F"] - 1, s["P"]]
+        rec = summary["records"]["shrm/satin/dusk"]
+        assert rec["measured_error"]["shrm"] <= 0.03  # brute-force shading, turned map
+
+    def test_ggx_single_roughness_shrm_or_splitsum(self, tmp_path):
+        # the SH-exp fit misses a tolerance of 0.01: roughness 0.5 (α 0.25) gets an SHRM of
+        # GGX at F0 = 1 (the model's default) and 0.5; at F0 = 0.04 the Schlick tail leaves
+        # 6.6 % of the energy out at F 64, P 16, and roughness 0.1 (α 0.01) 80 %: split-sum
+        text = TWO_MAPS.read_text().replace("glossy_probe = 0.3", "glossy_probe = 0.01")
+        text = text.split("[[environments]]\nmap = \"MAPS/sunset.exr\"")[0]
+        text = text.split("[[materials]]")[0] + (
+            '[[materials]]\nname = "a"\nkind = "glossy"\nroughness = 0.5\n'
+            '[[materials]]\nname = "b"\nkind = "glossy"\nroughness = 0.1\n'
+            '[[materials]]\nname = "c"\nkind = "glossy"\nroughness = 0.5\n'
+            'params = { F0 = 0.5 }\n'
+            '[[materials]]\nname = "d"\nkind = "glossy"\nroughness = 0.5\n'
+            'params = { F0 = 0.04 }\n')
+        plan = plan_scene(load_scene(str(make_scene(tmp_path, text))))
+        assert plan["materials"] == {"a": ["shrm/a/studio"], "b": ["splitsum/studio"],
+                                     "c": ["shrm/c/studio"], "d": ["splitsum/studio"]}  # fmt: skip
+        a, c = plan["assets"][:2]
+        assert a["settings"]["brdf"] == "ggx" and a["settings"]["params"] == {"alpha": 0.25}
+        assert c["settings"]["params"] == {"alpha": 0.25, "F0": 0.5}
+        assert max(a["predicted_error"]["shrm"], c["predicted_error"]["shrm"]) <= 0.03
+
     def test_plan_json(self, baked, run_cli):
         _, path, _, _ = baked
         code, out, _ = run_cli("plan", path, "--json", "--quiet")
@@ -217,3 +261,14 @@ class TestPipelines:
         write_test_exr(m, px * 2.0)
         second = bake_scene(load_scene(str(path)))
         assert sorted(second["baked"]) == sorted(a for a in first["baked"] if a.endswith("/studio"))
+
+
+class TestRecipeOverheads:
+    def test_measured_once_per_machine(self, monkeypatch):
+        from shbake.batch import plan_costs
+
+        first = plan_costs.recipe_overheads({"env_sh", "export:threejs"})
+        assert all(v > 0 for v in first.values())
+        monkeypatch.setattr(plan_costs, "measure_overheads",
+                            lambda classes: pytest.fail(f"re-measured {classes}"))  # fmt: skip
+        assert plan_costs.recipe_overheads({"env_sh", "export:threejs"}) == first

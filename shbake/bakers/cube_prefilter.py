@@ -48,6 +48,7 @@ from shbake.envmap.environment import Environment
 from shbake.envmap.layouts import cube_face_frames, cube_texels
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
+from shbake.resources import check_memory
 from shbake.texture.bilinear import axis, blend
 
 # GL cube faces: columns (s axis, t axis, face normal) in GL cube space.
@@ -142,8 +143,12 @@ def _resample_latlong(img, dirs_sub, out):
             out[k, c] = acc[c] / s
 
 
+SUPERSAMPLE = 4
+"""Sub-texels per side of a mirror-cube texel (:func:`mirror_cube`)."""
+
+
 def mirror_cube(
-    env: Environment, size: int, supersample: int = 4, rotation: np.ndarray | None = None
+    env: Environment, size: int, supersample: int = SUPERSAMPLE, rotation: np.ndarray | None = None
 ) -> np.ndarray:
     """The mirror (``α = 0``) cube map, ``(6, size, size, 3)`` float64.
 
@@ -334,6 +339,15 @@ def prefilter_level(
     return out.reshape(6, size, size, 3)
 
 
+def chain_memory(size: int, source_size: int, supersample: int = SUPERSAMPLE) -> int:
+    """Estimated peak bytes of :func:`prefilter_chain`: the mirror cube's sub-texel
+    directions (``6 × source² × supersample²`` float64 triples, three copies while they are
+    normalised and reordered), its pyramid (4/3 of the source texels) and the levels."""
+    src = int(source_size) * int(source_size)
+    mirror = 6 * src * supersample * supersample * 3 * 8 * 3
+    return int(mirror + 6 * src * 24 * 2 + 6 * int(size) ** 2 * 24 * 2)
+
+
 def prefilter_chain(
     env: Environment,
     size: int = 128,
@@ -376,6 +390,7 @@ def prefilter_chain(
         raise ParameterError(f"samples must be >= 1, got {samples}")
     n_levels = int(round(math.log2(size // floor))) + 1
     src = source_size or 2 * size
+    check_memory(chain_memory(size, src), f"a cube chain of {size}² faces from {src}² faces")
     pyramid = cube_pyramid(mirror_cube(env, src, rotation=rotation))
     levels, rough = [], []
     for i in range(n_levels):

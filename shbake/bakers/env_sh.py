@@ -17,6 +17,7 @@ from shbake.errors import ParameterError
 from shbake.format.asset import Asset
 from shbake.format.provenance import map_source
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
+from shbake.sh.rotation import rotate
 from shbake.sh.tangent_irradiance import matrix_form
 from shbake.sh.windows import WINDOW_METHODS, dering_window, window
 
@@ -41,6 +42,7 @@ def bake_env_sh(
     sun: bool = False,
     sun_radius_deg: float = 10.0,
     provenance: dict | None = None,
+    rotation: np.ndarray | None = None,
 ) -> tuple[Asset, dict]:
     """Bake an ``env_sh`` asset.
 
@@ -56,6 +58,10 @@ def bake_env_sh(
     sun : bool
         Extract the dominant compact light (:mod:`shbake.envmap.sun`) and
         project the residual.
+    rotation : (3, 3) array, optional
+        Turn the environment by ``R`` (a scene probe's pose, :mod:`shbake.envmap.turn`):
+        the SH become ``M(R) L`` (:func:`shbake.sh.rotation.rotate`, exact) and the sun's
+        direction ``R d``; everything derived from them follows.
 
     Returns
     -------
@@ -79,12 +85,15 @@ def bake_env_sh(
         light, residual, sun_report = extract_sun(env, radius_deg=sun_radius_deg)
         summary["sun"] = _jsonable(sun_report)
         if light is not None:
-            datasets["/sun/direction"] = light.direction
+            datasets["/sun/direction"] = (light.direction if rotation is None
+                                          else np.asarray(rotation) @ light.direction)  # fmt: skip
             datasets["/sun/solid_angle"] = np.float64(light.solid_angle)
             datasets["/sun/radiance"] = light.radiance
             dattrs["/sun/direction"] = {"frame": "world, unit vector toward the light"}
             dattrs["/sun/radiance"] = {"units": "radiance; radiance * solid_angle = irradiance"}
     L = residual.project(lmax)
+    if rotation is not None:
+        L = rotate(L, rotation)
     datasets["/lighting/sh"] = L
     dattrs["/lighting/sh"] = {
         "lmax": lmax,

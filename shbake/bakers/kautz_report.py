@@ -7,7 +7,7 @@ Three independent error sources, each against a brute-force or converged value:
   Gauss–Legendre × trapezoid hemisphere quadrature; mean over probe views.
 * resolution — bilinear look-up error: ``sqrt(4π) max |c_lookup(v) − c(v)|``
   at random views (``c(v)`` projected directly with the same samples).
-* samples — the table's own refinement history (error estimate per doubling).
+* samples — the table's own refinement history (error estimate per power-of-two of points).
 
 Times are measured: per-view cost on the probe views, scaled to the table.
 """

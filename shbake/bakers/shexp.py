@@ -50,6 +50,10 @@ from shbake.shading.shexp import hat_weights, mirror_and_half, vmf_factors
 
 WEIGHTS = ("log", "shaded", "shaded-nv", "shaded-nv-f0")
 DIELECTRIC_F0 = 0.04
+SAMPLE_BYTES = 512
+"""Working bytes per fit sample besides the quadrature entries: tiled views and normals,
+``α``, weights, ``E0`` targets and their log, fitted values (tracemalloc:
+``tests/test_faults.py::TestProbeFitMemory``)."""
 WEIGHTINGS = WEIGHTS  # the name cli/probe_fit.py imports until its grammar pass
 TARGETS = ("quadrature", "sh")
 SETS_LIMIT = 8
@@ -97,8 +101,10 @@ class FitConfig:
             (4 <= self.views <= 4096, "views must be in [4, 4096]"),
             (1 <= self.alpha_count <= 64, "alpha_count must be in [1, 64]"),
             (1 <= self.sets <= SETS_LIMIT, f"sets must be in [1, {SETS_LIMIT}]"),
-            (self.sets == 1 or self.alpha_count >= 2 * self.sets - 1,
-             "alpha_count must be at least 2·sets − 1 (every hat needs samples)"),  # fmt: skip
+            (
+                self.sets == 1 or self.alpha_count >= 2 * self.sets - 1,
+                "alpha_count must be at least 2·sets − 1 (every hat needs samples)",
+            ),  # fmt: skip
             (self.weights in WEIGHTS, f"weights must be one of {', '.join(WEIGHTS)}"),
             (0 <= self.polish <= 8, "polish must be in [0, 8] Gauss–Newton steps"),
             (np.isfinite(self.floor) and 0 < self.floor < 1, "floor must be in (0, 1)"),
@@ -124,8 +130,9 @@ class FitConfig:
     @classmethod
     def paper(cls, **changes) -> "FitConfig":
         """The paper's fit (§5.1): one set, log weights, 4 α samples over [0.2, 1], no polish."""
-        return cls(**({"sets": 1, "weights": "log", "alpha_count": 4, "polish": 0, "views": 64}
-                      | changes))
+        return cls(
+            **({"sets": 1, "weights": "log", "alpha_count": 4, "polish": 0, "views": 64} | changes)
+        )
 
     @property
     def alphas(self) -> np.ndarray:
@@ -144,6 +151,37 @@ class FitConfig:
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+    def memory(self, shape: tuple[int, int], maps: int = 1) -> int:
+        """Estimated peak bytes of a :class:`FitPlan` for lat-long maps of ``shape`` and of
+        fitting ``maps`` of them in one pass (:meth:`FitPlan.fit_many`).
+
+        Terms (float64 unless said): per fit sample (``T = normals × views × alpha_count``)
+        :data:`SAMPLE_BYTES` of geometry, weights and targets, and ``samples`` int32 +
+        float32 quadrature entries twice (built, then compacted) — or the SH targets' GGX
+        tables (one per ``α``) and rotated lighting; per normal–view pair ``Y`` and its
+        upper-triangle products ``n (n+1)/2`` with the two factor copies numpy makes; the
+        Gram matrices ``n² × alpha_count × 3`` three times and the normal matrices
+        ``3 (K n)²`` twice; per map texel ``maps ×`` the filtered pyramid (4/3 of the
+        texels × 3) twice. An upper bound of the measured peak
+        (``tests/test_faults.py::TestProbeFitMemory``).
+        """
+        pairs = self.normals * self.views
+        t = pairs * self.alpha_count
+        n = self.n_params
+        total = t * SAMPLE_BYTES
+        if self.targets == "quadrature":
+            total += t * self.samples * 8 * 2
+        else:  # one GGX table per α (brdf/tabulate.py) and the rotated lighting
+            from shbake.bakers.shexp_sh_targets import TABLE_RESOLUTION
+            from shbake.brdf.tabulate import table_bytes
+
+            total += self.alpha_count * table_bytes(1, TABLE_RESOLUTION, self.targets_lmax)
+            total += t * n_coeffs(self.targets_lmax) * 3 * 8 * 2
+        total += pairs * (n + 3 * n * (n + 1) // 2) * 8  # Y; Y_i Y_j and its two factors
+        total += 3 * n * n * self.alpha_count * 3 * 8 + 2 * 3 * (self.sets * n) ** 2 * 8
+        total += maps * int(shape[0]) * int(shape[1]) * 4 // 3 * 3 * 8 * 2
+        return int(total)
 
 
 def design_rows(views, normals, alpha, lmax_p: int, lmax_q: int, knots) -> np.ndarray:

@@ -69,6 +69,7 @@ from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
+from shbake.resources import check_memory
 from shbake.sh.basis import real_sh_numba
 from shbake.sh.rotation import SHRotation
 from shbake.texture.cube import cube_directions
@@ -509,6 +510,9 @@ def check_face_size(size, P: int, kind: str) -> int:
             f"a {size}² × 6 SHRM with {terms} terms would take {nbytes / 2**30:.1f} GiB "
             f"(limit {BYTES_LIMIT / 2**30:.0f} GiB); lower --face-size or --P"
         )
+    # the bake holds the cube in float64 and its per-texel result rows: 2 × 8 bytes a term
+    check_memory(6 * size * size * terms * 3 * 8 * 2,
+                 f"a {size}² × 6 SHRM with {terms} terms")  # fmt: skip
     return int(size)
 
 
@@ -749,12 +753,14 @@ class ShrmBake:
 
 
 def bake_shrm(env, rb: ReflectionBRDF, eps: float = 0.03, F=None, P=None, face_size=None,
-              coeffs_full: BRDFCoefficients | None = None) -> ShrmBake:  # fmt: skip
+              coeffs_full: BRDFCoefficients | None = None, rotation=None) -> ShrmBake:  # fmt: skip
     """Bake the global SHRM of ``env`` (an :class:`~shbake.envmap.Environment`) for ``rb``.
 
     Orders from ``eps`` unless ``F``/``P`` are given (:func:`select_orders`);
     face size from ``F`` unless given (:func:`auto_face_size`). ``coeffs_full``
     may pass precomputed coefficients to ``(F_LIMIT, P_search)`` (benchmarks).
+    ``rotation``: turn the environment by ``R`` first (a scene probe's pose,
+    :mod:`shbake.envmap.turn`): the lighting becomes ``M(R) L``, exactly.
     """
     eps = check_eps(eps)
     F, P = check_F(F), check_P(P)
@@ -773,6 +779,10 @@ def bake_shrm(env, rb: ReflectionBRDF, eps: float = 0.03, F=None, P=None, face_s
     size = auto_face_size(orders.F) if face_size is None else face_size
     size = check_face_size(size, orders.P, rb.kind)
     L = env.project(orders.F)
+    if rotation is not None:
+        from shbake.sh.rotation import rotate
+
+        L = rotate(L, rotation)
     light_energy = np.einsum("hwc,hw->c", env.pixels.astype(np.float64) ** 2,
                              env.quadrature_weights())  # fmt: skip
     t2 = time.perf_counter()
@@ -828,38 +838,62 @@ def write_exr_cubes(directory: str, bake: ShrmBake, view) -> list[str]:
     return written
 
 
+class ShadingCheck:
+    """Brute-force shading of a sphere seen from +Z (the preview's orthographic sphere,
+    ``sphere × sphere`` pixels) under ``env`` turned by ``rotation``, to measure an SHRM
+    against: ``ref`` is ``None`` for the tangent kind (no surface to shade).
+
+    Surface kinds: :func:`shbake.reference.brdf_shading.brute_force_shading` of the BRDF
+    over every texel; the lobe kind: the radially symmetric Phong lobe summed over texels.
+    """
+
+    def __init__(self, env, rb: ReflectionBRDF, sphere: int = 24, rotation=None):
+        from shbake.brdf.sampling import tangent_frame as frame_of
+        from shbake.reference.brdf_shading import brute_force_shading
+
+        c = 2.0 * (np.arange(sphere) + 0.5) / sphere - 1.0
+        x, y = np.meshgrid(c, -c)
+        inside = x * x + y * y < 1.0
+        n = np.stack([x[inside], y[inside], np.sqrt(1.0 - x[inside] ** 2 - y[inside] ** 2)], -1)
+        self.normals, self.view, self.kind = n, np.array([0.0, 0.0, 1.0]), rb.kind
+        self.ref = None
+        dirs, om, rad = env.samples()
+        if rotation is not None:
+            dirs = dirs @ np.asarray(rotation).T  # the map's d is seen at R d
+        view = self.view
+        if rb.kind == "surface":
+            frames = np.array([np.array([*frame_of(*x), x]) for x in n])
+            brdf = make_brdf(rb.name, rb.source or None, **_plain(rb.values))
+            self.ref = brute_force_shading(dirs, om, rad, frames,
+                                           np.einsum("pij,j->pi", frames, view), brdf)  # fmt: skip
+        elif rb.kind == "lobe":
+            r = 2.0 * n[:, 2:3] * n - view
+            s = rb.values["s"]
+            ref = np.zeros((len(r), 3))
+            for i in range(0, len(r), 64):
+                cz = np.clip(r[i : i + 64] @ dirs.T, 0.0, None)
+                ref[i : i + 64] = ((s + 1) / (2 * np.pi) * cz**s * om) @ rad / np.sqrt(4 * np.pi)
+            self.ref = ref
+
+    def rel_energy(self, cube: np.ndarray) -> float:
+        """``Σ (shaded − ref)² / Σ ref²`` of the SHRM ``cube`` (comparable with ``eps_brdf``)."""
+        from shbake.shading.shrm import reflection_cube, shade
+
+        img = shade(reflection_cube(cube, self.view), self.normals, self.view)
+        return float(np.sum((img - self.ref) ** 2) / max(float(np.sum(self.ref**2)), 1e-300))
+
+
 def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32,
                 sphere: int = 24) -> list[dict]:  # fmt: skip
     """The ``--report`` table: per ``(F, P)`` the predicted error (BRDF energy left out and
     the appendix-B bound, both energy fractions), the error measured against brute force on
     a sphere seen from +Z (relative RMS, and its square, the relative energy; surface and
     lobe kinds), the bake time and the bytes."""
-    from shbake.brdf.sampling import tangent_frame as frame_of
-    from shbake.reference.brdf_shading import brute_force_shading
-    from shbake.shading.shrm import reflection_cube, shade
-
     F_values, P_values = list(F_values), list(P_values)
     if rb.radially_symmetric:
         P_values = [0]
     co = brdf_coefficients(rb, max(F_values), max(P_values))
-    c = 2.0 * (np.arange(sphere) + 0.5) / sphere - 1.0
-    x, y = np.meshgrid(c, -c)  # the preview's orthographic sphere seen from +Z
-    inside = x * x + y * y < 1.0
-    n = np.stack([x[inside], y[inside], np.sqrt(1.0 - x[inside] ** 2 - y[inside] ** 2)], -1)
-    view = np.array([0.0, 0.0, 1.0])
-    ref = None
-    dirs, om, rad = env.samples()
-    if rb.kind == "surface":
-        frames = np.array([np.array([*frame_of(*x), x]) for x in n])
-        brdf = make_brdf(rb.name, rb.source or None, **_plain(rb.values))
-        ref = brute_force_shading(dirs, om, rad, frames, np.einsum("pij,j->pi", frames, view), brdf)
-    elif rb.kind == "lobe":
-        r = 2.0 * n[:, 2:3] * n - view
-        s = rb.values["s"]
-        ref = np.zeros((len(r), 3))
-        for i in range(0, len(r), 64):
-            c = np.clip(r[i : i + 64] @ dirs.T, 0.0, None)
-            ref[i : i + 64] = ((s + 1) / (2 * np.pi) * c**s * om) @ rad / np.sqrt(4 * np.pi)
+    check = ShadingCheck(env, rb, sphere)
     rows = []
     for F in F_values:
         for P in P_values:
@@ -868,9 +902,8 @@ def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32
                    "eps_bound": b.bound["eps_bound_max"], "seconds": b.timings["total"],
                    "bytes": int(b.cube.nbytes), "measured_rel_rms": None,
                    "measured_rel_energy": None}  # fmt: skip
-            if ref is not None:
-                img = shade(reflection_cube(b.cube, view), n, view)
-                e2 = float(np.sum((img - ref) ** 2) / np.sum(ref**2))
+            if check.ref is not None:
+                e2 = check.rel_energy(b.cube)
                 row["measured_rel_rms"] = float(np.sqrt(e2))
                 row["measured_rel_energy"] = e2  # comparable with eps_brdf and the bound
             rows.append(row)

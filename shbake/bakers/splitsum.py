@@ -36,6 +36,7 @@ from shbake.envmap.layouts import latlong_texel, row_solid_angle
 from shbake.errors import ParameterError
 from shbake.jit import pjit
 from shbake.reference.ggx import check_alpha
+from shbake.resources import check_memory
 from shbake.sh.point_sets import fibonacci_square
 from shbake.texture.octahedral import decode as oct_decode
 
@@ -126,8 +127,26 @@ def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, ou
             out[row, col, 2] = acc2 / wsum
 
 
+LEVEL_TEXEL_BYTES = 36
+"""Bytes per texel of a level: the float64 level ``(size, size, 3)`` and its float32 copy."""
+MAP_TEXEL_BYTES = 64
+"""Bytes per source-map texel: the flat float64 copy and (``filtered``) its pyramid."""
+
+
+def chain_memory(config: SplitSumConfig, shape: tuple[int, int]) -> int:
+    """Estimated peak bytes of :func:`prefilter_chain` for a map of ``shape``: every level
+    is kept (:data:`LEVEL_TEXEL_BYTES` per texel) beside the prepared map."""
+    levels = sum(s * s for s in config.sizes) * LEVEL_TEXEL_BYTES
+    return int(levels + int(shape[0]) * int(shape[1]) * MAP_TEXEL_BYTES)
+
+
 def prefilter_chain(pixels, config: SplitSumConfig) -> list[np.ndarray]:
-    """The prefiltered octahedral levels, float32 ``(size_k, size_k, 3)`` each."""
+    """The prefiltered octahedral levels, float32 ``(size_k, size_k, 3)`` each. Refused,
+    before any level is made, when :func:`chain_memory` exceeds the memory budget."""
+    sizes = config.sizes
+    check_memory(chain_memory(config, pixels.shape[:2]),
+                 f"a split-sum chain of {len(sizes)} levels from {sizes[0]}x{sizes[0]} "
+                 f"to {sizes[-1]}x{sizes[-1]}")  # fmt: skip
     flat, h, w = latlong_flat(pixels)
     if config.prefilter == "filtered":
         levels = pyramid_levels((h, w))

@@ -78,7 +78,7 @@ def export_assets(
                 floor=cfg["floor"],
                 mapping=cfg["mapping"],
                 samples=cfg["samples"],
-                rotation=src.rotation,
+                rotation=src.cube_rotation,
             )
             extra.update(levels=levels, roughness=rough, mapping=cfg["mapping"])
             if target == "ktx2":

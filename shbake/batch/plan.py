@@ -9,7 +9,10 @@ Rules (one asset per map or per BRDF, shared by every material that needs it):
 * ``glossy`` (GGX) → one SH-exp probe per map covering the materials whose
   GGX width α = r² starts at :data:`SHEXP_MIN_ALPHA` or above, when the fit's
   predicted error meets ``glossy_probe``; a split-sum probe per map for the
-  rest (low roughness, or a fit that misses the tolerance).
+  rest (low roughness, or a fit that misses the tolerance) — except a material
+  with ONE roughness whose SHRM orders meet ``shrm``: it gets an SHRM.
+* ``glossy`` with another isotropic ``model`` (Phong, Blinn–Phong, Ward,
+  microfacet σ, Lafortune…) → one SHRM per map and distinct BRDF.
 
 Error models (cheap, each measured, never assumed):
 
@@ -30,16 +33,18 @@ Error models (cheap, each measured, never assumed):
   :data:`FIT_PREDICT_HEIGHT` rows (said in the plan's ``note``).
 * split-sum: no error model in shbake (its approximation error is not a
   quadrature error); the plan says so instead of predicting one.
+* SHRM: the BRDF energy the orders ``F``, ``P`` leave out (RH02 §5.1,
+  :func:`shbake.bakers.shrm.select_orders`).
 
-Predicted times are measured at plan time on the same machine: map loading,
-the projection at the chosen ``L``, a small table scaled by texel count, a
-fit on the downsampled map scaled by texel count.
+Predicted times are CPU seconds of each asset's make recipe: the recipe's
+fixed part (:func:`shbake.batch.plan_costs.recipe_overheads`, once per
+machine) plus the map load and the baker's work, CPU time measured here
+(:mod:`shbake.batch.plan_costs` says what the number means).
 """
 
 import hashlib
 import json
 import os
-import time
 from dataclasses import asdict
 
 import numpy as np
@@ -47,7 +52,9 @@ import numpy as np
 from shbake.bakers.env_sh import band_energy
 from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
+from shbake.bakers.shrm import F_LIMIT, P_LIMIT
 from shbake.bakers.splitsum import SplitSumConfig
+from shbake.batch.plan_costs import cpu_timed, recipe_overheads
 from shbake.batch.scene import Scene, _param_strings
 from shbake.brdf import make_brdf
 from shbake.brdf.tabulate import project_views, tabulate
@@ -69,16 +76,15 @@ TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
 REFERENCE_SAMPLES = 16384
-PLAN_VERSION = 4
+PLAN_VERSION = 5
 
 
 def file_hash(path: str) -> str:
-    """SHA-256 of a file's bytes (hex)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+    """SHA-256 of a file's bytes (hex); special files (FIFO, ``/dev/zero``) are refused
+    and no more than the file's size is read (:func:`shbake.resources.sha256_of`)."""
+    from shbake import resources
+
+    return resources.sha256_of(path)
 
 
 def _digest(obj) -> str:
@@ -104,12 +110,9 @@ _WARM: set[str] = set()
 
 
 def _cold(kind: str, fn, *a, **k) -> float:
-    """Warm seconds of ``fn(*a, **k)``: the first call per kind and process is not timed.
-
-    Predicted times are warm times; the bake measures warm times too
-    (:func:`shbake.batch.scene_bake.bake_asset`). A fresh process adds its
-    numba cache loads (about 1–2 s per kind), which neither counts.
-    """
+    """Warm CPU seconds of ``fn(*a, **k)``: the first call per kind and process is not timed
+    (its numba cache loads and imports are the recipe's fixed part,
+    :func:`shbake.batch.plan_costs.recipe_overheads`); short calls: the best of three."""
     if kind not in _WARM:
         fn(*a, **k)
         _WARM.add(kind)
@@ -119,10 +122,7 @@ def _cold(kind: str, fn, *a, **k) -> float:
     return best
 
 
-def _timed(fn, *a, **k):
-    t0 = time.perf_counter()
-    out = fn(*a, **k)
-    return out, time.perf_counter() - t0
+_timed = cpu_timed
 
 
 def _downsample(pixels: np.ndarray, height: int) -> np.ndarray:
@@ -159,7 +159,8 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
     return {
         "settings": settings,
         "predicted_error": {k: float(e[lmax]) for k, (e, _) in errs.items()},
-        "predicted_seconds": load_s + t_l + (t_sun if sun else 0.0),
+        "work_seconds": load_s + t_l + (t_sun if sun else 0.0),
+        "sun_seconds": t_sun if sun else 0.0,
         "bytes": n * (1 + settings["irradiance"] + settings["tangent"]) + (56 if sun else 0),
         "note": "error: Parseval on the full map" + (", sun removed (exact light)" if sun else ""),
     }
@@ -184,7 +185,7 @@ def table_errors(brdf, lmax: int, size: int, samples: int, views=None, energy=No
 def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> dict:
     """Cheapest ``(lmax, size, samples)`` whose predicted error meets ``tol`` (greedy: lmax for
     60 % of it, then samples, then the smallest size meeting the whole)."""
-    brdf = make_brdf(model, merl_path=merl, **_param_strings(params))
+    brdf, t_make = _timed(make_brdf, model, merl_path=merl, **_param_strings(params))
     views = probe_views()
     energy = product_energy(brdf, views, 256)
     norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
@@ -214,7 +215,7 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
         "settings": {"model": model, "params": params, "merl": merl, "lmax": lmax,
                      "size": size, "samples": samples},  # fmt: skip
         "predicted_error": {"brdf_table": errs["total"]},
-        "predicted_seconds": t8 * (size / 8) ** 2,
+        "work_seconds": t_make + t8 * (size / 8) ** 2,
         "bytes": size * size * n_coeffs(lmax) * 3 * 8,
         "note": "error: truncation {truncation:.3g}, samples {samples:.3g}, look-up {lookup:.3g}"
         .format(**errs),
@@ -226,22 +227,68 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
 
 def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
     """An SH-exp probe over perceptual roughness ``[lo, hi]`` (α = r²): the paper's fit
-    (one set, 4 α samples, 256 samples per target); error and time from a fit on a small map."""
+    (one set, 4 α samples, 256 samples per target); the error from a fit on the map
+    downsampled to :data:`FIT_PREDICT_HEIGHT` rows, the time from the fit of the map itself
+    with its plan (built here once per machine into the plan cache, as the bake loads it)."""
     from shbake.bakers.shexp import FitPlan
+    from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
 
     a_lo, a_hi = lo * lo, hi * hi
     config = FitConfig.paper(alpha_min=a_lo, alpha_max=a_hi,
                              alpha_count=4 if a_hi > a_lo else 1, samples=256)  # fmt: skip
     small = _downsample(env.pixels, FIT_PREDICT_HEIGHT)
-    plan = FitPlan(config, small.shape[:2])  # the bake loads its plan from the plan cache
-    probe = plan.fit(small)
-    t_fit = _cold("shexp", plan.fit, small)
+    probe = FitPlan(config, small.shape[:2]).fit(small)
+    full = fit_plan(config, env.shape)  # the bake's plan, now in the plan cache
+    shared_dfg_table()
+    t_fit = _cold("shexp", full.fit, env.pixels)
     return {
         "settings": {"fit": config.as_dict()},
         "predicted_error": {"glossy_probe": float(probe.stats["log_rms"])},
-        "predicted_seconds": t_fit,
+        "work_seconds": t_fit,
         "bytes": 12 * config.n_params,
         "note": f"error: fit on the map downsampled to {small.shape[0]} rows",
+    }
+
+
+def plan_shrm(env: EnvMap, model: str, params: dict, tol: float) -> dict:
+    """An SHRM (Ramamoorthi & Hanrahan 2002) of an isotropic BRDF: the smallest ``F``, ``P``
+    whose truncation leaves at most ``tol`` of the BRDF's energy out
+    (:func:`shbake.bakers.shrm.select_orders` on coefficients to ``F_LIMIT``, ``P_LIMIT``,
+    RH02 §5.1 and appendix C), the face size from ``F``
+    (:func:`~shbake.bakers.shrm.auto_face_size`).
+
+    ``impossible`` when no ``F ≤ 64``, ``P ≤ 16`` reaches ``tol`` (e.g. GGX at low roughness).
+    Time: the BRDF coefficients at ``(F, P)`` and the lighting projection as the bake computes
+    them, the cube at half the face size scaled by texel count.
+    """
+    from shbake.bakers.shrm import (
+        auto_face_size,
+        brdf_coefficients,
+        make_reflection_brdf,
+        select_orders,
+        shrm_cube,
+    )
+
+    rb = make_reflection_brdf(model, _param_strings(params))
+    search = brdf_coefficients(rb, F_LIMIT, 0 if rb.radially_symmetric else P_LIMIT)
+    orders = select_orders(search, tol)
+    if not orders.reached:
+        return {"impossible": {"shrm": orders.eps_brdf}}
+    F, P = orders.F, orders.P
+    size = auto_face_size(F)
+    t_coeffs = _cold("shrm_coeffs", brdf_coefficients, rb, F, P)
+    co = brdf_coefficients(rb, F, P)
+    L, t_light = _timed(env.project, F)
+    half = max(4, size // 2)
+    t_cube = _cold("shrm_cube", shrm_cube, L, co, half, rb.kind)
+    terms = P + 1 if rb.kind == "tangent" else (P + 1) ** 2
+    return {
+        "settings": {"brdf": model, "params": params, "merl": None, "eps": tol, "F": F,
+                     "P": P, "face_size": size},  # fmt: skip
+        "predicted_error": {"shrm": float(orders.eps_brdf)},
+        "work_seconds": t_coeffs + t_light + t_cube * (size / half) ** 2,
+        "bytes": 6 * size * size * terms * 3 * 4,
+        "note": "error: BRDF energy left out by F, P (RH02 5.1)",
     }
 
 
@@ -252,7 +299,9 @@ def plan_splitsum(env: EnvMap, lo: float, hi: float) -> dict:
     Time: the chain prefiltered at half the size, scaled by texel count.
     """
     from shbake.bakers.splitsum import prefilter_chain
+    from shbake.batch.probe_jobs import shared_dfg_table
 
+    shared_dfg_table()  # the bake's DFG table, now in the plan cache
     a_lo = max(lo * lo, 1e-3)
     a_hi = max(hi * hi, a_lo + 0.01)
     alphas = tuple(float(a) for a in np.linspace(a_lo, min(a_hi, 1.0), 4))
@@ -263,37 +312,62 @@ def plan_splitsum(env: EnvMap, lo: float, hi: float) -> dict:
     return {
         "settings": {"splitsum": config.as_dict()},
         "predicted_error": {},
-        "predicted_seconds": t * texels / sum(s * s for s in small.sizes),
+        "work_seconds": t * texels / sum(s * s for s in small.sizes),
         "bytes": 12 * texels,
         "note": "split-sum: no error model (approximation, not quadrature); tolerance not checked",
     }
+
+
+def recipe_classes(scene: Scene) -> set[str]:
+    """The recipe classes (:mod:`shbake.batch.plan_costs`) a plan of ``scene`` may use."""
+    kinds = {m.kind for m in scene.materials}
+    out = set()
+    if kinds & {"diffuse", "fibre"}:
+        out |= {"env_sh"} | {f"export:{t}" for t in scene.exports}
+    if kinds & {"anisotropic", "measured"}:
+        out.add("brdf_table")
+    for m in scene.materials:
+        if m.kind == "glossy":
+            out |= {"shrm"} if m.model != "ggx" else {"shexp", "splitsum", "shrm"}
+    return out
 
 
 def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
     """The plan of ``scene``: ``{"assets": [...], "materials": {...}}``.
 
     ``cache``: earlier per-unit plans keyed by their inputs (the lock's
-    ``plans``); a unit whose key is there is not re-measured.
+    ``plans``); a unit whose key is there is not re-measured. Predicted seconds
+    are the recipe's fixed CPU cost (:func:`~shbake.batch.plan_costs.recipe_overheads`)
+    plus the unit's measured work.
     """
     cache = {} if cache is None else cache
+    overhead = recipe_overheads(recipe_classes(scene))
     kinds = {m.kind for m in scene.materials}
-    glossy = [m for m in scene.materials if m.kind == "glossy"]
+    glossy = [m for m in scene.materials if m.kind == "glossy" and m.model == "ggx"]
+    reflective = [m for m in scene.materials if m.kind == "glossy" and m.model != "ggx"]
     assets = []
     used = {m.name: [] for m in scene.materials}
+
+    def add(aid, kind, p, inputs, hashes, key, tolerances, env=None, cls=None):
+        a = _asset(aid, kind, scene, p, inputs, hashes, key, tolerances, env)
+        a["predicted_seconds"] = overhead[cls or kind] + p["work_seconds"]
+        assets.append(a)
+        return a
+
     for env in scene.environments:
         digest = file_hash(env.map)
         needs_sh = kinds & {"diffuse", "fibre"}
         env_map = None
         load_s = 0.0
 
-        def get_env(path=env.map):
+        def get_env(path=env.map, with_load=False):
             nonlocal env_map, load_s
             if env_map is None:
                 env_map, load_s = _timed(load_environment, path, quiet=True)
                 if "load" not in _WARM:  # the first load also pays imports: time it again
                     _WARM.add("load")
                     env_map, load_s = _timed(load_environment, path, quiet=True)
-            return env_map
+            return (env_map, load_s) if with_load else env_map
 
         if needs_sh:
             irr = scene.tolerance("irradiance", env) if "diffuse" in kinds else None
@@ -305,6 +379,7 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 get_env()
                 cache[key] = plan_env_sh(env.map, env_map, load_s, irr and irr[0],
                                          tan and tan[0], exports)  # fmt: skip
+                cache[key]["load_seconds"] = load_s
             p = cache[key]
             if "impossible" in p:
                 k = next(iter(p["impossible"]))
@@ -313,25 +388,28 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                                   f"{MAX_IRRADIANCE_LMAX} reaches {p['impossible'][k]:.3g}")
             aid = f"env_sh/{env.name}"
             tols = {k: v for k, v in (("irradiance", irr), ("tangent_irradiance", tan)) if v}
-            assets.append(_asset(aid, "env_sh", scene, p, [env.map], {"map": digest}, key, tols))
+            env_sh = add(aid, "env_sh", p, [env.map], {"map": digest}, key, tols, env)
             for m in scene.materials:
                 if m.kind in ("diffuse", "fibre"):
                     used[m.name].append(aid)
-            env_sh_out = assets[-1]["output"]
             for target in sorted(exports):
                 if irr is None:
                     raise scene.error("scene.exports", "engine exports need a diffuse material "
                                       "(they carry the irradiance SH)")  # fmt: skip
-                eid = f"export/{target}/{env.name}"
+                from shbake.format.exports import target_module
+
+                cube = target_module(target).CUBES is not None
+                work = p["load_seconds"] + (p.get("sun_seconds", 0.0) if cube else 0.0)
                 assets.append({
-                    "id": eid, "kind": "export",
+                    "id": f"export/{target}/{env.name}", "kind": "export",
                     "output": os.path.join(scene.out_dir, "export", target, env.name,
                                            "files.json"),
-                    "inputs": [env.map, env_sh_out], "input_hashes": {"map": digest},
+                    "inputs": [env.map, env_sh["output"]], "input_hashes": {"map": digest},
                     "plan_key": _digest(["export", PLAN_VERSION, key, target]),
                     "settings": {"target": target, "env_sh": aid},
-                    "tolerances": {}, "predicted_error": {}, "predicted_seconds": None,
-                    "bytes": None, "note": "engine export: no error or time model",
+                    "tolerances": {}, "predicted_error": {},
+                    "predicted_seconds": overhead[f"export:{target}"] + work,
+                    "bytes": None, "note": "engine export: no error model",
                 })  # fmt: skip
         if glossy:
             tol, tkey = scene.tolerance("glossy_probe", env)
@@ -343,28 +421,41 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 key = _digest(["shexp", PLAN_VERSION, digest, lo, hi, tol])
                 if key not in cache:
                     cache[key] = plan_shexp(get_env(), lo, hi, tol)
-                    cache[key]["predicted_seconds"] += load_s
+                    cache[key]["work_seconds"] += load_s
                 p = cache[key]
                 if p["predicted_error"]["glossy_probe"] <= tol:
                     aid = f"shexp/{env.name}"
-                    assets.append(_asset(aid, "shexp", scene, p, [env.map], {"map": digest},
-                                         key, {"glossy_probe": (tol, tkey)}))  # fmt: skip
+                    add(aid, "shexp", p, [env.map], {"map": digest}, key,
+                        {"glossy_probe": (tol, tkey)}, env)  # fmt: skip
                     for m in high:
                         used[m.name].append(aid)
                 else:
                     low += high
+            # one GGX roughness the probe misses: an SHRM of GGX at that width and the
+            # material's F0 (the SHRM bakes the whole BRDF, Schlick Fresnel included; the
+            # probes leave F0 to shading) when its orders meet `shrm`
+            for m in [m for m in low if m.roughness[0] == m.roughness[1]]:
+                alpha = max(m.roughness[0] ** 2, 1e-4)
+                terms = [("", {"alpha": alpha, **m.params})]
+                aids = _plan_shrm_asset(scene, env, m, "ggx", terms, digest, get_env, cache,
+                                        assets, add, optional=True)  # fmt: skip
+                if aids:
+                    used[m.name] += aids
+                    low.remove(m)
             if low:
                 lo = min(m.roughness[0] for m in low)
                 hi = max(m.roughness[1] for m in low)
                 key = _digest(["splitsum", PLAN_VERSION, digest, lo, hi])
                 if key not in cache:
                     cache[key] = plan_splitsum(get_env(), lo, hi)
-                    cache[key]["predicted_seconds"] += load_s
+                    cache[key]["work_seconds"] += load_s
                 aid = f"splitsum/{env.name}"
-                assets.append(_asset(aid, "splitsum", scene, cache[key], [env.map],
-                                     {"map": digest}, key, {}))  # fmt: skip
+                add(aid, "splitsum", cache[key], [env.map], {"map": digest}, key, {}, env)
                 for m in low:
                     used[m.name].append(aid)
+        for m in reflective:
+            used[m.name] += _plan_shrm_asset(scene, env, m, m.model, [("", m.params)], digest,
+                                             get_env, cache, assets, add)  # fmt: skip
     tables = {}
     for m in scene.materials:
         if m.kind not in ("anisotropic", "measured"):
@@ -382,15 +473,49 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                                   f"table reaches {p['impossible']['brdf_table']:.3g}")
             aid = f"brdf_table/{m.name}"
             inputs = [m.merl] if m.merl else []
-            assets.append(_asset(aid, "brdf_table", scene, p, inputs, {}, key,
-                                 {"brdf_table": (tol, tkey)}))  # fmt: skip
+            add(aid, "brdf_table", p, inputs, {}, key, {"brdf_table": (tol, tkey)})
             tables[sid] = aid
         used[m.name].append(tables[sid])
     return {"scene": scene.path, "name": scene.name, "out_dir": scene.out_dir,
             "assets": assets, "materials": used}  # fmt: skip
 
 
-def _asset(aid, kind, scene, p, inputs, hashes, key, tolerances) -> dict:
+def _plan_shrm_asset(scene, env, m, model, terms, digest, get_env, cache, assets, add,
+                     optional=False) -> list[str] | None:  # fmt: skip
+    """Plan ``m``'s SHRMs on ``env``, one per ``(id suffix, params)`` of ``terms`` (an asset
+    is shared by materials with the same BRDF); their asset ids, or ``None`` when
+    ``optional`` and some term's orders cannot meet the ``shrm`` tolerance."""
+    tol, tkey = scene.tolerance("shrm", env)
+    units = []
+    for suffix, params in terms:
+        key = _digest(["shrm", PLAN_VERSION, digest, model, params, tol])
+        if key not in cache:
+            env_map, load_s = get_env(with_load=True)
+            cache[key] = plan_shrm(env_map, model, params, tol)
+            if "work_seconds" in cache[key]:
+                cache[key]["work_seconds"] += load_s
+        p = cache[key]
+        if "impossible" in p:
+            if optional:
+                return None
+            left = p["impossible"]["shrm"]
+            raise scene.error(tkey, f"impossible tolerance {tol:g} for {m.name} on {env.name}: "
+                              f"F {F_LIMIT}, P {P_LIMIT} leave {left:.3g} of the BRDF energy out")
+        units.append((f"shrm/{m.name}{suffix}/{env.name}", key, p))
+    aids = []
+    for aid, key, p in units:
+        shared = [a["id"] for a in assets
+                  if (a["kind"], a["plan_key"], a["id"].split("/")[-1]) == ("shrm", key, env.name)]
+        if not shared:
+            add(aid, "shrm", p, [env.map], {"map": digest}, key, {"shrm": (tol, tkey)}, env)
+        aids.append(shared[0] if shared else aid)
+    return aids
+
+
+def _asset(aid, kind, scene, p, inputs, hashes, key, tolerances, env=None) -> dict:
+    settings = dict(p["settings"])
+    if env is not None:  # where the probe sits and how its environment is turned (probe_pose)
+        settings["pose"] = {"position": list(env.position), "rotation_deg": env.rotation_deg}
     return {
         "id": aid,
         "kind": kind,
@@ -398,10 +523,10 @@ def _asset(aid, kind, scene, p, inputs, hashes, key, tolerances) -> dict:
         "inputs": inputs,
         "input_hashes": hashes,
         "plan_key": key,
-        "settings": p["settings"],
+        "settings": settings,
         "tolerances": {k: v[0] for k, v in tolerances.items()},
         "predicted_error": p["predicted_error"],
-        "predicted_seconds": p["predicted_seconds"],
+        "predicted_seconds": None,
         "bytes": p["bytes"],
         "note": p["note"],
     }
@@ -426,6 +551,8 @@ def format_plan(plan: dict) -> str:
             f = s["fit"]
             text = (f"P{f['lmax_p']} Q{f['lmax_q']} a {f['alpha_min']:.3g}-"
                     f"{f['alpha_max']:.3g} samples {f['samples']}")  # fmt: skip
+        elif a["kind"] == "shrm":
+            text = f"{s['brdf']} F {s['F']} P {s['P']} face {s['face_size']}"
         elif a["kind"] == "export":
             text = f"{s['target']} of {s['env_sh']}"
         else:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from shbake.bakers.shexp import FitConfig
 from shbake.batch.probe_jobs import ProbeJob, fit_plan, run_dask, run_local, shared_dfg_table
-from shbake.errors import InputError, ParameterError
+from shbake.errors import InputError, ParameterError, ShbakeError
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.resources import read_bounded
 
@@ -30,6 +30,8 @@ def read_probe_list(path: str) -> list[tuple[str, str | None]]:
         lines = raw.decode("utf-8").splitlines()
     except UnicodeDecodeError as e:
         raise InputError(f"{path}: the probe list is not UTF-8 text (byte {e.start})") from None
+    except ShbakeError:  # refused before opening: already one line naming the path
+        raise
     except OSError as e:
         raise InputError(f"{path}: cannot read the probe list ({e.strerror})") from None
     out = []

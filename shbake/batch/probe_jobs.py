@@ -10,6 +10,7 @@ weights, the design matrix) and the DFG table — is built once per process
 and reused by every job that shares its configuration and map shape.
 """
 
+import contextlib
 import functools
 import multiprocessing
 import os
@@ -28,6 +29,7 @@ from shbake.format.asset import write_asset
 from shbake.format.atomic import detached, refuse_same_file
 from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
+from shbake.resources import check_memory
 
 
 @dataclass(frozen=True)
@@ -45,7 +47,8 @@ class ProbeJob:
 @functools.lru_cache(maxsize=4)
 def fit_plan(config: FitConfig, shape: tuple[int, int]) -> FitPlan:
     """The plan for ``config`` and map ``shape``: once per process, once per machine
-    (:mod:`shbake.batch.plan_cache`)."""
+    (:mod:`shbake.batch.plan_cache`). Refused above the memory budget before it is built."""
+    check_fit_memory(config, shape, 1)
     return cached_fit_plan(config, shape)
 
 
@@ -96,20 +99,36 @@ def run_probe_batch(jobs: list[ProbeJob]) -> list[dict]:
         groups.setdefault((job.config, env.shape), []).append(i)
     results: list = [None] * len(jobs)
     for (config, shape), members in groups.items():
+        check_fit_memory(config, shape, len(members))
         probes = fit_plan(config, shape).fit_many([envs[i].pixels for i in members])
         for i, probe in zip(members, probes, strict=True):
             results[i] = _finish(jobs[i], envs[i], probe)
     return results
 
 
-def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
+def check_fit_memory(config: FitConfig, shape: tuple[int, int], maps: int,
+                     workers: int = 1) -> None:  # fmt: skip
+    """Refuse, before building the plan, a fit whose :meth:`FitConfig.memory` (times the
+    ``workers`` processes that each hold a plan) exceeds the memory budget."""
+    h, w = shape
+    per = f" in each of {workers} workers" if workers > 1 else ""
+    check_memory(
+        workers * config.memory(shape, maps),
+        f"the probe fit ({config.normals} normals x {config.views} views x "
+        f"{config.alpha_count} alphas, {config.samples} samples, {w}x{h} maps{per})",
+    )
+
+
+def _warm_plan_cache(jobs: list[ProbeJob], n_jobs: int = 1) -> None:
     """Build the first job's plan here, on every core, so that workers load it from
-    the plan cache instead of each building it (a bad first map is left to its job)."""
+    the plan cache instead of each building it (a bad first map is left to its job).
+    Refuses a fit whose plans, one per worker, exceed the memory budget."""
     try:
         env = load_environment(jobs[0].source, fix_nonfinite="black", negative="keep", quiet=True)
     except (InputError, ParameterError):
         return
     if env.layout == "latlong":
+        check_fit_memory(jobs[0].config, env.shape, min(len(jobs), GATHER_BATCH), n_jobs)
         fit_plan(jobs[0].config, env.shape)
     shared_dfg_table()
 
@@ -117,6 +136,34 @@ def _warm_plan_cache(jobs: list[ProbeJob]) -> None:
 def _single_thread():
     signals.worker_init()
     numba.set_num_threads(1)
+
+
+STOP_SECONDS = 5.0
+"""How long a stopped pool's workers have to remove their temporaries and exit."""
+
+
+@contextlib.contextmanager
+def worker_pool(n_jobs: int):
+    """A spawned process pool whose workers run numba on one thread each
+    (:func:`shbake.signals.worker_init`: they die with this process). When the block
+    fails or is interrupted, the workers are sent SIGTERM at once — each removes its
+    temporaries and exits — instead of finishing their current jobs."""
+    # spawn, not fork: forking a process whose numba thread pool is running is unsafe
+    context = multiprocessing.get_context("spawn")
+    pool = ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread)
+    try:
+        yield pool
+    except BaseException:
+        workers = list((getattr(pool, "_processes", None) or {}).values())
+        for w in workers:
+            with contextlib.suppress(OSError, ValueError):
+                w.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        for w in workers:
+            with contextlib.suppress(OSError, ValueError, AssertionError):
+                w.join(STOP_SECONDS)
+        raise
+    pool.shutdown(wait=True)
 
 
 def check_jobs(jobs: list[ProbeJob]) -> None:
@@ -145,11 +192,9 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None,
             if progress:
                 progress(len(results), len(jobs))
         return results
-    _warm_plan_cache(jobs)
-    # spawn, not fork: forking a process whose numba thread pool is running is unsafe
-    context = multiprocessing.get_context("spawn")
+    _warm_plan_cache(jobs, n_jobs)
     batches = [jobs[i : i + GATHER_BATCH] for i in range(0, len(jobs), GATHER_BATCH)]
-    with ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread) as pool:
+    with worker_pool(n_jobs) as pool:
         for batch in pool.map(run_probe_batch, batches):
             results.extend(batch)
             done.extend(batch)

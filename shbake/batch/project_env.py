@@ -23,6 +23,7 @@ from shbake.format.asset import write_asset
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_png
 from shbake.progress import NO_PROGRESS
+from shbake.resources import check_memory
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.env_sh import irradiance
 
@@ -30,6 +31,22 @@ TRUNCATION_WARNING = 0.10
 """Relative irradiance error (max vs brute force) above which ``--report`` warns."""
 MINIMUM_DIRECTIONS = 4096
 """Directions at which the baked irradiance is checked for negative values."""
+
+
+MAP_TEXEL_BYTES = 96
+"""Working memory per texel of the ``--exr-dir`` maps: directions, the two float64 maps,
+their half-float and tone-mapped copies."""
+REPORT_TEXEL_BYTES = 192
+"""Working memory per texel of the source map for ``--report``: the brute-force sweep's
+samples and weighted copies, and the float64 squares of the truncation report (tracemalloc
+peak 149 B at 512x1024, ``tests/test_faults.py::TestProjectEnvMemory``)."""
+
+
+def project_memory(texels: int, map_size: int | None, report: bool) -> int:
+    """Estimated bytes beyond the loaded map of :func:`project_environment`: the
+    ``--exr-dir`` maps of ``map_size`` rows and, with ``report``, the sweep over ``texels``."""
+    maps = 0 if map_size is None else 2 * map_size * map_size * MAP_TEXEL_BYTES
+    return maps + (REPORT_TEXEL_BYTES * texels if report else 0)
 
 
 def quality_warnings(asset, summary: dict) -> list[str]:
@@ -88,8 +105,13 @@ def project_environment(
     command_line: str = "",
     quiet: bool = False,
     progress=NO_PROGRESS,
+    pose: dict | None = None,
 ) -> dict:
     """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the summary.
+
+    ``pose``: a scene probe's ``{"position": [x, y, z], "rotation_deg": θ}``, recorded in
+    the asset (``probe_position``, ``probe_rotation_deg``); the SH are turned by ``θ``
+    (:mod:`shbake.envmap.turn`).
 
     ``exr_dir``: lat-long irradiance / tangent-irradiance EXRs of ``map_size``
     rows (``2 × map_size`` columns), half floats unless ``float_exr``, PNGs
@@ -104,8 +126,21 @@ def project_environment(
     check_output_path(output)
     if exr_dir is not None:
         check_output_dir(exr_dir, "--exr-dir")
+    map_rows = map_size if exr_dir is not None else None
+    what = "--exr-dir maps" + (" and --report" if report else "")
+    check_memory(project_memory(0, map_rows, False), f"{map_size}x{2 * map_size} {what}")
     environment = load_environment(env_path, layout, colorspace, negative, fix_nonfinite, quiet)
+    h, w = environment.shape
+    if report:
+        what = f"--report over {w}x{h} texels" + (" and --exr-dir maps" if map_rows else "")
+    if report or map_rows:
+        check_memory(project_memory(h * w, map_rows, report), what)
     provenance = {"command_line": command_line}
+    rotation = None
+    if pose is not None:
+        from shbake.envmap.turn import apply_pose
+
+        rotation = apply_pose(environment, pose)
     asset, summary = bake_env_sh(
         environment,
         lmax=lmax,
@@ -116,6 +151,7 @@ def project_environment(
         sun=extract_sun,
         sun_radius_deg=sun_radius,
         provenance=provenance,
+        rotation=rotation,
     )
     maps = {}
     if exr_dir is not None:

@@ -12,16 +12,18 @@ Schema (every key optional unless marked *required*)::
 
     [scene]        name (str), out_dir (str, relative to the scene file; default "<stem>-assets"),
                    exports (list of str from EXPORTS)
-    [tolerances]   irradiance, tangent_irradiance, brdf_table, glossy_probe: float in (0, 1)
-                   (the error each asset kind must stay within; see TOLERANCES)
+    [tolerances]   irradiance, tangent_irradiance, brdf_table, glossy_probe, shrm: float in
+                   (0, 1) (the error each asset kind must stay within; see TOLERANCES)
     [[environments]]  map (str, required: a path or a glob, relative to the scene file),
-                   name (str; default: the map's file stem), position ([x, y, z]),
-                   rotation_deg (float, about +Z), tolerances (table: per-probe overrides)
+                   name (str; default: the map's file stem), position ([x, y, z], recorded
+                   in its assets), rotation_deg (float: turns the environment about world
+                   up +Y, shbake.envmap.turn), tolerances (table: per-probe overrides)
     [[materials]]  name (str, required), kind (required: one of MATERIAL_KINDS),
-                   model (str, brdf-table's model name; anisotropic/measured),
-                   params (table: model parameters as brdf-table's -p takes them),
+                   model (str, brdf-table's model name; anisotropic/measured; glossy: an
+                   isotropic model other than ggx gets an SHRM),
+                   params (table: model parameters as brdf-table's / shrm's -p take them),
                    merl (str: a MERL .binary file, kind "measured"),
-                   roughness ([lo, hi] perceptual, glossy; or one number)
+                   roughness ([lo, hi] perceptual, glossy GGX; or one number)
 """
 
 import glob
@@ -39,12 +41,14 @@ TOLERANCES = {
     "tangent_irradiance": "relative RMS error of Kajiya-Kay tangent irradiance vs brute force",
     "brdf_table": "relative L2 error of f*(s, v) = f cos: lmax truncation plus bilinear look-up",
     "glossy_probe": "RMS log error of the SH-exp fit against its E0 targets (in-sample)",
+    "shrm": "fraction of the BRDF energy the SHRM's orders F, P leave out (RH02 5.1, shrm --eps)",
 }
 DEFAULT_TOLERANCES = {
     "irradiance": 0.05,
     "tangent_irradiance": 0.05,
     "brdf_table": 0.1,
     "glossy_probe": 0.2,
+    "shrm": 0.03,
 }
 MATERIAL_KINDS = ("diffuse", "fibre", "anisotropic", "measured", "glossy")
 EXPORTS = ("babylon", "filament", "gltf", "ktx2", "threejs", "unity")
@@ -217,11 +221,20 @@ class _Checker:
         return dict(data)
 
 
+MAX_SCENE_BYTES = 16 << 20
+"""Largest scene file read (a scene is a few kilobytes of TOML)."""
+
+
 def load_scene(path: str) -> Scene:
     """Read and validate the scene at ``path``; raises :class:`SceneError` (one line)."""
-    try:
-        with open(path, "rb") as f:
-            raw = f.read()
+    from shbake import resources
+    from shbake.errors import ShbakeError
+
+    try:  # a FIFO or /dev/zero would block or never end: refused before opening
+        raw = resources.read_bounded(path, MAX_SCENE_BYTES, "scene")
+    except ShbakeError as e:
+        reason = str(e).removeprefix(f"{path}: ")
+        raise SceneError(f"{path}:1: (file): {reason}") from None
     except OSError as e:
         raise SceneError(f"{path}:1: (file): cannot read: {e.strerror}") from None
     text = raw.decode("utf-8", errors="replace")
@@ -288,7 +301,9 @@ def load_scene(path: str) -> Scene:
         if not re.fullmatch(r"[A-Za-z0-9_.-]+", mat["name"]):
             chk.fail(f"{key}.name", f"{mat['name']!r}: names use letters, digits, '_', '-', '.'")
         model = mat.get("model")
-        if kind == "anisotropic" and model is None:
+        if kind == "glossy" and model not in (None, "ggx"):
+            _check_reflection_model(chk, key, mat)
+        elif kind == "anisotropic" and model is None:
             chk.fail(key, "an anisotropic material needs 'model' (e.g. ashikhmin-shirley)")
         if model is not None and model not in MODELS:
             chk.fail(f"{key}.model", f"unknown BRDF model {model!r} (allowed: {', '.join(MODELS)})")
@@ -304,7 +319,17 @@ def load_scene(path: str) -> Scene:
         for k, v in params.items():
             if isinstance(v, bool) or not isinstance(v, (int, float, str, list)):
                 chk.fail(f"{key}.params.{k}", f"must be a number, a string or an array, got {v!r}")
-        if model is not None:
+        if kind == "glossy" and model in (None, "ggx") and set(params) - {"F0"}:
+            chk.fail(f"{key}.params", "a GGX glossy material takes 'roughness' and at most "
+                     "params.F0 (Schlick F0, used by an SHRM; the probes apply F0 at shading)")
+        if kind == "glossy" and model in (None, "ggx") and params:
+            try:
+                from shbake.bakers.shrm import make_reflection_brdf
+
+                make_reflection_brdf("ggx", {"alpha": "0.5", **_param_strings(params)})
+            except ParameterError as e:
+                chk.fail(f"{key}.params", str(e))
+        if model is not None and kind != "glossy":
             try:  # brdf-table's own validation of the parameters
                 from shbake.brdf import make_brdf
 
@@ -312,7 +337,8 @@ def load_scene(path: str) -> Scene:
             except ParameterError as e:
                 chk.fail(f"{key}.params", str(e))
         rough = None
-        if kind == "glossy":
+        if kind == "glossy" and model in (None, "ggx"):
+            model = "ggx"
             r = mat.get("roughness")
             if r is None:
                 chk.fail(key, "a glossy material needs 'roughness' ([lo, hi] or one number)")
@@ -330,6 +356,27 @@ def load_scene(path: str) -> Scene:
     return Scene(path, scene.get("name", stem), out_dir,
                  tuple(exports), tolerances, tuple(environments), tuple(materials),
                  lines)  # fmt: skip
+
+
+def _check_reflection_model(chk: _Checker, key: str, mat: dict) -> None:
+    """A glossy material with a model other than GGX gets an SHRM: the model must be one the
+    SHRM takes (isotropic; :func:`shbake.bakers.shrm.make_reflection_brdf` says)."""
+    from shbake.bakers.shrm import LOBE_MODELS, TANGENT_MODELS, make_reflection_brdf
+
+    model = mat["model"]
+    if "roughness" in mat:
+        chk.fail(f"{key}.roughness", f"'roughness' is for GGX; give {model}'s own parameters "
+                 "in 'params'")  # fmt: skip
+    if "merl" in mat:
+        chk.fail(f"{key}.merl", "measured BRDFs are kind \"measured\" (a Kautz table)")
+    if model not in MODELS or model in LOBE_MODELS + TANGENT_MODELS + ("merl", "lambert"):
+        allowed = [m for m in MODELS if m not in TANGENT_MODELS + ("merl", "lambert")]
+        chk.fail(f"{key}.model", f"a glossy material's model must be an isotropic surface "
+                 f"BRDF (allowed: {', '.join(allowed)})")  # fmt: skip
+    try:
+        make_reflection_brdf(model, _param_strings(mat.get("params", {})))
+    except ParameterError as e:
+        chk.fail(f"{key}.params", str(e))
 
 
 def _param_strings(params: dict) -> dict:

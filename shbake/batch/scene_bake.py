@@ -12,13 +12,14 @@ and rewrites the lock (atomically).
 
 import json
 import os
+import stat
 import time
 from contextlib import contextmanager
 
 import numpy as np
 
 from shbake.batch.plan import file_hash, plan_scene, settings_text
-from shbake.batch.probe_jobs import _single_thread
+from shbake.batch.probe_jobs import worker_pool
 from shbake.batch.scene import Scene, _param_strings
 from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, detached, transaction, write_text
@@ -53,6 +54,7 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.batch.project_env import project_environment
     from shbake.conventions import REC709_LUMINANCE
     from shbake.envmap import load_environment
+    from shbake.envmap.turn import turn_matrix
     from shbake.evaluation.env_sh import brute_force_reference
     from shbake.format.asset import read_asset
     from shbake.shading.env_sh import irradiance
@@ -63,19 +65,20 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
         summary = project_environment(
             a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
             irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
-            extract_sun=s["extract_sun"], quiet=True,
+            extract_sun=s["extract_sun"], quiet=True, pose=s.get("pose"),
         )  # fmt: skip
     seconds = time.perf_counter() - t0
     outputs = summary["outputs"]
     if not measure:
         return {"outputs": outputs, "bake_seconds": seconds}, {}
     env = load_environment(a["inputs"][0], quiet=True)
-    ref = brute_force_reference(env, n_dirs=1024)
+    ref = brute_force_reference(env, n_dirs=1024)  # of the map as it is, unturned
     asset = read_asset(a["output"])
+    turn = turn_matrix(s.get("pose", {}).get("rotation_deg", 0.0))
     errors = {}
     for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
-        if f"/{name}/sh" in asset:
-            got = irradiance(asset, ref["dirs"], tangent=tangent) @ REC709_LUMINANCE
+        if f"/{name}/sh" in asset:  # the turned probe at R d sees the map's d
+            got = irradiance(asset, ref["dirs"] @ turn.T, tangent=tangent) @ REC709_LUMINANCE
             errors[name] = _rel_rms(got, ref[name])
     return {"outputs": outputs, "bake_seconds": seconds}, errors
 
@@ -118,34 +121,72 @@ def _table_file_error(brdf, table, lmax, views) -> float:
     return float(np.mean(np.sqrt(err2 / np.maximum(energy, 1e-300))))
 
 
+def _posed_env(a: dict, turn_pixels: bool):
+    """The asset's map, its probe pose recorded (and its pixels turned with ``turn_pixels``);
+    ``(environment, SH turn or None)``."""
+    from shbake.envmap import load_environment
+    from shbake.envmap.turn import apply_pose
+
+    env = load_environment(a["inputs"][0], quiet=True)
+    pose = a["settings"].get("pose")
+    rotation = apply_pose(env, pose, turn_pixels) if pose is not None else None
+    return env, rotation
+
+
 def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.bakers.shexp import FitConfig
-    from shbake.batch.probe_jobs import ProbeJob, run_probe_job
+    from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
+    from shbake.format.asset import write_asset
+    from shbake.format.shexp import build_shexp_asset
 
     t0 = time.perf_counter()
+    env, _ = _posed_env(a, turn_pixels=True)
+    if env.layout != "latlong":
+        raise ParameterError(f"{a['inputs'][0]}: SH-exp probes take lat-long maps (2:1)")
+    config = FitConfig(**a["settings"]["fit"])
+    probe = fit_plan(config, env.shape).fit_many([env.pixels])[0]
     with _committed():
-        res = run_probe_job(ProbeJob(a["inputs"][0], a["output"],
-                                     FitConfig(**a["settings"]["fit"])))  # fmt: skip
+        write_asset(a["output"], build_shexp_asset(probe, config, shared_dfg_table(), env.meta))
     return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0},
-            {"glossy_probe": float(res["log_rms"])})  # fmt: skip
+            {"glossy_probe": float(probe.stats["log_rms"])})  # fmt: skip
 
 
 def _bake_splitsum(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
     from shbake.batch.probe_jobs import shared_dfg_table
-    from shbake.envmap import load_environment
     from shbake.format.asset import write_asset
     from shbake.format.splitsum import build_splitsum_asset
 
     t0 = time.perf_counter()
     c = a["settings"]["splitsum"]
     config = SplitSumConfig(**(c | {"alphas": tuple(c["alphas"])}))
-    env = load_environment(a["inputs"][0], quiet=True)
+    env, _ = _posed_env(a, turn_pixels=True)
     chain = prefilter_chain(env.pixels, config)
     with _committed():
         write_asset(a["output"], build_splitsum_asset(chain, config, shared_dfg_table(),
                                                       env.meta))  # fmt: skip
     return {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}, {}
+
+
+def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    """An SHRM at the planned ``F``, ``P`` and face size; measured: the relative energy of
+    the shading error on a sphere against brute force under the (turned) map
+    (:class:`shbake.bakers.shrm.ShadingCheck`), comparable with the BRDF energy left out."""
+    from shbake.bakers.shrm import ShadingCheck, bake_shrm, make_reflection_brdf
+    from shbake.format.shrm import build_shrm_asset, write_shrm
+
+    s = a["settings"]
+    t0 = time.perf_counter()
+    env, rotation = _posed_env(a, turn_pixels=False)
+    rb = make_reflection_brdf(s["brdf"], _param_strings(s["params"]), s["merl"])
+    bake = bake_shrm(env, rb, s["eps"], s["F"], s["P"], s["face_size"], rotation=rotation)
+    with _committed():
+        write_shrm(a["output"], build_shrm_asset(bake, env.meta))
+    info = {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}
+    if not measure:
+        return info, {}
+    check = ShadingCheck(env, rb, rotation=rotation)
+    return info, ({"shrm": check.rel_energy(bake.cube)} if check.ref is not None else {})
 
 
 def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
@@ -165,7 +206,7 @@ def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
 
 
 BAKERS = {"export": _bake_export, "env_sh": _bake_env_sh, "brdf_table": _bake_brdf_table,
-          "shexp": _bake_shexp,
+          "shexp": _bake_shexp, "shrm": _bake_shrm,
           "splitsum": _bake_splitsum}  # fmt: skip
 
 
@@ -195,8 +236,10 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
         "plan_key": asset["plan_key"],
         "settings": asset["settings"],
         "inputs": {p: file_hash(p) for p in asset["inputs"]},
-        "outputs": {os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p)
-                    for p in info["outputs"]},  # fmt: skip
+        "outputs": {
+            os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p)
+            for p in info["outputs"]
+        },  # fmt: skip
         "measured_error": errors,
         "tolerances": asset["tolerances"],
         "predicted_error": asset["predicted_error"],
@@ -214,8 +257,10 @@ def _dask_bake(asset: dict) -> dict:
 
 
 def _up_to_date(asset: dict, rec: dict | None) -> bool:
-    if not rec or (rec.get("plan_key"), rec.get("settings")) != (asset["plan_key"],
-                                                                  asset["settings"]):
+    if not rec or (rec.get("plan_key"), rec.get("settings")) != (
+        asset["plan_key"],
+        asset["settings"],
+    ):
         return False
     if any(not os.path.exists(p) or file_hash(p) != rec["inputs"].get(p) for p in asset["inputs"]):
         return False
@@ -224,11 +269,28 @@ def _up_to_date(asset: dict, rec: dict | None) -> bool:
                for r, h in rec["outputs"].items())  # fmt: skip
 
 
-def read_lock(path: str) -> dict:
+STATE_MAX_BYTES = 64 << 20
+"""Largest lock or stamp file read back."""
+
+
+def _read_state(path: str) -> str | None:
+    """The text of a lock or stamp file, ``None`` if it is missing, unreadable or not a
+    regular file (a FIFO in the out_dir must not block the bake)."""
     try:
-        with open(path) as f:
-            return json.load(f)
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > STATE_MAX_BYTES:
+            return None
+        with open(path, encoding="utf-8") as f:
+            return f.read(STATE_MAX_BYTES)
     except (OSError, ValueError):
+        return None
+
+
+def read_lock(path: str) -> dict:
+    text = _read_state(path)
+    try:
+        return json.loads(text) if text is not None else {}
+    except ValueError:
         return {}
 
 
@@ -239,12 +301,8 @@ def write_stamps(plan: dict) -> list[str]:
     for a in plan["assets"]:
         path = stamp_path(plan["out_dir"], a["id"])
         text = settings_text(a)
-        try:
-            with open(path) as f:
-                if f.read() == text:
-                    continue
-        except OSError:
-            pass
+        if _read_state(path) == text:
+            continue
         os.makedirs(os.path.dirname(path), exist_ok=True)
         write_text(path, text)
         written.append(path)
@@ -267,9 +325,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     if only is not None:
         path = stamp_path(scene.out_dir, only)
         try:
-            with open(path) as f:
-                asset = json.load(f)
-        except OSError:
+            asset = json.loads(_read_state(path) or "")
+        except ValueError:
             raise ParameterError(f"{path}: no settings stamp for {only!r}; run shbake plan "
                                  "--emit-make first") from None  # fmt: skip
         full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0)
@@ -277,7 +334,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
         return {"baked": [only], "skipped": [], "records": {only: rec}}
     lock_file = lock_path(scene)
     lock = read_lock(lock_file)
-    plan = plan_scene(scene, cache=lock.get("plans", {}))
+    units = dict(lock.get("plans", {}))  # per-unit plans (measured once), filled by the plan
+    plan = plan_scene(scene, cache=units)
     todo = [a for a in plan["assets"] if not _up_to_date(a, lock.get("assets", {}).get(a["id"]))]
     ids = {a["id"] for a in todo}
     todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
@@ -292,11 +350,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
             for wave in waves:
                 results += client.gather(client.map(_dask_bake, wave, pure=False))
     elif jobs > 1 and len(todo) > 1:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_single_thread) as pool:
+        with worker_pool(jobs) as pool:
             for wave in waves:
                 results += list(pool.map(bake_asset, wave))
     else:
@@ -311,8 +365,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     new_lock = {
         "scene": os.path.basename(scene.path),
         "assets": dict(sorted(records.items())),
-        "plans": {k: v for k, v in sorted(lock.get("plans", {}).items()) if k in keys}
-        | {a["plan_key"]: _plan_entry(a) for a in plan["assets"]},
+        "plans": {k: units[k] for k in sorted(keys) if k in units},
     }
     with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
         json.dump(new_lock, f, indent=1, sort_keys=True)
@@ -320,10 +373,6 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     return {"baked": [r["id"] for r in results],
             "skipped": [a["id"] for a in plan["assets"] if a["id"] not in done],
             "records": records, "lock": lock_file}  # fmt: skip
-
-
-def _plan_entry(a: dict) -> dict:
-    return {k: a[k] for k in ("settings", "predicted_error", "predicted_seconds", "bytes", "note")}
 
 
 def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> str:
@@ -379,10 +428,13 @@ def format_bake(summary: dict) -> str:
     lines = []
     for aid in summary["baked"]:
         r = summary["records"][aid]
-        err = ", ".join(f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"]
-                                         else "") for k, v in r["measured_error"].items())
+        err = ", ".join(
+            f"{k} {v:.3g}" + (f" (tol {r['tolerances'][k]:g})" if k in r["tolerances"] else "")
+            for k, v in r["measured_error"].items()
+        )
         pred = r["predicted_seconds"]
-        pred = "not predicted" if pred is None else f"predicted {pred:.2f} s"
-        lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s ({pred})")
+        pred = "" if pred is None else f"; its make recipe: {pred:.2f} CPU s predicted"
+        lines.append(f"baked {aid}: {err or 'no error model'}; {r['bake_seconds']:.2f} s warm "
+                     f"in this process{pred}")  # fmt: skip
     lines.append(f"bake: {len(summary['baked'])} baked, {len(summary['skipped'])} up to date")
     return "\n".join(lines)

@@ -1,7 +1,7 @@
 """``shbake tradeoff``: error against time and bytes for the settings the planner considers.
 
 One row per candidate setting, with the error model of :mod:`shbake.batch.plan`
-(the same numbers the planner compares with a tolerance), the measured warm
+(the same numbers the planner compares with a tolerance), the measured warm CPU
 time of the baker's own work at that setting and the asset's payload bytes;
 the chosen setting (the cheapest meeting ``tol``, as ``shbake plan`` picks) is
 marked. Written as a PNG (matplotlib: error vs time and error vs bytes, log
@@ -88,7 +88,7 @@ def write_tradeoff(result: dict, output: str, csv_path: str | None, json_path: s
     rows = result["rows"]
     err = np.array([max(r["error"], 1e-12) for r in rows])
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=100)
-    for ax, key, label in ((axes[0], "seconds", "time (s, warm)"), (axes[1], "bytes", "bytes")):
+    for ax, key, label in ((axes[0], "seconds", "work (CPU s, warm)"), (axes[1], "bytes", "bytes")):
         x = np.array([max(r[key], 1e-6) for r in rows], float)
         ax.scatter(x, err, s=14, c="tab:blue", label="settings considered")
         for r, xi, ei in zip(rows, x, err, strict=True):

@@ -19,7 +19,7 @@ import numpy as np
 from shbake import resources
 from shbake.brdf.phong import mirror_lobe_pdf, mirror_lobe_sample
 from shbake.brdf.spec import ModelSpec, Param
-from shbake.errors import InputError, ResourceError
+from shbake.errors import InputError, ResourceError, ShbakeError
 from shbake.jit import jit
 
 N_TH, N_TD, N_PD = 90, 90, 180
@@ -56,6 +56,8 @@ def read_merl(path: str) -> np.ndarray:
         raw = resources.read_bounded(os.fspath(path), expected, "MERL file (--merl)")
     except ResourceError as e:
         raise InputError(str(e)) from None
+    except ShbakeError:  # missing or unreadable, refused before opening: one line already
+        raise
     except OSError as e:
         raise InputError(f"{path}: cannot read MERL file ({e.strerror})") from None
     if len(raw) < 12:

@@ -2,7 +2,8 @@
 
 Lobe samplers map ``(u_r, u_a) ∈ [0, 1)²`` — a radial and an azimuthal
 coordinate — to a direction; :mod:`shbake.brdf.tabulate` integrates over that
-square with a product Gauss–Legendre × midpoint rule.
+square with a product rule (Gauss–Legendre × midpoint; nested Clenshaw–Curtis ×
+trapezoid when refining to a tolerance).
 """
 
 import numpy as np

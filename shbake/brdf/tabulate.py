@@ -29,7 +29,20 @@ Diffuse models (no lobe) use the first rule alone. ``N`` samples per strategy
 means ``n_r = round(sqrt(N/2))`` radial by ``2 n_r`` azimuthal nodes. The
 error estimate is the largest change of any coefficient from ``N/2`` to ``N``
 samples, times ``sqrt(4π)`` (it reads as an error of the white-furnace value
-``Q = sqrt(4π) c_0``); ``tol`` doubles ``N`` until it is met.
+``Q = sqrt(4π) c_0``).
+
+With ``tol`` each view is refined on *nested* rules instead (Gauss–Legendre
+levels share no nodes, so doubling them redoes every sample): Clenshaw–Curtis
+radially (Clenshaw & Curtis 1960; the hemisphere's ``θ`` split at ``θ_v``, where
+Ashikhmin–Shirley's ``1/max(s_z, v_z)`` kinks), the trapezoid azimuthally
+(periodic, or after the sin² substitution on the pieces above). A doubling adds
+only the new nodes. Each rule's embedded coarse rules — every second radial node,
+every second azimuthal line — come from the same samples; the estimate is
+``sqrt(4π) max_i Σ_axes |c_i − c_i,coarse|`` over the 4 axes (2 per strategy),
+and the axis with the largest difference is doubled until the estimate is at
+most ``tol``. It measures the coarse rules' error, so it bounds the accepted
+(finer) rule's; the rules adapt per axis (frontal views refine ``θ``, grazing
+views ``u_a``).
 
 Every model here satisfies ``f(σs, σv) = f(s, v)`` for the mirrors
 ``σ: x → −x`` and ``y → −y``, so only one quadrant of the parabolic map is
@@ -48,7 +61,7 @@ from shbake.brdf.model import BRDF
 from shbake.brdf.sampling import cosine_pdf
 from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, check_lmax, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
+from shbake.jit import jit, pjit, run_blocks
 from shbake.resources import check_memory
 from shbake.sh.basis import recurrence_tables, sh_eval_into
 from shbake.texture.parabolic import check_resolution, texel_views
@@ -227,6 +240,332 @@ def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, 
                 out[iv, i, c] = acc[i, c]
 
 
+# --- the --tol path: nested rules refined per view and per axis -------------------------
+
+R_BASE = 16
+"""Clenshaw–Curtis intervals of the base radial rule (``θ`` or ``u_r``); its coarse one has 8."""
+A_BASE = 32
+"""Azimuthal intervals of the base rule (``φ`` or ``u_a``); its embedded coarse rule has 16."""
+R_MAX_LEVEL = 7
+"""Radial doublings at most: ``R_BASE · 2^7 = 2048`` intervals."""
+MAX_STEPS = 64
+"""Refinement steps recorded per view (:attr:`Convergence.history`)."""
+UR_TOP = 1.0 - 1e-12
+
+
+def clenshaw_curtis_unit(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Clenshaw–Curtis nodes ``(1 − cos(kπ/n))/2`` and weights on ``[0, 1]``, ``n`` even.
+
+    Exact for polynomials of degree ``n``; the ``n``-interval nodes hold those
+    of ``n/2`` (every second one), so a doubling reuses every earlier sample
+    (Clenshaw & Curtis 1960; weights by the cosine sum of Waldvogel 2006, eq. 2.1).
+    """
+    k = np.arange(n + 1)
+    theta = np.pi * k / n
+    j = np.arange(1, n // 2 + 1)
+    bj = np.where(2 * j == n, 1.0, 2.0) / (4.0 * j * j - 1.0)
+    w = 1.0 - bj @ np.cos(2.0 * np.outer(j, theta))
+    w *= np.where((k == 0) | (k == n), 1.0, 2.0) / n
+    return 0.5 * (1.0 - np.cos(theta)), 0.5 * w
+
+
+def cc_tables(levels: int = R_MAX_LEVEL) -> tuple[np.ndarray, np.ndarray]:
+    """Concatenated Clenshaw–Curtis weights of radial levels ``−1 … levels`` and their offsets.
+
+    Level ``L`` has ``R_BASE · 2^L`` intervals; its weights start at ``offsets[L + 1]``.
+    """
+    ws = [clenshaw_curtis_unit(R_BASE << L if L >= 0 else R_BASE // 2)[1]
+          for L in range(-1, levels + 1)]  # fmt: skip
+    offsets = np.cumsum([0] + [w.size for w in ws])
+    return np.concatenate(ws), offsets.astype(np.int64)
+
+
+@jit
+def _point(kind, model, prm, data, has_lobe, vx, vy, vz, ca, sa, u0, u1, x, f):
+    """One node of a rule: its weight (``0``: skip) and direction; ``f`` gets ``f(s, v)``.
+
+    Hemisphere (``kind`` 0): ``θ = x`` on the line ``(cos φ, sin φ) = (ca, sa)``,
+    weight ``sin θ cos θ · p_c/(p_c + p_l)``. Lobe (``kind`` 1): ``u_r = u0 + (u1 − u0) x``
+    on the line ``u_a = ca``, weight ``(u1 − u0) s_z/(p_c + p_l)``.
+    """
+    if kind == 0:
+        if x <= 0.0 or x >= HALF_PI:  # the pole (sin θ = 0) and the horizon (s_z = 0)
+            return 0.0, 0.0, 0.0, 0.0
+        st, sz = np.sin(x), np.cos(x)
+        sx, sy = st * ca, st * sa
+        w = st * sz
+        if has_lobe:
+            pc = cosine_pdf(sz)
+            w *= pc / (pc + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz))
+    else:
+        if u1 <= u0:
+            return 0.0, 0.0, 0.0, 0.0
+        ur = min(u0 + (u1 - u0) * x, UR_TOP)
+        sx, sy, sz = lobe_sample(model, prm, vx, vy, vz, ur, ca)
+        if not sz > 0.0:
+            return 0.0, 0.0, 0.0, 0.0
+        p = cosine_pdf(sz) + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz)
+        if not p > 0.0:
+            return 0.0, 0.0, 0.0, 0.0
+        w = (u1 - u0) * sz / p
+    brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
+    return w, sx, sy, sz
+
+
+@jit
+def _fill(kind, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b,
+          rx, rj, r0, r1, lc, ls, lu0, lu1, lw, lborn, j0, j1, level_a, tc, tf, y, f):  # fmt: skip
+    """Add the nodes ``rows r0…r1 × lines j0…j1`` to the per-row sums ``tc``/``tf``.
+
+    A line born at the current azimuthal level ``level_a`` adds to ``tf`` (absent
+    from the embedded coarse azimuthal rule), any other to ``tc``.
+    """
+    n = (lmax + 1) * (lmax + 1)
+    for r in range(r0, r1):
+        x = rx[r]
+        for j in range(j0, j1):
+            w, sx, sy, sz = _point(kind, model, prm, data, has_lobe, vx, vy, vz,
+                                   lc[j], ls[j], lu0[j], lu1[j], x, f)  # fmt: skip
+            if w == 0.0:
+                continue
+            w *= lw[j] * rj[r]
+            sh_eval_into(sx, sy, sz, lmax, qmm, a, b, y)
+            f0, f1, f2 = w * f[0], w * f[1], w * f[2]
+            t = tf if lborn[j] == level_a else tc
+            for i in range(n):
+                t[r, i, 0] += y[i] * f0
+                t[r, i, 1] += y[i] * f1
+                t[r, i, 2] += y[i] * f2
+
+
+@jit
+def _add_lines(kind, model, prm, vx, vy, vz, level, pc, pw, pm, lc, ls, lu0, lu1, lw, lborn, j):
+    """Append the lines of azimuthal ``level`` (all of level 0, else the new odd ones) at ``j``.
+
+    No pieces (``pc.size == 0``): the periodic trapezoid, ``A_BASE · 2^level``
+    lines ``u = i/M``. Pieces ``[pc, pc + pw]`` of ``pm`` base intervals: the
+    sin² substitution ``u = t − sin(2πt)/2π`` (Sidi 1993), trapezoid in ``t``
+    (its end nodes have weight 0). Weights are stored at level 0's scale; level
+    ``L`` multiplies them by ``2^−L``. Returns the new line count.
+    """
+    step = 1 if level == 0 else 2
+    first = 0 if level == 0 else 1
+    if pc.size == 0:
+        m = A_BASE << level
+        for i in range(first, m, step):
+            u = i / m
+            lborn[j] = level if (level > 0 or i % 2 == 1) else -1
+            if kind == 0:
+                lc[j], ls[j] = np.cos(TWO_PI * u), np.sin(TWO_PI * u)
+                lw[j] = TWO_PI / A_BASE
+            else:
+                lc[j], ls[j] = u, 0.0
+                lw[j] = 1.0 / A_BASE
+                lu0[j], lu1[j] = _horizon_span(model, prm, vx, vy, vz, u)
+            j += 1
+        return j
+    for k in range(pc.size):
+        m = pm[k] << level
+        for i in range(max(first, 1), m, step):
+            t = i / m
+            lborn[j] = level if (level > 0 or i % 2 == 1) else -1
+            u = pc[k] + pw[k] * (t - np.sin(TWO_PI * t) / TWO_PI)
+            lc[j], ls[j] = u, 0.0
+            lw[j] = pw[k] / pm[k] * (1.0 - np.cos(TWO_PI * t))
+            lu0[j], lu1[j] = _horizon_span(model, prm, vx, vy, vz, u)
+            j += 1
+    return j
+
+
+@jit
+def _add_rows(g, k, m, level, tv, rx, rj, rk, rb, tc, tf, r):
+    """Append Clenshaw–Curtis node ``k`` of ``m`` intervals at row ``r``; the new row count.
+
+    The lobe rule (``g`` 1) maps it to ``x ∈ [0, 1]``; the hemisphere rule
+    (``g`` 0) to ``θ`` on each of ``[0, θ_v]`` and ``[θ_v, π/2]`` (two rows): a
+    model's ``f`` may kink at ``s_z = v_z`` (Ashikhmin–Shirley's
+    ``1/max(s_z, v_z)``), which a rule spanning ``θ_v`` would converge on
+    only algebraically, its successive levels then agreeing by accident.
+    """
+    x = 0.5 * (1.0 - np.cos(np.pi * k / m))
+    for p in range(2 if g == 0 else 1):
+        if g == 0:
+            lo, hi = (0.0, tv) if p == 0 else (tv, HALF_PI)
+            rx[r], rj[r] = lo + (hi - lo) * x, hi - lo
+        else:
+            rx[r], rj[r] = x, 1.0
+        rk[r] = k
+        rb[r] = level
+        tc[r] = 0.0
+        tf[r] = 0.0
+        r += 1
+    return r
+
+
+@jit
+def _rule_sums(tc, tf, rk, rb, nrow, lr, la, ccw, ccoff, q, qr, qa):
+    """``q``: the rule; ``qr``, ``qa``: its embedded coarse radial and azimuthal rules."""
+    s = 0.5**la
+    fine, coarse = ccoff[lr + 1], ccoff[lr]
+    q[:] = 0.0
+    qr[:] = 0.0
+    qa[:] = 0.0
+    for r in range(nrow):
+        k = rk[r] << (lr - max(rb[r], 0))
+        w = s * ccw[fine + k]
+        wc = s * ccw[coarse + k // 2] if k % 2 == 0 else 0.0
+        for i in range(q.shape[0]):
+            for c in range(3):
+                t = tc[r, i, c] + tf[r, i, c]
+                q[i, c] += w * t
+                qr[i, c] += wc * t
+                qa[i, c] += 2.0 * w * tc[r, i, c]
+
+
+@jit
+def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, ccoff,
+                 tol, max_samples, line_cap, out, hist):  # fmt: skip
+    """Refine one view's two rules axis by axis until the error estimate is ≤ ``tol``.
+
+    Returns ``(steps, error estimate, samples)``; ``out`` gets the coefficients,
+    ``hist[k] = (hemisphere points, lobe points, estimate)`` per step.
+    """
+    n = (lmax + 1) * (lmax + 1)
+    rules = 2 if has_lobe else 1
+    rcap = 2 * ((R_BASE << R_MAX_LEVEL) + 1)
+    tv = np.arccos(vz)
+    tc = np.empty((rules, rcap, n, 3))
+    tf = np.empty((rules, rcap, n, 3))
+    rx = np.empty((rules, rcap))
+    rj = np.empty((rules, rcap))
+    rk = np.empty((rules, rcap), np.int64)
+    rb = np.empty((rules, rcap), np.int64)
+    lc = np.empty((rules, line_cap))
+    ls = np.empty((rules, line_cap))
+    lu0 = np.empty((rules, line_cap))
+    lu1 = np.empty((rules, line_cap))
+    lw = np.empty((rules, line_cap))
+    lborn = np.empty((rules, line_cap), np.int64)
+    nrow = np.zeros(rules, np.int64)
+    nline = np.zeros(rules, np.int64)
+    lr = np.zeros(rules, np.int64)
+    la = np.zeros(rules, np.int64)
+    y = np.empty(n)
+    f = np.empty(3)
+    no_pieces = np.empty(0)
+    pc, pw, pm = no_pieces, no_pieces, np.empty(0, np.int64)
+    if has_lobe:
+        steps = _step_cuts(model, prm, vx, vy, vz)
+        if steps.size > 0:
+            cuts = np.sort(np.concatenate((np.array([0.0, 0.25, 0.5, 0.75, 1.0]), steps)))
+            pc = cuts[:-1].copy()
+            pw = cuts[1:] - cuts[:-1]
+            pm = np.empty(pc.size, np.int64)
+            for k in range(pc.size):
+                m = _piece_nodes(A_BASE, pw[k])
+                pm[k] = m + (m % 2)
+    for g in range(rules):
+        for k in range(R_BASE + 1):
+            nrow[g] = _add_rows(g, k, R_BASE, 0 if k % 2 == 1 else -1, tv, rx[g], rj[g], rk[g],
+                                rb[g], tc[g], tf[g], nrow[g])  # fmt: skip
+        gp = (no_pieces, no_pieces, pm[:0]) if g == 0 else (pc, pw, pm)
+        nline[g] = _add_lines(g, model, prm, vx, vy, vz, 0, gp[0], gp[1], gp[2],
+                              lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0)  # fmt: skip
+        _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g], 0, nrow[g],
+              lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0, nline[g], 0,
+              tc[g], tf[g], y, f)  # fmt: skip
+    q = np.empty((rules, n, 3))
+    qr = np.empty((rules, n, 3))
+    qa = np.empty((rules, n, 3))
+    step = 0
+    est = 0.0
+    while True:
+        for g in range(rules):
+            _rule_sums(tc[g], tf[g], rk[g], rb[g], nrow[g], lr[g], la[g], ccw, ccoff,
+                       q[g], qr[g], qa[g])  # fmt: skip
+        est = 0.0
+        for i in range(n):
+            for c in range(3):
+                e = 0.0
+                for g in range(rules):
+                    e += abs(q[g, i, c] - qr[g, i, c]) + abs(q[g, i, c] - qa[g, i, c])
+                est = max(est, e)
+        est *= SQRT_4PI
+        if step < hist.shape[0]:
+            hist[step, 0] = nrow[0] * nline[0]
+            hist[step, 1] = nrow[1] * nline[1] if rules == 2 else 0
+            hist[step, 2] = est
+        step += 1
+        if est <= tol:
+            break
+        # the axis with the largest embedded difference whose doubling fits max_samples
+        best, best_g, best_ax = -1.0, -1, -1
+        for g in range(rules):
+            grow_a = 2 * nline[g] + (0 if g == 0 else pc.size)
+            for ax in range(2):
+                if ax == 0:
+                    grow_r = nrow[g] + (2 - g) * (R_BASE << lr[g])  # new odd nodes, per piece
+                    fits = lr[g] < R_MAX_LEVEL and grow_r * nline[g] <= max_samples
+                    d = qr[g]
+                else:
+                    fits = grow_a <= line_cap and nrow[g] * grow_a <= max_samples
+                    d = qa[g]
+                if not fits:
+                    continue
+                score = np.max(np.abs(q[g] - d))
+                if score > best:
+                    best, best_g, best_ax = score, g, ax
+        if best_g < 0:
+            break
+        g = best_g
+        if best_ax == 0:  # radial doubling: the odd nodes of the finer Clenshaw–Curtis rule
+            lr[g] += 1
+            m = R_BASE << lr[g]
+            r0 = nrow[g]
+            for k in range(1, m, 2):
+                nrow[g] = _add_rows(g, k, m, lr[g], tv, rx[g], rj[g], rk[g], rb[g], tc[g], tf[g],
+                                    nrow[g])  # fmt: skip
+            _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g],
+                  r0, nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0, nline[g], la[g],
+                  tc[g], tf[g], y, f)  # fmt: skip
+        else:  # azimuthal doubling: last level's new lines join the coarse rule
+            la[g] += 1
+            for r in range(nrow[g]):
+                for i in range(n):
+                    for c in range(3):
+                        tc[g, r, i, c] += tf[g, r, i, c]
+                        tf[g, r, i, c] = 0.0
+            j0 = nline[g]
+            gp = (no_pieces, no_pieces, pm[:0]) if g == 0 else (pc, pw, pm)
+            nline[g] = _add_lines(g, model, prm, vx, vy, vz, la[g], gp[0], gp[1], gp[2],
+                                  lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], j0)  # fmt: skip
+            _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g],
+                  0, nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], j0, nline[g], la[g],
+                  tc[g], tf[g], y, f)  # fmt: skip
+    for i in range(n):
+        for c in range(3):
+            s = 0.0
+            for g in range(rules):
+                s += q[g, i, c]
+            out[i, c] = s
+    samples = nrow[0] * nline[0]
+    if rules == 2:
+        samples = max(samples, nrow[1] * nline[1])
+    return step, est, samples
+
+
+@jit
+def _nested_block(model, prm, data, has_lobe, views, order, lmax, qmm, a, b, ccw, ccoff,
+                  tol, max_samples, line_cap, out, errors, used, steps, hist, b0, b1):  # fmt: skip
+    """:func:`_view_nested` for views ``order[b0:b1]`` (one block per view)."""
+    for t in range(b0, b1):
+        iv = order[t]
+        s, e, m = _view_nested(model, prm, data, has_lobe, views[iv, 0], views[iv, 1],
+                               views[iv, 2], lmax, qmm, a, b, ccw, ccoff, tol, max_samples,
+                               line_cap, out[iv], hist[iv])  # fmt: skip
+        steps[iv], errors[iv], used[iv] = s, e, m
+
+
 def gauss_legendre_unit(k: int) -> tuple[np.ndarray, np.ndarray]:
     """Gauss–Legendre nodes and weights on ``[0, 1]``."""
     x, w = np.polynomial.legendre.leggauss(k)
@@ -258,7 +597,10 @@ class Convergence:
 
     ``samples``: the most points per strategy any view used; ``error``: the
     largest per-view error estimate; ``view_errors``/``view_samples``: per view;
-    ``history``: one entry per refinement step (views still refined, time).
+    ``history``: one entry per sample level (``samples``, ``views``,
+    ``error_estimate``, cumulative ``seconds``). With ``tol`` the levels are
+    powers of two of points: the views refined into each and their largest
+    estimate there; the seconds are apportioned by the points evaluated.
     """
 
     samples: int
@@ -293,7 +635,6 @@ def project_views(
     samples: int | None = 1024,
     tol: float | None = None,
     max_samples: int = 1 << 16,
-    start_samples: int = 256,
     progress=None,
 ) -> tuple[np.ndarray, Convergence]:
     """SH coefficients of ``f*(·, v)`` for arbitrary view directions.
@@ -307,8 +648,9 @@ def project_views(
     samples : int, optional
         Points per strategy (≥ 16). Ignored when ``tol`` is given.
     tol : float, optional
-        Double the sample count from ``start_samples`` until the error estimate
-        is at most ``tol`` or the next step would pass ``max_samples``.
+        Refine each view's nested rules (module docstring) until the error
+        estimate is at most ``tol`` or no doubling fits ``max_samples`` points
+        per strategy (or 2048 radial intervals).
     progress : callable(samples, error), optional
 
     Returns
@@ -333,8 +675,26 @@ def project_views(
         _integrate(model, prm, data, brdf.spec.has_lobe, sub, lmax, qmm, a, b, gx, gw, 2 * nr, out)
         return out
 
+    if tol is not None:
+        coeffs, conv = _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples)
+        if progress is not None:
+            progress(conv.samples, conv.error)
+        return coeffs, conv
+    n_half = max(samples // 2, 8)
+    prev = run(np.arange(v.shape[0]), n_half)
+    coeffs = run(np.arange(v.shape[0]), 2 * n_half)
+    errors = SQRT_4PI * np.max(np.abs(coeffs - prev), axis=(1, 2))
+    seconds = time.perf_counter() - t0
+    history = [{"samples": 2 * n_half, "views": int(v.shape[0]),
+                "error_estimate": float(errors.max()), "seconds": seconds}]  # fmt: skip
+    if progress is not None:
+        progress(2 * n_half, float(errors.max()))
+    conv = Convergence(2 * n_half, float(errors.max()), seconds, history)
+    conv.view_errors = errors
+    conv.view_samples = np.full(v.shape[0], 2 * n_half, dtype=np.int64)
+    return coeffs, conv
     active = np.arange(v.shape[0])
-    N = start_samples if tol is not None else max(samples // 2, 8)
+    N = max(samples // 2, 8)
     prev = run(active, N)
     coeffs = np.empty_like(prev)
     errors = np.zeros(v.shape[0])
@@ -355,14 +715,66 @@ def project_views(
         )
         if progress is not None:
             progress(N, float(errors.max()))
-        keep = err > tol if tol is not None else np.zeros(err.shape, bool)
-        if not keep.any() or 2 * N > max_samples:
-            break
-        active, prev = active[keep], cur[keep]
+        break
     conv = Convergence(int(used.max()), float(errors.max()), time.perf_counter() - t0, history)
     conv.view_errors = errors
     conv.view_samples = used
     return coeffs, conv
+
+
+def _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples):
+    """The ``tol`` path of :func:`project_views`: :func:`_view_nested` per view, threaded."""
+    ccw, ccoff = cc_tables()
+    count = v.shape[0]
+    # interleave the views so a run of grazing ones does not land on one thread
+    order = np.argsort(np.arange(count) % 16, kind="stable")
+    out = np.empty((count, n_coeffs(lmax), 3))
+    errors = np.empty(count)
+    used = np.empty(count, np.int64)
+    steps = np.empty(count, np.int64)
+    hist = np.zeros((count, MAX_STEPS, 3))
+    line_cap = max_samples // (R_BASE + 1) + 8 * A_BASE + 4 * AZIMUTH_PROBES
+    t0 = time.perf_counter()
+    run_blocks(_nested_block, count, 1e8 * count, brdf.spec.model_id, brdf.packed, brdf.data,
+               brdf.spec.has_lobe, v, order, lmax, qmm, a, b, ccw, ccoff, float(tol),
+               max_samples, line_cap, out, errors, used, steps, hist)  # fmt: skip
+    seconds = time.perf_counter() - t0
+    conv = Convergence(int(used.max()), float(errors.max()), seconds,
+                       _nested_history(hist, steps, seconds))  # fmt: skip
+    conv.view_errors = errors
+    conv.view_samples = used
+    return out, conv
+
+
+def _nested_history(hist, steps, seconds):
+    """Per power-of-two bucket of points: views refined into it, their largest estimate there.
+
+    ``seconds`` is the total apportioned by the points evaluated up to the
+    bucket (the views are refined one at a time, not level by level).
+    """
+    k = np.arange(hist.shape[1])
+    live = k[None, :] < np.minimum(steps, hist.shape[1])[:, None]
+    points = np.maximum(hist[..., 0], hist[..., 1])
+    total = hist[..., 0] + hist[..., 1]
+    # points evaluated by step k: the rules' sizes at k (nested: nothing is evaluated twice)
+    spent = np.where(live, total, 0.0)
+    grand = spent.max(axis=1).sum()
+    history = []
+    bucket = 1 << int(np.ceil(np.log2(max(points[live].min(), 1))))
+    top = points[live].max()
+    while True:
+        inside = live & (points <= bucket) & (points > bucket / 2)
+        upto = np.where(live & (points <= bucket), spent, 0.0).max(axis=1).sum()
+        if inside.any():
+            history.append({
+                "samples": int(bucket),
+                "views": int(inside.any(axis=1).sum()),
+                "error_estimate": float(hist[..., 2][inside].max()),
+                "seconds": float(seconds * upto / max(grand, 1.0)),
+            })  # fmt: skip
+        if bucket >= top:
+            return history
+        bucket *= 2
 
 
 def tabulate(

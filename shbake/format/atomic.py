@@ -22,6 +22,7 @@ each atomic on its own (documented in ``docs/FORMAT.md`` §1).
 import errno
 import os
 import re
+import stat
 import threading
 from contextlib import contextmanager
 
@@ -83,14 +84,22 @@ def _read_only_fs(folder: str) -> bool:
 def check_output_path(path, option: str = "-o/--output") -> str:
     """Refuse an output path that cannot be written, before any work; return its folder.
 
-    Refused: an empty path, a folder, a parent that is missing or not a folder, a
-    read-only file system or an unwritable folder.
+    Refused: an empty path, a folder, a special file (FIFO, device, socket: the
+    temporary would replace it), a parent that is missing or not a folder, a read-only
+    file system or an unwritable folder.
     """
     if path is None or str(path).strip() == "":
         raise OutputError(f"{option}: empty output path")
     path = os.fspath(path)
     if path.endswith(os.sep) or os.path.isdir(path):
         raise OutputError(f"{path}: is a directory ({option} must name a file)")
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode):  # replacing /dev/null would destroy it
+        kind = "a FIFO" if stat.S_ISFIFO(mode) else "a device or socket"
+        raise OutputError(f"{path}: is {kind}, not a regular file ({option} must name a file)")
     folder = os.path.dirname(os.path.abspath(path))
     check_output_dir(folder, option, missing_ok=False, shown=path)
     from shbake import resources
@@ -160,6 +169,8 @@ def os_error_message(e: OSError, path: str | None = None) -> str:
         return f"read-only file system writing {where}"
     if e.errno == errno.EDQUOT:
         return f"disk quota exceeded writing {where}"
+    if e.errno == errno.EFBIG or "errno = 27," in text or "File too large" in text:
+        return f"file size limit exceeded writing {where}"
     lines = text.strip().splitlines()
     reason = e.strerror or (lines[0][:160] if lines else type(e).__name__)
     return f"cannot write {where} ({reason})"

@@ -24,6 +24,9 @@ def _check(attrs, shapes, dattrs, symbols):
     ):
         raise FormatError("missing dataset /tangent_irradiance/matrix (required with "
                           "/tangent_irradiance/sh of lmax >= 2)")  # fmt: skip
+    sun = [n for n in ("/sun/solid_angle", "/sun/radiance") if n in shapes]
+    if sun and "/sun/direction" not in shapes:  # the light would be dropped silently
+        raise FormatError(f"missing dataset /sun/direction (required with {sun[0]})")
 
 
 def check_sun(direction: np.ndarray) -> None:

@@ -10,6 +10,37 @@ from shbake.format.atomic import atomic_path
 HALF_MAX = 65504.0
 
 
+def clamp_to_half(levels: list, path: str) -> list:
+    """Engine texture levels for a half-float file ``path``: values beyond ±65504 (the largest
+    half float) clamped, with ONE warning line on stderr (how many, the peak, what to do).
+
+    Half-float textures (KTX2 ``R16G16B16A16_SFLOAT``, Filament's KTX) cannot hold more;
+    an engine clamps (or shows Inf) anyway, and the clamped texels are at least 65504 —
+    brighter than any display. The light lost is the excess of those texels only; a sun is
+    better sent as a light (``--extract-sun``, the scene planner does when it finds one).
+    Non-finite values are refused (:class:`OutputError`): they are a bug, not a bright map.
+    Levels that need no clamp are returned as they are (same bytes as before).
+    """
+    import sys
+
+    out, count, peak = [], 0, 0.0
+    for lv in levels:
+        a = np.asarray(lv, dtype=np.float64)
+        if not np.all(np.isfinite(a)):
+            raise OutputError(f"{path}: refusing to write non-finite values")
+        over = np.abs(a) > HALF_MAX
+        if np.any(over):
+            count += int(np.count_nonzero(over))
+            peak = max(peak, float(np.abs(a).max()))
+            a = np.clip(a, -HALF_MAX, HALF_MAX)
+        out.append(a)
+    if count:
+        print(f"shbake: warning: {path}: {count} values above the half-float maximum 65504 "
+              f"(peak {peak:.6g}) clamped to 65504; send a sun as a light (--extract-sun) to "
+              "keep its energy", file=sys.stderr)  # fmt: skip
+    return out
+
+
 def write_exr(
     path: str,
     img: np.ndarray,

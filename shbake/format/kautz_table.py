@@ -59,9 +59,11 @@ def build_table_asset(
         "parameterisation": PARAMETERISATION,
         "view_z_min": _view_z_min(),
         "error_estimate": float(max(c.error for c in convs)),
-        "error_definition": "sqrt(4*pi) * max |c(N) - c(N/2)| over coefficients and channels",
+        "error_definition": "sqrt(4*pi) * max |c(N) - c(N/2)| over coefficients and channels; "
+                            "with --tol sqrt(4*pi) * max sum over the 4 axes of |c - c_coarse|",
         "samples_max": int(max(c.samples for c in convs)),
-        "quadrature": "MIS: GL x trapezoid hemisphere + GL x midpoint lobe (tabulate.py)",
+        "quadrature": "MIS: GL x trapezoid hemisphere + GL x midpoint lobe; with --tol nested "
+                      "Clenshaw-Curtis x trapezoid (tabulate.py)",
         "max_albedo": max_albedo,
         "energy_conserving": conserving,
     }

@@ -15,6 +15,8 @@ MAP_META_KEYS = (
     "nonfinite_repaired", "negative_count", "negative_energy_change",
 )  # fmt: skip
 """Keys of an environment's ``meta`` recorded as ``source_<key>`` besides the block."""
+PROBE_META_KEYS = ("probe_position", "probe_rotation_deg")
+"""Keys of a scene probe's pose in an environment's ``meta``, recorded as they are."""
 
 
 def no_source() -> dict:
@@ -46,6 +48,7 @@ def map_source(meta: dict) -> dict:
         "source_nonfinite_policy": meta["nonfinite_policy"],
         "source_negative_policy": meta["negative_policy"],
     }
+    block |= {k: meta[k] for k in PROBE_META_KEYS if k in meta}
     return block | {f"source_{k}": meta[k] for k in MAP_META_KEYS if k in meta}
 
 

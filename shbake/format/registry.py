@@ -194,6 +194,11 @@ SOURCE_MAP_ATTRS = (
     Attr("source_layout", "str", "`latlong`, `cube-strip`, `cross-h` or `cross-v`"),
     Attr("source_colorspace", "str", "working space the pixels were converted to"),
     Attr("source_colorspace_in", "str", "the input's declared colour space", required=False),
+    Attr("probe_position", "floats", "a scene probe's world position `[x, y, z]` (scene units; "
+         "recorded, not used by the bake)", required=False, length=3),
+    Attr("probe_rotation_deg", "float", "a scene probe's turn of its environment about +Y, "
+         "degrees counter-clockwise seen from above: direction `R d` of the asset shows the "
+         "map's `d` (`shbake.envmap.turn`)", required=False),
 )
 """Extra provenance of kinds baked from an environment map."""
 

@@ -32,8 +32,17 @@ _SHEXP_ATTRS = PROBE_ATTRS + (
     Attr("fresnel_tail", "str", "how `E1` is formed"),
 )  # fmt: skip
 _AXES = Attr("axes", "json", "axis names", json_type=list, required=False)
+def _check_knots(values):
+    """Knots strictly increasing within ``(0, 1]`` (equal knots would divide by zero in the
+    hat weights, :func:`shbake.shading.shexp.hat_weight`)."""
+    v = np.asarray(values, dtype=np.float64)
+    if np.any(np.diff(v) <= 0) or np.any(v <= 0) or np.any(v > 1):
+        raise FormatError("dataset /knots must increase strictly within (0, 1]")
+
+
 KNOTS_DATA = Data("/knots", ("K",), "float64", "the GGX width of each coefficient set, "
-                  "increasing (hat functions between them)")  # fmt: skip
+                  "strictly increasing within (0, 1] (hat functions between them)",
+                  values=_check_knots)  # fmt: skip
 
 
 def _check_set(attrs, shapes, dattrs, symbols):

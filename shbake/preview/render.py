@@ -25,9 +25,40 @@ from shbake.preview.glossy import PASS_OF_KIND, render_glossy
 from shbake.preview.passes import PASSES, render_pass
 from shbake.preview.shrm import preview_shrm
 from shbake.progress import NO_PROGRESS
+from shbake.resources import check_memory
 
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
 ALL_PASSES = PASSES + tuple(PASS_OF_KIND.values()) + ("shrm",)
+
+PIXEL_BYTES = 256
+"""Working memory per pixel of the ``size``² image, one pass: sphere geometry, the
+float64 image, masks, tone mapping and the contact sheet (tracemalloc peaks of 192-212 B
+at 256²-768², ``tests/test_faults.py::TestPreviewMemory``)."""
+REFERENCE_PIXEL_BYTES = 96
+"""Added per pixel by a second image (``--diff``): the reference and the signed error."""
+COEFF_PIXEL_BYTES = 48
+"""Added per pixel and SH coefficient by the kautz pass (local lighting and world-rotated
+table coefficients, ``(P, n, 3)`` float64 each)."""
+TEXEL_BYTES = 160
+"""Per texel of the source map, for the brute-force reference: directions, solid angles,
+radiance and their weighted copies (float64)."""
+
+
+def preview_memory(size: int, reference: bool = False, coeffs: int = 0, texels: int = 0) -> int:
+    """Estimated peak bytes of a preview of ``size``² pixels (``reference``: a second
+    image; ``coeffs``: SH coefficients of a kautz table; ``texels``: of the source map
+    a brute-force reference integrates)."""
+    per_pixel = PIXEL_BYTES + COEFF_PIXEL_BYTES * coeffs
+    per_pixel += REFERENCE_PIXEL_BYTES if reference else 0
+    return int(size) * int(size) * per_pixel + TEXEL_BYTES * int(texels)
+
+
+def check_preview_memory(size, reference=False, coeffs=0, source=None) -> None:
+    """Refuse a preview whose :func:`preview_memory` exceeds the memory budget, before
+    rendering (``source``: the loaded map of a reference pass, or ``None``)."""
+    texels = 0 if source is None else source.shape[0] * source.shape[1]
+    what = f"a {size}x{size} preview" + (" with its reference" if reference else "")
+    check_memory(preview_memory(size, reference, coeffs, texels), what)
 
 
 def load_source(asset, asset_path, source_path=None):
@@ -61,9 +92,12 @@ def _render_env(asset, asset_path, pass_name, size, diff, source, table_path, at
         table = table_at(read_asset(table_path, kinds=("brdf_table",)),
                          {k: float(v) for k, v in (at or {}).items()})  # fmt: skip
     needs_source = pass_name.startswith("reference") or diff
+    coeffs = table.coeffs.shape[-2] if pass_name == "kautz" else 0
+    check_preview_memory(size, diff, coeffs)
     if table is not None and needs_source:
         brdf = table.make_brdf(merl_path)
     src = load_source(asset, asset_path, source) if needs_source else None
+    check_preview_memory(size, diff, coeffs, src)
     img, timing = render_pass(asset, pass_name, size, src, table, brdf)
     summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
     if "modes" in timing:
@@ -84,7 +118,9 @@ def _render_probe(asset, asset_path, pass_name, size, diff, source, roughness, f
     if diff and pass_name == "reference":
         raise ParameterError("--diff compares a probe pass with the reference")
     needs_source = pass_name == "reference" or diff
+    check_preview_memory(size, diff)
     src = load_source(asset, asset_path, source) if needs_source else None
+    check_preview_memory(size, diff, 0, src)
     alpha = roughness * roughness  # probes take the GGX width (probe format 2)
     img, timing = render_glossy(asset, pass_name, size, alpha, f0, src, samples)
     summary = {"pass": pass_name, "size": size, "roughness": roughness, "alpha": alpha, "f0": f0,
@@ -127,7 +163,9 @@ def preview_asset(
     with progress.task(f"preview {os.path.basename(asset_path)}", total=None, unit="pass"):
         if asset.kind == "shrm":  # SHRM hook (issue 13): shbake.preview.shrm.preview_shrm
             needs_source = diff or pass_name == "reference"
+            check_preview_memory(size, diff)
             src = load_source(asset, asset_path, source) if needs_source else None
+            check_preview_memory(size, diff, 0, src)
             img, reference, summary, settings = preview_shrm(asset, pass_name, size, diff, src)
         elif asset.kind in PASS_OF_KIND:
             img, reference, summary, settings, src = _render_probe(

@@ -41,6 +41,7 @@ import numpy as np
 from shbake.errors import OutputError, ParameterError
 from shbake.format.atomic import atomic_path, write_text
 from shbake.format.exports.source import ExportSource, require_sh
+from shbake.format.images import clamp_to_half
 from shbake.sh.basis import real_sh
 
 EXTENSION = "_sh.txt"
@@ -141,6 +142,7 @@ def write(
         rough = roughness
         kv = {"sh": sh_metadata(sh), "shbake.roughness": json.dumps([round(r, 9) for r in rough])}
         for path, lv in ((stem + "_ibl.ktx", levels), (stem + "_skybox.ktx", levels[:1])):
+            lv = clamp_to_half(lv, path)
             payload = encode_ktx1([_rgba(x) for x in lv], kv)
             with atomic_path(path) as tmp, open(tmp, "wb") as f:
                 f.write(payload)

@@ -37,6 +37,7 @@ import numpy as np
 from shbake.errors import FormatError, OutputError, ParameterError
 from shbake.format.atomic import atomic_path
 from shbake.format.exports.source import ExportSource
+from shbake.format.images import clamp_to_half
 
 EXTENSION = ".ktx2"
 IDENTIFIER = bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A])
@@ -175,7 +176,7 @@ def write(
         "shbake.content": "GGX split-sum prefiltered radiance, level 0 = mirror (alpha 0), "
         "filtered importance sampling",
     }
-    write_ktx2(out, [_rgba(lv) for lv in levels], cube=True, kv=kv)
+    write_ktx2(out, [_rgba(lv) for lv in clamp_to_half(levels, out)], cube=True, kv=kv)
     written = [out]
     if dfg_table is not None:
         written += write_dfg(os.path.splitext(out)[0] + "_dfg", dfg_table)

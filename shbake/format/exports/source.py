@@ -14,12 +14,12 @@ counter-clockwise seen from above (right-hand rule). Directions map as
 (:func:`shbake.sh.rotation.rotate`), so ``E_t(R d) = E_w(d)``.
 """
 
-import math
 import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from shbake.envmap.turn import turn_matrix
 from shbake.errors import InputError, ParameterError
 from shbake.sh.rotation import rotate
 
@@ -35,14 +35,7 @@ def frame_matrix(frame: str = "y-up", rotate_deg: float = 0.0) -> np.ndarray:
     """Rotation ``R`` (target ← shbake world) for ``frame`` and a turn about its up axis."""
     if frame not in FRAMES:
         raise ParameterError(f"unknown frame {frame!r}; choose one of {', '.join(FRAMES)}")
-    if not math.isfinite(rotate_deg):
-        raise ParameterError(f"rotation must be finite, got {rotate_deg}")
-    a = math.radians(rotate_deg)
-    c, s = math.cos(a), math.sin(a)
-    up = _UP_AXIS[frame]
-    i, j = [(1, 2), (2, 0), (0, 1)][up]  # the plane turned counter-clockwise about `up`
-    T = np.eye(3)
-    T[i, i], T[i, j], T[j, i], T[j, j] = c, -s, s, c
+    T = turn_matrix(rotate_deg, _UP_AXIS[frame])
     return T @ _FRAME_MATRICES[frame]
 
 
@@ -73,6 +66,15 @@ class ExportSource:
     sun_solid_angle: float | None = None
     env_path: str | None = None
     meta: dict = field(default_factory=dict)
+    map_rotation: np.ndarray | None = None
+    """Target ← map rotation of the cube maps: ``rotation`` times the probe's turn
+    (``probe_rotation_deg``, :mod:`shbake.envmap.turn`) when the asset's SH were turned
+    from the map's; ``None``: ``rotation``."""
+
+    @property
+    def cube_rotation(self) -> np.ndarray:
+        """The rotation the cube maps are resampled with (:attr:`map_rotation`)."""
+        return self.rotation if self.map_rotation is None else self.map_rotation
 
     def environment(self, sun_radius_deg: float = 10.0):
         """The map the SH came from, world frame (its sun removed if the asset's was).
@@ -124,6 +126,7 @@ def load_source(
 
     R = frame_matrix(frame, rotate_deg)
     asset = read_asset(path, kinds=("env_sh", "splitsum_probe"))
+    turned = R @ turn_matrix(float(asset.attrs.get("probe_rotation_deg", 0.0)))
     meta = {k[len("source_") :]: v for k, v in asset.attrs.items() if k.startswith("source_")}
     recorded = (  # the provenance block's source_path is relative to the asset (FORMAT §2)
         os.path.join(os.path.dirname(os.path.abspath(path)), meta["path"])
@@ -138,6 +141,7 @@ def load_source(
             rotation=R,
             frame=frame,
             env_path=env_path or recorded,
+            map_rotation=turned,
             meta={
                 "sha256": meta.get("sha256"),
                 "negative_policy": meta.get("negative_policy", "clamp"),
@@ -155,6 +159,7 @@ def load_source(
         frame=frame,
         env_path=env_path or recorded,
         meta=meta,
+        map_rotation=turned,
     )
     if "/sun/direction" in asset:
         d = R @ np.asarray(asset["/sun/direction"], dtype=np.float64)
