@@ -100,7 +100,10 @@ def load_environment(
     else:
         _, omega, mask = texels(layout, h, w)
         rgb = np.where(mask[:, :, None], rgb, 0.0).astype(np.float32)
-    rgb, n_negative, energy_change = apply_negative_policy(rgb, omega, negative, path, quiet)
+    # rgb is this function's own (decoded here): clamp in place
+    rgb, n_negative, energy_change = apply_negative_policy(
+        rgb, omega, negative, path, quiet, inplace=True
+    )
     meta = {
         "path": str(path),
         "sha256": sha256_of(path),

@@ -21,7 +21,9 @@ def repair_nonfinite(pixels: np.ndarray, repair: str | None, name: str) -> tuple
     ``black`` sets every non-finite channel value to 0; ``box3`` replaces it
     by the mean of the finite values among its 3×3 neighbours (0 if none).
     """
-    if np.isfinite(pixels.sum(dtype=np.float64)):  # one pass when all are finite
+    # One pass when all are finite: NaN/Inf make the sum non-finite; a sum that only
+    # overflows takes the exact check below (and finds nothing).
+    if np.isfinite(pixels.sum()):
         return pixels, 0
     bad = ~np.isfinite(pixels)
     count = int(np.any(bad, axis=2).sum())
@@ -45,21 +47,26 @@ def repair_nonfinite(pixels: np.ndarray, repair: str | None, name: str) -> tuple
     return out, count
 
 
-def apply_negative_policy(pixels, weights, policy: str, name: str, quiet: bool = False):
+def apply_negative_policy(
+    pixels, weights, policy: str, name: str, quiet: bool = False, inplace: bool = False
+):
     """Apply ``--negative clamp|keep|error``; return ``(pixels, count, energy_change)``.
 
     ``energy_change`` is ``Σ (new − old) · weight`` per channel (radiance ×
     sr): the change of ``∫ L dω`` caused by clamping. ``weights`` are the
-    texel solid angles, shape ``(H, W)``.
+    texel solid angles, shape ``(H, W)``. ``pixels`` must be finite; with
+    ``inplace`` the clamp writes into ``pixels`` (the caller owns them) instead
+    of a copy.
     """
     if policy not in NEGATIVE_POLICIES:
         raise ParameterError(f"unknown --negative {policy!r}; choose one of clamp, keep, error")
     nc = pixels.shape[2]
     change = np.zeros(nc)
-    # One pass finds the (few) negative values; everything else touches only them.
-    flat_idx = np.flatnonzero(pixels < 0) if pixels.size else np.empty(0, np.int64)
-    if flat_idx.size == 0:
+    negative = pixels < 0  # one pass; everything after it touches only the (few) negatives
+    if not negative.any():
         return pixels, 0, change
+    flat_idx = np.flatnonzero(negative)  # C-order indices, as pixels.flat
+    del negative
     texel = flat_idx // nc
     count = int(np.count_nonzero(np.diff(texel))) + 1  # flat_idx is sorted
     values = pixels.reshape(-1)[flat_idx].astype(np.float64)
@@ -79,4 +86,6 @@ def apply_negative_policy(pixels, weights, policy: str, name: str, quiet: bool =
             f"(min {float(values.min()):.6g}; ∫L dω change {np.array2string(change, precision=4)})",
             file=sys.stderr,
         )
-    return np.maximum(pixels, 0.0), count, change
+    out = pixels if inplace else pixels.copy()
+    out.flat[flat_idx] = 0.0  # the clamp writes the negatives only
+    return out, count, change

@@ -127,7 +127,13 @@ def register(kind: Kind) -> Kind:
 
 def kind_of(name) -> Kind:
     """The registered :class:`Kind` called ``name``; :class:`FormatError` if there is none."""
-    _load_kinds()
+    module = f"shbake.format.{name}" if isinstance(name, str) else None
+    if name not in KINDS and module in KIND_MODULES:  # just the one kind's module (start-up)
+        import importlib
+
+        importlib.import_module(module)
+    if name not in KINDS:
+        _load_kinds()
     if not isinstance(name, str) or name not in KINDS:
         raise FormatError(f"unknown asset kind {short(name)}; known: {', '.join(KINDS)}")
     return KINDS[name]

@@ -43,10 +43,6 @@ FFT_MIN_LMAX = 64
 ROWS_PER_BLOCK = 4
 """Rows per work item handed to a thread by :func:`shbake.jit.run_blocks`."""
 
-COLUMN_BLOCK = 128
-"""Folded columns per pass of the row kernels: the folded values of a block
-(4 × channels × ``COLUMN_BLOCK`` doubles) stay in L1 while every ``m`` reads them."""
-
 
 @lru_cache(maxsize=16)
 def fejer_row_weights(height: int, width: int) -> np.ndarray:
@@ -91,94 +87,172 @@ def azimuth_tables(width: int, lmax: int) -> tuple[np.ndarray, np.ndarray]:
     return c, s
 
 
-@jit
-def _fold4(a, b, c, d, buf, ch, j):
+COLUMN_BLOCK = 256
+"""Folded columns per pass of the row kernels: the folded values of a block
+(4 × channels × ``COLUMN_BLOCK`` doubles, 24 KiB for RGB) and the table columns
+of the block stay in L1 while every ``m`` reads them."""
+
+_FAST = {"reassoc", "contract"}
+_U = np.uint64
+
+
+@jit(fastmath=_FAST, inline="always")
+def _butterfly4(a, b, c, d, buf, ch, j):
     """Fold the values of columns ``j, W-1-j, W/2-1-j, W/2+j`` (see :func:`_row_sums_quarter`)."""
-    va = np.float64(a)
-    vb = np.float64(b)
-    vc = np.float64(c)
-    vd = np.float64(d)
-    sab = va + vb
-    scd = vc + vd
-    dab = va - vb
-    dcd = vc - vd
+    sab = a + b
+    scd = c + d
+    dab = a - b
+    dcd = c - d
     buf[0, ch, j] = sab + scd
     buf[1, ch, j] = sab - scd
     buf[2, ch, j] = dab - dcd
     buf[3, ch, j] = dab + dcd
 
 
-@jit(fastmath={"reassoc", "contract"})
-def _dots4_rgb(buf, kind, nj, j0, table, m0, acc, sine):
-    """Four dot products at once for ``m = m0, m0+2, m0+4, m0+6`` (one parity shares one
-    folded vector), three channels: 12 sums, 7 loads per 12 multiply-adds."""
-    a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = a30 = a31 = a32 = 0.0
-    for j in range(nj):
-        x0 = buf[kind, 0, j]
-        x1 = buf[kind, 1, j]
-        x2 = buf[kind, 2, j]
-        t0 = table[m0, j0 + j]
-        t1 = table[m0 + 2, j0 + j]
-        t2 = table[m0 + 4, j0 + j]
-        t3 = table[m0 + 6, j0 + j]
-        a00 += x0 * t0
-        a01 += x1 * t0
-        a02 += x2 * t0
-        a10 += x0 * t1
-        a11 += x1 * t1
-        a12 += x2 * t1
-        a20 += x0 * t2
-        a21 += x1 * t2
-        a22 += x2 * t2
-        a30 += x0 * t3
-        a31 += x1 * t3
-        a32 += x2 * t3
-    for g in range(4):
-        m = m0 + 2 * g
-        k = 2 * m if sine else (0 if m == 0 else 2 * m - 1)
-        if g == 0:
-            acc[0, k] += a00
-            acc[1, k] += a01
-            acc[2, k] += a02
-        elif g == 1:
-            acc[0, k] += a10
-            acc[1, k] += a11
-            acc[2, k] += a12
-        elif g == 2:
-            acc[0, k] += a20
-            acc[1, k] += a21
-            acc[2, k] += a22
-        else:
-            acc[0, k] += a30
-            acc[1, k] += a31
-            acc[2, k] += a32
+@jit(inline="always")
+def _coeff_index(m, sine):
+    """Row-sum column of ``cos(mφ')`` (``2m-1``; 0 for m = 0) or ``sin(mφ')`` (``2m``)."""
+    if sine:
+        return 2 * m
+    return 0 if m == 0 else 2 * m - 1
 
 
-@jit(fastmath={"reassoc", "contract"})
-def _dots1(buf, kind, nc, nj, j0, table, m, acc, sine):
-    """One dot product per channel: ``acc[c, k(m)] += Σ_j buf[kind, c, j] table[m, j0+j]``."""
-    k = 2 * m if sine else (0 if m == 0 else 2 * m - 1)
-    for c in range(nc):
-        s0 = 0.0
+@jit(fastmath=_FAST, inline="always")
+def _dots_rgb(buf, kind, nj, j0, table, m, nm, acc, sine):
+    """``acc[c, k(m')] += Σ_j buf[kind, c, j] table[m', j0+j]`` for ``m' = m, m+2, … < nm``, RGB.
+
+    A ``(3 × nj) · (nj × ⌈(nm-m)/2⌉)`` product in register tiles of 3 channels
+    × 4 ``m`` (7 loads per 12 multiply-adds), then 3 × 2 and 3 × 1 for the rest.
+    Check-free kernel.
+    """
+    x0 = buf[kind, 0, :nj]
+    x1 = buf[kind, 1, :nj]
+    x2 = buf[kind, 2, :nj]
+    while m + 6 < nm:
+        t0 = table[m, j0 : j0 + nj]
+        t1 = table[m + 2, j0 : j0 + nj]
+        t2 = table[m + 4, j0 : j0 + nj]
+        t3 = table[m + 6, j0 : j0 + nj]
+        a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = a30 = a31 = a32 = 0.0
         for j in range(nj):
-            s0 += buf[kind, c, j] * table[m, j0 + j]
-        acc[c, k] += s0
-
-
-@jit
-def _dots_parity(buf, kind, nc, nj, j0, table, m_first, nm, acc, sine):
-    """All ``m = m_first, m_first+2, … < nm`` against folded vector ``kind``."""
-    m = m_first
-    if nc == 3:
-        while m + 6 < nm:
-            _dots4_rgb(buf, kind, nj, j0, table, m, acc, sine)
-            m += 8
+            v0 = x0[j]
+            v1 = x1[j]
+            v2 = x2[j]
+            u0 = t0[j]
+            u1 = t1[j]
+            u2 = t2[j]
+            u3 = t3[j]
+            a00 += v0 * u0
+            a01 += v1 * u0
+            a02 += v2 * u0
+            a10 += v0 * u1
+            a11 += v1 * u1
+            a12 += v2 * u1
+            a20 += v0 * u2
+            a21 += v1 * u2
+            a22 += v2 * u2
+            a30 += v0 * u3
+            a31 += v1 * u3
+            a32 += v2 * u3
+        k = _coeff_index(m, sine)
+        acc[0, k] += a00
+        acc[1, k] += a01
+        acc[2, k] += a02
+        k = _coeff_index(m + 2, sine)
+        acc[0, k] += a10
+        acc[1, k] += a11
+        acc[2, k] += a12
+        k = _coeff_index(m + 4, sine)
+        acc[0, k] += a20
+        acc[1, k] += a21
+        acc[2, k] += a22
+        k = _coeff_index(m + 6, sine)
+        acc[0, k] += a30
+        acc[1, k] += a31
+        acc[2, k] += a32
+        m += 8
+    while m + 2 < nm:
+        t0 = table[m, j0 : j0 + nj]
+        t1 = table[m + 2, j0 : j0 + nj]
+        a00 = a01 = a02 = a10 = a11 = a12 = 0.0
+        for j in range(nj):
+            v0 = x0[j]
+            v1 = x1[j]
+            v2 = x2[j]
+            u0 = t0[j]
+            u1 = t1[j]
+            a00 += v0 * u0
+            a01 += v1 * u0
+            a02 += v2 * u0
+            a10 += v0 * u1
+            a11 += v1 * u1
+            a12 += v2 * u1
+        k = _coeff_index(m, sine)
+        acc[0, k] += a00
+        acc[1, k] += a01
+        acc[2, k] += a02
+        k = _coeff_index(m + 2, sine)
+        acc[0, k] += a10
+        acc[1, k] += a11
+        acc[2, k] += a12
+        m += 4
     while m < nm:
-        _dots1(buf, kind, nc, nj, j0, table, m, acc, sine)
+        t0 = table[m, j0 : j0 + nj]
+        a00 = a01 = a02 = 0.0
+        for j in range(nj):
+            u0 = t0[j]
+            a00 += x0[j] * u0
+            a01 += x1[j] * u0
+            a02 += x2[j] * u0
+        k = _coeff_index(m, sine)
+        acc[0, k] += a00
+        acc[1, k] += a01
+        acc[2, k] += a02
         m += 2
 
 
-@jit(fastmath={"reassoc", "contract"})
+@jit(fastmath=_FAST, inline="always")
+def _dots_any(buf, kind, nc, nj, j0, table, m, nm, acc, sine):
+    """:func:`_dots_rgb` for any channel count: tiles of 1 channel × 4 ``m``, then 1 × 1."""
+    for c in range(nc):
+        x = buf[kind, c, :nj]
+        mm = m
+        while mm + 6 < nm:
+            t0 = table[mm, j0 : j0 + nj]
+            t1 = table[mm + 2, j0 : j0 + nj]
+            t2 = table[mm + 4, j0 : j0 + nj]
+            t3 = table[mm + 6, j0 : j0 + nj]
+            a0 = a1 = a2 = a3 = 0.0
+            for j in range(nj):
+                v = x[j]
+                a0 += v * t0[j]
+                a1 += v * t1[j]
+                a2 += v * t2[j]
+                a3 += v * t3[j]
+            acc[c, _coeff_index(mm, sine)] += a0
+            acc[c, _coeff_index(mm + 2, sine)] += a1
+            acc[c, _coeff_index(mm + 4, sine)] += a2
+            acc[c, _coeff_index(mm + 6, sine)] += a3
+            mm += 8
+        while mm < nm:
+            t0 = table[mm, j0 : j0 + nj]
+            a0 = 0.0
+            for j in range(nj):
+                a0 += x[j] * t0[j]
+            acc[c, _coeff_index(mm, sine)] += a0
+            mm += 2
+
+
+@jit(fastmath=_FAST, inline="always")
+def _dots(buf, kind, nc, nj, j0, table, m, nm, acc, sine):
+    """All ``m' = m, m+2, … < nm`` against folded vector ``kind`` of a column block."""
+    if nc == 3:
+        _dots_rgb(buf, kind, nj, j0, table, m, nm, acc, sine)
+    else:
+        _dots_any(buf, kind, nc, nj, j0, table, m, nm, acc, sine)
+
+
+@jit(fastmath=_FAST)
 def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     """Row sums against ``cos/sin(mφ')`` for ``W % 4 == 0``, rows of blocks ``b0 … b1-1``.
 
@@ -188,8 +262,14 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     once, folded into four ``W/4``-long vectors per channel — even / odd ``m``
     for cos / sin — a block of :data:`COLUMN_BLOCK` columns at a time, and
     every ``m`` is a dot product with one table row over that block (a
-    cache-blocked ``(C × W/4) · (W/4 × 2 lmax+1)`` product). No zero-fill,
-    no copy of the image. Check-free kernel.
+    cache-blocked ``(C × W/4) · (W/4 × 2 lmax+1)`` product, :func:`_dots`).
+
+    The fold reads the row as one flat run of ``W C`` values: columns ``j``
+    and ``W/2+j`` forwards, columns ``W-1-j`` and ``W/2-1-j`` backwards with
+    unsigned indices (no negative-index wrap, so LLVM sees reversed
+    interleaved runs, not gathers), and the RGB fold vectorises
+    (de-interleave, float32 → float64, butterflies). No zero-fill, no copy of
+    the image. Check-free kernel.
     """
     h, w, nc = img.shape
     nq = w // 4
@@ -198,39 +278,54 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     buf = np.empty((4, nc, COLUMN_BLOCK))  # E (cos, even m), O (cos, odd), DO (sin, even), DE
     acc = np.empty((nc, 2 * nm - 1))
     for i in range(b0 * ROWS_PER_BLOCK, min(h, b1 * ROWS_PER_BLOCK)):
-        row = img[i]
-        for c in range(nc):
-            for k in range(2 * nm - 1):
-                acc[c, k] = 0.0
+        f = img[i].reshape(w * nc)
+        acc[:] = 0.0
         for j0 in range(0, nq, COLUMN_BLOCK):
             nj = min(COLUMN_BLOCK, nq - j0)
-            if nc == 3:  # RGB: channels unrolled
+            fa = f[nc * j0 :]  # column j0 + j
+            fd = f[nc * (half + j0) :]  # column W/2 + j0 + j
+            rb = _U(nc * (w - 1 - j0))  # column W-1-j0-j starts at rb - C j
+            rc = _U(nc * (half - 1 - j0))  # column W/2-1-j0-j starts at rc - C j
+            if nc == 3:  # RGB: channels unrolled (one interleaved group per access)
                 for j in range(nj):
-                    ja = j0 + j
-                    jb = w - 1 - ja
-                    jc = half - 1 - ja
-                    jd = half + ja
-                    _fold4(row[ja, 0], row[jb, 0], row[jc, 0], row[jd, 0], buf, 0, j)
-                    _fold4(row[ja, 1], row[jb, 1], row[jc, 1], row[jd, 1], buf, 1, j)
-                    _fold4(row[ja, 2], row[jb, 2], row[jc, 2], row[jd, 2], buf, 2, j)
+                    k = 3 * j
+                    b = rb - _U(k)
+                    c = rc - _U(k)
+                    for ch in range(3):
+                        _butterfly4(
+                            np.float64(fa[k + ch]),
+                            np.float64(f[b + _U(ch)]),
+                            np.float64(f[c + _U(ch)]),
+                            np.float64(fd[k + ch]),
+                            buf,
+                            ch,
+                            j,
+                        )
             else:
                 for j in range(nj):
-                    ja = j0 + j
-                    jb = w - 1 - ja
-                    jc = half - 1 - ja
-                    jd = half + ja
-                    for c in range(nc):
-                        _fold4(row[ja, c], row[jb, c], row[jc, c], row[jd, c], buf, c, j)
-            _dots_parity(buf, 0, nc, nj, j0, cos_t, 0, nm, acc, False)  # even m: E · cos
-            _dots_parity(buf, 1, nc, nj, j0, cos_t, 1, nm, acc, False)  # odd m: O · cos
-            _dots_parity(buf, 2, nc, nj, j0, sin_t, 2, nm, acc, True)  # even m > 0: DO · sin
-            _dots_parity(buf, 3, nc, nj, j0, sin_t, 1, nm, acc, True)  # odd m: DE · sin
+                    k = nc * j
+                    b = rb - _U(k)
+                    c = rc - _U(k)
+                    for ch in range(nc):
+                        _butterfly4(
+                            np.float64(fa[k + ch]),
+                            np.float64(f[b + _U(ch)]),
+                            np.float64(f[c + _U(ch)]),
+                            np.float64(fd[k + ch]),
+                            buf,
+                            ch,
+                            j,
+                        )
+            _dots(buf, 0, nc, nj, j0, cos_t, 0, nm, acc, False)  # even m: E · cos
+            _dots(buf, 1, nc, nj, j0, cos_t, 1, nm, acc, False)  # odd m: O · cos
+            _dots(buf, 2, nc, nj, j0, sin_t, 2, nm, acc, True)  # even m > 0: DO · sin
+            _dots(buf, 3, nc, nj, j0, sin_t, 1, nm, acc, True)  # odd m: DE · sin
         for c in range(nc):
             for k in range(2 * nm - 1):
-                out[i, c, k] = acc[c, k]
+                out[c, k, i] = acc[c, k]
 
 
-@jit(fastmath={"reassoc", "contract"})
+@jit(fastmath=_FAST)
 def _row_sums_half(img, cos_t, sin_t, out, b0, b1):
     """As :func:`_row_sums_quarter` for any width: columns ``j`` and ``W-1-j`` folded (sum,
     difference; the middle column of an odd width is its own pair). Check-free kernel."""
@@ -241,30 +336,32 @@ def _row_sums_half(img, cos_t, sin_t, out, b0, b1):
     buf = np.empty((2, nc, COLUMN_BLOCK))  # sum (cos), difference (sin)
     acc = np.empty((nc, 2 * nm - 1))
     for i in range(b0 * ROWS_PER_BLOCK, min(h, b1 * ROWS_PER_BLOCK)):
-        row = img[i]
-        for c in range(nc):
-            for k in range(2 * nm - 1):
-                acc[c, k] = 0.0
+        f = img[i].reshape(w * nc)
+        acc[:] = 0.0
         for j0 in range(0, nh, COLUMN_BLOCK):
             nj = min(COLUMN_BLOCK, nh - j0)
-            for j in range(nj):
-                ja = j0 + j
+            npair = min(nj, pairs - j0)
+            fa = f[nc * j0 :]
+            rb = _U(nc * (w - 1 - j0))
+            for j in range(npair):
+                k = nc * j
+                b = rb - _U(k)
                 for c in range(nc):
-                    va = np.float64(row[ja, c])
-                    if ja < pairs:
-                        vb = np.float64(row[w - 1 - ja, c])
-                        buf[0, c, j] = va + vb
-                        buf[1, c, j] = va - vb
-                    else:  # odd width: the middle column, φ' = -π
-                        buf[0, c, j] = va
-                        buf[1, c, j] = 0.0
-            _dots_parity(buf, 0, nc, nj, j0, cos_t, 0, nm, acc, False)
-            _dots_parity(buf, 0, nc, nj, j0, cos_t, 1, nm, acc, False)
-            _dots_parity(buf, 1, nc, nj, j0, sin_t, 1, nm, acc, True)
-            _dots_parity(buf, 1, nc, nj, j0, sin_t, 2, nm, acc, True)
+                    va = np.float64(fa[k + c])
+                    vb = np.float64(f[b + _U(c)])
+                    buf[0, c, j] = va + vb
+                    buf[1, c, j] = va - vb
+            if npair < nj:  # odd width: the middle column, φ' = -π
+                for c in range(nc):
+                    buf[0, c, npair] = np.float64(f[nc * pairs + c])
+                    buf[1, c, npair] = 0.0
+            _dots(buf, 0, nc, nj, j0, cos_t, 0, nm, acc, False)
+            _dots(buf, 0, nc, nj, j0, cos_t, 1, nm, acc, False)
+            _dots(buf, 1, nc, nj, j0, sin_t, 1, nm, acc, True)
+            _dots(buf, 1, nc, nj, j0, sin_t, 2, nm, acc, True)
         for c in range(nc):
             for k in range(2 * nm - 1):
-                out[i, c, k] = acc[c, k]
+                out[c, k, i] = acc[c, k]
 
 
 def _row_sums_fft(img, lmax):
@@ -295,15 +392,19 @@ def _full_table(width: int, lmax: int) -> np.ndarray:
 
 
 def _row_sums_blas(img, lmax):
-    """:func:`row_sums` by BLAS: rows converted to float64 in ~4 MB chunks, one matrix
-    product per chunk against the whole-row table (no numba)."""
+    """:func:`row_sums` by BLAS (no numba): rows converted to float64 channel-major in ~4 MB
+    chunks — one strided cast, ``(R, W, C) → (R, C, W)`` — and one ``(R C × W) · (W × 2 lmax+1)``
+    matrix product per chunk against the whole-row table."""
     h, w, nc = img.shape
     table = _full_table(w, lmax)
     out = np.empty((h, nc, 2 * lmax + 1))
     rows = max(1, (4 << 20) // (w * nc * 8))
+    buf = np.empty((min(rows, h), nc, w))
     for r0 in range(0, h, rows):
-        chunk = img[r0 : r0 + rows].astype(np.float64)
-        np.matmul(chunk.transpose(0, 2, 1), table, out=out[r0 : r0 + rows])
+        r1 = min(h, r0 + rows)
+        chunk = buf[: r1 - r0]
+        np.copyto(chunk, img[r0:r1].transpose(0, 2, 1))
+        np.matmul(chunk.reshape(-1, w), table, out=out[r0:r1].reshape(-1, 2 * lmax + 1))
     return out
 
 
@@ -313,7 +414,8 @@ def row_sums(img, lmax: int, method: str = "numba") -> np.ndarray:
     ``img`` is ``(H, W, C)`` float32/float64 (read in place when C-contiguous).
     Table kernels below :data:`FFT_MIN_LMAX` (or when ``2 lmax ≥ W``), a real
     FFT above. ``method="numba"``: the folded kernels, threads by
-    :func:`shbake.jit.run_blocks` (SPEC §6); ``"blas"``: :func:`_row_sums_blas`.
+    :func:`shbake.jit.run_blocks` (SPEC §6), returning a view of a
+    ``(C, 2 lmax+1, H)`` array; ``"blas"``: :func:`_row_sums_blas`.
     """
     h, w, nc = img.shape
     if lmax >= FFT_MIN_LMAX and 2 * lmax < w:
@@ -322,64 +424,114 @@ def row_sums(img, lmax: int, method: str = "numba") -> np.ndarray:
         return _row_sums_blas(img, lmax)
     img = np.ascontiguousarray(img)
     cos_t, sin_t = azimuth_tables(w, lmax)
-    out = np.empty((h, nc, 2 * lmax + 1))
+    out = np.empty((nc, 2 * lmax + 1, h))  # the latitude stage reads rows contiguously
     kernel = _row_sums_quarter if w % 4 == 0 else _row_sums_half
     n_blocks = -(-h // ROWS_PER_BLOCK)
     work = h * w * nc * (lmax + 2)
     run_blocks(kernel, n_blocks, work, img, cos_t, sin_t, out)
-    return out
+    return out.transpose(2, 0, 1)
 
 
-@jit(fastmath={"contract"})
-def _legendre_sums(plus, minus, z, scale0, sin_t, lmax, qmm, a, b, out):
+@jit(fastmath=_FAST)
+def _legendre_sums(sums, z, scale0, sin_t, lmax, qmm, a, b, out):
     """Latitude stage: ``out[l(l+1)±m, c] = Σ_i P̄_l^m(z_i) w_i √2^[m>0] S_i[c, cos|sin m]``.
 
-    Rows are paired with their mirror ``H-1-i`` (``z → -z``, ``P̄_l^m → (-1)^{l-m} P̄_l^m``):
-    ``plus``/``minus`` hold ``S_i ± S_{H-1-i}`` as ``(C, 2 lmax+1, ⌈H/2⌉)``, so each
-    ``(l, m, c)`` term is one dot product over half the rows, with ``Q_l^m`` from
-    :func:`~shbake.sh.basis.legendre_next` vectorised over rows. ``scale0`` = row
-    weights, ``sin_t`` = ``sin θ_i``. Check-free kernel.
+    ``sums`` holds the row sums ``S`` as ``(C, 2 lmax+1, H)``. Rows are paired
+    with their mirror ``H-1-i`` (``z → -z``, ``P̄_l^m → (-1)^{l-m} P̄_l^m``):
+    for each ``m`` the pair sums and differences of the ``cos mφ'`` and
+    ``sin mφ'`` columns are formed once over the ``⌈H/2⌉`` upper rows (the
+    equator row of an odd ``H`` is its own mirror), then every ``l`` is one pass
+    over those rows that advances ``Q_l^m`` by
+    :func:`~shbake.sh.basis.legendre_next` and accumulates the ``2C`` sums
+    (summed in vector lanes: ``fastmath`` reassociation). ``z = cos θ_i``,
+    ``scale0`` = row weights, ``sin_t = sin θ_i`` for the upper rows.
+    Check-free kernel.
     """
-    nc = plus.shape[0]
+    nc = sums.shape[0]
+    h = sums.shape[2]
     n = z.shape[0]
     q1 = np.empty(n)
     q2 = np.empty(n)
     scale = np.empty(n)
-    qs = np.empty(n)
+    pc = np.empty((nc, n))  # cos column: S_i + S_{H-1-i}
+    mc = np.empty((nc, n))  # cos column: S_i - S_{H-1-i}
+    ps = np.zeros((nc, n))  # sin column (m > 0)
+    ms = np.zeros((nc, n))
     for i in range(n):
         scale[i] = scale0[i]
     for m in range(lmax + 1):
         kc = 0 if m == 0 else 2 * m - 1
         f = 1.0 if m == 0 else 1.4142135623730951
+        for c in range(nc):
+            col = sums[c, kc]
+            rev = col[::-1]
+            for i in range(n):
+                pc[c, i] = col[i] + rev[i]
+                mc[c, i] = col[i] - rev[i]
+            if m > 0:
+                col = sums[c, 2 * m]
+                rev = col[::-1]
+                for i in range(n):
+                    ps[c, i] = col[i] + rev[i]
+                    ms[c, i] = col[i] - rev[i]
+            if h % 2 == 1:  # the equator row pairs with itself
+                pc[c, n - 1] = mc[c, n - 1] = sums[c, kc, n - 1]
+                if m > 0:
+                    ps[c, n - 1] = ms[c, n - 1] = sums[c, 2 * m, n - 1]
         for i in range(n):
             if m > 0:
                 scale[i] *= sin_t[i]
-            q1[i] = qmm[m]
+            q1[i] = qmm[m] * scale[i]  # Q_m^m w_i sin^m θ_i: the recurrence is linear
             q2[i] = 0.0
         for l in range(m, lmax + 1):
-            if l > m:
-                for i in range(n):
-                    q = legendre_next(a[l, m], b[l, m], z[i], q1[i], q2[i])
-                    q2[i] = q1[i]
-                    q1[i] = q
-            for i in range(n):
-                qs[i] = q1[i] * scale[i] * f
-            src = plus if (l - m) % 2 == 0 else minus
+            even = (l - m) % 2 == 0
+            xc = pc if even else mc
+            xs = ps if even else ms
+            alm = a[l, m]
+            blm = b[l, m]
             base = l * (l + 1)
-            for c in range(nc):
-                acc = 0.0
+            if nc == 3:
+                c0 = c1 = c2 = s0 = s1 = s2 = 0.0
                 for i in range(n):
-                    acc += qs[i] * src[c, kc, i]
-                out[base + m, c] = acc
+                    if l > m:
+                        q = legendre_next(alm, blm, z[i], q1[i], q2[i])
+                        q2[i] = q1[i]
+                        q1[i] = q
+                    else:
+                        q = q1[i]
+                    c0 += q * xc[0, i]
+                    c1 += q * xc[1, i]
+                    c2 += q * xc[2, i]
+                    s0 += q * xs[0, i]
+                    s1 += q * xs[1, i]
+                    s2 += q * xs[2, i]
+                out[base + m, 0] = f * c0
+                out[base + m, 1] = f * c1
+                out[base + m, 2] = f * c2
                 if m > 0:
-                    acc = 0.0
+                    out[base - m, 0] = f * s0
+                    out[base - m, 1] = f * s1
+                    out[base - m, 2] = f * s2
+            else:
+                if l > m:
                     for i in range(n):
-                        acc += qs[i] * src[c, 2 * m, i]
-                    out[base - m, c] = acc
+                        q = legendre_next(alm, blm, z[i], q1[i], q2[i])
+                        q2[i] = q1[i]
+                        q1[i] = q
+                for c in range(nc):
+                    cs = 0.0
+                    ss = 0.0
+                    for i in range(n):
+                        cs += q1[i] * xc[c, i]
+                        ss += q1[i] * xs[c, i]
+                    out[base + m, c] = f * cs
+                    if m > 0:
+                        out[base - m, c] = f * ss
 
 
 def _legendre_sums_numpy(plus, minus, z, scale0, sin_t, lmax, qmm, a, b, out):
-    """:func:`_legendre_sums` with numpy: the recurrence vectorised over rows (no numba)."""
+    """:func:`_legendre_sums` with numpy (no numba): the mirror pair sums given as ``plus``
+    and ``minus``, ``(C, 2 lmax+1, ⌈H/2⌉)``; the recurrence vectorised over rows."""
     step = legendre_next.py_func
     scale = np.array(scale0, dtype=np.float64)
     for m in range(lmax + 1):
@@ -426,6 +578,15 @@ def project_latlong_image_frame(img, lmax: int, method: str = "numba") -> np.nda
     h, w, nc = img.shape
     sums = row_sums(img, lmax, method)
     n = (h + 1) // 2
+    theta = np.pi * (np.arange(n) + 0.5) / h
+    z, sin_t = np.cos(theta), np.sin(theta)
+    weights = fejer_row_weights(h, w)[:n]
+    qmm, a, b = recurrence_tables(lmax)
+    out = np.empty((n_coeffs(lmax), nc))
+    if method != "blas":
+        rows = np.ascontiguousarray(sums.transpose(1, 2, 0))  # no copy after the numba kernels
+        _legendre_sums(rows, z, weights, sin_t, lmax, qmm, a, b, out)
+        return out
     top = sums[:n]
     bottom = sums[::-1][:n]
     plus = top + bottom
@@ -435,22 +596,7 @@ def project_latlong_image_frame(img, lmax: int, method: str = "numba") -> np.nda
         minus[n - 1] = top[n - 1]
     plus = np.ascontiguousarray(plus.transpose(1, 2, 0))
     minus = np.ascontiguousarray(minus.transpose(1, 2, 0))
-    theta = np.pi * (np.arange(n) + 0.5) / h
-    qmm, a, b = recurrence_tables(lmax)
-    out = np.empty((n_coeffs(lmax), nc))
-    stage = _legendre_sums_numpy if method == "blas" else _legendre_sums
-    stage(
-        plus,
-        minus,
-        np.cos(theta),
-        fejer_row_weights(h, w)[:n],
-        np.sin(theta),
-        lmax,
-        qmm,
-        a,
-        b,
-        out,
-    )
+    _legendre_sums_numpy(plus, minus, z, weights, sin_t, lmax, qmm, a, b, out)
     return out
 
 
