@@ -1,6 +1,7 @@
 """``shbake preview``: render an asset's shading pass (EXR + labelled contact sheet), with diff."""
 
 import click
+from click.core import ParameterSource
 from shbake_cli.options import (
     BarProgress,
     FiniteRange,
@@ -89,8 +90,10 @@ def preview(asset_path, output, at, as_json, quiet, **settings):
     assets (shexp_probe, shexp_probe_set with --index, splitsum_probe): a GGX
     sphere of --roughness and --f0 shaded by the probe, or the glossy reference.
     """
+    ctx = click.get_current_context()
+    explicit = {k for k in ctx.params if ctx.get_parameter_source(k) is ParameterSource.COMMANDLINE}
     summary = preview_asset(asset_path, output, at=dict(at), progress=BarProgress(quiet),
-                            **settings)  # fmt: skip
+                            explicit=explicit, **settings)  # fmt: skip
     for mode, t in summary.get("modes", {}).items():
         info(f"kautz {mode}: {t['fps']:.1f} frames/s", quiet)
     if "mse" in summary:

@@ -76,3 +76,39 @@ class TestPreviewCli:
             "preview", dome_asset, "--pass", "reference", "-o", tmp_path / "r.exr"
         )
         assert code != 0 and "not found" in err and not (tmp_path / "r.exr").exists()
+
+
+class TestOptionsOfKind:
+    """An option the asset's kind does not read is refused (one line, exit 1, no file)."""
+
+    @pytest.mark.parametrize(
+        ("kind", "args", "named"),
+        [
+            ("env_sh", ["--roughness", "0.3"], "--roughness"),
+            ("env_sh", ["--alpha", "0.09", "--f0", "0.5"], "--alpha, --f0"),
+            ("shexp_probe", ["--index", "3"], "--index"),
+            ("splitsum_probe", ["--table", "t.h5"], "--table"),
+            ("shrm", ["--samples", "64"], "--samples"),
+        ],
+    )
+    def test_refused(self, run_cli, tmp_path, kind, args, named):
+        from shbake.format.asset import write_asset
+        from tests.assets_examples import example, write_map
+
+        asset = tmp_path / "a.h5"
+        write_asset(str(asset), example(kind, write_map(tmp_path / "m.exr")))
+        code, _, err = run_cli("preview", asset, "-o", tmp_path / "p.exr", "--size", "8", *args)
+        lines = [x for x in err.splitlines() if x.startswith("shbake: error:")]
+        assert code == 1 and len(lines) == 1 and named in lines[0], err
+        assert kind in lines[0]
+        assert not (tmp_path / "p.exr").exists()
+
+    def test_read_options_still_pass(self, run_cli, tmp_path):
+        from shbake.format.asset import write_asset
+        from tests.assets_examples import example, write_map
+
+        asset = tmp_path / "s.h5"
+        write_asset(str(asset), example("shexp_probe_set", write_map(tmp_path / "m.exr")))
+        code, _, err = run_cli("preview", asset, "-o", tmp_path / "p.exr", "--size", "8",
+                               "--index", "1", "--roughness", "0.6", "--f0", "0.04", "-q")  # fmt: skip
+        assert code == 0, err

@@ -30,6 +30,31 @@ from shbake.resources import check_memory
 REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
 ALL_PASSES = PASSES + tuple(PASS_OF_KIND.values()) + ("shrm",)
 
+KIND_OPTIONS = {
+    "table_path": "--table",
+    "at": "--at",
+    "merl_path": "--merl",
+    "roughness": "--roughness",
+    "alpha": "--alpha",
+    "f0": "--f0",
+    "samples": "--samples",
+    "index": "--index",
+}
+"""Settings that only some asset kinds read, and the option that sets each."""
+
+
+def options_of_kind(kind: str) -> frozenset:
+    """The :data:`KIND_OPTIONS` an asset of ``kind`` reads: env_sh the Kautz table's
+    (``--table``, ``--at``, ``--merl``), probes the glossy sphere's (``--roughness``/
+    ``--alpha``, ``--f0``, ``--samples``; sets also ``--index``), shrm none."""
+    if kind == "env_sh":
+        return frozenset(("table_path", "at", "merl_path"))
+    if kind == "shrm":
+        return frozenset()
+    probe = frozenset(("roughness", "alpha", "f0", "samples"))
+    return probe | {"index"} if kind == "shexp_probe_set" else probe
+
+
 PIXEL_BYTES = 256
 """Working memory per pixel of the ``size``² image, one pass: sphere geometry, the
 float64 image, masks, tone mapping and the contact sheet (tracemalloc peaks of 192-212 B
@@ -149,15 +174,23 @@ def preview_asset(
     samples: int = 4096,
     png: bool = False,
     progress=NO_PROGRESS,
+    explicit=(),
 ) -> dict:
     """Render pass ``pass_name`` of the asset at ``asset_path`` into ``output`` (EXR); the summary.
 
     ``env_sh`` assets: irradiance, tangent, kautz (``table_path``) and their references;
     probe assets: their own pass or the glossy reference at ``roughness``, ``f0``.
+    ``explicit``: names of the settings the caller set on purpose (the command line's);
+    one of :data:`KIND_OPTIONS` that the asset's kind does not read raises
+    :class:`~shbake.errors.ParameterError` rather than being ignored.
     """
     if pass_name is not None and pass_name not in ALL_PASSES:
         raise ParameterError(f"unknown pass {pass_name!r}; choose one of {', '.join(ALL_PASSES)}")
     asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", "shrm", *PASS_OF_KIND))
+    reads = options_of_kind(asset.kind)
+    stray = [o for k, o in KIND_OPTIONS.items() if k in explicit and k not in reads]
+    if stray:
+        raise ParameterError(f"{', '.join(stray)}: not read for a {asset.kind} asset")
     if asset.kind == "shexp_probe_set":
         asset = probe_from_set(asset, index)
     with progress.task(f"preview {os.path.basename(asset_path)}", total=None, unit="pass"):
