@@ -109,6 +109,6 @@ class TestOptionsOfKind:
 
         asset = tmp_path / "s.h5"
         write_asset(str(asset), example("shexp_probe_set", write_map(tmp_path / "m.exr")))
-        code, _, err = run_cli("preview", asset, "-o", tmp_path / "p.exr", "--size", "8",
-                               "--index", "1", "--roughness", "0.6", "--f0", "0.04", "-q")  # fmt: skip
+        args = ["--index", "1", "--roughness", "0.6", "--f0", "0.04", "-q"]
+        code, _, err = run_cli("preview", asset, "-o", tmp_path / "p.exr", "--size", "8", *args)
         assert code == 0, err
