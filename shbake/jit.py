@@ -99,6 +99,78 @@ class interpreted:
         _local.interpreted = self._prev
 
 
+def wide_vectors() -> None:
+    """Let the calling kernel's loops use 512-bit vectors where the CPU has them.
+
+    LLVM's tuning for the Intel cores with AVX-512 prefers 256-bit vectors;
+    the FMA-bound SH evaluation runs ~15 % faster with 512 (docs/BENCHMARKS.md).
+    Sets the ``"prefer-vector-width"="512"`` attribute on the kernel; a no-op
+    in Python, ignored on CPUs without AVX-512.
+    """
+
+
+def stream_store(arr, index, value) -> None:
+    """``arr.flat[index] = value`` as a non-temporal (streaming) store in kernels.
+
+    For outputs written once and not read back soon: the line is not read
+    from memory first and not kept in the caches. A kernel that streams must
+    call :func:`stream_fence` before it returns. Check-free (no bounds check).
+    """
+    arr.flat[index] = value
+
+
+def stream_fence() -> None:
+    """Order the calling kernel's streaming stores before its later stores (``sfence``)."""
+
+
+def _register_intrinsics():
+    import platform
+
+    from llvmlite import ir
+    from numba.core import cgutils, types
+    from numba.extending import intrinsic, overload
+
+    @intrinsic
+    def _wide(typingctx):
+        def codegen(context, builder, signature, args):
+            # a string attribute: llvmlite's FunctionAttributes.add accepts only enum ones
+            set.add(builder.function.attributes, '"prefer-vector-width"="512"')
+            return context.get_dummy_value()
+
+        return types.void(), codegen
+
+    @intrinsic
+    def _store(typingctx, arr, index, value):
+        def codegen(context, builder, signature, args):
+            aryty = signature.args[0]
+            array = context.make_array(aryty)(context, builder, args[0])
+            v = context.cast(builder, args[2], signature.args[2], aryty.dtype)
+            st = builder.store(v, builder.gep(array.data, [args[1]]))
+            st.set_metadata("nontemporal", builder.module.add_metadata([ir.IntType(32)(1)]))
+            return context.get_dummy_value()
+
+        return types.void(arr, index, value), codegen
+
+    @intrinsic
+    def _fence(typingctx):
+        def codegen(context, builder, signature, args):
+            if platform.machine() in ("x86_64", "AMD64"):
+                fnty = ir.FunctionType(ir.VoidType(), [])
+                sfence = cgutils.get_or_insert_function(builder.module, fnty, "llvm.x86.sse.sfence")
+                builder.call(sfence, [])
+            else:
+                builder.fence("seq_cst")
+            return context.get_dummy_value()
+
+        return types.void(), codegen
+
+    overload(wide_vectors, inline="always")(lambda: lambda: _wide())
+    overload(stream_store, inline="always")(
+        lambda arr, index, value: lambda arr, index, value: _store(arr, index, value)
+    )
+    overload(stream_fence, inline="always")(lambda: lambda: _fence())
+
+
 _registered = False
 
 
@@ -113,6 +185,7 @@ def _register_with_numba():
     def _typeof_lazy(val, c):
         return types.Dispatcher(val.dispatcher)
 
+    _register_intrinsics()
     _registered = True
 
 

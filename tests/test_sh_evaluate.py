@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 
 from shbake.errors import ParameterError
-from shbake.sh.basis import evaluate, real_sh, real_sh_into
+from shbake.sh.basis import (
+    evaluate,
+    legendre_next,
+    real_sh,
+    real_sh_into,
+    recurrence_tables,
+    scaled_recurrence_tables,
+)
 
 sphericart = pytest.importorskip("sphericart")
 
@@ -109,6 +116,30 @@ class TestEvaluate:
             evaluate(np.ones(9), np.ones((5, 2)))
 
 
+class TestScaledRecurrenceTables:
+    """The rescaled recurrence of the fused kernel against the unscaled one, step by step."""
+
+    @pytest.mark.parametrize("lmax", [1, 8, 128])
+    def test_gamma_times_r_is_q(self, lmax):
+        qmm, a, b = recurrence_tables(lmax)
+        gamma, beta = scaled_recurrence_tables(lmax)
+        z = np.linspace(-1.0, 1.0, 41)
+        step = legendre_next.py_func
+        for m in range(lmax + 1):
+            q1, q2 = np.full_like(z, qmm[m]), np.zeros_like(z)
+            r1, r2 = q1.copy(), q2.copy()
+            for l in range(m + 1, lmax + 1):
+                q1, q2 = step(a[l, m], b[l, m], z, q1, q2), q1
+                r1, r2 = z * r1 - beta[l, m] * r2, r1
+                scale = np.abs(q1).max()
+                np.testing.assert_allclose(gamma[l, m] * r1, q1, rtol=0, atol=1e-13 * scale)
+
+    def test_finite_and_read_only(self):
+        gamma, beta = scaled_recurrence_tables(128)
+        assert np.isfinite(gamma).all() and gamma.max() < 4.0**128
+        assert not gamma.flags.writeable and not beta.flags.writeable
+
+
 class TestEvaluateKernel:
     """The fused numba kernel itself (``method="numba"``), whatever the job size."""
 
@@ -137,7 +168,7 @@ class TestEvaluateKernel:
         got32 = evaluate(c, d32, method="numba")
         assert np.abs(got32 - ref32).max() < 1e-12 * np.abs(ref32).max()
 
-    @pytest.mark.parametrize("lmax", [2, 8, 30])
+    @pytest.mark.parametrize("lmax", [2, 8, 30, 64, 128])
     def test_agrees_with_the_numpy_path(self, lmax):
         # numpy path: stored basis (real_sh) then a matrix product, another summation order.
         d = directions(900, seed=lmax)

@@ -26,6 +26,15 @@ Recurrence (``Q_m^m`` a constant per ``m``, ``Q_{m-1}^m := 0``)::
 It is written once, in :func:`legendre_next`; every evaluator here, the
 projection's latitude stage and the kernels of other packages call it.
 
+The fused :func:`evaluate` runs the same recurrence rescaled to one multiply
+and one fused multiply-add per step, ``R_l^m = Q_l^m / γ_l^m``::
+
+    R_m^m = Q_m^m,   R_l^m = z R_{l-1}^m - β_lm R_{l-2}^m
+    γ_lm = a_lm γ_{l-1,m} (γ_mm = 1),   β_lm = b_lm / a_{l-1,m} (β_{m+1,m} = 0)
+
+with ``γ_lm`` folded into the coefficients (:func:`scaled_recurrence_tables`;
+``γ`` stays below ``4^l``, so no overflow to ``lmax`` 128).
+
 Evaluators: :func:`real_sh` (numpy, vectorised, no compilation: small jobs
 and start-up), :func:`sh_eval_into` (one direction, inside other kernels),
 :func:`real_sh_into` (stored basis, blocked, into a preallocated output) and
@@ -40,7 +49,7 @@ import numpy as np
 
 from shbake.conventions import check_lmax, lmax_of, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import jit, run_blocks
+from shbake.jit import jit, run_blocks, stream_fence, stream_store, wide_vectors
 
 SQRT2 = np.sqrt(2.0)
 
@@ -72,6 +81,34 @@ def recurrence_tables(lmax: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for t in (qmm, a, b):
         t.flags.writeable = False
     return qmm, a, b
+
+
+@cache
+def scaled_recurrence_tables(lmax: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(γ, β)`` of the rescaled recurrence (module doc), shape ``(lmax+1, lmax+1)`` each.
+
+    Derived from :func:`recurrence_tables`: ``γ[l, m] = Π_{k=m+1}^{l} a[k, m]``
+    (1 at ``l = m``), ``β[l, m] = b[l, m] / a[l-1, m]`` for ``l ≥ m + 2`` (zero
+    elsewhere), so that ``Q_l^m = γ[l, m] R_l^m``. Read-only arrays.
+    """
+    _, a, b = recurrence_tables(lmax)
+    gamma = np.zeros((lmax + 1, lmax + 1))
+    beta = np.zeros((lmax + 1, lmax + 1))
+    for m in range(lmax + 1):
+        gamma[m, m] = 1.0
+        for l in range(m + 1, lmax + 1):
+            gamma[l, m] = gamma[l - 1, m] * a[l, m]
+            if l >= m + 2:
+                beta[l, m] = b[l, m] / a[l - 1, m]
+    for t in (gamma, beta):
+        t.flags.writeable = False
+    return gamma, beta
+
+
+@jit
+def legendre_next_scaled(beta_lm, z, r1, r2):
+    """``R_l^m`` from ``r1 = R_{l-1}^m``, ``r2 = R_{l-2}^m``: the rescaled step (module doc)."""
+    return z * r1 - beta_lm * r2
 
 
 @jit
@@ -175,6 +212,20 @@ _X, _Y, _Z, _CM, _SM, _Q1, _Q2, _A0, _A1, _A2 = (i * BLOCK for i in range(10))
 _P0, _P1, _P2, _P3, _P4, _P5 = (i * BLOCK for i in range(10, 16))
 _SCRATCH = 16 * BLOCK
 
+BASIS_PAD = 8
+"""Padding of the stored-basis scratch rows: a row stride of ``BLOCK`` doubles (2 KiB) would
+put a block's ``n_coeffs`` values of one direction in 2 of the L1 cache's 64 sets; the
+transposing write-out then ran 1.45× slower."""
+
+
+@jit
+def _aligned_scratch(n):
+    """``np.empty(n)`` starting on a 64-byte boundary (whole cache lines, whole AVX-512 loads)."""
+    raw = np.empty(n + 8)
+    off = ((-raw.ctypes.data) % 64) // 8
+    return raw[off : off + n]
+
+
 TINY2 = 1e-290
 """Squared lengths outside ``[TINY2, 1/TINY2]`` take :func:`_load_block`'s careful path."""
 
@@ -191,6 +242,7 @@ def _load_block(d, i0, nb, s):
     for any finite non-zero vector). A zero or non-finite direction is
     replaced by +Z and counted (the caller raises).
     """
+    wide_vectors()
     f = d.reshape(d.size)
     for k in range(nb):
         j = 3 * (i0 + k)
@@ -239,6 +291,7 @@ def _load_block(d, i0, nb, s):
 @jit
 def _next_m(s, nb, m):
     """Advance ``Re/Im (x+iy)^m`` (rows CM, SM) to order ``m`` (``m = 0``: set them to 1, 0)."""
+    wide_vectors()
     if m > 0:
         for k in range(nb):
             c_ = s[_CM + k] * s[_X + k] - s[_SM + k] * s[_Y + k]
@@ -262,29 +315,32 @@ def _next_l(s, nb, alm, blm, qc, qp):
 
 
 @jit(fastmath={"contract"})
-def _band(z, q1, q2, alm, blm, w0, w1, w2, w3, w4, w5, p0, p1, p2, p3, p4, p5):
-    """One recurrence step, ``Q_l`` from ``q1 = Q_{l-1}``, ``q2 = Q_{l-2}``, and ``P_j += w_j Q_l``.
+def _band(z, q1, q2, beta, w0, w1, w2, w3, w4, w5, p0, p1, p2, p3, p4, p5):
+    """One rescaled recurrence step, ``R_l`` from ``q1 = R_{l-1}``, ``q2 = R_{l-2}``, and
+    ``P_j += w_j R_l`` (the weights carry ``γ_l``).
 
-    Returns ``(Q_l, Q_{l-1}, P0 … P5)``: the state after the step.
+    Returns ``(R_l, R_{l-1}, P0 … P5)``: the state after the step.
     """
-    q = legendre_next(alm, blm, z, q1, q2)
+    q = legendre_next_scaled(beta, z, q1, q2)
     return q, q1, p0 + w0 * q, p1 + w1 * q, p2 + w2 * q, p3 + w3 * q, p4 + w4 * q, p5 + w5 * q
 
 
 @jit(fastmath={"contract"})
 def _column(s, w, nb, n, first, last):
-    """``n`` (1 … 4) recurrence steps of the block's current order ``m``, each new ``Q_l^m``
-    added to the partial sums ``P_j += w[8i + 2 + j] Q_l^m``.
+    """``n`` (1 … 4) rescaled recurrence steps of the block's current order ``m``, each new
+    ``R_l^m`` added to the partial sums ``P_j += w[8i + 2 + j] R_l^m``.
 
-    ``w[8i : 8i+8] = (a_lm, b_lm, w_0 … w_5)`` for the ``i``-th step. ``first``:
-    the column starts here: step 0 is ``Q_m^m = w[0]``, a constant, so the
+    ``w[8i : 8i+8] = (Q_m^m, β_lm, w_0 … w_5)`` for the ``i``-th step, ``w_j``
+    including ``γ_lm`` (module doc). ``first``: the column starts here: step 0 is
+    ``R_m^m = Q_m^m = w[0]``, a constant, so the
     sums start at the constants ``w_j Q_m^m`` and nothing is loaded; ``last``: it
     ends here (``A_c += P+_c Re(x+iy)^m + P-_c Im(x+iy)^m``; no state stored).
     Otherwise the state (rows Q1, Q2, P0 … P5) is loaded once and stored once;
     it stays in registers across the ``n`` steps. One loop per variant,
     straight-line inside (the weights hoisted into scalars), so each vectorises.
     """
-    w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11, w12, w13, w14, w15 = (
+    wide_vectors()
+    w0, w1, w2, w3, w4, w5, w6, w7, w9, w10, w11, w12, w13, w14, w15 = (
         w[0],
         w[1],
         w[2],
@@ -293,7 +349,6 @@ def _column(s, w, nb, n, first, last):
         w[5],
         w[6],
         w[7],
-        w[8],
         w[9],
         w[10],
         w[11],
@@ -302,8 +357,7 @@ def _column(s, w, nb, n, first, last):
         w[14],
         w[15],
     )
-    w16, w17, w18, w19, w20, w21, w22, w23, w24, w25, w26, w27, w28, w29, w30, w31 = (
-        w[16],
+    w17, w18, w19, w20, w21, w22, w23, w25, w26, w27, w28, w29, w30, w31 = (
         w[17],
         w[18],
         w[19],
@@ -311,7 +365,6 @@ def _column(s, w, nb, n, first, last):
         w[21],
         w[22],
         w[23],
-        w[24],
         w[25],
         w[26],
         w[27],
@@ -334,7 +387,7 @@ def _column(s, w, nb, n, first, last):
             z = s[_Z + k]
             q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             c, sn = s[_CM + k], s[_SM + k]
             s[_A0 + k] += p0 * c + p1 * sn
@@ -345,10 +398,10 @@ def _column(s, w, nb, n, first, last):
             z = s[_Z + k]
             q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w16, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
             )
             c, sn = s[_CM + k], s[_SM + k]
             s[_A0 + k] += p0 * c + p1 * sn
@@ -359,13 +412,13 @@ def _column(s, w, nb, n, first, last):
             z = s[_Z + k]
             q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w16, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w24, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
             )
             c, sn = s[_CM + k], s[_SM + k]
             s[_A0 + k] += p0 * c + p1 * sn
@@ -383,7 +436,7 @@ def _column(s, w, nb, n, first, last):
             z = s[_Z + k]
             q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             s[_Q1 + k], s[_Q2 + k] = q1, q2
             s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
@@ -393,10 +446,10 @@ def _column(s, w, nb, n, first, last):
             z = s[_Z + k]
             q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w16, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
             )
             s[_Q1 + k], s[_Q2 + k] = q1, q2
             s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
@@ -406,13 +459,13 @@ def _column(s, w, nb, n, first, last):
             z = s[_Z + k]
             q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w16, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w24, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
             )
             s[_Q1 + k], s[_Q2 + k] = q1, q2
             s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
@@ -431,7 +484,7 @@ def _column(s, w, nb, n, first, last):
                 s[_P5 + k],
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w0, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
             )
             c, sn = s[_CM + k], s[_SM + k]
             s[_A0 + k] += p0 * c + p1 * sn
@@ -451,10 +504,10 @@ def _column(s, w, nb, n, first, last):
                 s[_P5 + k],
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w0, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             c, sn = s[_CM + k], s[_SM + k]
             s[_A0 + k] += p0 * c + p1 * sn
@@ -474,13 +527,13 @@ def _column(s, w, nb, n, first, last):
                 s[_P5 + k],
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w0, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w16, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
             )
             c, sn = s[_CM + k], s[_SM + k]
             s[_A0 + k] += p0 * c + p1 * sn
@@ -500,16 +553,16 @@ def _column(s, w, nb, n, first, last):
                 s[_P5 + k],
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w0, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w16, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w24, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
             )
             c, sn = s[_CM + k], s[_SM + k]
             s[_A0 + k] += p0 * c + p1 * sn
@@ -529,7 +582,7 @@ def _column(s, w, nb, n, first, last):
                 s[_P5 + k],
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w0, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
             )
             s[_Q1 + k], s[_Q2 + k] = q1, q2
             s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
@@ -548,10 +601,10 @@ def _column(s, w, nb, n, first, last):
                 s[_P5 + k],
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w0, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             s[_Q1 + k], s[_Q2 + k] = q1, q2
             s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
@@ -570,13 +623,13 @@ def _column(s, w, nb, n, first, last):
                 s[_P5 + k],
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w0, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w16, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
             )
             s[_Q1 + k], s[_Q2 + k] = q1, q2
             s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
@@ -595,16 +648,16 @@ def _column(s, w, nb, n, first, last):
                 s[_P5 + k],
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w0, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w8, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w16, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
             )
             q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w24, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
+                z, q1, q2, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
             )
             s[_Q1 + k], s[_Q2 + k] = q1, q2
             s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
@@ -612,25 +665,29 @@ def _column(s, w, nb, n, first, last):
 
 
 @jit(fastmath={"contract"})
-def _evaluate_blocks(d, coef, lmax, qmm, a, b, out, bad, b0, b1):
+def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
     """``out[i, c] = Σ_j coef[j, c] ȳ_j(d_i)`` for blocks ``b0 … b1-1`` (fused: no basis stored).
 
     ``coef`` is ``(n_coeffs, C)`` in the flat index; the weights of order ``m > 0``
-    are ``(√2 c_lm, √2 c_l,-m)`` (the √2 of the basis folded in), of ``m = 0``
-    ``(c_l0, 0)``.
+    are ``γ_lm (√2 c_lm, √2 c_l,-m)`` (the √2 of the basis and the scale of the
+    rescaled recurrence folded in), of ``m = 0`` ``γ_l0 (c_l0, 0)``.
     ``bad[blk]`` receives the count of unusable directions. Check-free kernel.
 
     Per order ``m`` and :data:`FUSED_CHANNELS` channels, the partial sums
-    ``P±_c = Σ_l c_l±m,c Q_l^m`` run down the column ``l = m … lmax`` four
+    ``P±_c = Σ_l γ_lm c_l±m,c R_l^m`` run down the column ``l = m … lmax`` four
     steps per pass over the block (:func:`_column`; 1.6 M directions at lmax 8
-    make ≈ 45 steps of 10 flops each per direction, 4 directions per AVX2
-    instruction), then ``A_c += P+_c Re(x+iy)^m + P-_c Im(x+iy)^m``. The
-    column's first value ``Q_m^m`` is a constant (``w[0]`` of its first pass).
+    make ≈ 45 steps of 8 flops each per direction, 8 directions per AVX-512
+    instruction: :func:`~shbake.jit.wide_vectors`), then ``A_c += P+_c
+    Re(x+iy)^m + P-_c Im(x+iy)^m``. The column's first value ``Q_m^m`` is a
+    constant (``w[0]`` of its first pass). The output is written with
+    streaming stores (read by nobody until the call returns).
     """
+    wide_vectors()
     n = d.shape[0]
     nc = out.shape[1]
-    s = np.empty(_SCRATCH)
+    s = _aligned_scratch(_SCRATCH)
     w = np.zeros(32)
+    fo = out.reshape(out.size)
     for blk in range(b0, b1):
         i0 = blk * BLOCK
         nb = min(BLOCK, n - i0)
@@ -649,26 +706,29 @@ def _evaluate_blocks(d, coef, lmax, qmm, a, b, out, bad, b0, b1):
                     for j in range(nstep):
                         lj = l + j
                         i = lj * (lj + 1) + m
-                        w[8 * j] = a[lj, m] if lj > m else qmm[m]
-                        w[8 * j + 1] = b[lj, m] if lj > m else 0.0
+                        gam = gamma[lj, m]
+                        w[8 * j] = qmm[m]
+                        w[8 * j + 1] = beta[lj, m]
                         for c in range(FUSED_CHANNELS):
                             wp = 0.0
                             wn = 0.0
                             if c < ng and m == 0:
-                                wp = coef[i, g + c]
+                                wp = gam * coef[i, g + c]
                             elif c < ng:
-                                wp = 1.4142135623730951 * coef[i, g + c]
-                                wn = 1.4142135623730951 * coef[i - 2 * m, g + c]
+                                wp = gam * 1.4142135623730951 * coef[i, g + c]
+                                wn = gam * 1.4142135623730951 * coef[i - 2 * m, g + c]
                             w[8 * j + 2 + 2 * c] = wp
                             w[8 * j + 3 + 2 * c] = wn
                     _column(s, w, nb, nstep, l == m, l + nstep > lmax)
                     l += nstep
             for k in range(nb):
-                out[i0 + k, g] = s[_A0 + k]
+                o = (i0 + k) * nc + g
+                stream_store(fo, o, s[_A0 + k])
                 if ng > 1:
-                    out[i0 + k, g + 1] = s[_A1 + k]
+                    stream_store(fo, o + 1, s[_A1 + k])
                 if ng > 2:
-                    out[i0 + k, g + 2] = s[_A2 + k]
+                    stream_store(fo, o + 2, s[_A2 + k])
+    stream_fence()
 
 
 @jit
@@ -676,13 +736,15 @@ def _basis_blocks(d, lmax, qmm, a, b, out, bad, b0, b1):
     """``out[i, j] = y_j(d_i)`` for blocks ``b0 … b1-1`` (stored basis). Check-free kernel.
 
     Each block's basis is built column by column (vectorised over the block)
-    in a ``(n_coeffs, BLOCK)`` scratch, then written out row by row, so that
-    the output is written sequentially.
+    in a ``(n_coeffs, BLOCK + BASIS_PAD)`` scratch, then written out row by
+    row with streaming stores, so that the output is written sequentially and
+    its lines are not read from memory first.
     """
     n = d.shape[0]
     nco = out.shape[1]
-    s = np.empty(_SCRATCH)
-    y = np.empty((nco, BLOCK))
+    s = _aligned_scratch(_SCRATCH)
+    y = np.empty((nco, BLOCK + BASIS_PAD))
+    fo = out.reshape(out.size)
     for blk in range(b0, b1):
         i0 = blk * BLOCK
         nb = min(BLOCK, n - i0)
@@ -709,9 +771,11 @@ def _basis_blocks(d, lmax, qmm, a, b, out, bad, b0, b1):
                         q = s[qr + k]
                         y[base + m, k] = 1.4142135623730951 * q * s[_CM + k]
                         y[base - m, k] = 1.4142135623730951 * q * s[_SM + k]
+        o0 = i0 * nco
         for k in range(nb):
             for j in range(nco):
-                out[i0 + k, j] = y[j, k]
+                stream_store(fo, o0 + k * nco + j, y[j, k])
+    stream_fence()
 
 
 def _flat_directions(dirs) -> tuple[np.ndarray, tuple]:
@@ -842,7 +906,8 @@ def evaluate(coeffs, dirs, out=None, method: str = "auto") -> np.ndarray:
     res = _check_out(out, (d.shape[0], nc))
     n_blocks = -(-d.shape[0] // BLOCK)
     bad = np.zeros(n_blocks, dtype=np.int64)
-    qmm, a, b = recurrence_tables(lmax)
+    qmm = recurrence_tables(lmax)[0]
+    gamma, beta = scaled_recurrence_tables(lmax)
     run_blocks(
         _evaluate_blocks,
         n_blocks,
@@ -851,8 +916,8 @@ def evaluate(coeffs, dirs, out=None, method: str = "auto") -> np.ndarray:
         c2,
         lmax,
         qmm,
-        a,
-        b,
+        gamma,
+        beta,
         res.reshape(d.shape[0], nc),
         bad,
     )
