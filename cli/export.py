@@ -1,6 +1,7 @@
 """``shbake export``: env_sh (or split-sum) assets → engine-ready files (``docs/EXPORTS.md``)."""
 
 import click
+from click.core import ParameterSource
 from shbake_cli.options import FINITE, emit_json, info, json_opt, output_opt, quiet_opt, samples_opt
 
 from shbake.batch.export import export_assets
@@ -67,6 +68,7 @@ from shbake.format.exports.source import FRAMES
 @samples_opt(None, "per cube texel, GGX with filtered importance sampling [gltf 256, others 512]")
 @click.option(
     "--sun-radius",
+    "sun_radius_deg",
     type=FINITE,
     default=10.0,
     show_default=True,
@@ -81,7 +83,7 @@ from shbake.format.exports.source import FRAMES
 )
 @json_opt
 @quiet_opt
-def export(assets, target, output, out_dir, sun_radius, babylon_scene, as_json, quiet, **cube):
+def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_json, quiet, **cube):
     """Export ASSETS (env_sh; split-sum probes for ktx2) to an engine format.
 
     Beside the main file: gltf/babylon FILE_specular_<mip>_<face>.png; ktx2
@@ -93,6 +95,8 @@ def export(assets, target, output, out_dir, sun_radius, babylon_scene, as_json, 
     if output is not None and len(assets) > 1:
         raise click.UsageError("several assets need --out-dir")
     settings = {k: cube[k] for k in ("size", "floor", "mapping", "samples") if cube[k] is not None}
+    ctx = click.get_current_context()
+    explicit = {k for k in ctx.params if ctx.get_parameter_source(k) is ParameterSource.COMMANDLINE}
     written = export_assets(
         list(assets),
         target,
@@ -100,9 +104,10 @@ def export(assets, target, output, out_dir, sun_radius, babylon_scene, as_json, 
         frame=cube["frame"],
         rotate_deg=cube["rotate_deg"],
         env_path=cube["env_path"],
-        sun_radius_deg=sun_radius,
+        sun_radius_deg=sun_radius_deg,
         babylon_scene=babylon_scene,
         many=out_dir is not None,
+        explicit=explicit,
         **settings,
     )
     if as_json:

@@ -486,8 +486,9 @@ class TestExportCommand:
             "filament": "a_sh.txt",
             "unity": "a.unity.json",
         }
-        small = ["--size", "8", "--floor", "2", "--samples", "16"]
         for target, name in outs.items():
+            small = ["--size", "8", "--floor", "2", "--samples", "16"]
+            small = small if target not in ("threejs", "unity") else []
             first = {}
             for run in (1, 2):
                 d = tmp_path / f"{target}{run}"
@@ -501,6 +502,36 @@ class TestExportCommand:
                 if run == 1:
                     first = files
             assert files == first, target  # same inputs -> identical bytes
+
+    @pytest.mark.parametrize(
+        ("target", "args", "named"),
+        [
+            ("threejs", ["--size", "8"], "--size"),
+            ("unity", ["--env", "x.exr", "--samples", "16"], "--env, --samples"),
+            ("threejs", ["--sun-radius", "5"], "--sun-radius"),
+            ("filament", ["--lod-mapping", "gltf-ibl-sampler"], "--lod-mapping"),
+            ("ktx2", ["--babylon-scene", "right-handed"], "--babylon-scene"),
+        ],
+    )
+    def test_option_the_target_does_not_read_is_refused(
+        self, run_cli, sky_asset, tmp_path, target, args, named
+    ):
+        out = tmp_path / "x.out"
+        code, _, err = run_cli("export", sky_asset["h5"], "--to", target, "-o", out, *args)
+        lines = [x for x in err.splitlines() if x.startswith("shbake: error:")]
+        assert code == 1 and len(lines) == 1 and named in lines[0] and target in lines[0], err
+        assert os.listdir(tmp_path) == []
+
+    def test_options_of_target(self):
+        from shbake.batch.export import TARGET_OPTIONS, options_of_target
+        from shbake.format.exports import TARGETS
+
+        cube = {"env_path", "size", "floor", "samples", "sun_radius_deg"}
+        assert options_of_target("threejs") == options_of_target("unity") == frozenset()
+        assert options_of_target("filament") == cube
+        assert options_of_target("ktx2") == cube | {"mapping"}
+        assert options_of_target("gltf") == options_of_target("babylon") == set(TARGET_OPTIONS)
+        assert all(options_of_target(t) <= set(TARGET_OPTIONS) for t in TARGETS)
 
     def test_errors(self, run_cli, sky_asset, tmp_path):
         code, _, err = run_cli("export", sky_asset["h5"], "--to", "unreal", "-o", tmp_path / "x")

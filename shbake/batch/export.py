@@ -15,6 +15,31 @@ from shbake.format.atomic import makedirs
 from shbake.format.exports import target_module
 from shbake.format.exports.source import load_source, require_sh
 
+TARGET_OPTIONS = {
+    "env_path": "--env",
+    "size": "--size",
+    "floor": "--floor",
+    "samples": "--samples",
+    "mapping": "--lod-mapping",
+    "sun_radius_deg": "--sun-radius",
+    "babylon_scene": "--babylon-scene",
+}
+"""Settings that only some targets read, and the option that sets each."""
+
+
+def options_of_target(target: str) -> frozenset:
+    """The :data:`TARGET_OPTIONS` that ``target`` reads: the cube-chain settings where it
+    writes cube maps (``CUBES``; not ``mapping`` for ``filament``, which always uses
+    Filament's), ``babylon_scene`` for ``gltf``/``babylon``."""
+    reads = set()
+    if target_module(target).CUBES is not None:
+        reads |= {"env_path", "size", "floor", "samples", "sun_radius_deg"}
+        if target != "filament":
+            reads.add("mapping")
+    if target in ("gltf", "babylon"):
+        reads.add("babylon_scene")
+    return frozenset(reads)
+
 
 def export_assets(
     assets: list[str],
@@ -29,6 +54,7 @@ def export_assets(
     samples: int | None = None,
     mapping: str | None = None,
     many: bool | None = None,
+    explicit=(),
     **options,
 ) -> list[str]:
     """Export each asset file in ``assets`` to ``target``; returns the files written.
@@ -48,10 +74,18 @@ def export_assets(
     size, floor, samples, mapping
         Cube chain settings; ``None`` takes the target's ``CUBES`` defaults
         (``filament`` always uses Filament's mapping).
+    explicit
+        Names of the settings the caller set on purpose (the command line's); one
+        of :data:`TARGET_OPTIONS` that ``target`` does not read raises
+        :class:`~shbake.errors.ParameterError` rather than being ignored.
     options
         Passed to the target's ``write`` (e.g. ``babylon_scene``).
     """
     mod = target_module(target)
+    reads = options_of_target(target)
+    stray = [o for k, o in TARGET_OPTIONS.items() if k in explicit and k not in reads]
+    if stray:
+        raise ParameterError(f"{', '.join(stray)}: not read for --to {target}")
     if not assets:
         raise ParameterError("no asset to export")
     written = []
@@ -87,4 +121,4 @@ def export_assets(
     return written
 
 
-__all__ = ["export_assets"]
+__all__ = ["TARGET_OPTIONS", "export_assets", "options_of_target"]
