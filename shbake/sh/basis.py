@@ -664,6 +664,31 @@ def _column(s, w, nb, n, first, last):
             s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
 
 
+@jit
+def _column_weights(coef, lmax, qmm, gamma, beta):
+    """The ``w`` of every :func:`_column` pass, ``(groups, lmax+1, passes, 32)``: for channel
+    group ``g`` (:data:`FUSED_CHANNELS` channels), order ``m`` and pass ``p`` (steps
+    ``l = m + 4p …``), step ``j``: ``(Q_m^m, β_lm, γ_lm w+_0, γ_lm w-_0, …)`` with
+    ``w± = √2 (c_lm, c_l,-m)`` (``(c_l0, 0)`` for ``m = 0``); zero for missing channels."""
+    nc = coef.shape[1]
+    groups = -(-nc // FUSED_CHANNELS)
+    w = np.zeros((groups, lmax + 1, -(-(lmax + 1) // 4), 32))
+    for g in range(groups):
+        for m in range(lmax + 1):
+            f = 1.0 if m == 0 else 1.4142135623730951
+            for l in range(m, lmax + 1):
+                p, j = (l - m) // 4, (l - m) % 4
+                i = l * (l + 1) + m
+                w[g, m, p, 8 * j] = qmm[m]
+                w[g, m, p, 8 * j + 1] = beta[l, m]
+                for c in range(min(FUSED_CHANNELS, nc - g * FUSED_CHANNELS)):
+                    ch = g * FUSED_CHANNELS + c
+                    w[g, m, p, 8 * j + 2 + 2 * c] = f * gamma[l, m] * coef[i, ch]
+                    if m > 0:
+                        w[g, m, p, 8 * j + 3 + 2 * c] = f * gamma[l, m] * coef[i - 2 * m, ch]
+    return w
+
+
 @jit(fastmath={"contract"})
 def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
     """``out[i, c] = Σ_j coef[j, c] ȳ_j(d_i)`` for blocks ``b0 … b1-1`` (fused: no basis stored).
@@ -686,7 +711,7 @@ def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
     n = d.shape[0]
     nc = out.shape[1]
     s = _aligned_scratch(_SCRATCH)
-    w = np.zeros(32)
+    w = _column_weights(coef, lmax, qmm, gamma, beta)
     fo = out.reshape(out.size)
     for blk in range(b0, b1):
         i0 = blk * BLOCK
@@ -700,27 +725,10 @@ def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
                 s[_A2 + k] = 0.0
             for m in range(lmax + 1):
                 _next_m(s, nb, m)
-                l = m
-                while l <= lmax:
+                for l in range(m, lmax + 1, 4):
                     nstep = min(4, lmax + 1 - l)
-                    for j in range(nstep):
-                        lj = l + j
-                        i = lj * (lj + 1) + m
-                        gam = gamma[lj, m]
-                        w[8 * j] = qmm[m]
-                        w[8 * j + 1] = beta[lj, m]
-                        for c in range(FUSED_CHANNELS):
-                            wp = 0.0
-                            wn = 0.0
-                            if c < ng and m == 0:
-                                wp = gam * coef[i, g + c]
-                            elif c < ng:
-                                wp = gam * 1.4142135623730951 * coef[i, g + c]
-                                wn = gam * 1.4142135623730951 * coef[i - 2 * m, g + c]
-                            w[8 * j + 2 + 2 * c] = wp
-                            w[8 * j + 3 + 2 * c] = wn
-                    _column(s, w, nb, nstep, l == m, l + nstep > lmax)
-                    l += nstep
+                    wl = w[g // FUSED_CHANNELS, m, (l - m) // 4]
+                    _column(s, wl, nb, nstep, l == m, l + nstep > lmax)
             for k in range(nb):
                 o = (i0 + k) * nc + g
                 stream_store(fo, o, s[_A0 + k])
