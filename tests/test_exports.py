@@ -184,6 +184,31 @@ class TestThreejs:
         )
         assert _rel(got, want, src, d) < TOL
 
+    @pytest.mark.parametrize(
+        ("frame", "rotate", "want"),
+        [("y-up", 0.0, [1.5, 2.0, -3.0]), ("z-up", 90.0, [1.5, 3.0, 2.0])],
+    )
+    def test_probe_position_reaches_three(self, sky_asset, dirs_file, frame, rotate, want):
+        import shutil
+
+        import h5py
+
+        h5 = str(sky_asset["dir"] / f"pos-{frame}.h5")
+        shutil.copy(sky_asset["h5"], h5)
+        with h5py.File(h5, "r+") as f:
+            f.attrs["probe_position"] = np.array([1.5, 2.0, -3.0])
+        out = str(sky_asset["dir"] / f"pos-{frame}.json")
+        export_assets([h5], "threejs", out, frame=frame, rotate_deg=rotate)
+        r = _node("three_irradiance.mjs", out, dirs_file)
+        # z-up: (x, y, z) -> (x, -z, y); --rotate turns the environment, not the probe
+        assert r["positions"] == [want]
+        src = load_source(h5, frame=frame, rotate_deg=rotate)
+        want_e = shbake_irradiance(src, np.array(json.load(open(dirs_file))))
+        assert _rel(np.array(r["irradiance"]), want_e) < TOL  # the sun does not move with it
+        unity = json.load(open(export_assets([h5], "unity", out[:-5] + ".unity.json",
+                                             frame=frame, rotate_deg=rotate)[0]))  # fmt: skip
+        assert unity["position"] == [-want[0], want[1], want[2]]  # Unity: x mirrored
+
     @pytest.mark.parametrize("fault", ["irradiance-sh", "flip-x", "pi"])
     def test_a_wrong_convention_fails(self, baked, dirs_file, fault):
         doc = json.load(open(baked["three"]))

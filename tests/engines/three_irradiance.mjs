@@ -3,6 +3,7 @@
 // probe.sh.getIrradianceAt(n) * probe.intensity (LightProbe / SphericalHarmonics3 code), plus
 // for every DirectionalLight color * intensity * max(0, n . l), l = normalize(position - target)
 // (lights_pars_begin.glsl getDirectionalLightInfo + RE_Direct: irradiance = dotNL * directLight.color).
+// and every LightProbe's position (Object3D.position, decomposed from its matrix).
 // usage: node three_irradiance.mjs FILE.json DIRS.json
 import fs from "node:fs";
 import { ObjectLoader, Vector3, LightProbe, DirectionalLight } from "three";
@@ -31,4 +32,7 @@ const out = dirs.map((d) => {
   }
   return [e.x, e.y, e.z];
 });
-process.stdout.write(JSON.stringify({ irradiance: out, probes: probes.length, lights: suns.length }) + "\n");
+const positions = probes.map((p) => p.position.toArray());
+process.stdout.write(
+  JSON.stringify({ irradiance: out, probes: probes.length, lights: suns.length, positions }) + "\n",
+);

@@ -54,6 +54,10 @@ class ExportSource:
         Unit vector toward the extracted sun, target frame.
     sun_irradiance : (3,) or None
         Sun irradiance at normal incidence, ``radiance × solid_angle``.
+    position : (3,) or None
+        The probe's position (the asset's ``probe_position``, scene units) in the
+        target frame: the frame's axes only — ``rotate_deg`` turns the environment,
+        not the scene. ``None`` when the asset records none.
     """
 
     name: str
@@ -66,6 +70,7 @@ class ExportSource:
     sun_solid_angle: float | None = None
     env_path: str | None = None
     meta: dict = field(default_factory=dict)
+    position: np.ndarray | None = None
     map_rotation: np.ndarray | None = None
     """Target ← map rotation of the cube maps: ``rotation`` times the probe's turn
     (``probe_rotation_deg``, :mod:`shbake.envmap.turn`) when the asset's SH were turned
@@ -128,6 +133,11 @@ def load_source(
     asset = read_asset(path, kinds=("env_sh", "splitsum_probe"))
     turned = R @ turn_matrix(float(asset.attrs.get("probe_rotation_deg", 0.0)))
     meta = {k[len("source_") :]: v for k, v in asset.attrs.items() if k.startswith("source_")}
+    position = (
+        _FRAME_MATRICES[frame] @ np.asarray(asset.attrs["probe_position"], dtype=np.float64)
+        if "probe_position" in asset.attrs
+        else None
+    )
     recorded = (  # the provenance block's source_path is relative to the asset (FORMAT §2)
         os.path.join(os.path.dirname(os.path.abspath(path)), meta["path"])
         if meta.get("path")
@@ -141,6 +151,7 @@ def load_source(
             rotation=R,
             frame=frame,
             env_path=env_path or recorded,
+            position=position,
             map_rotation=turned,
             meta={
                 "sha256": meta.get("sha256"),
@@ -159,6 +170,7 @@ def load_source(
         frame=frame,
         env_path=env_path or recorded,
         meta=meta,
+        position=position,
         map_rotation=turned,
     )
     if "/sun/direction" in asset:

@@ -19,6 +19,9 @@ with three's own ``ObjectLoader``, ``SphericalHarmonics3.getIrradianceAt``):
   as of the probe's irradiance. One light per channel because ``Object3D.toJSON``
   writes ``color`` as a ``0xRRGGBB`` integer (8 bits per channel), which would
   quantise the sun's colour.
+* The probe's position (``probe_position`` of a scene probe, target frame) is the
+  ``LightProbe``'s translation (``matrix`` elements 12–14, column-major); the sun
+  lights are the scene's children, not the probe's, so they do not move with it.
 """
 
 import json
@@ -45,13 +48,14 @@ def probe_array(lighting9: np.ndarray) -> list[float]:
 
 def scene_json(src: ExportSource) -> dict:
     """The ``ObjectLoader`` document (``metadata`` + ``object``) for one source."""
+    at = [0.0, 0.0, 0.0] if src.position is None else [float(v) for v in src.position]
     children = [
         {
             "uuid": _UUID.format(2),
             "type": "LightProbe",
             "name": f"{src.name} probe",
             "layers": 1,
-            "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1],
+            "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, *at, 1],
             "up": [0, 1, 0],
             "color": 0xFFFFFF,
             "intensity": 1.0,

@@ -58,6 +58,8 @@ def write(src: ExportSource, out: str, **_ignored) -> list[str]:
         "3z^2-1, xz, x^2-y^2; evaluates to E(n)/pi in Unity's left-handed frame (x mirrored)",
         "frame": src.frame,
     }
+    if src.position is not None:  # a LightProbeGroup's probePositions entry, Unity's frame
+        doc["position"] = [float(v) for v in UNITY_FROM_WORLD @ src.position]
     if src.sun_direction is not None:
         e = np.asarray(src.sun_irradiance, dtype=np.float64)
         top = float(e.max())
