@@ -1,4 +1,8 @@
-"""The one numba decorator every kernel uses.
+"""The one numba decorator every kernel uses, and the few intrinsics kernels call.
+
+Intrinsics (no-ops or plain Python when interpreted): :func:`wide_vectors`
+(512-bit vectors), :func:`stream_store` / :func:`stream_fence` (non-temporal
+stores), :func:`prefetch`. They are registered with numba when it is first loaded.
 
 Kernels are check-free: they assume the caller (a public Python function)
 validated shapes, dtypes and ranges, and say so in their docstrings.
@@ -119,6 +123,11 @@ def stream_store(arr, index, value) -> None:
     arr.flat[index] = value
 
 
+def prefetch(arr, index) -> None:
+    """Hint that ``arr.flat[index]`` will be read soon (``llvm.prefetch`` in kernels; a no-op
+    in Python). Check-free: the address is not dereferenced, any index is harmless."""
+
+
 def stream_fence() -> None:
     """Order the calling kernel's streaming stores before its later stores (``sfence``)."""
 
@@ -164,6 +173,20 @@ def _register_intrinsics():
 
         return types.void(), codegen
 
+    @intrinsic
+    def _prefetch(typingctx, arr, index):
+        def codegen(context, builder, signature, args):
+            array = context.make_array(signature.args[0])(context, builder, args[0])
+            ptr = builder.bitcast(builder.gep(array.data, [args[1]]), ir.IntType(8).as_pointer())
+            i32 = ir.IntType(32)
+            fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
+            fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch")
+            builder.call(fn, [ptr, i32(0), i32(3), i32(1)])
+            return context.get_dummy_value()
+
+        return types.void(arr, index), codegen
+
+    overload(prefetch, inline="always")(lambda arr, index: lambda arr, index: _prefetch(arr, index))
     overload(wide_vectors, inline="always")(lambda: lambda: _wide())
     overload(stream_store, inline="always")(
         lambda arr, index, value: lambda arr, index, value: _store(arr, index, value)

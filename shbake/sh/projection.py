@@ -29,7 +29,7 @@ import numpy as np
 
 from shbake.conventions import check_lmax, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import interpreted, jit, run_blocks
+from shbake.jit import interpreted, jit, prefetch, run_blocks
 from shbake.sh.basis import legendre_next, real_sh_numba, recurrence_tables
 from shbake.sh.rotation import SHRotation
 
@@ -93,6 +93,12 @@ COLUMN_BLOCK = 256
 of the block stay in L1 while every ``m`` reads them."""
 
 _FAST = {"reassoc", "contract"}
+
+PREFETCH_LINES = 4
+"""Cache lines prefetched at the start of each of the next row's four column runs while a
+row is folded: the hardware prefetcher finds a new stream only after a few misses, and
+4 runs start anew on every row (~3 % faster at 4096×2048 lmax 8, same process, A/B)."""
+
 _U = np.uint64
 
 
@@ -277,9 +283,18 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     nm = cos_t.shape[0]
     buf = np.empty((4, nc, COLUMN_BLOCK))  # E (cos, even m), O (cos, odd), DO (sin, even), DE
     acc = np.empty((nc, 2 * nm - 1))
+    flat = img.reshape(h * w * nc)
+    line = 64 // img.itemsize
     for i in range(b0 * ROWS_PER_BLOCK, min(h, b1 * ROWS_PER_BLOCK)):
         f = img[i].reshape(w * nc)
         acc[:] = 0.0
+        if i + 1 < h:  # start the next row's runs (see PREFETCH_LINES)
+            g = (i + 1) * w * nc
+            for k in range(PREFETCH_LINES):
+                prefetch(flat, g + k * line)
+                prefetch(flat, g + nc * half + k * line)
+                prefetch(flat, g + nc * w - 1 - k * line)
+                prefetch(flat, g + nc * half - 1 - k * line)
         for j0 in range(0, nq, COLUMN_BLOCK):
             nj = min(COLUMN_BLOCK, nq - j0)
             fa = f[nc * j0 :]  # column j0 + j
