@@ -2,7 +2,8 @@
 
 Intrinsics (no-ops or plain Python when interpreted): :func:`wide_vectors`
 (512-bit vectors), :func:`stream_store` / :func:`stream_fence` (non-temporal
-stores), :func:`prefetch`. They are registered with numba when it is first loaded.
+stores), :func:`prefetch`, :func:`clock_ticks` (a tick counter for timing inside
+kernels). They are registered with numba when it is first loaded.
 
 Kernels are check-free: they assume the caller (a public Python function)
 validated shapes, dtypes and ranges, and say so in their docstrings.
@@ -128,6 +129,15 @@ def prefetch(arr, index) -> None:
     in Python). Check-free: the address is not dereferenced, any index is harmless."""
 
 
+def clock_ticks() -> int:
+    """A monotonic tick count for timing parts of a kernel (``llvm.readcyclecounter``: the
+    constant-rate time-stamp counter on x86; ``time.perf_counter_ns`` in Python). Only
+    differences and ratios of ticks mean anything; ticks are not seconds."""
+    import time
+
+    return time.perf_counter_ns()
+
+
 def stream_fence() -> None:
     """Order the calling kernel's streaming stores before its later stores (``sfence``)."""
 
@@ -186,6 +196,16 @@ def _register_intrinsics():
 
         return types.void(arr, index), codegen
 
+    @intrinsic
+    def _ticks(typingctx):
+        def codegen(context, builder, signature, args):
+            fnty = ir.FunctionType(ir.IntType(64), [])
+            fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.readcyclecounter")
+            return builder.call(fn, [])
+
+        return types.int64(), codegen
+
+    overload(clock_ticks, inline="always")(lambda: lambda: _ticks())
     overload(prefetch, inline="always")(lambda arr, index: lambda arr, index: _prefetch(arr, index))
     overload(wide_vectors, inline="always")(lambda: lambda: _wide())
     overload(stream_store, inline="always")(

@@ -185,6 +185,14 @@ class TestNestedRefinement:
             got.append((c.tobytes(), conv.view_errors.tobytes(), conv.view_samples.tobytes()))
         assert got[0] == got[1]
 
+    def test_history_seconds_are_measured_shares_of_the_wall_time(self):
+        brdf = make_brdf("ashikhmin-shirley", nu=24, nv=8)
+        views = furnace_views()[::2]
+        _, conv = project_views(brdf, views, lmax=2, samples=None, tol=1e-4)
+        secs = [h["seconds"] for h in conv.history]
+        assert len(secs) >= 2 and all(np.diff(secs) >= 0)
+        assert 0.0 < secs[0] < secs[-1] and secs[-1] == pytest.approx(conv.seconds, rel=1e-9)
+
     def test_max_samples_caps_refinement(self):
         brdf = make_brdf("ashikhmin-shirley", nu=24, nv=8)
         views = furnace_views()[-3:]  # grazing: the estimate stays above 1e-7

@@ -61,7 +61,7 @@ from shbake.brdf.model import BRDF
 from shbake.brdf.sampling import cosine_pdf
 from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, check_lmax, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit, run_blocks
+from shbake.jit import clock_ticks, jit, pjit, run_blocks
 from shbake.resources import check_memory
 from shbake.sh.basis import recurrence_tables, sh_eval_into
 from shbake.texture.parabolic import check_resolution, texel_views
@@ -428,8 +428,10 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
     """Refine one view's two rules axis by axis until the error estimate is ≤ ``tol``.
 
     Returns ``(steps, error estimate, samples)``; ``out`` gets the coefficients,
-    ``hist[k] = (hemisphere points, lobe points, estimate)`` per step.
+    ``hist[k] = (hemisphere points, lobe points, estimate, ticks)`` per step, ``ticks``
+    the :func:`~shbake.jit.clock_ticks` spent on this view up to the step's estimate.
     """
+    start = clock_ticks()
     n = (lmax + 1) * (lmax + 1)
     rules = 2 if has_lobe else 1
     rcap = 2 * ((R_BASE << R_MAX_LEVEL) + 1)
@@ -495,6 +497,7 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
             hist[step, 0] = nrow[0] * nline[0]
             hist[step, 1] = nrow[1] * nline[1] if rules == 2 else 0
             hist[step, 2] = est
+            hist[step, 3] = clock_ticks() - start
         step += 1
         if est <= tol:
             break
@@ -600,7 +603,8 @@ class Convergence:
     ``history``: one entry per sample level (``samples``, ``views``,
     ``error_estimate``, cumulative ``seconds``). With ``tol`` the levels are
     powers of two of points: the views refined into each and their largest
-    estimate there; the seconds are apportioned by the points evaluated.
+    estimate there; the seconds are the wall time shared out by the kernels'
+    measured ticks up to each level (:func:`_nested_history`).
     """
 
     samples: int
@@ -732,7 +736,7 @@ def _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples):
     errors = np.empty(count)
     used = np.empty(count, np.int64)
     steps = np.empty(count, np.int64)
-    hist = np.zeros((count, MAX_STEPS, 3))
+    hist = np.zeros((count, MAX_STEPS, 4))
     line_cap = max_samples // (R_BASE + 1) + 8 * A_BASE + 4 * AZIMUTH_PROBES
     t0 = time.perf_counter()
     run_blocks(_nested_block, count, 1e8 * count, brdf.spec.model_id, brdf.packed, brdf.data,
@@ -749,15 +753,14 @@ def _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples):
 def _nested_history(hist, steps, seconds):
     """Per power-of-two bucket of points: views refined into it, their largest estimate there.
 
-    ``seconds`` is the total apportioned by the points evaluated up to the
-    bucket (the views are refined one at a time, not level by level).
+    The views are refined one at a time, not level by level: a bucket's
+    ``seconds`` is the call's wall time times the share of the kernels' measured
+    ticks spent (every view) up to that bucket's steps.
     """
     k = np.arange(hist.shape[1])
     live = k[None, :] < np.minimum(steps, hist.shape[1])[:, None]
     points = np.maximum(hist[..., 0], hist[..., 1])
-    total = hist[..., 0] + hist[..., 1]
-    # points evaluated by step k: the rules' sizes at k (nested: nothing is evaluated twice)
-    spent = np.where(live, total, 0.0)
+    spent = np.where(live, hist[..., 3], 0.0)  # ticks of each view up to step k (cumulative)
     grand = spent.max(axis=1).sum()
     history = []
     bucket = 1 << int(np.ceil(np.log2(max(points[live].min(), 1))))
