@@ -27,12 +27,12 @@ It is written once, in :func:`legendre_next`; every evaluator here, the
 projection's latitude stage and the kernels of other packages call it.
 
 The fused :func:`evaluate` runs the same recurrence rescaled to one multiply
-and one fused multiply-add per step, ``R_l^m = Q_l^m / γ_l^m``::
+and one fused multiply-add per step, ``R_l^m = Q_l^m / (Q_m^m γ_l^m)``::
 
-    R_m^m = Q_m^m,   R_l^m = z R_{l-1}^m - β_lm R_{l-2}^m
+    R_m^m = 1,   R_l^m = z R_{l-1}^m - β_lm R_{l-2}^m      (legendre_next_scaled)
     γ_lm = a_lm γ_{l-1,m} (γ_mm = 1),   β_lm = b_lm / a_{l-1,m} (β_{m+1,m} = 0)
 
-with ``γ_lm`` folded into the coefficients (:func:`scaled_recurrence_tables`;
+with ``Q_m^m γ_lm`` folded into the coefficients (:func:`scaled_recurrence_tables`;
 ``γ`` stays below ``4^l``, so no overflow to ``lmax`` 128).
 
 Evaluators: :func:`real_sh` (numpy, vectorised, no compilation: small jobs
@@ -49,7 +49,17 @@ import numpy as np
 
 from shbake.conventions import check_lmax, lmax_of, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import jit, run_blocks, stream_fence, stream_store, wide_vectors
+from shbake.jit import (
+    LANES,
+    jit,
+    run_blocks,
+    stream_fence,
+    stream_store,
+    vload,
+    vsplat,
+    vstore,
+    wide_vectors,
+)
 
 SQRT2 = np.sqrt(2.0)
 
@@ -207,10 +217,8 @@ def sh_eval_into(x, y, z, lmax, qmm, a, b, out):
 # Scratch rows of the blocked kernels. They live in ONE array (row r at
 # offset r*BLOCK): LLVM then sees the distances between them and vectorises
 # the block loops without runtime alias checks (separate arrays defeat it).
-# Rows P0…P5 hold the per-order partial sums of :func:`_evaluate_blocks`.
 _X, _Y, _Z, _CM, _SM, _Q1, _Q2, _A0, _A1, _A2 = (i * BLOCK for i in range(10))
-_P0, _P1, _P2, _P3, _P4, _P5 = (i * BLOCK for i in range(10, 16))
-_SCRATCH = 16 * BLOCK
+_SCRATCH = 10 * BLOCK
 
 BASIS_PAD = 8
 """Padding of the stored-basis scratch rows: a row stride of ``BLOCK`` doubles (2 KiB) would
@@ -314,378 +322,31 @@ def _next_l(s, nb, alm, blm, qc, qp):
         s[qp + k] = legendre_next(alm, blm, s[_Z + k], s[qc + k], s[qp + k])
 
 
-@jit(fastmath={"contract"})
-def _band(z, q1, q2, beta, w0, w1, w2, w3, w4, w5, p0, p1, p2, p3, p4, p5):
-    """One rescaled recurrence step, ``R_l`` from ``q1 = R_{l-1}``, ``q2 = R_{l-2}``, and
-    ``P_j += w_j R_l`` (the weights carry ``γ_l``).
-
-    Returns ``(R_l, R_{l-1}, P0 … P5)``: the state after the step.
-    """
-    q = legendre_next_scaled(beta, z, q1, q2)
-    return q, q1, p0 + w0 * q, p1 + w1 * q, p2 + w2 * q, p3 + w3 * q, p4 + w4 * q, p5 + w5 * q
-
-
-@jit(fastmath={"contract"})
-def _column(s, w, nb, n, first, last):
-    """``n`` (1 … 4) rescaled recurrence steps of the block's current order ``m``, each new
-    ``R_l^m`` added to the partial sums ``P_j += w[8i + 2 + j] R_l^m``.
-
-    ``w[8i : 8i+8] = (Q_m^m, β_lm, w_0 … w_5)`` for the ``i``-th step, ``w_j``
-    including ``γ_lm`` (module doc). ``first``: the column starts here: step 0 is
-    ``R_m^m = Q_m^m = w[0]``, a constant, so the
-    sums start at the constants ``w_j Q_m^m`` and nothing is loaded; ``last``: it
-    ends here (``A_c += P+_c Re(x+iy)^m + P-_c Im(x+iy)^m``; no state stored).
-    Otherwise the state (rows Q1, Q2, P0 … P5) is loaded once and stored once;
-    it stays in registers across the ``n`` steps. One loop per variant,
-    straight-line inside (the weights hoisted into scalars), so each vectorises.
-    """
-    wide_vectors()
-    w0, w1, w2, w3, w4, w5, w6, w7, w9, w10, w11, w12, w13, w14, w15 = (
-        w[0],
-        w[1],
-        w[2],
-        w[3],
-        w[4],
-        w[5],
-        w[6],
-        w[7],
-        w[9],
-        w[10],
-        w[11],
-        w[12],
-        w[13],
-        w[14],
-        w[15],
-    )
-    w17, w18, w19, w20, w21, w22, w23, w25, w26, w27, w28, w29, w30, w31 = (
-        w[17],
-        w[18],
-        w[19],
-        w[20],
-        w[21],
-        w[22],
-        w[23],
-        w[25],
-        w[26],
-        w[27],
-        w[28],
-        w[29],
-        w[30],
-        w[31],
-    )
-    c0, c1, c2, c3, c4, c5 = w2 * w0, w3 * w0, w4 * w0, w5 * w0, w6 * w0, w7 * w0
-    if n == 1 and first and last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
-            c, sn = s[_CM + k], s[_SM + k]
-            s[_A0 + k] += p0 * c + p1 * sn
-            s[_A1 + k] += p2 * c + p3 * sn
-            s[_A2 + k] += p4 * c + p5 * sn
-    elif n == 2 and first and last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            c, sn = s[_CM + k], s[_SM + k]
-            s[_A0 + k] += p0 * c + p1 * sn
-            s[_A1 + k] += p2 * c + p3 * sn
-            s[_A2 + k] += p4 * c + p5 * sn
-    elif n == 3 and first and last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
-            )
-            c, sn = s[_CM + k], s[_SM + k]
-            s[_A0 + k] += p0 * c + p1 * sn
-            s[_A1 + k] += p2 * c + p3 * sn
-            s[_A2 + k] += p4 * c + p5 * sn
-    elif n == 4 and first and last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
-            )
-            c, sn = s[_CM + k], s[_SM + k]
-            s[_A0 + k] += p0 * c + p1 * sn
-            s[_A1 + k] += p2 * c + p3 * sn
-            s[_A2 + k] += p4 * c + p5 * sn
-    elif n == 1 and first and not last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
-            s[_Q1 + k], s[_Q2 + k] = q1, q2
-            s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
-            s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
-    elif n == 2 and first and not last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            s[_Q1 + k], s[_Q2 + k] = q1, q2
-            s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
-            s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
-    elif n == 3 and first and not last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
-            )
-            s[_Q1 + k], s[_Q2 + k] = q1, q2
-            s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
-            s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
-    elif n == 4 and first and not last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = w0, 0.0, c0, c1, c2, c3, c4, c5
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
-            )
-            s[_Q1 + k], s[_Q2 + k] = q1, q2
-            s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
-            s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
-    elif n == 1 and not first and last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = (
-                s[_Q1 + k],
-                s[_Q2 + k],
-                s[_P0 + k],
-                s[_P1 + k],
-                s[_P2 + k],
-                s[_P3 + k],
-                s[_P4 + k],
-                s[_P5 + k],
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
-            )
-            c, sn = s[_CM + k], s[_SM + k]
-            s[_A0 + k] += p0 * c + p1 * sn
-            s[_A1 + k] += p2 * c + p3 * sn
-            s[_A2 + k] += p4 * c + p5 * sn
-    elif n == 2 and not first and last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = (
-                s[_Q1 + k],
-                s[_Q2 + k],
-                s[_P0 + k],
-                s[_P1 + k],
-                s[_P2 + k],
-                s[_P3 + k],
-                s[_P4 + k],
-                s[_P5 + k],
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            c, sn = s[_CM + k], s[_SM + k]
-            s[_A0 + k] += p0 * c + p1 * sn
-            s[_A1 + k] += p2 * c + p3 * sn
-            s[_A2 + k] += p4 * c + p5 * sn
-    elif n == 3 and not first and last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = (
-                s[_Q1 + k],
-                s[_Q2 + k],
-                s[_P0 + k],
-                s[_P1 + k],
-                s[_P2 + k],
-                s[_P3 + k],
-                s[_P4 + k],
-                s[_P5 + k],
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
-            )
-            c, sn = s[_CM + k], s[_SM + k]
-            s[_A0 + k] += p0 * c + p1 * sn
-            s[_A1 + k] += p2 * c + p3 * sn
-            s[_A2 + k] += p4 * c + p5 * sn
-    elif n == 4 and not first and last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = (
-                s[_Q1 + k],
-                s[_Q2 + k],
-                s[_P0 + k],
-                s[_P1 + k],
-                s[_P2 + k],
-                s[_P3 + k],
-                s[_P4 + k],
-                s[_P5 + k],
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
-            )
-            c, sn = s[_CM + k], s[_SM + k]
-            s[_A0 + k] += p0 * c + p1 * sn
-            s[_A1 + k] += p2 * c + p3 * sn
-            s[_A2 + k] += p4 * c + p5 * sn
-    elif n == 1 and not first and not last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = (
-                s[_Q1 + k],
-                s[_Q2 + k],
-                s[_P0 + k],
-                s[_P1 + k],
-                s[_P2 + k],
-                s[_P3 + k],
-                s[_P4 + k],
-                s[_P5 + k],
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
-            )
-            s[_Q1 + k], s[_Q2 + k] = q1, q2
-            s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
-            s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
-    elif n == 2 and not first and not last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = (
-                s[_Q1 + k],
-                s[_Q2 + k],
-                s[_P0 + k],
-                s[_P1 + k],
-                s[_P2 + k],
-                s[_P3 + k],
-                s[_P4 + k],
-                s[_P5 + k],
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            s[_Q1 + k], s[_Q2 + k] = q1, q2
-            s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
-            s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
-    elif n == 3 and not first and not last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = (
-                s[_Q1 + k],
-                s[_Q2 + k],
-                s[_P0 + k],
-                s[_P1 + k],
-                s[_P2 + k],
-                s[_P3 + k],
-                s[_P4 + k],
-                s[_P5 + k],
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
-            )
-            s[_Q1 + k], s[_Q2 + k] = q1, q2
-            s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
-            s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
-    elif n == 4 and not first and not last:
-        for k in range(nb):
-            z = s[_Z + k]
-            q1, q2, p0, p1, p2, p3, p4, p5 = (
-                s[_Q1 + k],
-                s[_Q2 + k],
-                s[_P0 + k],
-                s[_P1 + k],
-                s[_P2 + k],
-                s[_P3 + k],
-                s[_P4 + k],
-                s[_P5 + k],
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w1, w2, w3, w4, w5, w6, w7, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w9, w10, w11, w12, w13, w14, w15, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w17, w18, w19, w20, w21, w22, w23, p0, p1, p2, p3, p4, p5
-            )
-            q1, q2, p0, p1, p2, p3, p4, p5 = _band(
-                z, q1, q2, w25, w26, w27, w28, w29, w30, w31, p0, p1, p2, p3, p4, p5
-            )
-            s[_Q1 + k], s[_Q2 + k] = q1, q2
-            s[_P0 + k], s[_P1 + k], s[_P2 + k] = p0, p1, p2
-            s[_P3 + k], s[_P4 + k], s[_P5 + k] = p3, p4, p5
-
-
 @jit
-def _column_weights(coef, lmax, qmm, gamma, beta):
-    """The ``w`` of every :func:`_column` pass, ``(groups, lmax+1, passes, 32)``: for channel
-    group ``g`` (:data:`FUSED_CHANNELS` channels), order ``m`` and pass ``p`` (steps
-    ``l = m + 4p …``), step ``j``: ``(Q_m^m, β_lm, γ_lm w+_0, γ_lm w-_0, …)`` with
-    ``w± = √2 (c_lm, c_l,-m)`` (``(c_l0, 0)`` for ``m = 0``); zero for missing channels."""
+def _evaluate_weights(coef, lmax, qmm, gamma, beta):
+    """Per-step constants of :func:`_evaluate_blocks`, ``(groups, lmax+1, lmax+1, 8)``.
+
+    For channel group ``g`` (:data:`FUSED_CHANNELS` channels), order ``m`` and
+    degree ``l ≥ m``: ``(β_lm, w+_0, w-_0, w+_1, w-_1, w+_2, w-_2, 0)`` with
+    ``w± = f Q_m^m γ_lm (c_lm, c_l,-m)``, ``f = √2`` for ``m > 0`` (``(c_l0, 0)``
+    and ``f = 1`` for ``m = 0``): the basis's √2, the column's first value
+    ``Q_m^m`` and the rescaled recurrence's ``γ`` folded into the coefficients,
+    so the kernel runs ``R_l`` from ``R_m = 1``. Zero for missing channels.
+    """
     nc = coef.shape[1]
     groups = -(-nc // FUSED_CHANNELS)
-    w = np.zeros((groups, lmax + 1, -(-(lmax + 1) // 4), 32))
+    w = np.zeros((groups, lmax + 1, lmax + 1, 8))
     for g in range(groups):
         for m in range(lmax + 1):
-            f = 1.0 if m == 0 else 1.4142135623730951
+            f = qmm[m] * (1.0 if m == 0 else 1.4142135623730951)
             for l in range(m, lmax + 1):
-                p, j = (l - m) // 4, (l - m) % 4
                 i = l * (l + 1) + m
-                w[g, m, p, 8 * j] = qmm[m]
-                w[g, m, p, 8 * j + 1] = beta[l, m]
+                w[g, m, l, 0] = beta[l, m]
                 for c in range(min(FUSED_CHANNELS, nc - g * FUSED_CHANNELS)):
                     ch = g * FUSED_CHANNELS + c
-                    w[g, m, p, 8 * j + 2 + 2 * c] = f * gamma[l, m] * coef[i, ch]
+                    w[g, m, l, 1 + 2 * c] = f * gamma[l, m] * coef[i, ch]
                     if m > 0:
-                        w[g, m, p, 8 * j + 3 + 2 * c] = f * gamma[l, m] * coef[i - 2 * m, ch]
+                        w[g, m, l, 2 + 2 * c] = f * gamma[l, m] * coef[i - 2 * m, ch]
     return w
 
 
@@ -693,42 +354,84 @@ def _column_weights(coef, lmax, qmm, gamma, beta):
 def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
     """``out[i, c] = Σ_j coef[j, c] ȳ_j(d_i)`` for blocks ``b0 … b1-1`` (fused: no basis stored).
 
-    ``coef`` is ``(n_coeffs, C)`` in the flat index; the weights of order ``m > 0``
-    are ``γ_lm (√2 c_lm, √2 c_l,-m)`` (the √2 of the basis and the scale of the
-    rescaled recurrence folded in), of ``m = 0`` ``γ_l0 (c_l0, 0)``.
-    ``bad[blk]`` receives the count of unusable directions. Check-free kernel.
+    ``coef`` is ``(n_coeffs, C)`` in the flat index. ``bad[blk]`` receives the
+    count of unusable directions. Check-free kernel.
 
-    Per order ``m`` and :data:`FUSED_CHANNELS` channels, the partial sums
-    ``P±_c = Σ_l γ_lm c_l±m,c R_l^m`` run down the column ``l = m … lmax`` four
-    steps per pass over the block (:func:`_column`; 1.6 M directions at lmax 8
-    make ≈ 45 steps of 8 flops each per direction, 8 directions per AVX-512
-    instruction: :func:`~shbake.jit.wide_vectors`), then ``A_c += P+_c
-    Re(x+iy)^m + P-_c Im(x+iy)^m``. The column's first value ``Q_m^m`` is a
-    constant (``w[0]`` of its first pass). The output is written with
-    streaming stores (read by nobody until the call returns).
+    Each block's directions are normalised into scratch rows
+    (:func:`_load_block`), then taken :data:`~shbake.jit.LANES` at a time as
+    explicit vectors (:func:`~shbake.jit.vload`) that stay in registers for
+    the whole sum: per order ``m``, the rescaled recurrence ``R_l = z R_{l-1}
+    - β_lm R_{l-2}`` runs down the column ``l = m … lmax`` and each ``R_l``
+    is added into the partial sums ``P±_c += w±_c R_l`` (:func:`_evaluate_weights`;
+    :data:`FUSED_CHANNELS` channels, ``P-`` only for ``m > 0``), then ``A_c +=
+    P+_c Re(x+iy)^m + P-_c Im(x+iy)^m``. At lmax 8 that is 45 steps of 8 flops
+    per direction, 8 directions per AVX-512 instruction. The sums go out
+    through scratch rows with streaming stores (read by nobody until the call
+    returns).
     """
     wide_vectors()
     n = d.shape[0]
     nc = out.shape[1]
     s = _aligned_scratch(_SCRATCH)
-    w = _column_weights(coef, lmax, qmm, gamma, beta)
+    w = _evaluate_weights(coef, lmax, qmm, gamma, beta)
     fo = out.reshape(out.size)
     for blk in range(b0, b1):
         i0 = blk * BLOCK
         nb = min(BLOCK, n - i0)
         bad[blk] = _load_block(d, i0, nb, s)
+        nv = -(-nb // LANES) * LANES
+        for k in range(nb, nv):  # the last vector's spare lanes: +Z
+            s[_X + k] = 0.0
+            s[_Y + k] = 0.0
+            s[_Z + k] = 1.0
         for g in range(0, nc, FUSED_CHANNELS):
             ng = min(FUSED_CHANNELS, nc - g)
-            for k in range(nb):
-                s[_A0 + k] = 0.0
-                s[_A1 + k] = 0.0
-                s[_A2 + k] = 0.0
-            for m in range(lmax + 1):
-                _next_m(s, nb, m)
-                for l in range(m, lmax + 1, 4):
-                    nstep = min(4, lmax + 1 - l)
-                    wl = w[g // FUSED_CHANNELS, m, (l - m) // 4]
-                    _column(s, wl, nb, nstep, l == m, l + nstep > lmax)
+            wg = w[g // FUSED_CHANNELS]
+            for k in range(0, nv, LANES):
+                x = vload(s, _X + k)
+                y = vload(s, _Y + k)
+                z = vload(s, _Z + k)
+                r1 = vsplat(1.0)  # m = 0: the cosine sums only
+                r2 = vsplat(0.0)
+                a0 = vsplat(wg[0, 0, 1])
+                a1 = vsplat(wg[0, 0, 3])
+                a2 = vsplat(wg[0, 0, 5])
+                for l in range(1, lmax + 1):
+                    r = legendre_next_scaled(wg[0, l, 0], z, r1, r2)
+                    r2 = r1
+                    r1 = r
+                    a0 = a0 + wg[0, l, 1] * r
+                    a1 = a1 + wg[0, l, 3] * r
+                    a2 = a2 + wg[0, l, 5] * r
+                cm = x  # Re, Im (x+iy)^m for m = 1
+                sm = y
+                for m in range(1, lmax + 1):
+                    wm = wg[m]
+                    r1 = vsplat(1.0)
+                    r2 = vsplat(0.0)
+                    p0 = vsplat(wm[m, 1])
+                    p1 = vsplat(wm[m, 2])
+                    p2 = vsplat(wm[m, 3])
+                    p3 = vsplat(wm[m, 4])
+                    p4 = vsplat(wm[m, 5])
+                    p5 = vsplat(wm[m, 6])
+                    for l in range(m + 1, lmax + 1):
+                        r = legendre_next_scaled(wm[l, 0], z, r1, r2)
+                        r2 = r1
+                        r1 = r
+                        p0 = p0 + wm[l, 1] * r
+                        p1 = p1 + wm[l, 2] * r
+                        p2 = p2 + wm[l, 3] * r
+                        p3 = p3 + wm[l, 4] * r
+                        p4 = p4 + wm[l, 5] * r
+                        p5 = p5 + wm[l, 6] * r
+                    a0 = a0 + p0 * cm + p1 * sm
+                    a1 = a1 + p2 * cm + p3 * sm
+                    a2 = a2 + p4 * cm + p5 * sm
+                    cm, sm = cm * x - sm * y, cm * y + sm * x
+                vstore(s, _A0 + k, a0)
+                vstore(s, _A1 + k, a1)
+                vstore(s, _A2 + k, a2)
             for k in range(nb):
                 o = (i0 + k) * nc + g
                 stream_store(fo, o, s[_A0 + k])
