@@ -7,7 +7,6 @@ The budget is ``--max-memory`` (``shbake --max-memory 4G …``), else the enviro
 it is refused with one line naming the estimate, before anything is allocated.
 """
 
-import hashlib
 import os
 import re
 import stat
@@ -189,6 +188,8 @@ def read_bounded(path: str, limit: int, what: str = "input") -> bytes:
 
 def sha256_of(path: str) -> str:
     """Hex SHA-256 of a regular file's bytes, reading no more than its size at open time."""
+    import hashlib  # 2 ms of OpenSSL set-up that a plain bake (no hash) never pays
+
     st = check_regular_file(path, "hashed file")
     h = hashlib.sha256()
     left = st.st_size
