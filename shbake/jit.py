@@ -208,8 +208,8 @@ def _register_vectors():
         zeros = ir.Constant(ir.VectorType(ir.IntType(32), LANES), [0] * LANES)
         return builder.shuffle_vector(one, ir.Constant(llvm_vec, ir.Undefined), zeros)
 
-    def is_f64_array(t):
-        return isinstance(t, types.Array) and t.dtype == types.float64
+    def is_f64_array(t):  # flat offsets from .data hold for C-contiguous arrays only
+        return isinstance(t, types.Array) and t.dtype == types.float64 and t.layout == "C"
 
     @intrinsic
     def _vload(typingctx, arr, index):

@@ -97,11 +97,13 @@ class TestVectors:
         np.testing.assert_array_equal(out[1:], x[1:])
         assert not out[0].any()
 
-    def test_float32_arrays_are_refused_when_compiled(self):
+    def test_float32_and_strided_arrays_are_refused_when_compiled(self):
         from numba.core.errors import TypingError
 
         with pytest.raises(TypingError):
             _horner_vectors(np.zeros(LANES, np.float32), np.ones(2), np.zeros(LANES))
+        with pytest.raises(TypingError):
+            _horner_vectors(np.zeros(2 * LANES)[::2], np.ones(2), np.zeros(LANES))
 
 
 class TestStreamStore:
