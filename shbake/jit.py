@@ -178,12 +178,34 @@ def vsplat(x):
     return np.full(LANES, x, dtype=np.float64)
 
 
+def vsum(vector) -> float:
+    """The sum of a vector's lanes (any order: a reduction tree in kernels)."""
+    return float(np.sum(vector))
+
+
+def vload_channels(arr, index, channels, reverse):
+    """The ``channels`` interleaved channels of ``LANES`` pixels as a tuple of vectors.
+
+    Reads ``arr.flat[index : index + channels × LANES]`` — pixels of
+    ``channels`` values each — once; lane ``L`` of vector ``c`` is channel
+    ``c`` of pixel ``L``, or of pixel ``LANES-1-L`` when ``reverse``
+    (a run read backwards). float32 values are widened to float64.
+    ``channels`` and ``reverse`` must be constants in kernels (the lane
+    permutation is built at compile time); ``arr`` is C-contiguous float32 or
+    float64. Check-free.
+    """
+    px = np.asarray(arr).reshape(-1)[index : index + channels * LANES].reshape(LANES, channels)
+    if reverse:
+        px = px[::-1]
+    return tuple(px[:, c].astype(np.float64) for c in range(channels))
+
+
 def _register_vectors():
     """The numba side of :func:`vload`: a type, its LLVM model and its operators."""
     import operator
 
     from llvmlite import ir
-    from numba.core import types
+    from numba.core import cgutils, types
     from numba.extending import intrinsic, models, overload, register_model
 
     class DoubleVector(types.Type):
@@ -275,6 +297,67 @@ def _register_vectors():
         lambda arr, index, vector: lambda arr, index, vector: _vstore(arr, index, vector)
     )
     overload(vsplat, inline="always")(lambda x: lambda x: _vsplat(x))
+
+    @intrinsic
+    def _vsum(typingctx, vector):
+        if vector != vec:
+            return None
+
+        def codegen(context, builder, sig, args):
+            fnty = ir.FunctionType(ir.DoubleType(), [ir.DoubleType(), llvm_vec])
+            name = f"llvm.vector.reduce.fadd.v{LANES}f64"
+            fn = cgutils.get_or_insert_function(builder.module, fnty, name)
+            return builder.call(fn, [ir.DoubleType()(0.0), args[0]], fastmath=("reassoc",))
+
+        return types.float64(vector), codegen
+
+    overload(vsum, inline="always")(lambda vector: lambda vector: _vsum(vector))
+
+    def channels_loader(n, reverse):
+        @intrinsic
+        def load(typingctx, arr, index):
+            if not (
+                isinstance(arr, types.Array)
+                and arr.layout == "C"
+                and arr.dtype in (types.float32, types.float64)
+            ):
+                return None
+
+            def codegen(context, builder, sig, args):
+                aryty = sig.args[0]
+                elt = context.get_data_type(aryty.dtype)
+                block_ty = ir.VectorType(elt, n * LANES)
+                data = context.make_array(aryty)(context, builder, args[0]).data
+                ptr = builder.bitcast(builder.gep(data, [args[1]]), block_ty.as_pointer())
+                block = builder.load(ptr, align=aryty.dtype.bitwidth // 8)
+                out = []
+                for c in range(n):
+                    pixels = range(LANES - 1, -1, -1) if reverse else range(LANES)
+                    lanes = [n * p + c for p in pixels]
+                    mask = ir.Constant(ir.VectorType(ir.IntType(32), LANES), lanes)
+                    v = builder.shuffle_vector(block, ir.Constant(block_ty, ir.Undefined), mask)
+                    if aryty.dtype == types.float32:
+                        v = builder.fpext(v, llvm_vec)
+                    out.append(v)
+                return context.make_tuple(builder, sig.return_type, out)
+
+            return types.UniTuple(vec, n)(arr, index), codegen
+
+        return load
+
+    loaders = {}
+
+    @overload(vload_channels, prefer_literal=True, inline="always")
+    def _vload_channels(arr, index, channels, reverse):
+        if not isinstance(channels, types.IntegerLiteral) or not isinstance(
+            reverse, types.BooleanLiteral
+        ):
+            return None
+        key = (channels.literal_value, reverse.literal_value)
+        if key not in loaders:
+            loaders[key] = channels_loader(*key)
+        load = loaders[key]
+        return lambda arr, index, channels, reverse: load(arr, index)
 
 
 def _register_intrinsics():
@@ -393,6 +476,16 @@ jit = _decorator(dict(cache=True, fastmath=False, nogil=True))
 
 pjit = _decorator(dict(cache=True, fastmath=False, nogil=True, parallel=True))
 """``numba.njit`` with ``cache=True`` and ``parallel=True``, lazily compiled; ``prange`` kernels."""
+
+
+@jit
+def aligned_empty(n):
+    """``np.empty(n)`` of float64 starting on a 64-byte boundary (whole cache lines, whole
+    AVX-512 loads); a view of a slightly larger array."""
+    raw = np.empty(n + 8)
+    off = ((-raw.ctypes.data) % 64) // 8
+    return raw[off : off + n]
+
 
 if "numba" in sys.modules:  # numba already loaded: kernels may meet LazyKernels at once
     _register_with_numba()

@@ -51,6 +51,7 @@ from shbake.conventions import check_lmax, lmax_of, n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import (
     LANES,
+    aligned_empty,
     jit,
     run_blocks,
     stream_fence,
@@ -226,14 +227,6 @@ put a block's ``n_coeffs`` values of one direction in 2 of the L1 cache's 64 set
 transposing write-out then ran 1.45× slower."""
 
 
-@jit
-def _aligned_scratch(n):
-    """``np.empty(n)`` starting on a 64-byte boundary (whole cache lines, whole AVX-512 loads)."""
-    raw = np.empty(n + 8)
-    off = ((-raw.ctypes.data) % 64) // 8
-    return raw[off : off + n]
-
-
 TINY2 = 1e-290
 """Squared lengths outside ``[TINY2, 1/TINY2]`` take :func:`_load_block`'s careful path."""
 
@@ -372,7 +365,7 @@ def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
     wide_vectors()
     n = d.shape[0]
     nc = out.shape[1]
-    s = _aligned_scratch(_SCRATCH)
+    s = aligned_empty(_SCRATCH)
     w = _evaluate_weights(coef, lmax, qmm, gamma, beta)
     fo = out.reshape(out.size)
     for blk in range(b0, b1):
@@ -453,7 +446,7 @@ def _basis_blocks(d, lmax, qmm, a, b, out, bad, b0, b1):
     """
     n = d.shape[0]
     nco = out.shape[1]
-    s = _aligned_scratch(_SCRATCH)
+    s = aligned_empty(_SCRATCH)
     y = np.empty((nco, BLOCK + BASIS_PAD))
     fo = out.reshape(out.size)
     for blk in range(b0, b1):
