@@ -4,10 +4,13 @@ Intrinsics (no-ops or plain Python when interpreted): :func:`wide_vectors`
 (512-bit vectors), :func:`stream_store` / :func:`stream_fence` (non-temporal
 stores), :func:`prefetch`, :func:`clock_ticks` (a tick counter for timing inside
 kernels), and explicit vectors of :data:`LANES` doubles — :func:`vload`,
-:func:`vstore`, :func:`vsplat` and ``+ - *`` on them — for kernels whose state
-must stay in registers across loops LLVM would not vectorise (runtime trip
-counts inside the per-direction work). They are registered with numba when it
-is first loaded.
+:func:`vstore`, :func:`vsplat`, :func:`vsum`, :func:`vload_channels` (split
+interleaved float32/float64 pixels into per-channel vectors, optionally in
+reversed pixel order) and ``+ - *`` on them — for kernels whose state must stay
+in registers across loops LLVM would not vectorise (runtime trip counts inside
+the per-direction work) or whose shuffles it would not find. They are
+registered with numba when it is first loaded. :func:`aligned_empty` gives
+64-byte-aligned scratch.
 
 Kernels are check-free: they assume the caller (a public Python function)
 validated shapes, dtypes and ranges, and say so in their docstrings.

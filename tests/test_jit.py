@@ -5,14 +5,17 @@ import pytest
 
 from shbake.jit import (
     LANES,
+    aligned_empty,
     clock_ticks,
     jit,
     prefetch,
     stream_fence,
     stream_store,
     vload,
+    vload_channels,
     vsplat,
     vstore,
+    vsum,
     wide_vectors,
 )
 
@@ -70,6 +73,30 @@ def _mixed_operators(a, b, out):
     vstore(out, 4 * LANES, 1.5 - u)
 
 
+@jit
+def _split_rgb(img, index, out):
+    """The three channels of ``LANES`` pixels from flat ``index``, forwards and reversed,
+    into ``out[0:3]`` / ``out[3:6]``; returns the lane sums of the forward red and the
+    reversed blue."""
+    r, g, b = vload_channels(img, index, 3, False)
+    x, y, z = vload_channels(img, index, 3, True)
+    for k, v in enumerate((r, g, b, x, y, z)):
+        vstore(out, k * LANES, v)
+    return vsum(r), vsum(z)
+
+
+@jit
+def _split_one(img, index, out):
+    (v,) = vload_channels(img, index, 1, True)
+    vstore(out, 0, v)
+
+
+@jit
+def _channels_from_a_variable(img, n, out):
+    (v,) = vload_channels(img, 0, n, False)
+    vstore(out, 0, v)
+
+
 class TestVectors:
     def test_horner_matches_numpy_polyval(self):
         rng = np.random.default_rng(3)
@@ -104,6 +131,42 @@ class TestVectors:
             _horner_vectors(np.zeros(LANES, np.float32), np.ones(2), np.zeros(LANES))
         with pytest.raises(TypingError):
             _horner_vectors(np.zeros(2 * LANES)[::2], np.ones(2), np.zeros(LANES))
+
+
+class TestVloadChannels:
+    @pytest.mark.parametrize("dtype", [np.float32, np.float64])
+    def test_channels_split_and_reversed_like_numpy(self, dtype):
+        img = np.random.default_rng(5).normal(size=(5 * LANES, 3)).astype(dtype)
+        flat = img.reshape(-1)
+        start = 7  # pixels 7 … 7+LANES-1
+        px = img[start : start + LANES].astype(np.float64)
+        ref = np.concatenate([px.T.reshape(-1), px[::-1].T.reshape(-1)])
+        for fn in (_split_rgb, _split_rgb.py_func):
+            out = np.zeros(6 * LANES)
+            sums = fn(flat, 3 * start, out)
+            np.testing.assert_array_equal(out, ref)
+            np.testing.assert_allclose(sums, (px[:, 0].sum(), px[:, 2].sum()), rtol=1e-14)
+
+    def test_one_channel_reversed(self):
+        a = np.arange(2.0 * LANES, dtype=np.float32)
+        out = np.zeros(LANES)
+        _split_one(a, 3, out)
+        np.testing.assert_array_equal(out, np.arange(3.0, 3.0 + LANES)[::-1])
+
+    def test_channel_count_must_be_a_constant_when_compiled(self):
+        from numba.core.errors import TypingError
+
+        with pytest.raises(TypingError):
+            _channels_from_a_variable(np.zeros(LANES), 1, np.zeros(LANES))
+
+
+class TestAlignedEmpty:
+    @pytest.mark.parametrize("n", [1, 17, 1000])
+    def test_starts_on_a_cache_line(self, n):
+        for _ in range(5):
+            a = aligned_empty(n)
+            assert a.shape == (n,) and a.dtype == np.float64
+            assert a.ctypes.data % 64 == 0
 
 
 class TestStreamStore:
