@@ -151,11 +151,26 @@ def stream_fence() -> None:
     """Order the calling kernel's streaming stores before its later stores (``sfence``)."""
 
 
-LANES = 16
-"""Doubles in one explicit vector (:func:`vload`): two AVX-512 registers, so each vector
-operation is two independent instructions and a chain of dependent steps (a recurrence)
-keeps both FMA units busy: the fused SH evaluation at lmax 8 / 30 ran 1.32× / 1.10× faster
-than with one-register vectors (docs/BENCHMARKS.md)."""
+def _host_has_avx512() -> bool:
+    """Whether this CPU runs AVX-512 (numpy's run-time feature table; ``False`` if absent)."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__
+    except ImportError:  # pragma: no cover - another numpy layout
+        return False
+    return bool(__cpu_features__.get("AVX512F", False))
+
+
+LANES = 16 if _host_has_avx512() else 4
+"""Doubles in one explicit vector (:func:`vload`), chosen for this CPU's register file so
+that the projection's 3 × 4 register tile (12 accumulators and 4 operands, 16 vectors) just
+fits it: with AVX-512, 16 — two of its 32 zmm registers, so each vector operation is two
+independent instructions and a recurrence keeps both FMA units busy (the fused SH
+evaluation at lmax 8 / 30 ran 1.32× / 1.10× faster than with 8); otherwise (AVX2: 16 ymm
+registers) 4, one register. On an AVX2-only AMD EPYC, 4096×2048 RGB lmax 8 row sums took
+16.0 ms with 4 lanes against 20.5 with 8 and 39 with 16 (spilled tiles); ``evaluate`` at
+lmax 8 took 50.0 / 46.8 / 64.1 ms (docs/BENCHMARKS.md). Results differ between widths only
+in summation order (~1e-16 relative). A numba target other than the host
+(``NUMBA_CPU_NAME``) still gets this CPU's width: correct, perhaps slower."""
 
 
 def vload(arr, index):

@@ -111,33 +111,18 @@ block (4 × channels × 64 doubles, 6 KiB for RGB) and its table columns (2 (lma
 doubles, 9 KiB at lmax 8) stay in the L1 cache while every ``m`` reads them. 4096×2048 RGB,
 lmax 8, same process: 11.3 ms with 64 columns, 12.2 with 128, 14 with 256."""
 
-PREFETCH_PER_STEP = 2
-"""Cache lines of the next column block's runs requested per vector step of the dot products
-(:func:`_prefetch_step`): the image is then read while the cores multiply, not only while
-they fold. The hardware prefetcher alone leaves memory idle during the dot products
-(4096×2048 lmax 8, 128-column blocks, same process: 12.1–12.3 ms against 12.5 without;
-4 and 6 per step: 13.7 and 15.2 ms)."""
-
 _FAST = {"reassoc", "contract"}
 
 _U = np.uint64
 
 
 @jit(inline="always")
-def _prefetch_step(flat, runs, r, o):
-    """Request the next :data:`PREFETCH_PER_STEP` lines of the next block's runs; returns the
-    new position ``(r, o)``: the next line is ``runs[2 + r] + o``, ``r = 4`` when all are
-    requested. ``runs`` = ``[line, run_length, start_0 … start_3]`` in flat indices
-    (``line`` values per cache line). The position stays in registers (no store in the
-    caller's loop)."""
-    for _ in range(PREFETCH_PER_STEP):
-        if r < 4:
-            prefetch(flat, runs[2 + r] + o)
-            o += runs[0]
-            if o >= runs[1]:
-                o = 0
-                r += 1
-    return r, o
+def _prefetch_until(flat, p, stop):
+    """Request the cache lines from ``flat[p]`` up to ``flat[stop]``; returns the next ``p``."""
+    while p < stop:
+        prefetch(flat, p)
+        p += 64 // flat.itemsize
+    return p
 
 
 @jit(fastmath=_FAST, inline="always")
@@ -183,16 +168,14 @@ def _coeff_index(m, sine):
 
 
 @jit(fastmath=_FAST, inline="always")
-def _dots(buf, kind, nv, j0, table, m, nm, accv, sine, flat, runs, r, o):
+def _dots(buf, kind, nv, j0, table, m, nm, accv, sine):
     """``accv[c, k(m')] += Σ_j buf[kind, c, j] table[m', j0+j]`` for ``m' = m, m+2, … < nm``.
 
     Over ``nv`` vectors of ``LANES`` columns, as ``LANES``-lane partial sums
     (``accv`` is ``(C, 2 nm-1, LANES)`` flat). A ``(C × nj) · (nj ×
     ⌈(nm-m)/2⌉)`` product in register tiles of 3 channels × 4 ``m`` for RGB
     (7 vector loads per 12 multiply-adds), 1 channel × 4 ``m`` otherwise, then
-    single ``m``; every vector step also advances the prefetch of the next
-    block (:func:`_prefetch_step`), whose position ``(r, o)`` is returned. Check-free
-    kernel.
+    single ``m``. Check-free kernel.
     """
     nc = buf.shape[1]
     cb = COLUMN_BLOCK
@@ -203,7 +186,6 @@ def _dots(buf, kind, nv, j0, table, m, nm, accv, sine, flat, runs, r, o):
         while m + 6 < nm:
             a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = a30 = a31 = a32 = vsplat(0.0)
             for v in range(nv):
-                r, o = _prefetch_step(flat, runs, r, o)
                 jj = v * LANES
                 x0 = vload(buf, x + jj)
                 x1 = vload(buf, x + cb + jj)
@@ -245,7 +227,6 @@ def _dots(buf, kind, nv, j0, table, m, nm, accv, sine, flat, runs, r, o):
         while m < nm:
             a0 = a1 = a2 = vsplat(0.0)
             for v in range(nv):
-                r, o = _prefetch_step(flat, runs, r, o)
                 jj = v * LANES
                 u = vload(table, m * stride + j0 + jj)
                 a0 = a0 + vload(buf, x + jj) * u
@@ -256,14 +237,13 @@ def _dots(buf, kind, nv, j0, table, m, nm, accv, sine, flat, runs, r, o):
             _accumulate(accv, nk + k0, a1)
             _accumulate(accv, 2 * nk + k0, a2)
             m += 2
-        return r, o
+        return
     for c in range(nc):
         xc = x + c * cb
         mm = m
         while mm + 6 < nm:
             a0 = a1 = a2 = a3 = vsplat(0.0)
             for v in range(nv):
-                r, o = _prefetch_step(flat, runs, r, o)
                 jj = v * LANES
                 xv = vload(buf, xc + jj)
                 t = mm * stride + j0 + jj
@@ -279,24 +259,19 @@ def _dots(buf, kind, nv, j0, table, m, nm, accv, sine, flat, runs, r, o):
         while mm < nm:
             a0 = vsplat(0.0)
             for v in range(nv):
-                r, o = _prefetch_step(flat, runs, r, o)
                 jj = v * LANES
                 a0 = a0 + vload(buf, xc + jj) * vload(table, mm * stride + j0 + jj)
             _accumulate(accv, c * nk + _coeff_index(mm, sine), a0)
             mm += 2
-    return r, o
 
 
 @jit
-def _row_scratch(kinds, nc, nm, line):
+def _row_scratch(kinds, nc, nm):
     """Aligned scratch of the row kernels: folded block ``(kinds, C, COLUMN_BLOCK)``, partial
-    sums ``(C × (2 nm-1) × LANES)``, the next block's runs (see :func:`_prefetch_step`)."""
+    sums ``(C × (2 nm-1) × LANES)``."""
     buf = aligned_empty(kinds * nc * COLUMN_BLOCK).reshape((kinds, nc, COLUMN_BLOCK))
     accv = aligned_empty(nc * (2 * nm - 1) * LANES)
-    runs = np.zeros(6, np.int64)
-    runs[0] = line
-    runs[1] = nc * COLUMN_BLOCK
-    return buf, accv, runs
+    return buf, accv
 
 
 @jit
@@ -335,13 +310,16 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     nq = w // 4
     half = w // 2
     nm = cos_t.shape[0]
-    line = 64 // img.itemsize
-    buf, accv, runs = _row_scratch(4, nc, nm, line)
+    buf, accv = _row_scratch(4, nc, nm)
     flat = img.reshape(h * w * nc)
+    end = h * w * nc
     accv[:] = 0.0
     for i in range(b0 * ROWS_PER_BLOCK, min(h, b1 * ROWS_PER_BLOCK)):
         f = img[i].reshape(w * nc)
-        base = i * w * nc
+        # The next row is prefetched as this one is folded, in address order: each fold
+        # step requests as many of its values as it reads of this row (4 C per column).
+        nxt = (i + 1) * w * nc
+        p = nxt
         for j0 in range(0, nq, COLUMN_BLOCK):
             nj = min(COLUMN_BLOCK, nq - j0)
             nv = -(-nj // LANES)
@@ -350,6 +328,7 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
                 done = nj // LANES * LANES
                 for j in range(0, done, LANES):
                     col = j0 + j
+                    p = _prefetch_until(flat, p, min(nxt + 12 * (col + LANES), end))
                     a0, a1, a2 = vload_channels(f, 3 * col, 3, False)
                     d0, d1, d2 = vload_channels(f, 3 * (half + col), 3, False)
                     b0_, b1_, b2_ = vload_channels(f, 3 * (w - col - LANES), 3, True)
@@ -376,19 +355,11 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
                         j,
                     )
             buf[:, :, nj : nv * LANES] = 0.0
-            # The next block's runs (the next row's first block after the last), lowest
-            # address first, are fetched during the dot products.
-            nb, n0 = (base, j0 + COLUMN_BLOCK) if j0 + COLUMN_BLOCK < nq else (base + w * nc, 0)
-            runs[2] = nb + nc * n0
-            runs[3] = nb + nc * (half + n0)
-            runs[4] = nb + nc * (w - n0 - COLUMN_BLOCK)
-            runs[5] = nb + nc * (half - n0 - COLUMN_BLOCK)
-            r = 0 if nb < h * w * nc and n0 + COLUMN_BLOCK <= nq else 4
-            o = 0
-            r, o = _dots(buf, 0, nv, j0, cos_t, 0, nm, accv, False, flat, runs, r, o)  # E · cos
-            r, o = _dots(buf, 1, nv, j0, cos_t, 1, nm, accv, False, flat, runs, r, o)  # O · cos
-            r, o = _dots(buf, 2, nv, j0, sin_t, 2, nm, accv, True, flat, runs, r, o)  # DO · sin
-            _dots(buf, 3, nv, j0, sin_t, 1, nm, accv, True, flat, runs, r, o)  # DE · sin
+            p = _prefetch_until(flat, p, min(nxt + 4 * nc * (j0 + nj), end))
+            _dots(buf, 0, nv, j0, cos_t, 0, nm, accv, False)  # E · cos
+            _dots(buf, 1, nv, j0, cos_t, 1, nm, accv, False)  # O · cos
+            _dots(buf, 2, nv, j0, sin_t, 2, nm, accv, True)  # DO · sin
+            _dots(buf, 3, nv, j0, sin_t, 1, nm, accv, True)  # DE · sin
         _finish_row(accv, out, i)
 
 
@@ -396,16 +367,19 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
 def _row_sums_half(img, cos_t, sin_t, out, b0, b1):
     """As :func:`_row_sums_quarter` for any width: columns ``j`` and ``W-1-j`` folded (sum,
     difference; the middle column of an odd width is its own pair), one value at a time,
-    no prefetch. Check-free kernel."""
+    the next row prefetched as it goes. Check-free kernel."""
     h, w, nc = img.shape
     nh = (w + 1) // 2
     pairs = w // 2
     nm = cos_t.shape[0]
-    buf, accv, runs = _row_scratch(2, nc, nm, 1)  # sum (cos), difference (sin)
+    buf, accv = _row_scratch(2, nc, nm)  # sum, difference
     flat = img.reshape(h * w * nc)
+    end = h * w * nc
     accv[:] = 0.0
     for i in range(b0 * ROWS_PER_BLOCK, min(h, b1 * ROWS_PER_BLOCK)):
         f = img[i].reshape(w * nc)
+        nxt = (i + 1) * w * nc  # the next row, prefetched as the fold reads this one
+        p = nxt
         for j0 in range(0, nh, COLUMN_BLOCK):
             nj = min(COLUMN_BLOCK, nh - j0)
             nv = -(-nj // LANES)
@@ -425,10 +399,11 @@ def _row_sums_half(img, cos_t, sin_t, out, b0, b1):
                     buf[0, c, npair] = np.float64(f[nc * pairs + c])
                     buf[1, c, npair] = 0.0
             buf[:, :, nj : nv * LANES] = 0.0
-            _dots(buf, 0, nv, j0, cos_t, 0, nm, accv, False, flat, runs, 4, 0)
-            _dots(buf, 0, nv, j0, cos_t, 1, nm, accv, False, flat, runs, 4, 0)
-            _dots(buf, 1, nv, j0, sin_t, 1, nm, accv, True, flat, runs, 4, 0)
-            _dots(buf, 1, nv, j0, sin_t, 2, nm, accv, True, flat, runs, 4, 0)
+            p = _prefetch_until(flat, p, min(nxt + 2 * nc * (j0 + nj), end))
+            _dots(buf, 0, nv, j0, cos_t, 0, nm, accv, False)
+            _dots(buf, 0, nv, j0, cos_t, 1, nm, accv, False)
+            _dots(buf, 1, nv, j0, sin_t, 1, nm, accv, True)
+            _dots(buf, 1, nv, j0, sin_t, 2, nm, accv, True)
         _finish_row(accv, out, i)
 
 
