@@ -2,9 +2,11 @@
 
 import os
 
-import numpy as np
-import pytest
-from shbake_cli.main import main
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the shbake command does (cli/__init__.py)
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from shbake_cli.main import main  # noqa: E402
 
 
 @pytest.fixture(scope="session", autouse=True)

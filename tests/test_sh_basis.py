@@ -6,8 +6,20 @@ from helpers import gauss_legendre_sphere
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from shbake.conventions import check_vectors
 from shbake.errors import ParameterError
 from shbake.sh.basis import evaluate, real_sh, real_sh_numba
+
+
+class TestCheckVectors:
+    def test_returns_float64_unchanged_and_refuses_bad_vectors(self):
+        v = np.array([[1, 2, 3], [-1e-300, 0, 0]])
+        out = check_vectors(v)
+        assert out.dtype == np.float64 and np.array_equal(out, v)
+        for bad, words in (([[0.0, 0.0, 0.0]], "non-zero"), ([[np.inf, 0.0, 0.0]], "finite"),
+                           ([[1.0, 0.0]], "last axis"), ([[np.nan, 1.0, 1.0]], "finite")):
+            with pytest.raises(ParameterError, match=words):
+                check_vectors(bad, "normals")
 
 
 class TestRealSh:

@@ -33,7 +33,7 @@ from shbake.preview.sphere import sphere_geometry
 from shbake.reference.brdf_shading import brute_force_shading
 from shbake.sh.basis import real_sh
 from shbake.sh.rotation import SHRotation
-from shbake.shading.shrm import evaluate_shrm, reflection_cube, shade
+from shbake.shading.shrm import evaluate_shrm, reflect, reflection_cube, shade
 from shbake.texture.cube import cube_directions, sample_cube
 
 
@@ -84,6 +84,40 @@ class TestSampleCube:
             errs.append(err[~corner].max())
         # away from the 8 corners the fetch is second order, seams included
         assert errs[1] < errs[0] / 3.2 and errs[2] < errs[1] / 3.2
+
+
+    def test_same_bytes_on_any_thread_count_and_bad_directions_refused(self, monkeypatch):
+        rng = np.random.default_rng(2)
+        cube = rng.normal(size=(6, 16, 16, 3))
+        q = rng.normal(size=(50000, 3))
+        monkeypatch.setenv("SHBAKE_THREADS", "1")
+        one = sample_cube(cube, q)
+        monkeypatch.setenv("SHBAKE_THREADS", "2")
+        assert sample_cube(cube, q).tobytes() == one.tobytes()
+        for bad in ([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]], [[np.nan, 0.0, 1.0]], [[0.0, 1.0]]):
+            with pytest.raises(ParameterError):
+                sample_cube(cube, bad)
+
+
+class TestReflect:
+    def test_mirror_about_the_normal_for_any_normal_length(self):
+        rng = np.random.default_rng(3)
+        n = rng.normal(size=(1000, 3))
+        n_hat = n / np.linalg.norm(n, axis=1, keepdims=True)
+        v = np.array([0.3, -0.2, 0.9])
+        v_hat = v / np.linalg.norm(v)
+        for scale in (1e-150, 1.0, 1e150):
+            r = reflect(n * scale, v)
+            # unit length, same angle to the normal, in the plane of n and v
+            np.testing.assert_allclose(np.linalg.norm(r, axis=1), 1.0, atol=1e-14)
+            np.testing.assert_allclose(np.sum(r * n_hat, 1), n_hat @ v_hat, atol=1e-14)
+            np.testing.assert_allclose(np.sum(np.cross(n_hat, v_hat) * r, 1), 0.0, atol=1e-14)
+
+    def test_refuses_zero_normals_and_several_views(self):
+        with pytest.raises(ParameterError):
+            reflect([[0.0, 0.0, 0.0]], [0.0, 0.0, 1.0])
+        with pytest.raises(ParameterError):
+            reflect([[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]])
 
 
 class TestBrdfCoefficients:

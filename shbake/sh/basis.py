@@ -47,7 +47,7 @@ from functools import cache
 
 import numpy as np
 
-from shbake.conventions import check_lmax, lmax_of, n_coeffs
+from shbake.conventions import check_lmax, check_vectors, lmax_of, n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import (
     LANES,
@@ -134,14 +134,8 @@ def legendre_next(alm, blm, z, q1, q2):
 
 
 def _as_directions(dirs) -> np.ndarray:
-    d = np.asarray(dirs, dtype=np.float64)
-    if d.shape[-1:] != (3,):
-        raise ParameterError(f"directions must have a last axis of 3, got shape {d.shape}")
-    if not np.all(np.isfinite(d)):
-        raise ParameterError("directions must be finite")
+    d = check_vectors(dirs)
     big = np.abs(d).max(axis=-1, keepdims=True)  # scale first: no underflow for tiny vectors
-    if np.any(big == 0.0):
-        raise ParameterError("directions must be non-zero vectors")
     d = d / big
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 

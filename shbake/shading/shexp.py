@@ -80,10 +80,11 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
                      out, b0, b1):  # fmt: skip
     """Points ``b0·PIXEL_BLOCK … b1·PIXEL_BLOCK − 1`` of :func:`evaluate_shexp` (check-free).
 
-    Per distinct ``α`` (a run of equal ``α`` reuses them): the vMF factors
-    ``exp(−l(l+1)α/2)`` once per band (eq. 12; not per channel) and the
-    hat-blended coefficients ``Σ_k h_k(α) p_k``. Per point: the two SH
-    evaluations, the sums, ``exp`` and the DFG term.
+    Per distinct ``α`` (a run of equal ``α`` reuses them): the hat-blended
+    coefficients ``Σ_k h_k(α) p_k`` times the vMF factor ``exp(−l(l+1)α/2)``
+    of their band (eq. 12), computed once per band. Per point: the two SH
+    evaluations, the sums (six independent chains: P and Q per channel),
+    ``exp`` and the DFG term.
     """
     n_sets = knots.shape[0]
     n_p = (lmax_p + 1) ** 2
@@ -91,7 +92,6 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
     yp = np.empty(n_p)
     yq = np.empty(n_q)
     hw = np.empty(n_sets)
-    g = np.empty(max(lmax_p, lmax_q) + 1)
     cp = np.empty((n_p, 3))
     cq = np.empty((n_q, 3))
     al_prev = np.nan
@@ -109,30 +109,35 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
             al_prev = al
             for s in range(n_sets):
                 hw[s] = hat_weight(knots, al, s)
-            for l in range(g.shape[0]):
-                g[l] = np.exp(-l * (l + 1) * al / 2.0)
-            for c in range(3):
-                for i in range(n_p):
-                    coef = 0.0
-                    for s in range(n_sets):
-                        coef += hw[s] * p[s, i, c]
-                    cp[i, c] = coef
-                for i in range(1, n_q):
-                    coef = 0.0
-                    for s in range(n_sets):
-                        coef += hw[s] * q[s, i - 1, c]
-                    cq[i, c] = coef
+            for l in range(max(lmax_p, lmax_q) + 1):
+                g = np.exp(-l * (l + 1) * al / 2.0)
+                for i in range(l * l, (l + 1) * (l + 1)):
+                    for c in range(3):
+                        if i < n_p:
+                            coef = 0.0
+                            for s in range(n_sets):
+                                coef += hw[s] * p[s, i, c]
+                            cp[i, c] = g * coef
+                        if 0 < i < n_q:
+                            coef = 0.0
+                            for s in range(n_sets):
+                                coef += hw[s] * q[s, i - 1, c]
+                            cq[i, c] = g * coef
         a0, a1 = dfg_at(table, nv, al)
         tail = a1 / a0 if a0 > 0.0 else 0.0
-        for c in range(3):
-            acc = 0.0
-            for l in range(lmax_p + 1):
-                for i in range(l * l, (l + 1) * (l + 1)):
-                    acc += g[l] * yp[i] * cp[i, c]
-            for l in range(1, lmax_q + 1):
-                for i in range(l * l, (l + 1) * (l + 1)):
-                    acc += g[l] * yq[i] * cq[i, c]
-            e0 = np.exp(acc)
+        # six independent sums (P and Q, per channel): not one serial chain per channel
+        p0 = p1 = p2 = q0 = q1 = q2 = 0.0
+        for i in range(n_p):
+            y = yp[i]
+            p0 += y * cp[i, 0]
+            p1 += y * cp[i, 1]
+            p2 += y * cp[i, 2]
+        for i in range(1, n_q):
+            y = yq[i]
+            q0 += y * cq[i, 0]
+            q1 += y * cq[i, 1]
+            q2 += y * cq[i, 2]
+        for c, e0 in enumerate((np.exp(p0 + q0), np.exp(p1 + q1), np.exp(p2 + q2))):
             out[k, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
 
 

@@ -20,6 +20,7 @@ arrays.
 
 import numpy as np
 
+from shbake.conventions import check_vectors
 from shbake.errors import ParameterError
 from shbake.sh.basis import real_sh
 from shbake.texture.cube import cube_directions, sample_cube
@@ -41,13 +42,8 @@ def _terms(shrm, kind: str) -> int:
 
 
 def _unit(v, name: str) -> np.ndarray:
-    v = np.asarray(v, dtype=float)
-    if v.shape[-1:] != (3,) or not np.all(np.isfinite(v)):
-        raise ParameterError(f"{name} must be finite (..., 3) vectors")
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    if np.any(n == 0.0):
-        raise ParameterError(f"{name} must be non-zero")
-    return v / n
+    d = check_vectors(v, name)
+    return d / np.sqrt(np.einsum("...i,...i->...", d, d))[..., None]
 
 
 def reflection_cube(shrm, view, kind: str = "surface") -> np.ndarray:
@@ -70,17 +66,21 @@ def reflection_cube(shrm, view, kind: str = "surface") -> np.ndarray:
 
 
 def reflect(normals, view) -> np.ndarray:
-    """Reflection vectors ``R = 2(n·V)n − V`` ``(N, 3)`` of unit normals about a view."""
-    n = _unit(normals, "normals")
-    v = np.broadcast_to(_unit(view, "view"), n.shape)
-    return 2.0 * np.sum(n * v, axis=-1, keepdims=True) * n - v
+    """Reflection vectors ``R = 2(n·V)n − V`` ``(..., 3)`` about one unit view ``V (3,)``;
+    the normals need not be unit (``n̂ = n/|n|`` enters as ``2 (n·V) n / (n·n)``)."""
+    n = check_vectors(normals, "normals")
+    v = _unit(view, "view")
+    if v.shape != (3,):
+        raise ParameterError(f"view must be one (3,) vector, got shape {v.shape}")
+    r = n * (2.0 * (n @ v) / (np.square(n) @ np.ones(3)))[..., None]
+    r -= v
+    return r
 
 
 def shade(cube, normals, view, tangents=None) -> np.ndarray:
     """Radiance ``(N, 3)``: the reflection cube of :func:`reflection_cube` read at ``R``
     (or at ``tangents`` for the tangent kind)."""
-    lookup = _unit(tangents, "tangents") if tangents is not None else reflect(normals, view)
-    return sample_cube(cube, lookup)
+    return sample_cube(cube, reflect(normals, view) if tangents is None else tangents)
 
 
 def evaluate_shrm(shrm, views, normals, kind: str = "surface", tangents=None) -> np.ndarray:

@@ -21,12 +21,11 @@ function: second-order inside faces and along edges, first-order only
 within half a texel of the eight corners.
 """
 
-import numba
 import numpy as np
 
-from shbake.conventions import CUBE_FACES
+from shbake.conventions import CUBE_FACES, check_vectors
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
+from shbake.jit import jit, run_blocks
 from shbake.texture.bilinear import axis, blend
 
 FACE_AXES = np.array([a for _, a in CUBE_FACES], dtype=np.float64)
@@ -113,9 +112,16 @@ def cube_bilinear(cube, axes, dx, dy, dz, out):
                 out[c] += w * _clamped_bilinear(cube, f2, x2, y2, c)
 
 
-@pjit
-def _sample_many(cube, axes, dirs, out):
-    for k in numba.prange(dirs.shape[0]):
+LOOKUP_BLOCK = 1024
+"""Directions per block of :func:`_sample_blocks` (the unit :func:`~shbake.jit.run_blocks`
+hands to a thread)."""
+
+
+@jit
+def _sample_blocks(cube, axes, dirs, out, b0, b1):
+    """:func:`cube_bilinear` at ``dirs[k]`` into ``out[k]`` for the directions of blocks
+    ``b0 … b1-1``. Check-free kernel."""
+    for k in range(b0 * LOOKUP_BLOCK, min(dirs.shape[0], b1 * LOOKUP_BLOCK)):
         cube_bilinear(cube, axes, dirs[k, 0], dirs[k, 1], dirs[k, 2], out[k])
 
 
@@ -128,12 +134,10 @@ def sample_cube(cube, dirs) -> np.ndarray:
     c = np.asarray(cube, dtype=np.float64)
     if c.ndim != 4 or c.shape[0] != 6 or c.shape[1] != c.shape[2] or c.shape[1] < 1:
         raise ParameterError(f"a cube map has shape (6, S, S, C), got {c.shape}")
-    d = np.asarray(dirs, dtype=np.float64)
-    if d.shape[-1:] != (3,) or not np.all(np.isfinite(d)):
-        raise ParameterError("cube lookup directions must be finite (..., 3) vectors")
+    d = check_vectors(dirs, "cube lookup directions")
     flat = np.ascontiguousarray(d.reshape(-1, 3))
-    if np.any(np.abs(flat).max(axis=1) == 0.0):
-        raise ParameterError("cube lookup directions must be non-zero")
     out = np.empty((flat.shape[0], c.shape[3]))
-    _sample_many(np.ascontiguousarray(c), FACE_AXES, flat, out)
+    n = flat.shape[0]
+    run_blocks(_sample_blocks, -(-n // LOOKUP_BLOCK), n * 40.0 * c.shape[3],
+               np.ascontiguousarray(c), FACE_AXES, flat, out)  # fmt: skip
     return out.reshape(d.shape[:-1] + (c.shape[3],))
