@@ -436,16 +436,16 @@ def _full_table(width: int, lmax: int) -> np.ndarray:
 
 def _row_sums_blas(img, lmax):
     """:func:`row_sums` by BLAS (no numba): rows converted to float64 channel-major in ~4 MB
-    chunks — one strided cast, ``(R, W, C) → (R, C, W)`` — and one ``(C × W) · (W × 2 lmax+1)``
-    matrix product per row against the whole-row table.
+    chunks — one strided cast, ``(R, W, C) → (R, C, W)`` — and one ``(R C × W) · (W × 2 lmax+1)``
+    matrix product per chunk against the whole-row table.
 
-    Per-row products, not one per chunk: OpenBLAS runs a product of more than
-    ~262 000 multiply-adds on its own thread pool, which busy-waits against the
-    other work of a loaded 2-core machine (SPEC §6): 2048×1024 at lmax 8 took
-    46 ms of the calling thread's CPU with one chunk-sized product per chunk
-    under load, against 9 ms idle; the per-row products (3 × 2048 × 17 = 104 000;
-    RGB rows up to 5140 wide at lmax 8) stay on the calling thread and took 8.8 ms
-    either way."""
+    One product per chunk, not per row: OpenBLAS's kernels for a 3-row product are slow
+    on some CPUs (AMD EPYC, 2048×1024 RGB lmax 8: 28.7 ms per-row against 9 per chunk;
+    equal on the Intel Xeon). A product of more than ~262 000 multiply-adds runs on
+    OpenBLAS's thread pool if it has one, whose busy-waiting made these sums 46 ms
+    instead of 9 on a loaded 2-core machine (SPEC §6): the ``shbake`` command gives
+    OpenBLAS one thread (``cli/__init__.py``), and library callers choose with
+    ``OPENBLAS_NUM_THREADS``."""
     h, w, nc = img.shape
     table = _full_table(w, lmax)
     out = np.empty((h, nc, 2 * lmax + 1))
@@ -455,7 +455,7 @@ def _row_sums_blas(img, lmax):
         r1 = min(h, r0 + rows)
         chunk = buf[: r1 - r0]
         np.copyto(chunk, img[r0:r1].transpose(0, 2, 1))
-        np.matmul(chunk, table, out=out[r0:r1])
+        np.matmul(chunk.reshape(-1, w), table, out=out[r0:r1].reshape(-1, 2 * lmax + 1))
     return out
 
 
