@@ -7,18 +7,28 @@ bracket ``α`` (:mod:`shbake.texture.octahedral`) and interpolated linearly in
 (:mod:`shbake.shading.dfg`).
 """
 
-import numba
 import numpy as np
 
-from shbake.jit import pjit
+from shbake.jit import jit, run_blocks
 from shbake.shading.dfg import dfg_at
 from shbake.texture.octahedral import fetch as oct_fetch
 
+PIXEL_BLOCK = 1024
+"""Shading points per block of :func:`_evaluate_blocks` (the unit
+:func:`~shbake.jit.run_blocks` hands to a thread)."""
 
-@pjit
-def _evaluate(views, normals, alphas, f0, flat_levels, offsets, sizes, a_levels, table, out):
+
+@jit
+def _evaluate_blocks(views, normals, alphas, f0, flat_levels, offsets, sizes, a_levels, table,
+                     out, b0, b1):  # fmt: skip
+    """Points ``b0·PIXEL_BLOCK … b1·PIXEL_BLOCK − 1`` of :func:`evaluate_splitsum`
+    (check-free kernel)."""
     n_levels = sizes.shape[0]
-    for k in numba.prange(views.shape[0]):
+    i_prev = -1
+    lv0 = lv1 = flat_levels[:3].reshape((1, 1, 3))
+    e0 = np.empty(3)
+    e1 = np.empty(3)
+    for k in range(b0 * PIXEL_BLOCK, min(views.shape[0], b1 * PIXEL_BLOCK)):
         vx, vy, vz = views[k, 0], views[k, 1], views[k, 2]
         nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
         nv = nx * vx + ny * vy + nz * vz
@@ -29,12 +39,16 @@ def _evaluate(views, normals, alphas, f0, flat_levels, offsets, sizes, a_levels,
             i0 += 1
         t = (a - a_levels[i0]) / (a_levels[i0 + 1] - a_levels[i0])
         a0, a1 = dfg_at(table, nv, alphas[k])
-        lv0 = flat_levels[offsets[i0] : offsets[i0 + 1]].reshape((sizes[i0], sizes[i0], 3))
-        lv1 = flat_levels[offsets[i0 + 1] : offsets[i0 + 2]].reshape(
-            (sizes[i0 + 1], sizes[i0 + 1], 3)
-        )
+        if i0 != i_prev:  # the bracketing levels as arrays, rebuilt when they change
+            i_prev = i0
+            lv0 = flat_levels[offsets[i0] : offsets[i0 + 1]].reshape((sizes[i0], sizes[i0], 3))
+            lv1 = flat_levels[offsets[i0 + 1] : offsets[i0 + 2]].reshape(
+                (sizes[i0 + 1], sizes[i0 + 1], 3)
+            )
+        oct_fetch(lv0, rx, ry, rz, e0)
+        oct_fetch(lv1, rx, ry, rz, e1)
         for c in range(3):
-            pre = (1 - t) * oct_fetch(lv0, rx, ry, rz, c) + t * oct_fetch(lv1, rx, ry, rz, c)
+            pre = (1 - t) * e0[c] + t * e1[c]
             out[k, c] = pre * (f0[c] * a0 + (1.0 - f0[c]) * a1)
 
 
@@ -52,7 +66,8 @@ def evaluate_splitsum(levels, level_alpha, table, views, normals, alpha, f0=(1.0
     a = np.broadcast_to(np.asarray(alpha, float), (v.shape[0],)).copy()
     out = np.empty((v.shape[0], 3))
     f0 = np.broadcast_to(np.asarray(f0, float), (3,)).copy()
-    _evaluate(
+    run_blocks(
+        _evaluate_blocks, -(-v.shape[0] // PIXEL_BLOCK), v.shape[0] * 60.0,
         v, n, a, f0, flat, offsets, sizes, np.asarray(level_alpha, float),
         np.asarray(table, float), out,
     )  # fmt: skip

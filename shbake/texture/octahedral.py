@@ -39,10 +39,13 @@ def encode(dx, dy, dz):
 
 
 @jit
-def fetch(level, dx, dy, dz, c):
-    """Channel ``c`` of a square octahedral map ``level (size, size, C)`` at unit ``d``."""
+def fetch(level, dx, dy, dz, out):
+    """``out[c]`` = every channel of a square octahedral map ``level (size, size, C)`` at
+    unit ``d`` (one address computation for all channels)."""
     size = level.shape[0]
     u, w = encode(dx, dy, dz)
     i0, i1, fy = axis(w * size - 0.5, size)
     j0, j1, fx = axis(u * size - 0.5, size)
-    return blend(level[i0, j0, c], level[i0, j1, c], level[i1, j0, c], level[i1, j1, c], fy, fx)
+    for c in range(out.shape[0]):
+        out[c] = blend(level[i0, j0, c], level[i0, j1, c], level[i1, j0, c], level[i1, j1, c],
+                       fy, fx)  # fmt: skip
