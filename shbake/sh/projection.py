@@ -328,7 +328,7 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
                 done = nj // LANES * LANES
                 for j in range(0, done, LANES):
                     col = j0 + j
-                    p = _prefetch_until(flat, p, min(nxt + 12 * (col + LANES), end))
+                    p = _prefetch_until(flat, p, min(nxt + 4 * nc * (col + LANES), end))
                     a0, a1, a2 = vload_channels(f, 3 * col, 3, False)
                     d0, d1, d2 = vload_channels(f, 3 * (half + col), 3, False)
                     b0_, b1_, b2_ = vload_channels(f, 3 * (w - col - LANES), 3, True)
