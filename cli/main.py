@@ -3,7 +3,10 @@
 Start-up (issue 15): a subcommand's module is imported only when that
 subcommand runs (``shbake project-env`` never imports the preview or the BRDF
 code), and a console-script run ends with ``os._exit`` once its outputs are
-closed, skipping the interpreter's teardown of numba, h5py and OpenImageIO.
+closed, skipping the interpreter's teardown of numba, h5py and OpenImageIO. The cyclic
+garbage collector is paused while the subcommand's modules load (they create ~100 000
+long-lived objects and no garbage: 6-8 ms of collections in ``project-env``), then what
+they created is frozen out of its scans and it runs again.
 
 Failures (issue 11): each subcommand runs as one output transaction, under the
 signal handlers, with errors mapped to one line by :mod:`shbake_cli.guard`.
@@ -51,7 +54,9 @@ class LazyGroup(click.Group):
         if target is None:
             return None
         module, attr = target.split(":")
-        return getattr(importlib.import_module(f"shbake_cli.{module}"), attr)
+        command = getattr(importlib.import_module(f"shbake_cli.{module}"), attr)
+        _end_start_up()
+        return command
 
     def invoke(self, ctx):
         return guarded_invoke(lambda: super(LazyGroup, self).invoke(ctx))
@@ -90,9 +95,9 @@ def main(argv=None) -> int:
     argv = list(argv)
     set_memory_budget(None)
     start_run()
+    if script:
+        _pause_collector_for_start_up()
     try:
-        if script:
-            gc.freeze()  # what is imported so far is never collected: skip scanning it
         code = run(
             lambda: cli.main(
                 args=argv, prog_name="shbake", standalone_mode=False, obj={"argv": argv}
@@ -100,12 +105,32 @@ def main(argv=None) -> int:
             argv,
         )
     finally:
+        _end_start_up()
         end_run()
         if script:
             exit_quietly_on_signal()
     if script:
         _fast_exit(code)
     return code
+
+
+_start_up = False
+
+
+def _pause_collector_for_start_up() -> None:
+    global _start_up
+    _start_up = True
+    gc.disable()
+
+
+def _end_start_up() -> None:
+    """After a console-script run's imports: freeze what they created (never collected,
+    never scanned again) and let the collector run."""
+    global _start_up
+    if _start_up:
+        _start_up = False
+        gc.freeze()
+        gc.enable()
 
 
 def _fast_exit(code: int) -> None:

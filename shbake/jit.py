@@ -41,8 +41,6 @@ prange = range
 """Use ``from shbake.jit import prange`` in :data:`pjit` kernels: it becomes ``numba.prange``
 when the kernel is compiled and stays ``range`` for the interpreted ``py_func``."""
 
-_local = threading.local()
-
 
 class LazyKernel:
     """A numba kernel compiled — or loaded from numba's on-disk cache — on its first call.
@@ -51,8 +49,7 @@ class LazyKernel:
     (~200 ms) is imported only when a kernel first runs, so a command whose
     options need no kernel (``--help``, a small-``lmax`` bake) never loads
     it. Calls from other kernels work as with a plain dispatcher (numba types
-    a ``LazyKernel`` as its dispatcher). ``py_func`` is the Python function;
-    inside ``with interpreted():`` calls run it instead (tiny jobs).
+    a ``LazyKernel`` as its dispatcher). ``py_func`` is the Python function.
     """
 
     def __init__(self, py_func, options: dict):
@@ -72,8 +69,6 @@ class LazyKernel:
         return self._dispatcher
 
     def __call__(self, *args):
-        if getattr(_local, "interpreted", False):
-            return self.py_func(*args)
         return self.dispatcher(*args)
 
     def __getattr__(self, name):  # signatures, inspect_asm, … of the dispatcher
@@ -95,22 +90,6 @@ def _lookup(module: str, qualname: str):
     for part in qualname.split("."):
         obj = getattr(obj, part)
     return obj
-
-
-class interpreted:
-    """Context manager: kernels called inside run as plain Python (no numba import).
-
-    For the few small jobs where interpreting is cheaper than loading numba
-    (a rotation at ``lmax ≤ 8`` during a small bake). Thread-local.
-    """
-
-    def __enter__(self):
-        self._prev = getattr(_local, "interpreted", False)
-        _local.interpreted = True
-        return self
-
-    def __exit__(self, *exc):
-        _local.interpreted = self._prev
 
 
 def wide_vectors() -> None:

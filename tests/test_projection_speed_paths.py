@@ -19,6 +19,7 @@ from shbake.envmap import load_environment
 from shbake.envmap.repair import apply_negative_policy
 from shbake.sh import projection
 from shbake.sh.projection import project_latlong
+from shbake.sh.rotation import SHRotation
 from tests.helpers import SHARED_MAPS, map_path
 from tests.test_projection import ducc0_project
 
@@ -117,6 +118,26 @@ class TestRowSums:
         direct = np.einsum("hwc,wk->hck", img.astype(np.float64), _direct_table(width, lmax))
         got = projection.row_sums(img, lmax)
         assert np.abs(got - direct).max() < 1e-12 * np.abs(direct).max()
+
+    @pytest.mark.parametrize("shape", [(300, 1030, 3), (7, 64, 1), (5, 33, 4)])
+    def test_blas_path_against_the_direct_sum(self, shape):
+        # Several ~4 MB chunks with a partial last one (1030 columns: 169 rows each), and
+        # one chunk for small images, each against the direct einsum.
+        img = np.random.default_rng(shape[1]).random(shape, dtype=np.float32) - 0.3
+        direct = np.einsum("hwc,wk->hck", img.astype(np.float64), _direct_table(shape[1], 8))
+        got = projection.row_sums(img, 8, method="blas")
+        assert np.abs(got - direct).max() < 1e-13 * np.abs(direct).max()
+
+
+class TestToWorldBlas:
+    @pytest.mark.parametrize("lmax", range(9))
+    def test_matches_the_rotation_recurrence(self, lmax):
+        # The quadrature matrix against the Ivanic–Ruedenberg blocks of SHRotation.
+        dense = SHRotation(projection.IMAGE_FRAME.T, lmax).dense()
+        got = projection._to_world_blas(lmax)
+        assert np.abs(got - dense).max() < 1e-14
+        bands = np.repeat(np.arange(lmax + 1), 2 * np.arange(lmax + 1) + 1)
+        assert np.all(got[bands[:, None] != bands[None, :]] == 0.0)
 
 
 def _direct_table(w, lmax):

@@ -96,3 +96,38 @@ class TestScriptExit:
             L = f["lighting/sh"][()]
         assert L.shape == (25, 3)
         np.testing.assert_allclose(summary["lighting_L00"], L[0])
+
+    def test_collector_paused_for_imports_then_running(self, tmp_path):
+        # A script run pauses the cyclic collector while the subcommand's modules load,
+        # then freezes what they created and turns it back on for the command itself.
+        probe = (
+            "import gc, json, os, sys\n"
+            "import shbake_cli.main as m\n"
+            "real_import = m.importlib.import_module\n"
+            "during = []\n"
+            "def watched_import(name):\n"
+            "    during.append(gc.isenabled())\n"
+            "    return real_import(name)\n"
+            "m.importlib = type('I', (), {'import_module': staticmethod(watched_import)})\n"
+            "def report(code):\n"
+            "    print(json.dumps({'code': code, 'during': during, 'enabled': gc.isenabled(),\n"
+            "                      'frozen': gc.get_freeze_count()}))\n"
+            "    sys.stdout.flush()\n"
+            "    os._exit(0)\n"
+            "m._fast_exit = report\n"
+            "sys.argv = ['shbake', *sys.argv[1:]]\n"
+            "m.main()\n"
+        )
+        out = tmp_path / "e.h5"
+        res = subprocess.run(
+            [sys.executable, "-c", probe, "project-env", map_path("city"), "-o", out, "-q"],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=ROOT,
+        )
+        state = json.loads(res.stdout.strip().splitlines()[-1])
+        assert state["code"] == 0, res.stderr
+        assert state["during"] == [False]
+        assert state["enabled"]
+        assert state["frozen"] > 10_000  # numpy, h5py, OpenImageIO and shbake's modules
