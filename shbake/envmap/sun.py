@@ -18,7 +18,7 @@ A map whose peak is less than ``min_contrast`` times the background has no
 compact light; nothing is extracted.
 """
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -27,8 +27,7 @@ from shbake.envmap.environment import Environment
 from shbake.errors import ParameterError
 
 
-@dataclass(frozen=True)
-class Sun:
+class Sun(NamedTuple):
     """A directional light: unit ``direction`` (toward the light, world frame),
     ``solid_angle`` (sr), ``radiance`` (RGB), ``energy = radiance × solid_angle``."""
 

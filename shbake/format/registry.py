@@ -38,7 +38,7 @@ import json
 import math
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -51,8 +51,7 @@ ATTR_TYPES = ("str", "int", "float", "bool", "json", "floats")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z_0-9]*$")
 
 
-@dataclass(frozen=True)
-class Attr:
+class Attr(NamedTuple):
     """One attribute: name, type (:data:`ATTR_TYPES`), meaning, whether it MUST be present.
 
     ``range``: inclusive ``(lo, hi)`` for ``int``/``float``; ``length``: required
@@ -70,8 +69,7 @@ class Attr:
     symbol: str | None = None
 
 
-@dataclass(frozen=True)
-class Data:
+class Data(NamedTuple):
     """One dataset (or family ``/name/{k}``): shape pattern, dtype, meaning.
 
     ``with_``: MUST be present when that other dataset is (and MAY otherwise).
@@ -90,8 +88,7 @@ class Data:
     values: Callable | None = None
 
 
-@dataclass(frozen=True)
-class Kind:
+class Kind(NamedTuple):
     """A registered asset kind."""
 
     name: str
