@@ -16,13 +16,13 @@ from shbake.brdf.tabulate import (
     SQRT_4PI,
     _integrate,
     clenshaw_curtis_unit,
-    gauss_legendre_unit,
     project_views,
     tabulate,
 )
 from shbake.errors import InputError, ParameterError
 from shbake.sh.basis import real_sh, recurrence_tables
 from shbake.sh.kernels import lambert_kernel
+from shbake.sh.point_sets import gauss_legendre_unit
 
 RNG = np.random.default_rng(3)
 

@@ -6,7 +6,7 @@ from helpers import gauss_legendre_sphere
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shbake.conventions import check_vectors
+from shbake.conventions import check_vectors, unit_vectors
 from shbake.errors import ParameterError
 from shbake.sh.basis import evaluate, real_sh, real_sh_numba
 
@@ -20,6 +20,24 @@ class TestCheckVectors:
                            ([[1.0, 0.0]], "last axis"), ([[np.nan, 1.0, 1.0]], "finite")):
             with pytest.raises(ParameterError, match=words):
                 check_vectors(bad, "normals")
+
+
+class TestUnitVectors:
+    def test_unit_length_at_any_magnitude(self):
+        # Scaled by the largest component first: tiny and huge vectors normalise exactly
+        # as their unit-scale twins (numpy's direct norm would underflow or overflow).
+        rng = np.random.default_rng(3)
+        v = rng.normal(size=(50, 3))
+        ref = v / np.sqrt(np.sum(v * v, axis=1, keepdims=True))
+        for scale in (1e-300, 1e-160, 1.0, 1e160, 1e300):
+            got = unit_vectors(v * scale)
+            np.testing.assert_allclose(got, ref, rtol=0, atol=4e-16)
+        assert unit_vectors(np.array([5e-324, 0.0, 0.0])).tolist() == [1.0, 0.0, 0.0]
+
+    def test_shape_kept_and_bad_vectors_refused(self):
+        assert unit_vectors(np.ones((2, 4, 3))).shape == (2, 4, 3)
+        with pytest.raises(ParameterError, match="non-zero"):
+            unit_vectors([[0.0, 0.0, 0.0]], "views")
 
 
 class TestRealSh:

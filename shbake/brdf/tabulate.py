@@ -64,6 +64,7 @@ from shbake.errors import ParameterError
 from shbake.jit import clock_ticks, jit, pjit, run_blocks
 from shbake.resources import check_memory
 from shbake.sh.basis import recurrence_tables, sh_eval_into
+from shbake.sh.point_sets import gauss_legendre_unit
 from shbake.texture.parabolic import check_resolution, texel_views
 
 MAX_SAMPLES_LIMIT = 1 << 22
@@ -567,12 +568,6 @@ def _nested_block(model, prm, data, has_lobe, views, order, lmax, qmm, a, b, ccw
                                views[iv, 2], lmax, qmm, a, b, ccw, ccoff, tol, max_samples,
                                line_cap, out[iv], hist[iv])  # fmt: skip
         steps[iv], errors[iv], used[iv] = s, e, m
-
-
-def gauss_legendre_unit(k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss–Legendre nodes and weights on ``[0, 1]``."""
-    x, w = np.polynomial.legendre.leggauss(k)
-    return 0.5 * (x + 1.0), 0.5 * w
 
 
 def radial_nodes(samples: int) -> int:

@@ -47,7 +47,7 @@ from functools import cache
 
 import numpy as np
 
-from shbake.conventions import check_lmax, check_vectors, lmax_of, n_coeffs
+from shbake.conventions import check_lmax, lmax_of, n_coeffs, unit_vectors
 from shbake.errors import ParameterError
 from shbake.jit import (
     LANES,
@@ -133,13 +133,6 @@ def legendre_next(alm, blm, z, q1, q2):
     return alm * (z * q1 - blm * q2)
 
 
-def _as_directions(dirs) -> np.ndarray:
-    d = check_vectors(dirs)
-    big = np.abs(d).max(axis=-1, keepdims=True)  # scale first: no underflow for tiny vectors
-    d = d / big
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
-
-
 def real_sh(dirs, lmax: int) -> np.ndarray:
     """Evaluate all real SH up to ``lmax`` at unit directions (vectorised numpy, no numba).
 
@@ -158,7 +151,7 @@ def real_sh(dirs, lmax: int) -> np.ndarray:
     ndarray, shape (..., (lmax+1)^2), float64
     """
     lmax = check_lmax(lmax)
-    d = _as_directions(dirs)
+    d = unit_vectors(dirs)
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     qmm, a, b = recurrence_tables(lmax)
     step = legendre_next.py_func

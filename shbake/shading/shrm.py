@@ -20,7 +20,7 @@ arrays.
 
 import numpy as np
 
-from shbake.conventions import check_vectors
+from shbake.conventions import check_vectors, unit_vectors
 from shbake.errors import ParameterError
 from shbake.sh.basis import real_sh
 from shbake.texture.cube import cube_directions, sample_cube
@@ -41,15 +41,10 @@ def _terms(shrm, kind: str) -> int:
     return P
 
 
-def _unit(v, name: str) -> np.ndarray:
-    d = check_vectors(v, name)
-    return d / np.sqrt(np.einsum("...i,...i->...", d, d))[..., None]
-
-
 def reflection_cube(shrm, view, kind: str = "surface") -> np.ndarray:
     """Eq. 12: the dynamic reflection cube map ``(6, S, S, 3)`` for one view ``V``."""
     P = _terms(shrm, kind)
-    v = _unit(view, "view")
+    v = unit_vectors(view, "view")
     if kind == "tangent":
         dirs = cube_directions(shrm.shape[1])
         x = np.clip(dirs @ v, -1.0, 1.0)
@@ -69,7 +64,7 @@ def reflect(normals, view) -> np.ndarray:
     """Reflection vectors ``R = 2(n·V)n − V`` ``(..., 3)`` about one unit view ``V (3,)``;
     the normals need not be unit (``n̂ = n/|n|`` enters as ``2 (n·V) n / (n·n)``)."""
     n = check_vectors(normals, "normals")
-    v = _unit(view, "view")
+    v = unit_vectors(view, "view")
     if v.shape != (3,):
         raise ParameterError(f"view must be one (3,) vector, got shape {v.shape}")
     r = n * (2.0 * (n @ v) / (np.square(n) @ np.ones(3)))[..., None]
@@ -90,17 +85,17 @@ def evaluate_shrm(shrm, views, normals, kind: str = "surface", tangents=None) ->
     at ``tangents``) and dotted with ``y(V)`` (``y_p0(T·V)``).
     """
     P = _terms(shrm, kind)
-    v = _unit(views, "views").reshape(-1, 3)
+    v = unit_vectors(views, "views").reshape(-1, 3)
     s = np.asarray(shrm, dtype=np.float64)
     flat = s.reshape(6, s.shape[1], s.shape[2], -1)
     if kind == "tangent":
-        t = _unit(tangents, "tangents").reshape(-1, 3)
+        t = unit_vectors(tangents, "tangents").reshape(-1, 3)
         coef = sample_cube(flat, t).reshape(-1, P + 1, 3)
         x = np.clip(np.sum(t * v, axis=1), -1.0, 1.0)
         d = np.stack([np.sqrt(1.0 - x * x), np.zeros_like(x), x], axis=-1)
         y = real_sh(d, P)[:, [p * (p + 1) for p in range(P + 1)]]
     else:
-        n = _unit(normals, "normals").reshape(-1, 3)
+        n = unit_vectors(normals, "normals").reshape(-1, 3)
         r = 2.0 * np.sum(n * v, axis=1, keepdims=True) * n - v
         coef = sample_cube(flat, r).reshape(-1, s.shape[3], 3)
         y = real_sh(v, P)
