@@ -36,5 +36,6 @@ def dfg_lookup(table, mu, alpha) -> np.ndarray:
     """``(A0, A1)`` at arrays ``μ``, GGX width ``α`` (broadcast), shape ``(…, 2)``."""
     m, rr = np.broadcast_arrays(np.asarray(mu, float), np.asarray(alpha, float))
     out = np.empty(m.shape + (2,))
-    _dfg_many(np.asarray(table, float), m.reshape(-1), rr.reshape(-1), out.reshape(-1, 2))
+    flat = [np.ascontiguousarray(x).reshape(-1) for x in (m, rr)]  # no read-only stride-0 view
+    _dfg_many(np.asarray(table, float), *flat, out.reshape(-1, 2))
     return out
