@@ -8,7 +8,6 @@ size, a sample count and a tolerance, ``--roughness`` is perceptual and
 """
 
 import functools
-import json
 import shlex
 import sys
 
@@ -298,6 +297,8 @@ def _default(o):
 
 def emit_json(summary: dict) -> None:
     """The ``--json`` summary: one JSON document on stdout."""
+    import json  # only --json needs it (start-up)
+
     try:
         sys.stdout.write(json.dumps(summary, sort_keys=True, default=_default) + "\n")
         sys.stdout.flush()

@@ -18,7 +18,6 @@ from shbake.envmap import load_environment
 from shbake.envmap import sun as sun_light
 from shbake.envmap.layouts import latlong_directions
 from shbake.errors import OutputError, ParameterError
-from shbake.evaluation.env_sh import irradiance_errors
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_png
@@ -169,6 +168,8 @@ def project_environment(
         if extract_sun and summary.get("sun", {}).get("extracted"):
             projected = sun_light.extract_sun(environment, radius_deg=sun_radius)[1]
         rep = truncation_report(projected, lmax, irradiance_lmax)
+        from shbake.evaluation.env_sh import irradiance_errors  # --report alone (start-up)
+
         rep["error_vs_brute_force"] = irradiance_errors(asset, environment, progress=progress)
         summary["report"] = rep
 

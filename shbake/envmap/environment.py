@@ -2,7 +2,6 @@
 
 import os
 import sys
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -18,7 +17,6 @@ from shbake.envmap.repair import apply_negative_policy, repair_nonfinite
 from shbake.sh.projection import fejer_row_weights, project_latlong, project_samples
 
 
-@dataclass
 class Environment:
     """Radiance on the sphere, stored as an image of a known layout.
 
@@ -32,9 +30,15 @@ class Environment:
         Provenance and input-policy record (path, SHA-256, counts).
     """
 
-    pixels: np.ndarray
-    layout: str
-    meta: dict = field(default_factory=dict)
+    __slots__ = ("pixels", "layout", "meta")
+
+    def __init__(self, pixels: np.ndarray, layout: str, meta: dict | None = None):
+        self.pixels = pixels
+        self.layout = layout
+        self.meta = {} if meta is None else meta
+
+    def __repr__(self) -> str:
+        return f"Environment({self.layout!r}, {self.pixels.shape})"
 
     @property
     def shape(self) -> tuple[int, int]:

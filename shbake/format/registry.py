@@ -34,7 +34,6 @@ then ``make format-doc`` writes its FORMAT.md section.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from collections.abc import Callable
@@ -246,6 +245,8 @@ def check_attr(spec: Attr, value, where: str, symbols: dict | None = None):
         return value
     if t == "json":
         if isinstance(value, str):
+            import json  # only assets with structured attributes need it (start-up)
+
             try:
                 value = json.loads(value)
             except ValueError:
