@@ -418,7 +418,7 @@ class TestBatch:
         from distributed import LocalCluster
 
         with LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1",
-                          dashboard_address=None) as cluster:  # fmt: skip
+                          dashboard_address=":0") as cluster:  # fmt: skip
             run_dask(jobs("dask"), cluster.scheduler_address)
         for i in range(len(probe_maps)):
             a = tmp_path / "one" / f"p{i}.h5"
