@@ -166,20 +166,35 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
     }
 
 
-def table_errors(brdf, lmax: int, size: int, samples: int, views=None, energy=None) -> dict:
-    """The three relative errors of a ``(lmax, size, samples)`` table (module docstring)."""
-    views = probe_views() if views is None else views
-    energy = product_energy(brdf, views, 256) if energy is None else energy
-    norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
-    ref, _ = project_views(brdf, views, lmax, samples=REFERENCE_SAMPLES)
-    got, _ = project_views(brdf, views, lmax, samples=samples)
-    kept = np.sum(ref * ref, axis=(1, 2))
-    trunc = float(np.mean(np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None)) / norm))
-    noise = float(np.mean(np.sqrt(np.sum((got - ref) ** 2, axis=(1, 2))) / norm))
-    table, _ = tabulate(brdf, lmax, (size, size), samples=samples)
-    look = float(np.mean(np.sqrt(np.sum((fetch(table, views) - got) ** 2, axis=(1, 2))) / norm))
-    return {"truncation": trunc, "samples": noise, "lookup": look,
-            "total": float(np.sqrt(trunc**2 + noise**2 + look**2))}  # fmt: skip
+class TableErrors:
+    """The three relative errors of ``(lmax, size, samples)`` tables (module docstring).
+
+    The truncation and sample terms do not depend on the table size and are
+    measured once, here (:attr:`truncation`, :attr:`samples`); :meth:`at`
+    adds the look-up term of one size.
+    """
+
+    def __init__(self, brdf, lmax: int, samples: int, views=None, energy=None):
+        self.brdf, self.lmax, self.sample_count = brdf, lmax, samples
+        self.views = probe_views() if views is None else views
+        energy = product_energy(brdf, self.views, 256) if energy is None else energy
+        self.norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
+        ref, _ = project_views(brdf, self.views, lmax, samples=REFERENCE_SAMPLES)
+        self.projected, _ = project_views(brdf, self.views, lmax, samples=samples)
+        kept = np.sum(ref * ref, axis=(1, 2))
+        lost = np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None))
+        self.truncation = float(np.mean(lost / self.norm))
+        noise = np.sqrt(np.sum((self.projected - ref) ** 2, axis=(1, 2)))
+        self.samples = float(np.mean(noise / self.norm))
+
+    def at(self, size: int) -> dict:
+        """``truncation``, ``samples``, ``lookup`` and their ``total`` for a ``size²`` table."""
+        table, _ = tabulate(self.brdf, self.lmax, (size, size), samples=self.sample_count)
+        diff = fetch(table, self.views) - self.projected
+        look = float(np.mean(np.sqrt(np.sum(diff**2, axis=(1, 2))) / self.norm))
+        total = float(np.sqrt(self.truncation**2 + self.samples**2 + look**2))
+        return {"truncation": self.truncation, "samples": self.samples, "lookup": look,
+                "total": total}  # fmt: skip
 
 
 def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> dict:
@@ -204,13 +219,14 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
             samples = s
             break
     t8 = _cold("brdf_table", tabulate, brdf, lmax, (8, 8), samples=samples)
-    chosen = None
-    for size in TABLE_SIZES:
-        errs = table_errors(brdf, lmax, size, samples, views, energy)
-        chosen = (size, errs)
+    errors = TableErrors(brdf, lmax, samples, views, energy)
+    sizes = TABLE_SIZES
+    if np.hypot(errors.truncation, errors.samples) > tol:
+        sizes = TABLE_SIZES[-1:]  # no size meets it: only the best one's error is reported
+    for size in sizes:
+        errs = errors.at(size)
         if errs["total"] <= tol:
             break
-    size, errs = chosen
     out = {
         "settings": {"model": model, "params": params, "merl": merl, "lmax": lmax,
                      "size": size, "samples": samples},  # fmt: skip

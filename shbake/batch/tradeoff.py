@@ -15,14 +15,15 @@ import os
 
 import numpy as np
 
+from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.batch.plan import (
     ERROR_LMAX,
     MAX_IRRADIANCE_LMAX,
     TABLE_LMAX,
     TABLE_SIZES,
+    TableErrors,
     _cold,
     irradiance_truncation,
-    table_errors,
 )
 from shbake.batch.scene import _param_strings
 from shbake.brdf import make_brdf
@@ -56,10 +57,13 @@ def env_sh_tradeoff(map_path: str, tol: float, sun: bool = True) -> dict:
 def brdf_table_tradeoff(model: str, params: dict, tol: float, samples: int = 256) -> dict:
     """Rows ``(lmax, size)`` over TABLE_LMAX × TABLE_SIZES[:3] at ``samples``."""
     brdf = make_brdf(model, **_param_strings(params))
+    views = probe_views()
+    energy = product_energy(brdf, views, 256)
     rows = []
     for L in TABLE_LMAX:
+        errors = TableErrors(brdf, L, samples, views, energy)
         for size in TABLE_SIZES[:3]:
-            errs = table_errors(brdf, L, size, samples)
+            errs = errors.at(size)
             rows.append({"setting": f"lmax {L} size {size}", "lmax": L, "size": size,
                          "samples": samples, "error": errs["total"], **{
                              f"{k}_error": v for k, v in errs.items() if k != "total"},
