@@ -171,15 +171,19 @@ class TableErrors:
 
     The truncation and sample terms do not depend on the table size and are
     measured once, here (:attr:`truncation`, :attr:`samples`); :meth:`at`
-    adds the look-up term of one size.
+    adds the look-up term of one size. ``reference``: the views projected at
+    :data:`REFERENCE_SAMPLES` to ``lmax`` or beyond, if the caller has it (a
+    coefficient's sum does not depend on the ``lmax`` it was projected with).
     """
 
-    def __init__(self, brdf, lmax: int, samples: int, views=None, energy=None):
+    def __init__(self, brdf, lmax: int, samples: int, views=None, energy=None, reference=None):
         self.brdf, self.lmax, self.sample_count = brdf, lmax, samples
         self.views = probe_views() if views is None else views
         energy = product_energy(brdf, self.views, 256) if energy is None else energy
         self.norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
-        ref, _ = project_views(brdf, self.views, lmax, samples=REFERENCE_SAMPLES)
+        if reference is None:
+            reference, _ = project_views(brdf, self.views, lmax, samples=REFERENCE_SAMPLES)
+        ref = reference[:, : n_coeffs(lmax)]
         self.projected, _ = project_views(brdf, self.views, lmax, samples=samples)
         kept = np.sum(ref * ref, axis=(1, 2))
         lost = np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None))
@@ -219,7 +223,7 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
             samples = s
             break
     t8 = _cold("brdf_table", tabulate, brdf, lmax, (8, 8), samples=samples)
-    errors = TableErrors(brdf, lmax, samples, views, energy)
+    errors = TableErrors(brdf, lmax, samples, views, energy, ref)
     sizes = TABLE_SIZES
     if np.hypot(errors.truncation, errors.samples) > tol:
         sizes = TABLE_SIZES[-1:]  # no size meets it: only the best one's error is reported

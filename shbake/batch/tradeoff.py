@@ -19,6 +19,7 @@ from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.batch.plan import (
     ERROR_LMAX,
     MAX_IRRADIANCE_LMAX,
+    REFERENCE_SAMPLES,
     TABLE_LMAX,
     TABLE_SIZES,
     TableErrors,
@@ -27,7 +28,7 @@ from shbake.batch.plan import (
 )
 from shbake.batch.scene import _param_strings
 from shbake.brdf import make_brdf
-from shbake.brdf.tabulate import tabulate
+from shbake.brdf.tabulate import project_views, tabulate
 from shbake.conventions import n_coeffs
 from shbake.envmap import load_environment
 from shbake.envmap.sun import extract_sun
@@ -59,9 +60,10 @@ def brdf_table_tradeoff(model: str, params: dict, tol: float, samples: int = 256
     brdf = make_brdf(model, **_param_strings(params))
     views = probe_views()
     energy = product_energy(brdf, views, 256)
+    ref, _ = project_views(brdf, views, max(TABLE_LMAX), samples=REFERENCE_SAMPLES)
     rows = []
     for L in TABLE_LMAX:
-        errors = TableErrors(brdf, L, samples, views, energy)
+        errors = TableErrors(brdf, L, samples, views, energy, ref)
         for size in TABLE_SIZES[:3]:
             errs = errors.at(size)
             rows.append({"setting": f"lmax {L} size {size}", "lmax": L, "size": size,
