@@ -11,7 +11,8 @@ status   meaning
 1        :class:`~shbake.errors.ShbakeError`, ``OSError``, ``MemoryError`` or
          any other failure: one line ``shbake: error: …``
 2        usage error (click)
-130/143  SIGINT / SIGTERM: ``shbake: error: interrupted``
+130/143  SIGINT / SIGTERM: ``shbake: error: interrupted`` (also when what fails
+         is a consequence of the signal, e.g. numba after an interrupted compile)
 =======  ===================================================================
 
 No traceback is printed unless ``SHBAKE_DEBUG=1``.
@@ -91,6 +92,14 @@ def _summarise(records, quiet: bool) -> None:
         click.echo(f"shbake: warning: and {len(seen) - MAX_WARNINGS} more kinds", err=True)
 
 
+def _interrupted() -> int:
+    """Remove the temporaries, print the one line (unless the watcher does), 130/143."""
+    atomic.abort_active()
+    if signals.claim_finish():
+        signals.finish_message()
+    return signals.exit_code()
+
+
 def _error(msg: str) -> None:
     try:
         click.echo(f"shbake: error: {msg}", err=True)
@@ -113,10 +122,7 @@ def run(call, argv) -> int:
             except click.exceptions.Abort:
                 raise KeyboardInterrupt from None
         except (Interrupted, KeyboardInterrupt):
-            atomic.abort_active()
-            if signals.claim_finish():
-                signals.finish_message()
-            return signals.exit_code()
+            return _interrupted()
         except click.exceptions.UsageError as e:
             _error(one_line(e.format_message()))
             return 2
@@ -126,6 +132,8 @@ def run(call, argv) -> int:
             _error(one_line(e.format_message()))
             return 1
         except BaseException as e:  # noqa: BLE001 - the one place every failure ends
+            if signals.received() is not None and not isinstance(e, SystemExit):
+                return _interrupted()  # a failure caused by a swallowed interrupt
             if isinstance(e, SystemExit):
                 return e.code if isinstance(e.code, int) else 1
             if os.environ.get("SHBAKE_DEBUG"):

@@ -4,8 +4,10 @@
 raise ``KeyboardInterrupt`` in the main thread, and a watcher thread fed by
 :func:`signal.set_wakeup_fd`: CPython's C handler writes the signal number there at once,
 even while the main thread is inside a numba kernel or an HDF5 write that holds no
-Python frame. The main thread normally unwinds, its transaction
-(:mod:`shbake.format.atomic`) removes every temporary, and the CLI prints
+Python frame. A ``KeyboardInterrupt`` that lands where Python cannot raise it (a finaliser,
+a ctypes callback while numba compiles) is dropped silently and whatever fails after it
+is reported as the interrupt (:func:`received` is set). The main thread normally unwinds,
+its transaction (:mod:`shbake.format.atomic`) removes every temporary, and the CLI prints
 ``shbake: error: interrupted`` and exits 130 (SIGINT) or 143 (SIGTERM). If it has not
 finished within :data:`GRACE_SECONDS` (a long native kernel), the watcher removes the
 temporaries itself, prints the same line and ends the process with ``os._exit``.
@@ -58,6 +60,21 @@ def _handler(signum, frame):
     if not _received:
         _received.append(signum)
     raise KeyboardInterrupt
+
+
+def _unraisable(hook):
+    """``sys.unraisablehook`` wrapper: the ``KeyboardInterrupt`` that :func:`_handler`
+    raised inside a finaliser or a ctypes callback (llvmlite calls back into Python while
+    numba compiles) cannot propagate; Python would print ``Exception ignored`` and go on.
+    The signal is recorded, so the run still stops (:func:`raise_if_interrupted`, the
+    watcher's grace period): the print is dropped, every other unraisable is passed on."""
+
+    def unraisable(info):
+        if _received and isinstance(info.exc_value, KeyboardInterrupt):
+            return
+        hook(info)
+
+    return unraisable
 
 
 def _watch(fd: int) -> None:
@@ -169,6 +186,7 @@ def install() -> bool:
     signal.set_wakeup_fd(w, warn_on_full_buffer=False)
     signal.signal(signal.SIGINT, _handler)
     signal.signal(signal.SIGTERM, _handler)
+    sys.unraisablehook = _unraisable(sys.unraisablehook)
     threading.Thread(target=_watch, args=(r,), name="shbake-signals", daemon=True).start()
     os.register_at_fork(after_in_child=_child_after_fork)
     _installed = True
