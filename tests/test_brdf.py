@@ -12,6 +12,7 @@ from helpers import write_merl
 
 from shbake.brdf import make_brdf
 from shbake.brdf.merl import half_diff_grid
+from shbake.brdf.model import MODELS
 from shbake.brdf.tabulate import (
     SQRT_4PI,
     _integrate,
@@ -307,6 +308,25 @@ class TestModelFormulas:
         np.testing.assert_allclose(
             b.evaluate(self.s, self.v), b.evaluate(self.v, self.s), rtol=1e-10
         )
+
+
+class TestBrdfEvalPdf:
+    """``brdf_eval_pdf`` (value and lobe density sharing one power term) returns exactly
+    what ``brdf_eval`` and ``lobe_pdf`` give apart, for every analytic model."""
+
+    @pytest.mark.parametrize("name", [m for m in MODELS if m != "merl"])
+    def test_bit_identical_to_the_two_calls(self, name):
+        from shbake.brdf.dispatch import brdf_eval, brdf_eval_pdf, lobe_pdf
+
+        b = make_brdf(name)
+        model, prm, data = b.spec.model_id, b.packed, b.data
+        fused, apart = np.empty(3), np.empty(3)
+        rng = np.random.default_rng(4)
+        for s, v in zip(hemi(200, rng), hemi(200, rng), strict=True):
+            p = brdf_eval_pdf(model, prm, data, *s, *v, fused)
+            brdf_eval(model, prm, data, *s, *v, apart)
+            assert p == lobe_pdf(model, prm, *s, *v)
+            assert np.array_equal(fused, apart)
 
 
 class TestMerl:

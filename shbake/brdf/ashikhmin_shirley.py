@@ -44,28 +44,62 @@ def _exponent(nu, nv, hx, hy, hz):
 
 
 @jit
+def _specular(nu, nv, power, kh, sz, vz):
+    """The specular term without Fresnel, ``power = (n·h)^e``, ``kh = k·h > 0`` (1/sr)."""
+    return np.sqrt((nu + 1.0) * (nv + 1.0)) / (8.0 * np.pi) * power / (kh * max(sz, vz))
+
+
+@jit
+def _density(nu, nv, power, kh):
+    """The lobe density over ``s`` (1/sr): ``p_h / (4 |k·h|)``, ``power = (n·h)^e``."""
+    ph = np.sqrt((nu + 1.0) * (nv + 1.0)) / (2.0 * np.pi) * power
+    return ph / (4.0 * kh)
+
+
+@jit
+def _channels(prm, spec, kh, sz, vz, out):
+    """``out[c] = ρ_s F + ρ_d`` from the specular term ``spec`` (``kh``: ``k·h``, Schlick)."""
+    fk = (1.0 - kh) ** 5 if spec > 0.0 else 0.0
+    dk = (1.0 - (1.0 - 0.5 * sz) ** 5) * (1.0 - (1.0 - 0.5 * vz) ** 5) * 28.0 / (23.0 * np.pi)
+    for c in range(3):
+        rs, rd = prm[2 + c], prm[5 + c]
+        out[c] = spec * (rs + (1.0 - rs) * fk) + rd * (1.0 - rs) * dk
+
+
+@jit
 def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
     """Radiometric BRDF value per channel; ``prm = (n_u, n_v, R_s[3], R_d[3])``."""
     nu, nv = prm[0], prm[1]
     hx, hy, hz = sx + vx, sy + vy, sz + vz
     norm = np.sqrt(hx * hx + hy * hy + hz * hz)
     spec = 0.0
-    fk = 0.0
+    kh = 0.0
     if norm > 0.0:
         hx, hy, hz = hx / norm, hy / norm, hz / norm
         kh = sx * hx + sy * hy + sz * hz
         if kh > 0.0 and hz > 0.0:
-            spec = (
-                np.sqrt((nu + 1.0) * (nv + 1.0))
-                / (8.0 * np.pi)
-                * safe_pow(hz, _exponent(nu, nv, hx, hy, hz))
-                / (kh * max(sz, vz))
-            )
-            fk = (1.0 - kh) ** 5
-    dk = (1.0 - (1.0 - 0.5 * sz) ** 5) * (1.0 - (1.0 - 0.5 * vz) ** 5) * 28.0 / (23.0 * np.pi)
-    for c in range(3):
-        rs, rd = prm[2 + c], prm[5 + c]
-        out[c] = spec * (rs + (1.0 - rs) * fk) + rd * (1.0 - rs) * dk
+            spec = _specular(nu, nv, safe_pow(hz, _exponent(nu, nv, hx, hy, hz)), kh, sz, vz)
+    _channels(prm, spec, kh, sz, vz, out)
+
+
+@jit
+def evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out):
+    """:func:`evaluate` into ``out`` and return :func:`pdf`, for ``s_z, v_z > 0``: both
+    share ``(n·h)^e``, computed once (bit-identical to the two calls)."""
+    nu, nv = prm[0], prm[1]
+    hx, hy, hz = sx + vx, sy + vy, sz + vz
+    norm = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / norm, hy / norm, hz / norm  # norm > 0, h_z > 0: s_z, v_z > 0
+    kh = sx * hx + sy * hy + sz * hz
+    spec = 0.0
+    p = 0.0
+    if kh != 0.0:
+        power = safe_pow(hz, _exponent(nu, nv, hx, hy, hz))
+        p = _density(nu, nv, power, abs(kh))
+        if kh > 0.0:
+            spec = _specular(nu, nv, power, kh, sz, vz)
+    _channels(prm, spec, kh, sz, vz, out)
+    return p
 
 
 @jit
@@ -103,9 +137,4 @@ def pdf(prm, sx, sy, sz, vx, vy, vz):
     kh = abs(sx * hx + sy * hy + sz * hz)
     if kh == 0.0:
         return 0.0
-    ph = (
-        np.sqrt((nu + 1.0) * (nv + 1.0))
-        / (2.0 * np.pi)
-        * safe_pow(hz, _exponent(nu, nv, hx, hy, hz))
-    )
-    return ph / (4.0 * kh)
+    return _density(nu, nv, safe_pow(hz, _exponent(nu, nv, hx, hy, hz)), kh)

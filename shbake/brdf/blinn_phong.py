@@ -30,16 +30,38 @@ SPEC = ModelSpec(
 
 
 @jit
-def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
-    """Radiometric BRDF value per channel; ``prm = (ρ_d[3], ρ_s[3], n)``."""
-    n = prm[6]
-    hx, hy, hz = sx + vx, sy + vy, sz + vz
-    norm = np.sqrt(hx * hx + hy * hy + hz * hz)
-    lobe = 0.0
-    if norm > 0.0:
-        lobe = (n + 8.0) / (8.0 * np.pi) * safe_pow(hz / norm, n)
+def _channels(prm, power, out):
+    """``out[c] = ρ_d/π + ρ_s (n+8)/(8π) power``, ``power = (n̂·h)^n``."""
+    lobe = (prm[6] + 8.0) / (8.0 * np.pi) * power
     for c in range(3):
         out[c] = prm[c] / np.pi + prm[3 + c] * lobe
+
+
+@jit
+def _density(n, power, vh):
+    """The lobe density over ``s`` (1/sr): ``(n+1)/(2π) (n̂·h)^n / (4 |v·h|)``."""
+    return (n + 1.0) / (2.0 * np.pi) * power / (4.0 * vh)
+
+
+@jit
+def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
+    """Radiometric BRDF value per channel; ``prm = (ρ_d[3], ρ_s[3], n)``."""
+    hx, hy, hz = sx + vx, sy + vy, sz + vz
+    norm = np.sqrt(hx * hx + hy * hy + hz * hz)
+    power = safe_pow(hz / norm, prm[6]) if norm > 0.0 else 0.0
+    _channels(prm, power, out)
+
+
+@jit
+def evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out):
+    """:func:`evaluate` into ``out`` and return :func:`pdf`, ``s_z, v_z > 0``: one power."""
+    hx, hy, hz = sx + vx, sy + vy, sz + vz
+    norm = np.sqrt(hx * hx + hy * hy + hz * hz)  # > 0: s_z, v_z > 0
+    hz /= norm
+    power = safe_pow(hz, prm[6])
+    _channels(prm, power, out)
+    vh = abs(vx * hx + vy * hy + vz * hz * norm) / norm
+    return _density(prm[6], power, vh) if vh != 0.0 else 0.0
 
 
 @jit
@@ -63,4 +85,4 @@ def pdf(prm, sx, sy, sz, vx, vy, vz):
     if vh == 0.0:
         return 0.0
     # the sampled half vector is ±(s+v)/|s+v|, whichever lies in the upper hemisphere
-    return (n + 1.0) / (2.0 * np.pi) * safe_pow(abs(hz), n) / (4.0 * vh)
+    return _density(n, safe_pow(abs(hz), n), vh)

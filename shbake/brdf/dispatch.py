@@ -1,9 +1,9 @@
 """One entry point per kernel operation, switching on the model id (check-free).
 
-The tabulation and preview kernels call :func:`brdf_eval`, :func:`lobe_sample`
-and :func:`lobe_pdf` with a model id, the packed parameter vector and, for
-measured data, the data array; a plain integer switch keeps every kernel a
-single cached compilation.
+The tabulation and preview kernels call :func:`brdf_eval`, :func:`lobe_sample`,
+:func:`lobe_pdf` and :func:`brdf_eval_pdf` (value and density at once) with a
+model id, the packed parameter vector and, for measured data, the data array; a
+plain integer switch keeps every kernel a single cached compilation.
 """
 
 from shbake.brdf import (
@@ -44,6 +44,24 @@ def brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, out):
         lafortune.evaluate(prm, sx, sy, sz, vx, vy, vz, out)
     else:
         merl.evaluate_data(data, sx, sy, sz, vx, vy, vz, out)
+
+
+@jit
+def brdf_eval_pdf(model, prm, data, sx, sy, sz, vx, vy, vz, out):
+    """:func:`brdf_eval` into ``out`` and return :func:`lobe_pdf`, ``s_z, v_z > 0``.
+
+    Models whose value and density share a power term (Phong, Blinn–Phong,
+    Ashikhmin–Shirley) compute it once: the tabulation's mixture weights need both at
+    every node, and the power (an ``exp`` and a ``log``) is most of a node's cost.
+    """
+    if model == 1:
+        return phong.evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out)
+    if model == 2:
+        return blinn_phong.evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out)
+    if model == 3:
+        return ashikhmin_shirley.evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out)
+    brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, out)
+    return lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz)
 
 
 @jit

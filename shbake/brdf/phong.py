@@ -29,12 +29,37 @@ SPEC = ModelSpec(
 
 
 @jit
-def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
-    """Radiometric BRDF value per channel; ``prm = (ρ_d[3], ρ_s[3], n)``."""
-    n = prm[6]
-    lobe = (n + 2.0) / (2.0 * np.pi) * safe_pow(-vx * sx - vy * sy + vz * sz, n)
+def _mirror_power(n, sx, sy, sz, vx, vy, vz):
+    """``max(0, r·s)^n``, ``r = (−v_x, −v_y, v_z)``: the lobe shared by value and density."""
+    return safe_pow(-vx * sx - vy * sy + vz * sz, n)
+
+
+@jit
+def _channels(prm, power, out):
+    """``out[c] = ρ_d/π + ρ_s (n+2)/(2π) power``."""
+    lobe = (prm[6] + 2.0) / (2.0 * np.pi) * power
     for c in range(3):
         out[c] = prm[c] / np.pi + prm[3 + c] * lobe
+
+
+@jit
+def _mirror_density(n, power):
+    """The lobe density ``(n+1)/(2π) cos^n α`` from ``power = cos^n α`` (1/sr)."""
+    return (n + 1.0) / (2.0 * np.pi) * power
+
+
+@jit
+def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
+    """Radiometric BRDF value per channel; ``prm = (ρ_d[3], ρ_s[3], n)``."""
+    _channels(prm, _mirror_power(prm[6], sx, sy, sz, vx, vy, vz), out)
+
+
+@jit
+def evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out):
+    """:func:`evaluate` into ``out`` and return :func:`pdf`: one power for both."""
+    power = _mirror_power(prm[6], sx, sy, sz, vx, vy, vz)
+    _channels(prm, power, out)
+    return _mirror_density(prm[6], power)
 
 
 @jit
@@ -47,7 +72,7 @@ def mirror_lobe_sample(n, vx, vy, vz, ur, ua):
 @jit
 def mirror_lobe_pdf(n, sx, sy, sz, vx, vy, vz):
     """Density of :func:`mirror_lobe_sample` (1/sr)."""
-    return (n + 1.0) / (2.0 * np.pi) * safe_pow(-vx * sx - vy * sy + vz * sz, n)
+    return _mirror_density(n, _mirror_power(n, sx, sy, sz, vx, vy, vz))
 
 
 @jit

@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from shbake.brdf.dispatch import brdf_eval, lobe_pdf, lobe_sample
+from shbake.brdf.dispatch import brdf_eval, brdf_eval_pdf, lobe_sample
 from shbake.brdf.model import BRDF
 from shbake.brdf.sampling import cosine_pdf
 from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, check_lmax, n_coeffs
@@ -206,8 +206,9 @@ def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, 
                 w = w_r * sz
                 if has_lobe:
                     pc = cosine_pdf(sz)
-                    w *= pc / (pc + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz))
-                brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
+                    w *= pc / (pc + brdf_eval_pdf(model, prm, data, sx, sy, sz, vx, vy, vz, f))
+                else:
+                    brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
                 sh_eval_into(sx, sy, sz, lmax, qmm, a, b, y)
                 for i in range(n):
                     yw = y[i] * w
@@ -226,11 +227,10 @@ def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, 
                     sx, sy, sz = lobe_sample(model, prm, vx, vy, vz, ur, ua)
                     if sz <= 0.0:
                         continue
-                    p = cosine_pdf(sz) + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz)
+                    p = cosine_pdf(sz) + brdf_eval_pdf(model, prm, data, sx, sy, sz, vx, vy, vz, f)
                     if p <= 0.0:
                         continue
                     w = (u1 - u0) * gw[ir] * weights[ia] * sz / p
-                    brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
                     sh_eval_into(sx, sy, sz, lmax, qmm, a, b, y)
                     for i in range(n):
                         yw = y[i] * w
@@ -282,35 +282,35 @@ def cc_tables(levels: int = R_MAX_LEVEL) -> tuple[np.ndarray, np.ndarray]:
 
 
 @jit
-def _point(kind, model, prm, data, has_lobe, vx, vy, vz, ca, sa, u0, u1, x, f):
+def _point(kind, model, prm, data, has_lobe, vx, vy, vz, ca, sa, u0, u1, x, st, sz, f):
     """One node of a rule: its weight (``0``: skip) and direction; ``f`` gets ``f(s, v)``.
 
-    Hemisphere (``kind`` 0): ``θ = x`` on the line ``(cos φ, sin φ) = (ca, sa)``,
-    weight ``sin θ cos θ · p_c/(p_c + p_l)``. Lobe (``kind`` 1): ``u_r = u0 + (u1 − u0) x``
-    on the line ``u_a = ca``, weight ``(u1 − u0) s_z/(p_c + p_l)``.
+    Hemisphere (``kind`` 0): ``θ = x`` (``st, sz = sin θ, cos θ``, once per row) on the
+    line ``(cos φ, sin φ) = (ca, sa)``, weight ``sin θ cos θ · p_c/(p_c + p_l)``. Lobe
+    (``kind`` 1): ``u_r = u0 + (u1 − u0) x`` on the line ``u_a = ca``, weight
+    ``(u1 − u0) s_z/(p_c + p_l)``.
     """
     if kind == 0:
         if x <= 0.0 or x >= HALF_PI:  # the pole (sin θ = 0) and the horizon (s_z = 0)
             return 0.0, 0.0, 0.0, 0.0
-        st, sz = np.sin(x), np.cos(x)
         sx, sy = st * ca, st * sa
         w = st * sz
         if has_lobe:
             pc = cosine_pdf(sz)
-            w *= pc / (pc + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz))
-    else:
-        if u1 <= u0:
-            return 0.0, 0.0, 0.0, 0.0
-        ur = min(u0 + (u1 - u0) * x, UR_TOP)
-        sx, sy, sz = lobe_sample(model, prm, vx, vy, vz, ur, ca)
-        if not sz > 0.0:
-            return 0.0, 0.0, 0.0, 0.0
-        p = cosine_pdf(sz) + lobe_pdf(model, prm, sx, sy, sz, vx, vy, vz)
-        if not p > 0.0:
-            return 0.0, 0.0, 0.0, 0.0
-        w = (u1 - u0) * sz / p
-    brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
-    return w, sx, sy, sz
+            w *= pc / (pc + brdf_eval_pdf(model, prm, data, sx, sy, sz, vx, vy, vz, f))
+        else:
+            brdf_eval(model, prm, data, sx, sy, sz, vx, vy, vz, f)
+        return w, sx, sy, sz
+    if u1 <= u0:
+        return 0.0, 0.0, 0.0, 0.0
+    ur = min(u0 + (u1 - u0) * x, UR_TOP)
+    sx, sy, sz = lobe_sample(model, prm, vx, vy, vz, ur, ca)
+    if not sz > 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    p = cosine_pdf(sz) + brdf_eval_pdf(model, prm, data, sx, sy, sz, vx, vy, vz, f)
+    if not p > 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    return (u1 - u0) * sz / p, sx, sy, sz
 
 
 @jit
@@ -324,9 +324,10 @@ def _fill(kind, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b,
     n = (lmax + 1) * (lmax + 1)
     for r in range(r0, r1):
         x = rx[r]
+        st, ct = (np.sin(x), np.cos(x)) if kind == 0 else (0.0, 0.0)
         for j in range(j0, j1):
             w, sx, sy, sz = _point(kind, model, prm, data, has_lobe, vx, vy, vz,
-                                   lc[j], ls[j], lu0[j], lu1[j], x, f)  # fmt: skip
+                                   lc[j], ls[j], lu0[j], lu1[j], x, st, ct, f)  # fmt: skip
             if w == 0.0:
                 continue
             w *= lw[j] * rj[r]
@@ -691,33 +692,6 @@ def project_views(
     conv = Convergence(2 * n_half, float(errors.max()), seconds, history)
     conv.view_errors = errors
     conv.view_samples = np.full(v.shape[0], 2 * n_half, dtype=np.int64)
-    return coeffs, conv
-    active = np.arange(v.shape[0])
-    N = max(samples // 2, 8)
-    prev = run(active, N)
-    coeffs = np.empty_like(prev)
-    errors = np.zeros(v.shape[0])
-    used = np.zeros(v.shape[0], dtype=np.int64)
-    history = []
-    while True:
-        N *= 2
-        cur = run(active, N)
-        err = SQRT_4PI * np.max(np.abs(cur - prev), axis=(1, 2))
-        coeffs[active], errors[active], used[active] = cur, err, N
-        history.append(
-            {
-                "samples": N,
-                "views": int(active.size),
-                "error_estimate": float(err.max()),
-                "seconds": time.perf_counter() - t0,
-            }
-        )
-        if progress is not None:
-            progress(N, float(errors.max()))
-        break
-    conv = Convergence(int(used.max()), float(errors.max()), time.perf_counter() - t0, history)
-    conv.view_errors = errors
-    conv.view_samples = used
     return coeffs, conv
 
 
