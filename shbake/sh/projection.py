@@ -32,6 +32,7 @@ from shbake.errors import ParameterError
 from shbake.jit import (
     LANES,
     aligned_empty,
+    inline_into_callers,
     jit,
     prefetch,
     run_blocks,
@@ -118,24 +119,27 @@ _FAST = {"reassoc", "contract"}
 _U = np.uint64
 
 
-@jit(inline="always")
+@jit
 def _prefetch_until(flat, p, stop):
     """Request the cache lines from ``flat[p]`` up to ``flat[stop]``; returns the next ``p``."""
+    inline_into_callers()
     while p < stop:
         prefetch(flat, p)
         p += 64 // flat.itemsize
     return p
 
 
-@jit(fastmath=_FAST, inline="always")
+@jit(fastmath=_FAST)
 def _accumulate(accv, row, v):
     """``accv[row] += v`` for a ``LANES``-wide row of partial sums."""
+    inline_into_callers()
     vstore(accv, row * LANES, vload(accv, row * LANES) + v)
 
 
-@jit(fastmath=_FAST, inline="always")
+@jit(fastmath=_FAST)
 def _butterfly4(a, b, c, d, buf, ch, j):
     """Fold the values of columns ``j, W-1-j, W/2-1-j, W/2+j`` (see :func:`_row_sums_quarter`)."""
+    inline_into_callers()
     sab = a + b
     scd = c + d
     dab = a - b
@@ -146,9 +150,10 @@ def _butterfly4(a, b, c, d, buf, ch, j):
     buf[3, ch, j] = dab + dcd
 
 
-@jit(fastmath=_FAST, inline="always")
+@jit(fastmath=_FAST)
 def _butterfly4_vectors(a, b, c, d, buf, ch, j):
     """:func:`_butterfly4` on ``LANES`` columns ``j …`` at once (vectors ``a, b, c, d``)."""
+    inline_into_callers()
     nc = buf.shape[1]
     cb = COLUMN_BLOCK
     sab = a + b
@@ -161,15 +166,16 @@ def _butterfly4_vectors(a, b, c, d, buf, ch, j):
     vstore(buf, (3 * nc + ch) * cb + j, dab + dcd)
 
 
-@jit(inline="always")
+@jit
 def _coeff_index(m, sine):
     """Row-sum column of ``cos(mφ')`` (``2m-1``; 0 for m = 0) or ``sin(mφ')`` (``2m``)."""
+    inline_into_callers()
     if sine:
         return 2 * m
     return 0 if m == 0 else 2 * m - 1
 
 
-@jit(fastmath=_FAST, inline="always")
+@jit(fastmath=_FAST)
 def _dots(buf, kind, nv, j0, table, m, nm, accv, sine):
     """``accv[c, k(m')] += Σ_j buf[kind, c, j] table[m', j0+j]`` for ``m' = m, m+2, … < nm``.
 
@@ -179,6 +185,7 @@ def _dots(buf, kind, nv, j0, table, m, nm, accv, sine):
     (7 vector loads per 12 multiply-adds), 1 channel × 4 ``m`` otherwise, then
     single ``m``. Check-free kernel.
     """
+    inline_into_callers()
     nc = buf.shape[1]
     cb = COLUMN_BLOCK
     stride = table.shape[1]
