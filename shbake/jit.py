@@ -7,9 +7,9 @@ tick counter for timing inside kernels), and explicit vectors of :data:`LANES` d
 :func:`vload`, :func:`vstore`, :func:`vsplat`, :func:`vsum`, :func:`vload_channels`
 (split interleaved float32/float64 pixels into per-channel vectors, optionally in
 reversed pixel order) and ``+ - *`` on them — for kernels whose state must stay in
-registers across loops LLVM would not vectorise (runtime trip counts inside the per-
-direction work) or whose shuffles it would not find. They are registered with numba when
-it is first loaded. :func:`aligned_empty` gives 64-byte-aligned scratch.
+registers across loops LLVM would not vectorise (runtime trip counts inside the
+per-direction work) or whose shuffles it would not find. They are registered with numba
+when it is first loaded. :func:`aligned_empty` gives 64-byte-aligned scratch.
 
 Kernels are check-free: they assume the caller (a public Python function)
 validated shapes, dtypes and ranges, and say so in their docstrings.
