@@ -329,6 +329,24 @@ class TestBrdfEvalPdf:
             assert np.array_equal(fused, apart)
 
 
+class TestLobeSampleOnLine:
+    """``lobe_sample_on_line`` after ``lobe_line`` (a sample's per-line part computed once)
+    gives exactly ``lobe_sample``, for every analytic model."""
+
+    @pytest.mark.parametrize("name", [m for m in MODELS if m != "merl"])
+    def test_bit_identical_to_lobe_sample(self, name):
+        from shbake.brdf.dispatch import lobe_line, lobe_sample, lobe_sample_on_line
+
+        b = make_brdf(name)
+        model, prm = b.spec.model_id, b.packed
+        rng = np.random.default_rng(5)
+        for v, (ur, ua) in zip(hemi(100, rng), rng.random((100, 2)), strict=True):
+            la, lb = lobe_line(model, prm, ua)
+            assert lobe_sample_on_line(model, prm, *v, ur, la, lb) == lobe_sample(
+                model, prm, *v, ur, ua
+            )
+
+
 class TestMerl:
     def test_round_trip_of_analytic_model(self, merl_file):
         path, ggx = merl_file

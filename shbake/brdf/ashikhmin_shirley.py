@@ -105,6 +105,12 @@ def evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out):
 @jit
 def sample(prm, vx, vy, vz, ur, ua):
     """Half vector from the paper's eq. 9–10 (``ua`` → azimuth by quadrant, ``ur`` → polar)."""
+    return sample_on_line(prm, vx, vy, vz, ur, *line(prm, ua))
+
+
+@jit
+def line(prm, ua):
+    """The part of :func:`sample` fixed by ``u_a``: ``cos φ, sin φ`` of the half vector (eq. 9)."""
     nu, nv = prm[0], prm[1]
     q = min(int(4.0 * ua), 3)
     xi = 4.0 * ua - q
@@ -117,7 +123,13 @@ def sample(prm, vx, vy, vz, ur, ua):
         phi = np.pi + phi
     elif q == 3:
         phi = 2.0 * np.pi - phi
-    c, s = np.cos(phi), np.sin(phi)
+    return np.cos(phi), np.sin(phi)
+
+
+@jit
+def sample_on_line(prm, vx, vy, vz, ur, c, s):
+    """:func:`sample` on the line ``(c, s) = line(prm, u_a)``: the polar angle (eq. 10)."""
+    nu, nv = prm[0], prm[1]
     ct = (1.0 - ur) ** (1.0 / (nu * c * c + nv * s * s + 1.0))
     st = np.sqrt(max(0.0, 1.0 - ct * ct))
     return reflect_about(st * c, st * s, ct, vx, vy, vz)

@@ -9,7 +9,8 @@ Lobe sampling: half vector with density ``(n+1)/(2π) (n̂·h)^n``, reflected.
 
 import numpy as np
 
-from shbake.brdf.sampling import TWO_PI, lobe_frame_dir, reflect_about, safe_pow
+from shbake.brdf.phong import line
+from shbake.brdf.sampling import lobe_frame_dir, reflect_about, safe_pow
 from shbake.brdf.spec import ModelSpec, Param
 from shbake.jit import jit
 
@@ -67,8 +68,14 @@ def evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out):
 @jit
 def sample(prm, vx, vy, vz, ur, ua):
     """Reflect ``v`` about a half vector drawn with density ``∝ (n̂·h)^n``."""
+    return sample_on_line(prm, vx, vy, vz, ur, *line(ua))
+
+
+@jit
+def sample_on_line(prm, vx, vy, vz, ur, cphi, sphi):
+    """:func:`sample` on the line ``(cphi, sphi) = line(u_a)`` (the half vector's azimuth)."""
     ct = ur ** (1.0 / (prm[6] + 1.0))
-    hx, hy, hz = lobe_frame_dir(0.0, 0.0, 1.0, ct, TWO_PI * ua)
+    hx, hy, hz = lobe_frame_dir(0.0, 0.0, 1.0, ct, cphi, sphi)
     return reflect_about(hx, hy, hz, vx, vy, vz)
 
 

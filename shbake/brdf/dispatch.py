@@ -1,7 +1,8 @@
 """One entry point per kernel operation, switching on the model id (check-free).
 
 The tabulation and preview kernels call :func:`brdf_eval`, :func:`lobe_sample`,
-:func:`lobe_pdf` and :func:`brdf_eval_pdf` (value and density at once) with a
+:func:`lobe_pdf`, :func:`brdf_eval_pdf` (value and density at once) and
+:func:`lobe_line` / :func:`lobe_sample_on_line` (a sample's per-line part once) with a
 model id, the packed parameter vector and, for measured data, the data array; a
 plain integer switch keeps every kernel a single cached compilation.
 """
@@ -84,6 +85,36 @@ def lobe_sample(model, prm, vx, vy, vz, ur, ua):
     if model == 9:
         return lafortune.sample(prm, vx, vy, vz, ur, ua)
     return merl.sample(prm, vx, vy, vz, ur, ua)
+
+
+@jit
+def lobe_line(model, prm, ua):
+    """The part of :func:`lobe_sample` fixed by ``ua``, as two numbers for
+    :func:`lobe_sample_on_line` (``(ua, 0)`` for models without such a part).
+
+    The tabulation's lobe rule samples along lines of constant ``ua``; models whose
+    sample separates (Phong, Blinn–Phong: ``cos, sin`` of the azimuth;
+    Ashikhmin–Shirley: of its eq. 9 azimuth, an ``arctan``/``tan``) compute it once per line.
+    """
+    if model == 1:
+        return phong.line(ua)
+    if model == 2:
+        return phong.line(ua)  # Blinn–Phong: the same azimuth
+    if model == 3:
+        return ashikhmin_shirley.line(prm, ua)
+    return ua, 0.0
+
+
+@jit
+def lobe_sample_on_line(model, prm, vx, vy, vz, ur, la, lb):
+    """:func:`lobe_sample` with ``(la, lb) = lobe_line(model, prm, ua)`` (bit-identical)."""
+    if model == 1:
+        return phong.sample_on_line(prm, vx, vy, vz, ur, la, lb)
+    if model == 2:
+        return blinn_phong.sample_on_line(prm, vx, vy, vz, ur, la, lb)
+    if model == 3:
+        return ashikhmin_shirley.sample_on_line(prm, vx, vy, vz, ur, la, lb)
+    return lobe_sample(model, prm, vx, vy, vz, ur, la)
 
 
 @jit

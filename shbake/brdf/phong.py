@@ -65,8 +65,27 @@ def evaluate_pdf(prm, sx, sy, sz, vx, vy, vz, out):
 @jit
 def mirror_lobe_sample(n, vx, vy, vz, ur, ua):
     """Direction with density ``(n+1)/(2π) cos^n α`` about the mirror direction of ``v``."""
+    return _mirror_sample_cs(n, vx, vy, vz, ur, *line(ua))
+
+
+@jit
+def _mirror_sample_cs(n, vx, vy, vz, ur, cphi, sphi):
+    """:func:`mirror_lobe_sample` with the azimuth's cosine and sine given."""
     ct = ur ** (1.0 / (n + 1.0))
-    return lobe_frame_dir(-vx, -vy, vz, ct, TWO_PI * ua)
+    return lobe_frame_dir(-vx, -vy, vz, ct, cphi, sphi)
+
+
+@jit
+def line(ua):
+    """The part of :func:`sample` fixed by ``u_a``: ``cos, sin`` of the azimuth ``2π u_a``."""
+    phi = TWO_PI * ua
+    return np.cos(phi), np.sin(phi)
+
+
+@jit
+def sample_on_line(prm, vx, vy, vz, ur, cphi, sphi):
+    """:func:`sample` on the line ``(cphi, sphi) = line(u_a)``."""
+    return _mirror_sample_cs(prm[6], vx, vy, vz, ur, cphi, sphi)
 
 
 @jit

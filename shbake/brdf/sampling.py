@@ -45,11 +45,12 @@ def surface_frame(vx, vy, vz, nx, ny, nz):
 
 
 @jit
-def lobe_frame_dir(ax, ay, az, ct, phi):
-    """Direction at polar angle ``acos(ct)``, azimuth ``phi`` about the unit axis ``a``."""
+def lobe_frame_dir(ax, ay, az, ct, cphi, sphi):
+    """Direction at polar angle ``acos(ct)`` about the unit axis ``a``, azimuth ``φ`` given
+    by ``cphi, sphi = cos φ, sin φ``."""
     st = np.sqrt(max(0.0, 1.0 - ct * ct))
     (tx, ty, tz), (bx, by, bz) = tangent_frame(ax, ay, az)
-    cp, sp = np.cos(phi) * st, np.sin(phi) * st
+    cp, sp = cphi * st, sphi * st
     return (
         cp * tx + sp * bx + ct * ax,
         cp * ty + sp * by + ct * ay,

@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from shbake.brdf.dispatch import brdf_eval, brdf_eval_pdf, lobe_sample
+from shbake.brdf.dispatch import brdf_eval, brdf_eval_pdf, lobe_line, lobe_sample_on_line
 from shbake.brdf.model import BRDF
 from shbake.brdf.sampling import cosine_pdf
 from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, check_lmax, n_coeffs
@@ -78,8 +78,9 @@ def _horizon_span(model, prm, vx, vy, vz, ua):
 
     Assumes at most one crossing along the line; ``(0, 0)`` if none is above.
     """
-    lo_up = lobe_sample(model, prm, vx, vy, vz, 0.0, ua)[2] > 0.0
-    hi_up = lobe_sample(model, prm, vx, vy, vz, 1.0 - 1e-12, ua)[2] > 0.0
+    la, lb = lobe_line(model, prm, ua)
+    lo_up = lobe_sample_on_line(model, prm, vx, vy, vz, 0.0, la, lb)[2] > 0.0
+    hi_up = lobe_sample_on_line(model, prm, vx, vy, vz, 1.0 - 1e-12, la, lb)[2] > 0.0
     if lo_up and hi_up:
         return 0.0, 1.0
     if not lo_up and not hi_up:
@@ -87,7 +88,7 @@ def _horizon_span(model, prm, vx, vy, vz, ua):
     a, b = 0.0, 1.0 - 1e-12
     for _ in range(48):
         m = 0.5 * (a + b)
-        if (lobe_sample(model, prm, vx, vy, vz, m, ua)[2] > 0.0) == lo_up:
+        if (lobe_sample_on_line(model, prm, vx, vy, vz, m, la, lb)[2] > 0.0) == lo_up:
             a = m
         else:
             b = m
@@ -103,9 +104,10 @@ STEP_JUMP = 0.25
 @jit
 def _first_step_rise(model, prm, vx, vy, vz, ua):
     """``s_z(u_r = ε, u_a) − s_z(0, u_a)``: whether the lobe line starts upwards."""
+    la, lb = lobe_line(model, prm, ua)
     return (
-        lobe_sample(model, prm, vx, vy, vz, FIRST_STEP, ua)[2]
-        - lobe_sample(model, prm, vx, vy, vz, 0.0, ua)[2]
+        lobe_sample_on_line(model, prm, vx, vy, vz, FIRST_STEP, la, lb)[2]
+        - lobe_sample_on_line(model, prm, vx, vy, vz, 0.0, la, lb)[2]
     )
 
 
@@ -222,9 +224,10 @@ def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, 
                 u0, u1 = _horizon_span(model, prm, vx, vy, vz, ua)
                 if u1 <= u0:
                     continue
+                la, lb = lobe_line(model, prm, ua)
                 for ir in range(gx.shape[0]):
                     ur = u0 + (u1 - u0) * gx[ir]
-                    sx, sy, sz = lobe_sample(model, prm, vx, vy, vz, ur, ua)
+                    sx, sy, sz = lobe_sample_on_line(model, prm, vx, vy, vz, ur, la, lb)
                     if sz <= 0.0:
                         continue
                     p = cosine_pdf(sz) + brdf_eval_pdf(model, prm, data, sx, sy, sz, vx, vy, vz, f)
@@ -287,8 +290,8 @@ def _point(kind, model, prm, data, has_lobe, vx, vy, vz, ca, sa, u0, u1, x, st, 
 
     Hemisphere (``kind`` 0): ``θ = x`` (``st, sz = sin θ, cos θ``, once per row) on the
     line ``(cos φ, sin φ) = (ca, sa)``, weight ``sin θ cos θ · p_c/(p_c + p_l)``. Lobe
-    (``kind`` 1): ``u_r = u0 + (u1 − u0) x`` on the line ``u_a = ca``, weight
-    ``(u1 − u0) s_z/(p_c + p_l)``.
+    (``kind`` 1): ``u_r = u0 + (u1 − u0) x`` on the line ``(ca, sa) = lobe_line(u_a)``,
+    weight ``(u1 − u0) s_z/(p_c + p_l)``.
     """
     if kind == 0:
         if x <= 0.0 or x >= HALF_PI:  # the pole (sin θ = 0) and the horizon (s_z = 0)
@@ -304,7 +307,7 @@ def _point(kind, model, prm, data, has_lobe, vx, vy, vz, ca, sa, u0, u1, x, st, 
     if u1 <= u0:
         return 0.0, 0.0, 0.0, 0.0
     ur = min(u0 + (u1 - u0) * x, UR_TOP)
-    sx, sy, sz = lobe_sample(model, prm, vx, vy, vz, ur, ca)
+    sx, sy, sz = lobe_sample_on_line(model, prm, vx, vy, vz, ur, ca, sa)
     if not sz > 0.0:
         return 0.0, 0.0, 0.0, 0.0
     p = cosine_pdf(sz) + brdf_eval_pdf(model, prm, data, sx, sy, sz, vx, vy, vz, f)
@@ -361,7 +364,7 @@ def _add_lines(kind, model, prm, vx, vy, vz, level, pc, pw, pm, lc, ls, lu0, lu1
                 lc[j], ls[j] = np.cos(TWO_PI * u), np.sin(TWO_PI * u)
                 lw[j] = TWO_PI / A_BASE
             else:
-                lc[j], ls[j] = u, 0.0
+                lc[j], ls[j] = lobe_line(model, prm, u)
                 lw[j] = 1.0 / A_BASE
                 lu0[j], lu1[j] = _horizon_span(model, prm, vx, vy, vz, u)
             j += 1
@@ -372,7 +375,7 @@ def _add_lines(kind, model, prm, vx, vy, vz, level, pc, pw, pm, lc, ls, lu0, lu1
             t = i / m
             lborn[j] = level if (level > 0 or i % 2 == 1) else -1
             u = pc[k] + pw[k] * (t - np.sin(TWO_PI * t) / TWO_PI)
-            lc[j], ls[j] = u, 0.0
+            lc[j], ls[j] = lobe_line(model, prm, u)
             lw[j] = pw[k] / pm[k] * (1.0 - np.cos(TWO_PI * t))
             lu0[j], lu1[j] = _horizon_span(model, prm, vx, vy, vz, u)
             j += 1
