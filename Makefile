@@ -47,15 +47,14 @@ $(ENGINES)/node_modules/.package-lock.json: $(ENGINES)/package.json $(ENGINES)/p
 	@if command -v npm >/dev/null 2>&1; then npm ci --prefix $(ENGINES) --no-audit --no-fund; \
 	else echo "npm not found: tests/test_exports.py will skip the engine checks" >&2; fi
 
-# worksteal: an idle worker takes queued tests from the busy one (tests/conftest.py, LONG_FIRST)
 test: $(STAMP) engines
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal
+	$(BIN)/python -m pytest -q -n 2
 
 test-extremes: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 -m extremes tests/test_extremes.py
 
 test-all: $(STAMP) engines
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m ''
+	$(BIN)/python -m pytest -q -n 2 -m ''
 
 bench: $(STAMP)
 	$(BIN)/python bench/run_all.py

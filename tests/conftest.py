@@ -8,17 +8,6 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from shbake_cli.main import main  # noqa: E402
 
-LONG_FIRST = ("test_readme.py", "test_scene.py")
-"""Modules holding the longest tests (the README examples, ~140 s on a fresh clone; the
-scene pipelines, ~2 min together): collected first, so that they start at once and, in
-``make test``, the other xdist worker takes the rest of the queue from the busy one
-(``--dist worksteal``): both finish together instead of one running a long test alone."""
-
-
-def pytest_collection_modifyitems(items):
-    rank = {name: i for i, name in enumerate(LONG_FIRST)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(LONG_FIRST)))  # stable
-
 
 @pytest.fixture(scope="session", autouse=True)
 def plan_cache(tmp_path_factory):
