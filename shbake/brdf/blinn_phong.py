@@ -9,7 +9,7 @@ Lobe sampling: half vector with density ``(n+1)/(2π) (n̂·h)^n``, reflected.
 
 import numpy as np
 
-from shbake.brdf.phong import line
+from shbake.brdf.phong import diffuse_and_lobe, line
 from shbake.brdf.sampling import lobe_frame_dir, reflect_about, safe_pow
 from shbake.brdf.spec import ModelSpec, Param
 from shbake.jit import jit
@@ -33,9 +33,7 @@ SPEC = ModelSpec(
 @jit
 def _channels(prm, power, out):
     """``out[c] = ρ_d/π + ρ_s (n+8)/(8π) power``, ``power = (n̂·h)^n``."""
-    lobe = (prm[6] + 8.0) / (8.0 * np.pi) * power
-    for c in range(3):
-        out[c] = prm[c] / np.pi + prm[3 + c] * lobe
+    diffuse_and_lobe(prm, (prm[6] + 8.0) / (8.0 * np.pi) * power, out)
 
 
 @jit

@@ -96,10 +96,8 @@ def lobe_line(model, prm, ua):
     sample separates (Phong, Blinn–Phong: ``cos, sin`` of the azimuth;
     Ashikhmin–Shirley: of its eq. 9 azimuth, an ``arctan``/``tan``) compute it once per line.
     """
-    if model == 1:
+    if model == 1 or model == 2:  # Phong, Blinn–Phong: the same azimuth 2π u_a
         return phong.line(ua)
-    if model == 2:
-        return phong.line(ua)  # Blinn–Phong: the same azimuth
     if model == 3:
         return ashikhmin_shirley.line(prm, ua)
     return ua, 0.0

@@ -35,11 +35,16 @@ def _mirror_power(n, sx, sy, sz, vx, vy, vz):
 
 
 @jit
-def _channels(prm, power, out):
-    """``out[c] = ρ_d/π + ρ_s (n+2)/(2π) power``."""
-    lobe = (prm[6] + 2.0) / (2.0 * np.pi) * power
+def diffuse_and_lobe(prm, lobe, out):
+    """``out[c] = ρ_d/π + ρ_s lobe`` for ``prm = (ρ_d[3], ρ_s[3], …)`` (also Blinn–Phong's)."""
     for c in range(3):
         out[c] = prm[c] / np.pi + prm[3 + c] * lobe
+
+
+@jit
+def _channels(prm, power, out):
+    """``out[c] = ρ_d/π + ρ_s (n+2)/(2π) power``."""
+    diffuse_and_lobe(prm, (prm[6] + 2.0) / (2.0 * np.pi) * power, out)
 
 
 @jit
