@@ -173,10 +173,12 @@ class TableErrors:
     measured once, here (:attr:`truncation`, :attr:`samples`); :meth:`at`
     adds the look-up term of one size. ``reference``: the views projected at
     :data:`REFERENCE_SAMPLES` to ``lmax`` or beyond, if the caller has it (a
-    coefficient's sum does not depend on the ``lmax`` it was projected with).
+    coefficient's sum does not depend on the ``lmax`` it was projected with);
+    ``projected``: the views projected at ``samples`` to ``lmax``, likewise.
     """
 
-    def __init__(self, brdf, lmax: int, samples: int, views=None, energy=None, reference=None):
+    def __init__(self, brdf, lmax: int, samples: int, views=None, energy=None, reference=None,
+                 projected=None):  # fmt: skip
         self.brdf, self.lmax, self.sample_count = brdf, lmax, samples
         self.views = probe_views() if views is None else views
         energy = product_energy(brdf, self.views, 256) if energy is None else energy
@@ -184,7 +186,9 @@ class TableErrors:
         if reference is None:
             reference, _ = project_views(brdf, self.views, lmax, samples=REFERENCE_SAMPLES)
         ref = reference[:, : n_coeffs(lmax)]
-        self.projected, _ = project_views(brdf, self.views, lmax, samples=samples)
+        if projected is None:
+            projected, _ = project_views(brdf, self.views, lmax, samples=samples)
+        self.projected = projected
         kept = np.sum(ref * ref, axis=(1, 2))
         lost = np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None))
         self.truncation = float(np.mean(lost / self.norm))
@@ -215,15 +219,13 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
         if np.mean(np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None)) / norm) <= 0.6 * tol:
             lmax = L
             break
-    samples = TABLE_SAMPLES[-1]
-    for s in TABLE_SAMPLES:
-        got, _ = project_views(brdf, views, lmax, samples=s)
+    for samples in TABLE_SAMPLES:  # the last one if none meets 40 % of tol
+        got, _ = project_views(brdf, views, lmax, samples=samples)
         diff = np.sqrt(np.sum((got - ref[:, : n_coeffs(lmax)]) ** 2, axis=(1, 2)))
         if np.mean(diff / norm) <= 0.4 * tol:
-            samples = s
             break
     t8 = _cold("brdf_table", tabulate, brdf, lmax, (8, 8), samples=samples)
-    errors = TableErrors(brdf, lmax, samples, views, energy, ref)
+    errors = TableErrors(brdf, lmax, samples, views, energy, ref, projected=got)
     sizes = TABLE_SIZES
     if np.hypot(errors.truncation, errors.samples) > tol:
         sizes = TABLE_SIZES[-1:]  # no size meets it: only the best one's error is reported

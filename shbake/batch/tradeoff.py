@@ -61,9 +61,10 @@ def brdf_table_tradeoff(model: str, params: dict, tol: float, samples: int = 256
     views = probe_views()
     energy = product_energy(brdf, views, 256)
     ref, _ = project_views(brdf, views, max(TABLE_LMAX), samples=REFERENCE_SAMPLES)
+    got, _ = project_views(brdf, views, max(TABLE_LMAX), samples=samples)
     rows = []
     for L in TABLE_LMAX:
-        errors = TableErrors(brdf, L, samples, views, energy, ref)
+        errors = TableErrors(brdf, L, samples, views, energy, ref, got[:, : n_coeffs(L)])
         for size in TABLE_SIZES[:3]:
             errs = errors.at(size)
             rows.append({"setting": f"lmax {L} size {size}", "lmax": L, "size": size,
