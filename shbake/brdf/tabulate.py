@@ -73,12 +73,12 @@ TWO_PI = 2.0 * np.pi
 
 
 @jit
-def _horizon_span(model, prm, vx, vy, vz, ua):
-    """The sub-interval of ``u_r ∈ [0, 1]`` whose lobe directions have ``s_z > 0``.
+def _horizon_span(model, prm, vx, vy, vz, la, lb):
+    """The sub-interval of ``u_r ∈ [0, 1]`` whose lobe directions have ``s_z > 0``, on the
+    line ``(la, lb) = lobe_line(u_a)``.
 
     Assumes at most one crossing along the line; ``(0, 0)`` if none is above.
     """
-    la, lb = lobe_line(model, prm, ua)
     lo_up = lobe_sample_on_line(model, prm, vx, vy, vz, 0.0, la, lb)[2] > 0.0
     hi_up = lobe_sample_on_line(model, prm, vx, vy, vz, 1.0 - 1e-12, la, lb)[2] > 0.0
     if lo_up and hi_up:
@@ -113,7 +113,7 @@ def _first_step_rise(model, prm, vx, vy, vz, ua):
 
 @jit
 def _span_length(model, prm, vx, vy, vz, ua):
-    u0, u1 = _horizon_span(model, prm, vx, vy, vz, ua)
+    u0, u1 = _horizon_span(model, prm, vx, vy, vz, *lobe_line(model, prm, ua))
     return max(0.0, u1 - u0)
 
 
@@ -221,10 +221,10 @@ def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, 
             nodes, weights = _azimuth_rule(model, prm, vx, vy, vz, n_a)
             for ia in range(nodes.size):
                 ua = nodes[ia]
-                u0, u1 = _horizon_span(model, prm, vx, vy, vz, ua)
+                la, lb = lobe_line(model, prm, ua)
+                u0, u1 = _horizon_span(model, prm, vx, vy, vz, la, lb)
                 if u1 <= u0:
                     continue
-                la, lb = lobe_line(model, prm, ua)
                 for ir in range(gx.shape[0]):
                     ur = u0 + (u1 - u0) * gx[ir]
                     sx, sy, sz = lobe_sample_on_line(model, prm, vx, vy, vz, ur, la, lb)
@@ -366,7 +366,7 @@ def _add_lines(kind, model, prm, vx, vy, vz, level, pc, pw, pm, lc, ls, lu0, lu1
             else:
                 lc[j], ls[j] = lobe_line(model, prm, u)
                 lw[j] = 1.0 / A_BASE
-                lu0[j], lu1[j] = _horizon_span(model, prm, vx, vy, vz, u)
+                lu0[j], lu1[j] = _horizon_span(model, prm, vx, vy, vz, lc[j], ls[j])
             j += 1
         return j
     for k in range(pc.size):
@@ -377,7 +377,7 @@ def _add_lines(kind, model, prm, vx, vy, vz, level, pc, pw, pm, lc, ls, lu0, lu1
             u = pc[k] + pw[k] * (t - np.sin(TWO_PI * t) / TWO_PI)
             lc[j], ls[j] = lobe_line(model, prm, u)
             lw[j] = pw[k] / pm[k] * (1.0 - np.cos(TWO_PI * t))
-            lu0[j], lu1[j] = _horizon_span(model, prm, vx, vy, vz, u)
+            lu0[j], lu1[j] = _horizon_span(model, prm, vx, vy, vz, lc[j], ls[j])
             j += 1
     return j
 
