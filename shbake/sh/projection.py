@@ -120,12 +120,13 @@ _U = np.uint64
 
 
 @jit
-def _prefetch_until(flat, p, stop):
-    """Request the cache lines from ``flat[p]`` up to ``flat[stop]``; returns the next ``p``."""
+def _prefetch_until(flat, p, stop, line):
+    """Request the cache lines from ``flat[p]`` up to ``flat[stop]``, ``line`` elements each;
+    returns the next ``p``."""
     inline_into_callers()
     while p < stop:
         prefetch(flat, p)
-        p += 64 // flat.itemsize
+        p += line
     return p
 
 
@@ -288,10 +289,12 @@ def _finish_row(accv, out, i):
     """``out[c, k, i]`` = the lane sum of ``accv[c, k]``; ``accv`` is reset."""
     nc = out.shape[0]
     nk = out.shape[1]
+    zero = vsplat(0.0)
     for c in range(nc):
         for k in range(nk):
-            out[c, k, i] = vsum(vload(accv, (c * nk + k) * LANES))
-    accv[:] = 0.0
+            r = (c * nk + k) * LANES
+            out[c, k, i] = vsum(vload(accv, r))
+            vstore(accv, r, zero)
 
 
 @jit(fastmath=_FAST)
@@ -321,6 +324,7 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     nm = cos_t.shape[0]
     buf, accv = _row_scratch(4, nc, nm)
     flat = img.reshape(h * w * nc)
+    line = 64 // flat.itemsize  # elements per cache line
     end = h * w * nc
     accv[:] = 0.0
     for i in range(b0 * ROWS_PER_BLOCK, min(h, b1 * ROWS_PER_BLOCK)):
@@ -337,7 +341,7 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
                 done = nj // LANES * LANES
                 for j in range(0, done, LANES):
                     col = j0 + j
-                    p = _prefetch_until(flat, p, min(nxt + 4 * nc * (col + LANES), end))
+                    p = _prefetch_until(flat, p, min(nxt + 4 * nc * (col + LANES), end), line)
                     a0, a1, a2 = vload_channels(f, 3 * col, 3, False)
                     d0, d1, d2 = vload_channels(f, 3 * (half + col), 3, False)
                     b0_, b1_, b2_ = vload_channels(f, 3 * (w - col - LANES), 3, True)
@@ -363,8 +367,9 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
                         ch,
                         j,
                     )
-            buf[:, :, nj : nv * LANES] = 0.0
-            p = _prefetch_until(flat, p, min(nxt + 4 * nc * (j0 + nj), end))
+            if nj < nv * LANES:  # a partial last vector: its tail columns count zero
+                buf[:, :, nj : nv * LANES] = 0.0
+            p = _prefetch_until(flat, p, min(nxt + 4 * nc * (j0 + nj), end), line)
             _dots(buf, 0, nv, j0, cos_t, 0, nm, accv, False)  # E · cos
             _dots(buf, 1, nv, j0, cos_t, 1, nm, accv, False)  # O · cos
             _dots(buf, 2, nv, j0, sin_t, 2, nm, accv, True)  # DO · sin
@@ -383,6 +388,7 @@ def _row_sums_half(img, cos_t, sin_t, out, b0, b1):
     nm = cos_t.shape[0]
     buf, accv = _row_scratch(2, nc, nm)  # sum, difference
     flat = img.reshape(h * w * nc)
+    line = 64 // flat.itemsize  # elements per cache line
     end = h * w * nc
     accv[:] = 0.0
     for i in range(b0 * ROWS_PER_BLOCK, min(h, b1 * ROWS_PER_BLOCK)):
@@ -407,8 +413,9 @@ def _row_sums_half(img, cos_t, sin_t, out, b0, b1):
                 for c in range(nc):
                     buf[0, c, npair] = np.float64(f[nc * pairs + c])
                     buf[1, c, npair] = 0.0
-            buf[:, :, nj : nv * LANES] = 0.0
-            p = _prefetch_until(flat, p, min(nxt + 2 * nc * (j0 + nj), end))
+            if nj < nv * LANES:  # a partial last vector: its tail columns count zero
+                buf[:, :, nj : nv * LANES] = 0.0
+            p = _prefetch_until(flat, p, min(nxt + 2 * nc * (j0 + nj), end), line)
             _dots(buf, 0, nv, j0, cos_t, 0, nm, accv, False)
             _dots(buf, 0, nv, j0, cos_t, 1, nm, accv, False)
             _dots(buf, 1, nv, j0, sin_t, 1, nm, accv, True)
