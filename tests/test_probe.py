@@ -25,6 +25,7 @@ from shbake.brdf import make_brdf
 from shbake.brdf.sampling import tangent_frame
 from shbake.envmap.image_io import read_image
 from shbake.envmap.layouts import latlong_directions
+from shbake.errors import ParameterError
 from shbake.format.asset import read_asset
 from shbake.format.images import write_exr
 from shbake.reference.brdf_shading import brute_force_shading
@@ -289,43 +290,67 @@ class TestShexpFit:
                 FitConfig(**kw)
 
 
-class TestEvaluateShexp:
-    def test_matches_the_formula_in_numpy(self):
-        # eq. 5, 9-12 written with numpy (real_sh, vmf_factors, hat_weights, dfg_lookup), for
-        # points whose α comes in runs of equal values and changes (the kernel reuses the
-        # per-α factors within a run); two sets, F0 per channel.
-        from shbake.sh.basis import real_sh
-        from shbake.shading.shexp import mirror_and_half, vmf_factors
+def shexp_in_numpy(p, q, table, v, n, alpha, f0, knots):
+    """eq. 5, 9-12 written with numpy (real_sh, vmf_factors, hat_weights, dfg_lookup)."""
+    from shbake.sh.basis import real_sh
+    from shbake.shading.shexp import mirror_and_half, vmf_factors
 
+    lp = int(round(np.sqrt(p.shape[1]))) - 1
+    lq = int(round(np.sqrt(q.shape[1] + 1))) - 1
+    alpha = np.broadcast_to(alpha, (len(v),))
+    rho, h = mirror_and_half(v, n)
+    hw = hat_weights(knots, alpha)
+    pa = np.einsum("tk,kic->tic", hw, p)
+    qa = np.einsum("tk,kic->tic", hw, q)
+    gp = vmf_factors(lp, alpha)[:, :, None]
+    gq = vmf_factors(lq, alpha)[:, 1:, None]
+    e0 = np.exp(
+        np.einsum("ti,tic->tc", real_sh(rho, lp), gp[:, :, 0, None] * pa)
+        + np.einsum("ti,tic->tc", real_sh(h, lq)[:, 1:], gq[:, :, 0, None] * qa)
+    )
+    a = dfg_lookup(table, np.sum(n * v, axis=1), alpha)
+    tail = np.where(a[:, 0] > 0, a[:, 1] / np.where(a[:, 0] > 0, a[:, 0], 1.0), 0.0)
+    return f0 * e0 + (1 - f0) * e0 * tail[:, None]
+
+
+class TestEvaluateShexp:
+    @pytest.fixture(scope="class")
+    def points(self):
+        # two sets, random views and normals with n·v >= 0, F0 per channel
         rng = np.random.default_rng(11)
         lp, lq, T = 4, 2, 700
         p = rng.normal(size=(2, (lp + 1) ** 2, 3)) * 0.3
         q = rng.normal(size=(2, (lq + 1) ** 2 - 1, 3)) * 0.3
-        knots = np.array([0.2, 0.9])
         n = rng.normal(size=(T, 3))
         n /= np.linalg.norm(n, axis=1)[:, None]
         v = rng.normal(size=(T, 3))
         v /= np.linalg.norm(v, axis=1)[:, None]
         v *= np.sign(np.sum(v * n, axis=1))[:, None]  # n·v ≥ 0
+        table = dfg_table(size=8, samples=256)
+        return p, q, table, v, n, np.array([1.0, 0.5, 0.04]), np.array([0.2, 0.9])
+
+    def test_matches_the_formula_in_numpy(self, points):
+        # per-point α in runs of equal values that change (the kernel reuses the per-α
+        # factors within a run)
+        rng = np.random.default_rng(12)
         alpha = np.repeat(rng.uniform(0.1, 1.0, 70), 10)
         alpha[::7] = rng.uniform(0.1, 1.0, alpha[::7].size)
-        f0 = np.array([1.0, 0.5, 0.04])
-        table = dfg_table(size=8, samples=256)
-        got = evaluate_shexp(p, q, table, v, n, alpha, f0, knots)
-        rho, h = mirror_and_half(v, n)
-        hw = hat_weights(knots, alpha)
-        pa = np.einsum("tk,kic->tic", hw, p)
-        qa = np.einsum("tk,kic->tic", hw, q)
-        gp = vmf_factors(lp, alpha)[:, :, None]
-        gq = vmf_factors(lq, alpha)[:, 1:, None]
-        e0 = np.exp(
-            np.einsum("ti,tic->tc", real_sh(rho, lp), gp[:, :, 0, None] * pa)
-            + np.einsum("ti,tic->tc", real_sh(h, lq)[:, 1:], gq[:, :, 0, None] * qa)
-        )
-        a = dfg_lookup(table, np.sum(n * v, axis=1), alpha)
-        tail = np.where(a[:, 0] > 0, a[:, 1] / np.where(a[:, 0] > 0, a[:, 0], 1.0), 0.0)
-        want = f0 * e0 + (1 - f0) * e0 * tail[:, None]
-        np.testing.assert_allclose(got, want, rtol=1e-12)
+        got = evaluate_shexp(*points[:5], alpha, points[5], points[6])
+        np.testing.assert_allclose(got, shexp_in_numpy(*points[:5], alpha, *points[5:]),
+                                   rtol=1e-12)  # fmt: skip
+
+    @pytest.mark.parametrize("alpha", [0.05, 0.2, 0.47, 0.9, 1.0])
+    def test_one_alpha_fused_path_matches_the_formula_in_numpy(self, points, alpha):
+        # a scalar α takes the block-fused path (add_sums); α = 0.05 lies below the knots
+        got = evaluate_shexp(*points[:5], alpha, points[5], points[6])
+        np.testing.assert_allclose(got, shexp_in_numpy(*points[:5], alpha, *points[5:]),
+                                   rtol=1e-12)  # fmt: skip
+
+    def test_one_alpha_refuses_v_opposite_n(self, points):
+        p, q, table = points[:3]
+        with pytest.raises(ParameterError, match="v = -n"):
+            evaluate_shexp(p, q, table, [[0, 0, 1.0], [0, 0, -1.0]], [[0, 0, 1.0]] * 2, 0.5,
+                           knots=points[6])  # fmt: skip
 
 
 class TestSplitSum:

@@ -8,7 +8,15 @@ from hypothesis import strategies as st
 
 from shbake.conventions import check_vectors, unit_vectors
 from shbake.errors import ParameterError
-from shbake.sh.basis import evaluate, real_sh, real_sh_numba
+from shbake.sh.basis import (
+    BLOCK,
+    add_sums,
+    evaluate,
+    real_sh,
+    real_sh_numba,
+    sum_scratch,
+    sum_weights,
+)
 
 
 class TestCheckVectors:
@@ -126,3 +134,29 @@ class TestEvaluate:
         d = np.array([[0, 0, 1.0], [0, 1.0, 0]])
         expected = 2 * 0.5 / np.sqrt(np.pi) + 3 * np.sqrt(3 / (4 * np.pi)) * d[:, 2]
         np.testing.assert_allclose(evaluate(c, d), expected)
+
+
+class TestAddSums:
+    @pytest.mark.parametrize("lmax", [0, 2, 8])
+    @pytest.mark.parametrize("nc", [1, 2, 3])
+    @pytest.mark.parametrize("nb", [1, 13, BLOCK])
+    def test_adds_the_numpy_sum(self, lmax, nc, nb):
+        # one block of a kernel's points, directions of any length, added into acc
+        rng = np.random.default_rng(lmax * 100 + nc * 10 + nb)
+        d = rng.normal(size=(BLOCK, 3)) * rng.uniform(0.1, 10.0, size=(BLOCK, 1))
+        c = rng.normal(size=((lmax + 1) ** 2, nc))
+        acc = rng.normal(size=(BLOCK, nc))
+        want = acc.copy()
+        want[:nb] += real_sh(d[:nb], lmax) @ c
+        bad = add_sums(d, nb, sum_weights(c), lmax, sum_scratch(), acc)
+        assert bad == 0
+        np.testing.assert_allclose(acc, want, rtol=1e-13, atol=1e-13 * np.abs(want).max())
+
+    def test_counts_zero_directions(self):
+        d = np.array([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [np.nan, 0.0, 1.0]])
+        acc = np.zeros((3, 1))
+        assert add_sums(d, 3, sum_weights(np.ones((4, 1))), 1, sum_scratch(), acc) == 2
+
+    def test_weights_refuse_more_than_three_channels(self):
+        with pytest.raises(ParameterError):
+            sum_weights(np.ones((9, 4)))

@@ -52,6 +52,7 @@ from shbake.errors import ParameterError
 from shbake.jit import (
     LANES,
     aligned_empty,
+    inline_into_callers,
     jit,
     run_blocks,
     stream_fence,
@@ -331,6 +332,68 @@ def _evaluate_weights(coef, lmax, qmm, gamma, beta):
 
 
 @jit(fastmath={"contract"})
+def _sum_block(s, nv, wg, lmax):
+    """Rows ``A0 … A2`` of ``s`` = the fused sums of one channel group (weights ``wg``, one
+    group of :func:`_evaluate_weights`) at the ``nv`` unit directions in rows ``X, Y, Z``
+    (``nv`` a multiple of ``LANES``). Check-free.
+
+    The directions are taken :data:`~shbake.jit.LANES` at a time as explicit
+    vectors (:func:`~shbake.jit.vload`) that stay in registers for the whole
+    sum: per order ``m``, the rescaled recurrence ``R_l = z R_{l-1} - β_lm
+    R_{l-2}`` runs down the column ``l = m … lmax`` and each ``R_l`` is added
+    into the partial sums ``P±_c += w±_c R_l`` (``P-`` only for ``m > 0``),
+    then ``A_c += P+_c Re(x+iy)^m + P-_c Im(x+iy)^m``. At lmax 8 that is 45
+    steps of 8 flops per direction, 8 directions per AVX-512 instruction.
+    """
+    inline_into_callers()
+    for k in range(0, nv, LANES):
+        x = vload(s, _X + k)
+        y = vload(s, _Y + k)
+        z = vload(s, _Z + k)
+        r1 = vsplat(1.0)  # m = 0: the cosine sums only
+        r2 = vsplat(0.0)
+        a0 = vsplat(wg[0, 0, 1])
+        a1 = vsplat(wg[0, 0, 3])
+        a2 = vsplat(wg[0, 0, 5])
+        for l in range(1, lmax + 1):
+            r = legendre_next_scaled(wg[0, l, 0], z, r1, r2)
+            r2 = r1
+            r1 = r
+            a0 = a0 + wg[0, l, 1] * r
+            a1 = a1 + wg[0, l, 3] * r
+            a2 = a2 + wg[0, l, 5] * r
+        cm = x  # Re, Im (x+iy)^m for m = 1
+        sm = y
+        for m in range(1, lmax + 1):
+            wm = wg[m]
+            r1 = vsplat(1.0)
+            r2 = vsplat(0.0)
+            p0 = vsplat(wm[m, 1])
+            p1 = vsplat(wm[m, 2])
+            p2 = vsplat(wm[m, 3])
+            p3 = vsplat(wm[m, 4])
+            p4 = vsplat(wm[m, 5])
+            p5 = vsplat(wm[m, 6])
+            for l in range(m + 1, lmax + 1):
+                r = legendre_next_scaled(wm[l, 0], z, r1, r2)
+                r2 = r1
+                r1 = r
+                p0 = p0 + wm[l, 1] * r
+                p1 = p1 + wm[l, 2] * r
+                p2 = p2 + wm[l, 3] * r
+                p3 = p3 + wm[l, 4] * r
+                p4 = p4 + wm[l, 5] * r
+                p5 = p5 + wm[l, 6] * r
+            a0 = a0 + p0 * cm + p1 * sm
+            a1 = a1 + p2 * cm + p3 * sm
+            a2 = a2 + p4 * cm + p5 * sm
+            cm, sm = cm * x - sm * y, cm * y + sm * x
+        vstore(s, _A0 + k, a0)
+        vstore(s, _A1 + k, a1)
+        vstore(s, _A2 + k, a2)
+
+
+@jit(fastmath={"contract"})
 def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
     """``out[i, c] = Σ_j coef[j, c] ȳ_j(d_i)`` for blocks ``b0 … b1-1`` (fused: no basis stored).
 
@@ -338,16 +401,9 @@ def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
     count of unusable directions. Check-free kernel.
 
     Each block's directions are normalised into scratch rows
-    (:func:`_load_block`), then taken :data:`~shbake.jit.LANES` at a time as
-    explicit vectors (:func:`~shbake.jit.vload`) that stay in registers for
-    the whole sum: per order ``m``, the rescaled recurrence ``R_l = z R_{l-1}
-    - β_lm R_{l-2}`` runs down the column ``l = m … lmax`` and each ``R_l``
-    is added into the partial sums ``P±_c += w±_c R_l`` (:func:`_evaluate_weights`;
-    :data:`FUSED_CHANNELS` channels, ``P-`` only for ``m > 0``), then ``A_c +=
-    P+_c Re(x+iy)^m + P-_c Im(x+iy)^m``. At lmax 8 that is 45 steps of 8 flops
-    per direction, 8 directions per AVX-512 instruction. The sums go out
-    through scratch rows with streaming stores (read by nobody until the call
-    returns).
+    (:func:`_load_block`) and summed :data:`FUSED_CHANNELS` channels at a time
+    (:func:`_sum_block`). The sums go out through scratch rows with streaming
+    stores (read by nobody until the call returns).
     """
     wide_vectors()
     n = d.shape[0]
@@ -367,51 +423,7 @@ def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
         for g in range(0, nc, FUSED_CHANNELS):
             ng = min(FUSED_CHANNELS, nc - g)
             wg = w[g // FUSED_CHANNELS]
-            for k in range(0, nv, LANES):
-                x = vload(s, _X + k)
-                y = vload(s, _Y + k)
-                z = vload(s, _Z + k)
-                r1 = vsplat(1.0)  # m = 0: the cosine sums only
-                r2 = vsplat(0.0)
-                a0 = vsplat(wg[0, 0, 1])
-                a1 = vsplat(wg[0, 0, 3])
-                a2 = vsplat(wg[0, 0, 5])
-                for l in range(1, lmax + 1):
-                    r = legendre_next_scaled(wg[0, l, 0], z, r1, r2)
-                    r2 = r1
-                    r1 = r
-                    a0 = a0 + wg[0, l, 1] * r
-                    a1 = a1 + wg[0, l, 3] * r
-                    a2 = a2 + wg[0, l, 5] * r
-                cm = x  # Re, Im (x+iy)^m for m = 1
-                sm = y
-                for m in range(1, lmax + 1):
-                    wm = wg[m]
-                    r1 = vsplat(1.0)
-                    r2 = vsplat(0.0)
-                    p0 = vsplat(wm[m, 1])
-                    p1 = vsplat(wm[m, 2])
-                    p2 = vsplat(wm[m, 3])
-                    p3 = vsplat(wm[m, 4])
-                    p4 = vsplat(wm[m, 5])
-                    p5 = vsplat(wm[m, 6])
-                    for l in range(m + 1, lmax + 1):
-                        r = legendre_next_scaled(wm[l, 0], z, r1, r2)
-                        r2 = r1
-                        r1 = r
-                        p0 = p0 + wm[l, 1] * r
-                        p1 = p1 + wm[l, 2] * r
-                        p2 = p2 + wm[l, 3] * r
-                        p3 = p3 + wm[l, 4] * r
-                        p4 = p4 + wm[l, 5] * r
-                        p5 = p5 + wm[l, 6] * r
-                    a0 = a0 + p0 * cm + p1 * sm
-                    a1 = a1 + p2 * cm + p3 * sm
-                    a2 = a2 + p4 * cm + p5 * sm
-                    cm, sm = cm * x - sm * y, cm * y + sm * x
-                vstore(s, _A0 + k, a0)
-                vstore(s, _A1 + k, a1)
-                vstore(s, _A2 + k, a2)
+            _sum_block(s, nv, wg, lmax)
             for k in range(nb):
                 o = (i0 + k) * nc + g
                 stream_store(fo, o, s[_A0 + k])
@@ -421,6 +433,50 @@ def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
                     stream_store(fo, o + 2, s[_A2 + k])
     stream_fence()
 
+
+
+def sum_weights(coeffs) -> np.ndarray:
+    """The weights :func:`add_sums` takes for ``((lmax+1)², C ≤ 3)`` coefficients (the fused
+    kernel's per-step constants, :func:`_evaluate_weights`)."""
+    c = np.ascontiguousarray(np.asarray(coeffs, dtype=np.float64))
+    if c.ndim != 2 or c.shape[1] > FUSED_CHANNELS:
+        raise ParameterError(f"expected ((lmax+1)^2, C <= 3) coefficients, got {c.shape}")
+    lmax = check_lmax(lmax_of(c.shape[0]))
+    gamma, beta = scaled_recurrence_tables(lmax)
+    return _evaluate_weights(c, lmax, recurrence_tables(lmax)[0], gamma, beta)[0]
+
+
+@jit
+def sum_scratch():
+    """Scratch of :func:`add_sums` (one per thread, reused for every block)."""
+    return aligned_empty(_SCRATCH)
+
+
+@jit(fastmath={"contract"})
+def add_sums(d, nb, weights, lmax, s, acc):
+    """``acc[k, c] += Σ_j coef[j, c] ȳ_j(d_k)`` for the first ``nb ≤`` :data:`BLOCK` rows of
+    ``d`` — :func:`evaluate`'s fused sum for one block, inside another kernel.
+
+    ``d``: ``(≥ nb, 3)`` C-contiguous directions (normalised here), ``weights``
+    from :func:`sum_weights`, ``lmax`` theirs, ``s`` from :func:`sum_scratch`,
+    ``acc``: ``(≥ nb, C)``. Returns the count of zero or non-finite directions
+    (taken as +Z). Check-free.
+    """
+    bad = _load_block(d, 0, nb, s)
+    nv = -(-nb // LANES) * LANES
+    for k in range(nb, nv):  # the last vector's spare lanes: +Z
+        s[_X + k] = 0.0
+        s[_Y + k] = 0.0
+        s[_Z + k] = 1.0
+    _sum_block(s, nv, weights, lmax)
+    nc = acc.shape[1]
+    for k in range(nb):
+        acc[k, 0] += s[_A0 + k]
+        if nc > 1:
+            acc[k, 1] += s[_A1 + k]
+        if nc > 2:
+            acc[k, 2] += s[_A2 + k]
+    return bad
 
 @jit
 def _basis_blocks(d, lmax, qmm, a, b, out, bad, b0, b1):

@@ -17,8 +17,16 @@ Fitted by :mod:`shbake.bakers.shexp`.
 
 import numpy as np
 
+from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
-from shbake.sh.basis import recurrence_tables, sh_eval_into
+from shbake.sh.basis import (
+    BLOCK,
+    add_sums,
+    recurrence_tables,
+    sh_eval_into,
+    sum_scratch,
+    sum_weights,
+)
 from shbake.shading.dfg import dfg_at
 
 
@@ -141,6 +149,60 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
             out[k, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
 
 
+@jit
+def _evaluate_blocks_one_alpha(views, normals, alpha, f0, wp, wq, lmax_p, lmax_q, table, out,
+                               bad, b0, b1):  # fmt: skip
+    """Points of blocks ``b0 … b1-1`` (:data:`~shbake.sh.basis.BLOCK` each) of
+    :func:`evaluate_shexp` at one ``α`` (check-free).
+
+    The blended, vMF-filtered coefficients are constant, so ``log P + log Q``
+    of a block is two fused SH sums (:func:`~shbake.sh.basis.add_sums`:
+    vectorised across the block's ``ρ`` and then its ``h_ρ``, no basis
+    stored); per point only ``exp`` and the DFG term remain. ``bad[blk]``
+    counts the points whose ``n + ρ`` vanishes (``v = −n``).
+    """
+    n = views.shape[0]
+    s = sum_scratch()
+    dirs = np.empty((BLOCK, 3))
+    acc = np.empty((BLOCK, 3))
+    for blk in range(b0, b1):
+        i0 = blk * BLOCK
+        nb = min(BLOCK, n - i0)
+        for k in range(nb):
+            i = i0 + k
+            nv = normals[i, 0] * views[i, 0] + normals[i, 1] * views[i, 1]
+            nv += normals[i, 2] * views[i, 2]
+            for c in range(3):
+                dirs[k, c] = 2 * nv * normals[i, c] - views[i, c]  # ρ
+                acc[k, c] = 0.0
+        bad[blk] = add_sums(dirs, nb, wp, lmax_p, s, acc)
+        for k in range(nb):
+            for c in range(3):
+                dirs[k, c] += normals[i0 + k, c]  # n + ρ: add_sums normalises it
+        bad[blk] += add_sums(dirs, nb, wq, lmax_q, s, acc)
+        for k in range(nb):
+            i = i0 + k
+            nv = normals[i, 0] * views[i, 0] + normals[i, 1] * views[i, 1]
+            nv += normals[i, 2] * views[i, 2]
+            a0, a1 = dfg_at(table, nv, alpha)
+            tail = a1 / a0 if a0 > 0.0 else 0.0
+            for c in range(3):
+                e0 = np.exp(acc[k, c])
+                out[i, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
+
+
+def blended_coefficients(p, q, knots, alpha) -> tuple[np.ndarray, np.ndarray]:
+    """``vMF_l(1/α) Σ_k h_k(α) p_k`` and the same of ``q`` with its DC row (zero) restored:
+    ``((lmax_p+1)², 3)``, ``((lmax_q+1)², 3)`` at one ``α`` (eq. 12; the hat blend)."""
+    hw = hat_weights(knots, alpha)[0]
+    lmax_p = int(round(np.sqrt(p.shape[1]))) - 1
+    lmax_q = int(round(np.sqrt(q.shape[1] + 1))) - 1
+    cp = vmf_factors(lmax_p, alpha)[:, None] * np.tensordot(hw, p, 1)
+    cq = np.zeros(((lmax_q + 1) ** 2, p.shape[2]))
+    cq[1:] = vmf_factors(lmax_q, alpha)[1:, None] * np.tensordot(hw, q, 1)
+    return cp, cq
+
+
 def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots=None):
     """Outgoing radiance ``(T, 3)`` of an SH-exp probe at world ``(v, n, α)``.
 
@@ -151,6 +213,8 @@ def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots
     table : the probe's DFG table (:mod:`shbake.shading.dfg`).
     views, normals : ``(T, 3)`` unit world directions.
     alpha : GGX width, scalar or ``(T,)``; the caller checks the probe's range.
+        A scalar takes the fused path (:func:`_evaluate_blocks_one_alpha`), an
+        array the per-point one; they agree to ~1e-15 relative (tested).
     f0 : Schlick reflectance per channel (1 = chrome: ``E0`` alone).
     knots : ``(K,)`` increasing ``α`` of the sets (``None`` for one set).
     """
@@ -163,13 +227,26 @@ def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots
     lmax_q = int(round(np.sqrt(q.shape[1] + 1))) - 1
     v = np.ascontiguousarray(np.asarray(views, float).reshape(-1, 3))
     n = np.ascontiguousarray(np.asarray(normals, float).reshape(-1, 3))
-    al = np.broadcast_to(np.asarray(alpha, float), (v.shape[0],)).copy()
     out = np.empty((v.shape[0], 3))
     f0 = np.broadcast_to(np.asarray(f0, float), (3,)).copy()
+    table = np.asarray(table, float)
+    if np.ndim(alpha) == 0:
+        cp, cq = blended_coefficients(p, q, knots, float(alpha))
+        n_blocks = -(-v.shape[0] // BLOCK)
+        bad = np.zeros(n_blocks, dtype=np.int64)
+        run_blocks(
+            _evaluate_blocks_one_alpha, n_blocks, v.shape[0] * 20.0 * p.shape[1],
+            v, n, float(alpha), f0, sum_weights(cp), sum_weights(cq), lmax_p, lmax_q, table,
+            out, bad,
+        )  # fmt: skip
+        if bad.any():
+            raise ParameterError(f"{int(bad.sum())} points have v = -n (no half vector)")
+        return out
+    al = np.broadcast_to(np.asarray(alpha, float), (v.shape[0],)).copy()
     qmm, a, b = recurrence_tables(max(lmax_p, lmax_q))
     run_blocks(
         _evaluate_blocks, -(-v.shape[0] // PIXEL_BLOCK), v.shape[0] * 20.0 * p.shape[1],
         v, n, al, f0, np.ascontiguousarray(p), np.ascontiguousarray(q), knots, lmax_p, lmax_q,
-        qmm, a, b, np.asarray(table, float), out,
+        qmm, a, b, table, out,
     )  # fmt: skip
     return out
