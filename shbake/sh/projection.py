@@ -139,21 +139,25 @@ def _accumulate(accv, row, v):
 
 @jit(fastmath=_FAST)
 def _butterfly4(a, b, c, d, buf, ch, j):
-    """Fold the values of columns ``j, W-1-j, W/2-1-j, W/2+j`` (see :func:`_row_sums_quarter`)."""
+    """Fold the values of columns ``j, W-1-j, W/2-1-j, W/2+j`` (see :func:`_row_sums_quarter`);
+    returns their sum ``E``."""
     inline_into_callers()
     sab = a + b
     scd = c + d
     dab = a - b
     dcd = c - d
-    buf[0, ch, j] = sab + scd
+    e = sab + scd
+    buf[0, ch, j] = e
     buf[1, ch, j] = sab - scd
     buf[2, ch, j] = dab - dcd
     buf[3, ch, j] = dab + dcd
+    return e
 
 
 @jit(fastmath=_FAST)
 def _butterfly4_vectors(a, b, c, d, buf, ch, j):
-    """:func:`_butterfly4` on ``LANES`` columns ``j …`` at once (vectors ``a, b, c, d``)."""
+    """:func:`_butterfly4` on ``LANES`` columns ``j …`` at once (vectors ``a, b, c, d``);
+    returns ``E``."""
     inline_into_callers()
     nc = buf.shape[1]
     cb = COLUMN_BLOCK
@@ -161,10 +165,12 @@ def _butterfly4_vectors(a, b, c, d, buf, ch, j):
     scd = c + d
     dab = a - b
     dcd = c - d
-    vstore(buf, ch * cb + j, sab + scd)
+    e = sab + scd
+    vstore(buf, ch * cb + j, e)
     vstore(buf, (nc + ch) * cb + j, sab - scd)
     vstore(buf, (2 * nc + ch) * cb + j, dab - dcd)
     vstore(buf, (3 * nc + ch) * cb + j, dab + dcd)
+    return e
 
 
 @jit
@@ -308,6 +314,9 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     for cos / sin — a block of :data:`COLUMN_BLOCK` columns at a time, and
     every ``m`` is a dot product with one table row over that block (a
     cache-blocked ``(C × W/4) · (W/4 × 2 lmax+1)`` product, :func:`_dots`).
+    For RGB, ``m = 0`` (``cos 0 = 1``: the plain sum of ``E``) is added up as
+    the fold makes ``E``, so at lmax 8 every ``E`` dot is a full 4-``m`` tile
+    (no latency-bound single ``m``: 13.2 → 12.6 ms at 4096×2048).
 
     The fold reads four runs per block: columns ``j`` and ``W/2+j`` forwards,
     ``W-1-j`` and ``W/2-1-j`` backwards. RGB is folded ``LANES`` columns at a
@@ -322,6 +331,7 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
     nq = w // 4
     half = w // 2
     nm = cos_t.shape[0]
+    nk = 2 * nm - 1
     buf, accv = _row_scratch(4, nc, nm)
     flat = img.reshape(h * w * nc)
     line = 64 // flat.itemsize  # elements per cache line
@@ -338,6 +348,8 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
             nv = -(-nj // LANES)
             done = 0
             if nc == 3:
+                # m = 0 (cos 0 = 1) is the sum of E: added up here, as the fold makes it
+                e0 = e1 = e2 = vsplat(0.0)
                 done = nj // LANES * LANES
                 for j in range(0, done, LANES):
                     col = j0 + j
@@ -346,9 +358,12 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
                     d0, d1, d2 = vload_channels(f, 3 * (half + col), 3, False)
                     b0_, b1_, b2_ = vload_channels(f, 3 * (w - col - LANES), 3, True)
                     c0, c1, c2 = vload_channels(f, 3 * (half - col - LANES), 3, True)
-                    _butterfly4_vectors(a0, b0_, c0, d0, buf, 0, j)
-                    _butterfly4_vectors(a1, b1_, c1, d1, buf, 1, j)
-                    _butterfly4_vectors(a2, b2_, c2, d2, buf, 2, j)
+                    e0 = e0 + _butterfly4_vectors(a0, b0_, c0, d0, buf, 0, j)
+                    e1 = e1 + _butterfly4_vectors(a1, b1_, c1, d1, buf, 1, j)
+                    e2 = e2 + _butterfly4_vectors(a2, b2_, c2, d2, buf, 2, j)
+                _accumulate(accv, 0, e0)
+                _accumulate(accv, nk, e1)
+                _accumulate(accv, 2 * nk, e2)
             fa = f[nc * j0 :]  # column j0 + j
             fd = f[nc * (half + j0) :]  # column W/2 + j0 + j
             rb = _U(nc * (w - 1 - j0))  # column W-1-j0-j starts at rb - C j
@@ -358,7 +373,7 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
                 b = rb - _U(k)
                 c = rc - _U(k)
                 for ch in range(nc):
-                    _butterfly4(
+                    e = _butterfly4(
                         np.float64(fa[k + ch]),
                         np.float64(f[b + _U(ch)]),
                         np.float64(f[c + _U(ch)]),
@@ -367,10 +382,12 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
                         ch,
                         j,
                     )
+                    if nc == 3:  # lane 0 of the m = 0 sums (the generic path's dots do m = 0)
+                        accv[ch * nk * LANES] += e
             if nj < nv * LANES:  # a partial last vector: its tail columns count zero
                 buf[:, :, nj : nv * LANES] = 0.0
             p = _prefetch_until(flat, p, min(nxt + 4 * nc * (j0 + nj), end), line)
-            _dots(buf, 0, nv, j0, cos_t, 0, nm, accv, False)  # E · cos
+            _dots(buf, 0, nv, j0, cos_t, 2 if nc == 3 else 0, nm, accv, False)  # E · cos
             _dots(buf, 1, nv, j0, cos_t, 1, nm, accv, False)  # O · cos
             _dots(buf, 2, nv, j0, sin_t, 2, nm, accv, True)  # DO · sin
             _dots(buf, 3, nv, j0, sin_t, 1, nm, accv, True)  # DE · sin
