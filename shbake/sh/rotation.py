@@ -234,10 +234,12 @@ class SHRotation:
                 f"cannot rotate {n} coefficients with an lmax {self.lmax} rotation"
             )
         out = np.empty_like(c)
+        flat_in = c.reshape(n, -1)
+        flat_out = out.reshape(n, -1)
         for l in range(lmax_c + 1):
             blk = self.block(l)
             s = slice(l * l, (l + 1) ** 2)
-            out[s] = np.tensordot(blk.T if transpose else blk, c[s], axes=(1, 0))
+            np.matmul(blk.T if transpose else blk, flat_in[s], out=flat_out[s])
         return out
 
 
