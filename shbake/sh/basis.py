@@ -434,7 +434,6 @@ def _evaluate_blocks(d, coef, lmax, qmm, gamma, beta, out, bad, b0, b1):
     stream_fence()
 
 
-
 def sum_weights(coeffs) -> np.ndarray:
     """The weights :func:`add_sums` takes for ``((lmax+1)², C ≤ 3)`` coefficients (the fused
     kernel's per-step constants, :func:`_evaluate_weights`)."""
@@ -477,6 +476,7 @@ def add_sums(d, nb, weights, lmax, s, acc):
         if nc > 2:
             acc[k, 2] += s[_A2 + k]
     return bad
+
 
 @jit
 def _basis_blocks(d, lmax, qmm, a, b, out, bad, b0, b1):
