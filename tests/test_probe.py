@@ -313,44 +313,47 @@ def shexp_in_numpy(p, q, table, v, n, alpha, f0, knots):
     return f0 * e0 + (1 - f0) * e0 * tail[:, None]
 
 
-class TestEvaluateShexp:
-    @pytest.fixture(scope="class")
-    def points(self):
-        # two sets, random views and normals with n·v >= 0, F0 per channel
-        rng = np.random.default_rng(11)
-        lp, lq, T = 4, 2, 700
-        p = rng.normal(size=(2, (lp + 1) ** 2, 3)) * 0.3
-        q = rng.normal(size=(2, (lq + 1) ** 2 - 1, 3)) * 0.3
-        n = rng.normal(size=(T, 3))
-        n /= np.linalg.norm(n, axis=1)[:, None]
-        v = rng.normal(size=(T, 3))
-        v /= np.linalg.norm(v, axis=1)[:, None]
-        v *= np.sign(np.sum(v * n, axis=1))[:, None]  # n·v ≥ 0
-        table = dfg_table(size=8, samples=256)
-        return p, q, table, v, n, np.array([1.0, 0.5, 0.04]), np.array([0.2, 0.9])
+@pytest.fixture(scope="module")
+def shexp_points():
+    """Two SH-exp sets, random views and normals with n·v ≥ 0, F0 per channel, the knots."""
+    rng = np.random.default_rng(11)
+    lp, lq, T = 4, 2, 700
+    p = rng.normal(size=(2, (lp + 1) ** 2, 3)) * 0.3
+    q = rng.normal(size=(2, (lq + 1) ** 2 - 1, 3)) * 0.3
+    n = rng.normal(size=(T, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    v = rng.normal(size=(T, 3))
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    v *= np.sign(np.sum(v * n, axis=1))[:, None]  # n·v ≥ 0
+    table = dfg_table(size=8, samples=256)
+    return p, q, table, v, n, np.array([1.0, 0.5, 0.04]), np.array([0.2, 0.9])
 
-    def test_matches_the_formula_in_numpy(self, points):
+
+class TestEvaluateShexp:
+    def test_matches_the_formula_in_numpy(self, shexp_points):
         # per-point α in runs of equal values that change (the kernel reuses the per-α
         # factors within a run)
         rng = np.random.default_rng(12)
         alpha = np.repeat(rng.uniform(0.1, 1.0, 70), 10)
         alpha[::7] = rng.uniform(0.1, 1.0, alpha[::7].size)
-        got = evaluate_shexp(*points[:5], alpha, points[5], points[6])
-        np.testing.assert_allclose(got, shexp_in_numpy(*points[:5], alpha, *points[5:]),
-                                   rtol=1e-12)  # fmt: skip
+        p, q, table, v, n, f0, knots = shexp_points
+        got = evaluate_shexp(p, q, table, v, n, alpha, f0, knots)
+        want = shexp_in_numpy(p, q, table, v, n, alpha, f0, knots)
+        np.testing.assert_allclose(got, want, rtol=1e-12)
 
     @pytest.mark.parametrize("alpha", [0.05, 0.2, 0.47, 0.9, 1.0])
-    def test_one_alpha_fused_path_matches_the_formula_in_numpy(self, points, alpha):
+    def test_one_alpha_fused_path_matches_the_formula_in_numpy(self, shexp_points, alpha):
         # a scalar α takes the block-fused path (add_sums); α = 0.05 lies below the knots
-        got = evaluate_shexp(*points[:5], alpha, points[5], points[6])
-        np.testing.assert_allclose(got, shexp_in_numpy(*points[:5], alpha, *points[5:]),
-                                   rtol=1e-12)  # fmt: skip
+        p, q, table, v, n, f0, knots = shexp_points
+        got = evaluate_shexp(p, q, table, v, n, alpha, f0, knots)
+        want = shexp_in_numpy(p, q, table, v, n, alpha, f0, knots)
+        np.testing.assert_allclose(got, want, rtol=1e-12)
 
-    def test_one_alpha_refuses_v_opposite_n(self, points):
-        p, q, table = points[:3]
+    def test_one_alpha_refuses_v_opposite_n(self, shexp_points):
+        p, q, table = shexp_points[:3]
         with pytest.raises(ParameterError, match="v = -n"):
             evaluate_shexp(p, q, table, [[0, 0, 1.0], [0, 0, -1.0]], [[0, 0, 1.0]] * 2, 0.5,
-                           knots=points[6])  # fmt: skip
+                           knots=shexp_points[6])  # fmt: skip
 
 
 class TestSplitSum:
