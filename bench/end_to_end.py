@@ -1,5 +1,6 @@
 """Whole-process ``shbake project-env`` against a plain OpenImageIO + ducc0 + h5py script;
-frames per second of every ``shbake preview`` pass at 512².
+frames per second of every ``shbake preview`` pass at 512² against the previous shbake
+(the tree before issue 15, unpacked by ``git archive``, its own assets baked by itself).
 
 The map: ``esplanade.exr`` (512×256) upsampled 4× to 2048×1024, written as a
 zip-compressed half EXR in a temporary folder (the shared maps are all
@@ -24,18 +25,21 @@ compiles. The plain script's own file is compiled on each run in both cases
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/end_to_end.py [N]
 """
 
+import io
 import json
 import os
 import resource
 import statistics
 import subprocess
 import sys
+import tarfile
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
+from timing import PREVIOUS
 
 ROOT = Path(__file__).resolve().parent.parent
 SHBAKE = str(ROOT / ".venv" / "bin" / "shbake")
@@ -118,72 +122,132 @@ def main(n: int = 7):
 
         # Preview passes (frames per second reported by the command itself, kernel only,
         # and the whole `shbake preview` process).
-        preview_table(tmp, os.path.join(tmp, "s.h5"))
+        preview_table(tmp, os.path.join(tmp, "s.h5"), n)
 
 
 PREVIEW_SIZE = 512
 
 
-def preview_assets(tmp: str, env_asset: str) -> dict:
-    """Assets for every preview pass: the 2048×1024 bake (env_sh, lmax 8) and, from the
-    512×256 sample map, a Phong BRDF table (lmax 4, the default), an SH-exp probe, a
-    split-sum probe and an SHRM (microfacet σ 0.2)."""
+def previous_cli(tmp: str) -> list[str] | None:
+    """The previous shbake (:data:`timing.PREVIOUS`, the tree before issue 15) as a command:
+    its ``git archive`` unpacked in ``tmp``, run with the editable install's import hook
+    removed so that its own ``shbake`` and ``shbake_cli`` load. ``None`` outside a git
+    checkout."""
+    root = os.path.join(tmp, "previous")
+    try:
+        archive = subprocess.run(["git", "archive", PREVIOUS], cwd=ROOT, capture_output=True,
+                                 check=True).stdout  # fmt: skip
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+        tar.extractall(root, filter="data")
+    os.symlink("cli", os.path.join(root, "shbake_cli"))
+    code = (
+        "import sys; "
+        "sys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in repr(f)]; "
+        f"sys.path.insert(0, {root!r}); "
+        "from shbake_cli.main import main; main()"
+    )
+    return [PYTHON, "-c", code]
+
+
+def preview_assets(cli: list[str], tmp: str, env_asset: str, previous: bool = False) -> dict:
+    """Assets for every preview pass, baked by ``cli``: the 2048×1024 bake (env_sh, lmax 8)
+    and, from the 512×256 sample map, a Phong BRDF table (lmax 4, the default), an SH-exp
+    probe, a split-sum probe and an SHRM (microfacet σ 0.2). The previous shbake names the
+    table's size ``--resolution`` and has no ``shrm`` command."""
     small = str(MAP)
     out = {"env": env_asset}
+    size = ["--resolution" if previous else "--size", "32"]
     jobs = {
-        "table": [SHBAKE, "brdf-table", "phong", "-o", os.path.join(tmp, "t.h5"), "--lmax", "4",
-                  "--size", "32", "--samples", "256", "--reproducible", "-q"],
-        "shexp": [SHBAKE, "probe-fit", small, "--out-dir", tmp, "-q"],
-        "splitsum": [SHBAKE, "split-sum", small, "-o", os.path.join(tmp, "ss.h5"), "-q"],
-        "shrm": [SHBAKE, "shrm", small, "-o", os.path.join(tmp, "shrm.h5"), "-p", "sigma=0.2",
-                 "-q"],
+        "table": ["brdf-table", "phong", "-o", os.path.join(tmp, "t.h5"), "--lmax", "4", *size,
+                  "--samples", "256", "--reproducible", "-q"],
+        "shexp": ["probe-fit", small, "--out-dir", tmp, "-q"],
+        "splitsum": ["split-sum", small, "-o", os.path.join(tmp, "ss.h5"), "-q"],
     }  # fmt: skip
+    if not previous:
+        jobs["shrm"] = ["shrm", small, "-o", os.path.join(tmp, "shrm.h5"), "-p", "sigma=0.2", "-q"]
     for name, args in jobs.items():
-        run(args)
+        run(cli + args)
         out[name] = (
             args[args.index("-o") + 1] if "-o" in args else os.path.join(tmp, MAP.name[:-4] + ".h5")
         )
     return out
 
 
-def preview_table(tmp: str, env_asset: str, n: int = 3) -> None:
-    """Frames per second of every preview pass at 512², best of ``n`` processes."""
-    a = preview_assets(tmp, env_asset)
-    exr = os.path.join(tmp, "p.exr")
-    common = ["-o", exr, "--size", str(PREVIEW_SIZE), "--json", "-q"]
+def preview_passes(a: dict) -> list[tuple[str, list[str]]]:
     passes = [
         ("irradiance", [a["env"], "--pass", "irradiance"]),
         ("tangent", [a["env"], "--pass", "tangent"]),
         ("kautz", [a["env"], "--pass", "kautz", "--table", a["table"]]),
         ("shexp (roughness 0.5)", [a["shexp"], "--roughness", "0.5"]),
         ("splitsum (roughness 0.5)", [a["splitsum"], "--roughness", "0.5"]),
-        ("shrm", [a["shrm"]]),
     ]
+    if "shrm" in a:
+        passes.append(("shrm", [a["shrm"]]))
+    return passes
+
+
+def preview_table(tmp: str, env_asset: str, n: int = 7) -> None:
+    """Frames per second of every preview pass at 512²: ``n`` processes each of shbake and
+    the previous shbake, alternating, after one untimed process each (numba's cache)."""
+    exr = os.path.join(tmp, "p.exr")
+    common = ["-o", exr, "--size", str(PREVIEW_SIZE), "--json", "-q"]
+    ours = preview_passes(preview_assets([SHBAKE], tmp, env_asset))
+    prev_cli = previous_cli(tmp)
+    prev = {}
+    if prev_cli is not None:
+        old = os.path.join(tmp, "previous-assets")
+        os.mkdir(old)
+        prev_env = os.path.join(old, "s.h5")
+        run(prev_cli + ["project-env", os.path.join(tmp, "esplanade-2048.exr"), "-o", prev_env,
+                        "-q", "--lmax", "8"])  # fmt: skip
+        prev = dict(preview_passes(preview_assets(prev_cli, old, prev_env, previous=True)))
     print(
-        f"\nPreview passes at {PREVIEW_SIZE}×{PREVIEW_SIZE} (kernel frames/s as reported by "
-        f"`shbake preview --json`, best of {n} processes; threads: run_blocks over "
-        f"{os.cpu_count()} CPUs; whole process: wall s of `shbake preview`, median):\n"
+        f"\nPreview passes at {PREVIEW_SIZE}×{PREVIEW_SIZE}: kernel frames/s as reported by "
+        f"`shbake preview --json` (the second frame of a process), median (min–max) of {n} "
+        f"processes; the previous shbake ({PREVIOUS}, the tree before issue 15) in the same "
+        f"loop, alternating, and the per-pair ratio; threads: run_blocks (numba prange in the "
+        f"previous) over {os.cpu_count()} CPUs; whole process: wall s of `shbake preview`, "
+        f"median:\n"
     )
-    print("| pass | kernel s | frames/s | whole process s |")
-    print("|---|---|---|---|")
-    for label, args in passes:
-        best, walls = None, []
+    print("| pass | frames/s | previous shbake frames/s | ratio | whole process s |")
+    print("|---|---|---|---|---|")
+    for label, args in ours:
+        cmds = {"ours": [SHBAKE, "preview", *args, *common]}
+        if label in prev:
+            cmds["previous"] = prev_cli + ["preview", *prev[label], *common]
+        for cmd in cmds.values():
+            run(cmd)  # numba's cache
+        fps = {k: {} for k in cmds}
+        walls = []
         for _ in range(n):
-            wall, _, out = run([SHBAKE, "preview", *args, *common])
-            s = json.loads(out)
-            walls.append(wall)
-            if best is None or s["seconds"] < best["seconds"]:
-                best = s
+            for k, cmd in cmds.items():
+                wall, _, out = run(cmd)
+                s = json.loads(out)
+                modes = s.get("modes", {"": s})  # kautz: full, fixed-light, fixed-view
+                for mode, m in modes.items():
+                    fps[k].setdefault(mode, []).append(m["fps"])
+                if k == "ours":
+                    walls.append(wall)
         w = statistics.median(walls)
-        rows = [(label, best)]
-        if "modes" in best:  # kautz: full, fixed-light, fixed-view
-            rows = [(f"kautz {m.replace('_', '-')}", best["modes"][m])
-                    for m in ("full", "fixed_light", "fixed_view")]  # fmt: skip
-        for name, s in rows:
-            print(f"| `{name}` | {s['seconds']:.4f} | {s['fps']:.1f} | {w:.2f} |")
-        if "eq12_fps" in best:
-            print(f"| `shrm` eq. 12 alone | {best['eq12_seconds']:.4f} | "
-                  f"{best['eq12_fps']:.1f} | – |")  # fmt: skip
+        for mode, xs in fps["ours"].items():
+            name = f"kautz {mode.replace('_', '-')}" if mode else label
+            old = fps.get("previous", {}).get(mode)
+            if old:
+                r = [a / b for a, b in zip(xs, old, strict=True)]
+                prev_cols = f"{fps_summary(old)} | {ratio_summary(r)}"
+            else:
+                prev_cols = "– | –"
+            print(f"| `{name}` | {fps_summary(xs)} | {prev_cols} | {w:.2f} |")
+
+
+def fps_summary(xs) -> str:
+    return f"{statistics.median(xs):.1f} ({min(xs):.1f}–{max(xs):.1f})"
+
+
+def ratio_summary(r) -> str:
+    return f"{statistics.median(r):.2f} ({min(r):.2f}–{max(r):.2f})"
 
 
 if __name__ == "__main__":

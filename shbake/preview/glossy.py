@@ -26,7 +26,7 @@ import numpy as np
 from shbake.errors import ParameterError
 from shbake.format.asset import Asset
 from shbake.format.probe import check_probe_alpha
-from shbake.preview.sphere import sphere_geometry
+from shbake.preview.sphere import paint, sphere_geometry
 from shbake.reference.ggx import ggx_integrals
 from shbake.shading.shexp import evaluate_shexp
 from shbake.shading.splitsum import evaluate_splitsum
@@ -75,6 +75,6 @@ def render_glossy(
     if name != "reference":
         _shade(*args)  # compile (or load from cache) and warm up; time the second frame
     t0 = time.perf_counter()
-    out[mask] = _shade(*args)
+    paint(out, mask, _shade(*args))
     dt = time.perf_counter() - t0
     return out, {"seconds": dt, "fps": 1.0 / dt if dt > 0 else float("inf")}

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from shbake.preview.sphere import sphere_geometry
+from shbake.preview.sphere import paint, sphere_geometry
 from shbake.sh.rotation import block_offsets
 from shbake.shading.kautz_table import (
     dot_world,
@@ -66,5 +66,5 @@ def render_kautz(env_asset, table, size: int = 192) -> tuple[np.ndarray, dict]:
         dt = time.perf_counter() - t0
         timing[name] = {"seconds": dt, "fps": 1.0 / dt if dt > 0 else float("inf")}
     img = np.zeros((size, size, 3))
-    img[mask] = q
+    paint(img, mask, q)
     return img, timing

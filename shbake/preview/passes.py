@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from shbake.format.asset import Asset
-from shbake.preview.sphere import sphere_geometry
+from shbake.preview.sphere import paint, sphere_geometry
 from shbake.shading.env_sh import irradiance, tangent_irradiance_matrix
 
 INV_PI = 1.0 / np.pi
@@ -49,7 +49,7 @@ def render_pass(
         dirs, omega, radiance = source.samples()
         out = np.zeros((size, size, 3))
         t0 = time.perf_counter()
-        out[mask] = brute_force_shading(dirs, omega, radiance, frames, views, brdf)
+        paint(out, mask, brute_force_shading(dirs, omega, radiance, frames, views, brdf))
         dt = time.perf_counter() - t0
         return out, {"seconds": dt, "fps": 1.0 / dt if dt > 0 else float("inf")}
     normals, tangents, mask = sphere_geometry(size)
@@ -58,13 +58,13 @@ def render_pass(
         n = np.ascontiguousarray(normals[mask])
 
         def run():
-            out[mask] = irradiance(asset, n) * INV_PI
+            paint(out, mask, irradiance(asset, n), INV_PI)
 
     elif name == "tangent":
         t = np.ascontiguousarray(tangents[mask])
 
         def run():
-            out[mask] = tangent_irradiance_matrix(asset, t)
+            paint(out, mask, tangent_irradiance_matrix(asset, t))
 
     elif name in ("reference", "reference-tangent"):
         from shbake.reference.irradiance import brute_force_irradiance
@@ -75,7 +75,7 @@ def render_pass(
 
         def run():
             e = brute_force_irradiance(dirs, omega, radiance, query[mask], tangent=tangent)
-            out[mask] = e if tangent else e * INV_PI
+            paint(out, mask, e, 1.0 if tangent else INV_PI)
 
     else:
         raise ValueError(f"unknown pass {name!r}")

@@ -24,7 +24,7 @@ from shbake.brdf import make_brdf
 from shbake.brdf.sampling import tangent_frame
 from shbake.errors import ParameterError
 from shbake.format.shrm import SHRM
-from shbake.preview.sphere import sphere_geometry
+from shbake.preview.sphere import paint, sphere_geometry
 from shbake.reference.brdf_shading import brute_force_shading
 from shbake.shading.shrm import reflection_cube, shade
 
@@ -57,7 +57,7 @@ def render_shrm(shrm: SHRM, size: int = 192, frames: int = 5):
 
     def frame():
         cube = update()
-        out[mask] = shade(cube, n, VIEW, t if kind == "tangent" else None)
+        paint(out, mask, shade(cube, n, VIEW, t if kind == "tangent" else None))
 
     t_eq12 = _best(update, frames)
     t_frame = _best(frame, frames)
@@ -85,13 +85,14 @@ def render_reference(shrm: SHRM, source, size: int = 192):
     if shrm.kind == "surface":
         brdf = make_brdf(a["brdf_model"], a.get("brdf_source") or None, **params)
         frames = np.array([np.array([*tangent_frame(*x), x]) for x in n])
-        out[mask] = brute_force_shading(dirs, om, rad, frames, frames @ VIEW, brdf)
+        paint(out, mask, brute_force_shading(dirs, om, rad, frames, frames @ VIEW, brdf))
     elif shrm.kind == "lobe":
         s = float(params["s"])
         r = 2.0 * n[:, 2:3] * n - VIEW
-        out[mask] = _chunked(
+        lobe = _chunked(
             r, dirs, om, rad, lambda c: (s + 1) / (2 * np.pi) * np.clip(c, 0, None) ** s
         )
+        paint(out, mask, lobe)
     elif shrm.kind == "tangent":
         kd, ks, p = (np.asarray(params[k], float) for k in ("kd", "ks", "p"))
         co = tg @ VIEW
@@ -104,7 +105,7 @@ def render_reference(shrm: SHRM, source, size: int = 192):
             for c in range(3):
                 f = kd[c] * si / np.pi + ks[c] * (p + 2) / (2 * np.pi) * spec
                 res[i : i + 64, c] = (f * om) @ rad[:, c]
-        out[mask] = res
+        paint(out, mask, res)
     else:
         raise ParameterError(f"unknown SHRM kind {shrm.kind!r}")
     dt = time.perf_counter() - t0

@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from shbake.jit import jit
+
 
 def sphere_geometry(size: int):
     """Normals ``(size, size, 3)``, longitude-line tangents and the coverage mask.
@@ -23,3 +25,21 @@ def sphere_geometry(size: int):
     norm = np.linalg.norm(t, axis=-1, keepdims=True)
     t = np.where(norm > 1e-12, t / np.maximum(norm, 1e-300), np.array([1.0, 0.0, 0.0]))
     return n, t, mask
+
+
+@jit
+def _paint(out, mask, values, scale):
+    k = 0
+    for i in range(mask.shape[0]):
+        for j in range(mask.shape[1]):
+            if mask[i, j]:
+                for c in range(values.shape[1]):
+                    out[i, j, c] = scale * values[k, c]
+                k += 1
+
+
+def paint(out, mask, values, scale: float = 1.0) -> None:
+    """``out[mask] = scale × values``: the covered pixels, in row-major order, from ``(N, C)``
+    rows. A plain loop: numpy's boolean-mask assignment of ``(N, 3)`` rows took 4.4 ms at
+    512² (206 000 pixels), most of an irradiance frame."""
+    _paint(out, mask, np.ascontiguousarray(values, dtype=np.float64), float(scale))
