@@ -165,6 +165,7 @@ def _evaluate_blocks_one_alpha(views, normals, alpha, f0, wp, wq, lmax_p, lmax_q
     s = sum_scratch()
     dirs = np.empty((BLOCK, 3))
     acc = np.empty((BLOCK, 3))
+    nvs = np.empty(BLOCK)
     for blk in range(b0, b1):
         i0 = blk * BLOCK
         nb = min(BLOCK, n - i0)
@@ -172,6 +173,7 @@ def _evaluate_blocks_one_alpha(views, normals, alpha, f0, wp, wq, lmax_p, lmax_q
             i = i0 + k
             nv = normals[i, 0] * views[i, 0] + normals[i, 1] * views[i, 1]
             nv += normals[i, 2] * views[i, 2]
+            nvs[k] = nv
             for c in range(3):
                 dirs[k, c] = 2 * nv * normals[i, c] - views[i, c]  # ρ
                 acc[k, c] = 0.0
@@ -181,22 +183,17 @@ def _evaluate_blocks_one_alpha(views, normals, alpha, f0, wp, wq, lmax_p, lmax_q
                 dirs[k, c] += normals[i0 + k, c]  # n + ρ: add_sums normalises it
         bad[blk] += add_sums(dirs, nb, wq, lmax_q, s, acc)
         for k in range(nb):
-            i = i0 + k
-            nv = normals[i, 0] * views[i, 0] + normals[i, 1] * views[i, 1]
-            nv += normals[i, 2] * views[i, 2]
-            a0, a1 = dfg_at(table, nv, alpha)
+            a0, a1 = dfg_at(table, nvs[k], alpha)
             tail = a1 / a0 if a0 > 0.0 else 0.0
             for c in range(3):
                 e0 = np.exp(acc[k, c])
-                out[i, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
+                out[i0 + k, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
 
 
-def blended_coefficients(p, q, knots, alpha) -> tuple[np.ndarray, np.ndarray]:
+def blended_coefficients(p, q, knots, alpha, lmax_p, lmax_q) -> tuple[np.ndarray, np.ndarray]:
     """``vMF_l(1/α) Σ_k h_k(α) p_k`` and the same of ``q`` with its DC row (zero) restored:
     ``((lmax_p+1)², 3)``, ``((lmax_q+1)², 3)`` at one ``α`` (eq. 12; the hat blend)."""
     hw = hat_weights(knots, alpha)[0]
-    lmax_p = int(round(np.sqrt(p.shape[1]))) - 1
-    lmax_q = int(round(np.sqrt(q.shape[1] + 1))) - 1
     cp = vmf_factors(lmax_p, alpha)[:, None] * np.tensordot(hw, p, 1)
     cq = np.zeros(((lmax_q + 1) ** 2, p.shape[2]))
     cq[1:] = vmf_factors(lmax_q, alpha)[1:, None] * np.tensordot(hw, q, 1)
@@ -231,7 +228,7 @@ def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots
     f0 = np.broadcast_to(np.asarray(f0, float), (3,)).copy()
     table = np.asarray(table, float)
     if np.ndim(alpha) == 0:
-        cp, cq = blended_coefficients(p, q, knots, float(alpha))
+        cp, cq = blended_coefficients(p, q, knots, float(alpha), lmax_p, lmax_q)
         n_blocks = -(-v.shape[0] // BLOCK)
         bad = np.zeros(n_blocks, dtype=np.int64)
         run_blocks(
