@@ -10,6 +10,7 @@ size, a sample count and a tolerance, ``--roughness`` is perceptual and
 import functools
 import shlex
 import sys
+from contextlib import contextmanager
 
 import click
 import numpy as np
@@ -39,6 +40,22 @@ class _Finite(click.types.FloatParamType):
 
 FINITE = _Finite()
 """A finite float option (``type=FINITE`` instead of ``type=float``; shown as FLOAT)."""
+
+
+@contextmanager
+def usage_errors(option: str | None = None):
+    """Run the library's check of a command's settings: its
+    :class:`~shbake.errors.ParameterError` (a value outside the range the library allows,
+    which may depend on other options) becomes click's usage error (exit 2), naming
+    ``option`` when given. Only around checks made before any input is read: a parameter
+    an input turns out not to support is a bad input (exit 1)."""
+    try:
+        yield
+    except ParameterError as e:
+        if option is not None:
+            raise click.BadParameter(str(e), param_hint=f"'{option}'") from None
+        raise click.UsageError(str(e)) from None
+
 
 LAYOUT_CHOICES = ("latlong", "cube-strip", "cross-h", "cross-v")
 

@@ -2,7 +2,7 @@
 
 import click
 from shbake_cli.options import (
-    FINITE,
+    FiniteRange,
     colorspace_opt,
     emit_json,
     exr_dir_opt,
@@ -14,9 +14,19 @@ from shbake_cli.options import (
     output_opt,
     quiet_opt,
     report_opt,
+    usage_errors,
 )
 
-from shbake.bakers.shrm import bake_to_file
+from shbake.bakers.shrm import (
+    F_LIMIT,
+    FACE_AUTO_MAX,
+    FACE_AUTO_MIN,
+    FACE_MAX,
+    FACE_MIN,
+    P_LIMIT,
+    bake_to_file,
+    shrm_settings,
+)
 
 
 def _params(values) -> dict:
@@ -58,31 +68,33 @@ def _params(values) -> dict:
     "--eps",
     "--tol",
     "eps",
-    type=FINITE,
+    type=FiniteRange(0.0, 1.0, min_open=True, max_open=True),
     default=0.03,
     show_default=True,
     help="Error tolerance in (0, 1): the fraction of BRDF energy left out; chooses F and P "
-    "(RH02 §5.1).",
+    "(RH02 §5.1); one that no F, P within the limits reaches is refused unless --F/--P are "
+    "given.",
 )
 @click.option(
     "--F",
     "F",
-    type=int,
+    type=click.IntRange(0, F_LIMIT),
     default=None,
-    help="Light × BRDF band limit F (0…64), instead of choosing it from --eps.",
+    help=f"Light × BRDF band limit F (0…{F_LIMIT}), instead of choosing it from --eps.",
 )
 @click.option(
     "--P",
     "P",
-    type=int,
+    type=click.IntRange(0, P_LIMIT),
     default=None,
-    help="View band limit P (0…16), instead of choosing it from --eps.",
+    help=f"View band limit P (0…{P_LIMIT}), instead of choosing it from --eps.",
 )
 @click.option(
     "--face-size",
-    type=int,
+    type=click.IntRange(FACE_MIN, FACE_MAX),
     default=None,
-    help="Cube face size in texels (4…1024) [default: power of two nearest 5F, 16…256].",
+    help=f"Cube face size in texels ({FACE_MIN}…{FACE_MAX}) [default: power of two nearest "
+    f"5F, {FACE_AUTO_MIN}…{FACE_AUTO_MAX}].",
 )
 @exr_dir_opt("the B_pq cubes shrm_p<p>.exr and reflection.exr (eq. 12 for --view)")
 @click.option(
@@ -102,25 +114,10 @@ def _params(values) -> dict:
 def shrm(env, output, brdf, params, merl_path, eps, F, P, face_size, exr_dir, view, report,
          layout, colorspace, negative, fix_nonfinite, as_json, quiet):  # fmt: skip
     """Bake ENV into a Spherical Harmonic Reflection Map for an isotropic BRDF."""
-    summary = bake_to_file(
-        env,
-        output,
-        brdf,
-        _params(params),
-        merl_path,
-        eps,
-        F,
-        P,
-        face_size,
-        exr_dir,
-        view,
-        report,
-        layout,
-        colorspace,
-        negative,
-        fix_nonfinite,
-        quiet,
-    )
+    with usage_errors():
+        settings = shrm_settings(brdf, _params(params), merl_path, eps, F, P, face_size, view)
+    summary = bake_to_file(env, output, settings, exr_dir, report, layout, colorspace, negative,
+                           fix_nonfinite, quiet)  # fmt: skip
     info(
         f"shrm: {output}: {brdf} F={summary['F']} P={summary['P']} face {summary['face_size']} "
         f"BRDF energy left out {summary['eps_brdf']:.4f} (bound {summary['eps_bound']:.2e}), "

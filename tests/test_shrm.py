@@ -7,11 +7,12 @@ brute-force texel sums over the map (prefiltered Phong maps, any BRDF through
 Table 5 orders, smooth functions on the cube.
 """
 
+import json
 import os
 
 import numpy as np
 import pytest
-from helpers import map_path, write_merl
+from helpers import map_path, write_merl, write_test_exr
 from scipy import integrate, special
 
 from shbake.bakers.shrm import (
@@ -52,6 +53,12 @@ def sphere_case(size=32):
     view = np.array([0.0, 0.0, 1.0])
     frames = np.array([np.array([*tangent_frame(*x), x]) for x in n])
     return n, view, frames, np.einsum("pij,j->pi", frames, view)
+
+
+def small_map(folder, name="small.exr"):
+    """A 16 × 32 lat-long map (its bake's cost is the BRDF's, not the map's)."""
+    y = np.linspace(1.0, 2.0, 16, dtype=np.float32)[:, None, None]
+    return write_test_exr(folder / name, np.tile(y, (1, 32, 3)))
 
 
 def rel_rms(a, b):
@@ -171,6 +178,13 @@ class TestSelectOrders:
         o = select_orders(brdf_coefficients(rb, F_LIMIT, 16), 0.03)
         assert o.P == 8 and o.reached
 
+    def test_all_energy_kept_is_zero_left_out(self):
+        # 1 − captured at F 64 rounds to −2e-12 for the Phong lobe: clamped to [0, 1]
+        co = brdf_coefficients(make_reflection_brdf("phong-lobe", {}), F_LIMIT, 0)
+        assert co.captured()[-1, 0] > 1.0  # the rounding this guards against
+        o = select_orders(co, 0.5, F=F_LIMIT)
+        assert o.eps_brdf == 0.0 and o.reached
+
     def test_face_size(self):
         assert auto_face_size(12) == 64 and auto_face_size(24) == 128 and auto_face_size(1) == 16
 
@@ -288,17 +302,21 @@ class TestCLI:
     @pytest.mark.parametrize(
         "args,code,msg",
         [
-            (["--eps", "0"], 1, "eps"),
-            (["--eps", "1"], 1, "eps"),
-            (["--eps", "-0.5"], 1, "eps"),
-            (["--F", "500"], 1, "F must"),
-            (["--P", "99"], 1, "P must"),
-            (["--face-size", "3"], 1, "face size"),
-            (["--face-size", "100000"], 1, "face size"),
-            (["--brdf", "microfacet", "-p", "sigma=-1"], 1, "sigma"),
-            (["--brdf", "nope"], 1, "unknown BRDF"),
-            (["--brdf", "ggx", "-p", "alpha_x=0.1"], 1, "isotropic"),
-            (["--brdf", "phong-lobe", "--P", "2"], 1, "radially symmetric"),
+            # every parameter outside its range (the range may depend on another) is a usage
+            # error: exit 2 (docs/CLI.md)
+            (["--eps", "0"], 2, "--eps"),
+            (["--eps", "1"], 2, "--eps"),
+            (["--eps", "-0.5"], 2, "--eps"),
+            (["--F", "500"], 2, "--F"),
+            (["--P", "99"], 2, "--P"),
+            (["--face-size", "3"], 2, "--face-size"),
+            (["--face-size", "100000"], 2, "--face-size"),
+            (["--face-size", "1024", "--P", "16"], 2, "lower --face-size or --P"),
+            (["--brdf", "microfacet", "-p", "sigma=-1"], 2, "sigma"),
+            (["--brdf", "nope"], 2, "unknown BRDF"),
+            (["--brdf", "ggx", "-p", "alpha_x=0.1"], 2, "isotropic"),
+            (["--brdf", "phong-lobe", "--P", "2"], 2, "radially symmetric"),
+            (["--view", "0,0,0"], 2, "view"),
             (["--F", "x"], 2, "F"),
         ],
     )
@@ -309,9 +327,39 @@ class TestCLI:
         assert msg in err and err.count("\n") == 1 and err.startswith("shbake: error:")
         assert not out.exists() and os.listdir(tmp_path) == []
 
-    def test_bake_json_and_exr(self, run_cli, tmp_path):
-        import json
+    def test_all_energy_kept_writes_its_own_asset(self, run_cli, tmp_path):
+        # phong-lobe at F 64 keeps all of the BRDF energy: 1 − captured rounds below 0
+        # (−2e-12), which the asset's [0, 1] range refused (issue 27, item 16)
+        out = tmp_path / "o.h5"
+        rc, stdout, err = run_cli("shrm", small_map(tmp_path), "-o", out, "--brdf", "phong-lobe",
+                                  "--F", "64", "--face-size", "4", "--json", "--quiet")  # fmt: skip
+        assert rc == 0, err
+        from shbake.format.shrm import read_shrm
 
+        assert read_shrm(str(out)).F == 64
+        assert json.loads(stdout)["eps_brdf"] == 0.0
+
+    def test_unreachable_eps_refused_before_the_bake(self, run_cli, tmp_path):
+        # Kajiya–Kay p = 32 keeps all but ~2.5e-5 of its energy at F 64, P 16: --eps 1e-6 is
+        # refused as the planner refuses it (one line, the best reachable, nothing written)
+        out = tmp_path / "o.h5"
+        spec = ["--brdf", "kajiya-kay", "-p", "kd=0", "-p", "ks=1", "-p", "p=32"]
+        rc, _, err = run_cli("shrm", small_map(tmp_path), "-o", out, *spec, "--eps", "1e-6")
+        assert rc == 2 and err.count("\n") == 1, err
+        assert "F ≤ 64, P ≤ 16" in err and not out.exists()
+        # the best reachable, from the band energies at the limits (not the order rule)
+        rb = make_reflection_brdf("kajiya-kay", {"kd": 0.0, "ks": 1.0, "p": 32.0})
+        co = brdf_coefficients(rb, F_LIMIT, 16)
+        kept = co.band_energy().sum(axis=(0, 1)) / co.total
+        assert f"leaves {1.0 - kept.min():.3g} of the BRDF energy out" in err
+        # with the orders given, the same tolerance bakes (and says it is not reached)
+        rc, stdout, err = run_cli("shrm", small_map(tmp_path), "-o", out, *spec, "--eps", "1e-6",
+                                  "--F", "4", "--P", "2", "--face-size", "4", "--json",
+                                  "-q")  # fmt: skip
+        assert rc == 0, err
+        assert json.loads(stdout)["eps_reached"] is False and out.exists()
+
+    def test_bake_json_and_exr(self, run_cli, tmp_path):
         out = tmp_path / "o.h5"
         rc, stdout, err = run_cli(
             "shrm", str(map_path("city")), "-o", out, "--brdf", "microfacet", "-p", "sigma=0.4",
@@ -406,8 +454,6 @@ class TestMeasuredAndTangent:
 
 class TestPreviewPass:
     def test_shrm_pass_and_diff(self, run_cli, tmp_path):
-        import json
-
         out = tmp_path / "m.h5"
         src = str(map_path("city"))
         rc, _, err = run_cli("shrm", src, "-o", out, "-p", "sigma=0.4", "--face-size", "16", "-q")

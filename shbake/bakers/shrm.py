@@ -456,7 +456,17 @@ def select_orders(coeffs: BRDFCoefficients, eps: float, F=None, P=None) -> Order
         P, ok = first(cap[min(F, Fmax), :])
     else:
         ok = cap[min(F, Fmax), min(P, Pmax)] >= target
-    return Orders(int(F), int(P), float(1.0 - cap[min(F, Fmax), min(P, Pmax)]), eps, bool(ok))
+    left_out = 1.0 - cap[min(F, Fmax), min(P, Pmax)]  # below 0 by rounding when all is kept
+    return Orders(int(F), int(P), float(np.clip(left_out, 0.0, 1.0)), eps, bool(ok))
+
+
+def search_orders(rb: ReflectionBRDF, eps: float) -> tuple[Orders, BRDFCoefficients]:
+    """:func:`select_orders` on ``rb``'s coefficients to ``F_LIMIT``, ``P_LIMIT`` (``P = 0``
+    radially symmetric), and those coefficients: ``reached`` is False when no ``F ≤ F_LIMIT``,
+    ``P ≤ P_LIMIT`` leaves at most ``eps`` of the energy out (then ``eps_brdf`` is the best
+    reachable). The rule the planner and ``shrm`` refuse an impossible tolerance by."""
+    search = brdf_coefficients(rb, F_LIMIT, 0 if rb.radially_symmetric else P_LIMIT)
+    return select_orders(search, eps), search
 
 
 def residual_bound(L, light_energy, coeffs: BRDFCoefficients, F: int, P: int) -> dict:
@@ -914,21 +924,31 @@ def _plain(values: dict) -> dict:
     return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in values.items()}
 
 
-def bake_to_file(env_path: str, output: str, brdf: str = "microfacet", params: dict | None = None,
-                 merl_path: str | None = None, eps: float = 0.03, F=None, P=None,
-                 face_size=None, exr_dir: str | None = None, view="0,0,1", report: bool = False,
-                 layout=None, colorspace=None, negative: str = "clamp", fix_nonfinite=None,
-                 quiet: bool = False) -> dict:  # fmt: skip
-    """The ``shbake shrm`` command: validate everything, load the map, bake, write the asset
-    (and the EXR cubes), optionally build the report; return the summary dict.
+@dataclass
+class ShrmSettings:
+    """The checked settings of one ``shrm`` bake (:func:`shrm_settings`); ``search``: the
+    coefficients to the limits the orders are chosen from (``None`` when ``F`` or ``P`` is
+    given)."""
 
-    All parameters are checked before the map is read, so a bad value leaves no file.
+    rb: ReflectionBRDF
+    eps: float
+    F: int | None
+    P: int | None
+    face_size: int | None
+    view: np.ndarray
+    search: BRDFCoefficients | None
+
+
+def shrm_settings(brdf: str = "microfacet", params: dict | None = None,
+                  merl_path: str | None = None, eps: float = 0.03, F=None, P=None,
+                  face_size=None, view="0,0,1") -> ShrmSettings:  # fmt: skip
+    """Every setting of the ``shrm`` command checked before a map is read; a
+    :class:`~shbake.errors.ParameterError` names the first bad one (the CLI's usage error).
+
+    With neither ``F`` nor ``P`` given, an ``eps`` no ``F ≤ F_LIMIT``, ``P ≤ P_LIMIT``
+    reaches is refused (:func:`search_orders`, as the planner refuses it), naming the best
+    reachable.
     """
-    from shbake.envmap import load_environment
-    from shbake.format.atomic import check_writable_dir
-    from shbake.format.shrm import build_shrm_asset, write_shrm
-
-    check_writable_dir(output)
     eps = check_eps(eps)
     F, P = check_F(F), check_P(P)
     rb = make_reflection_brdf(brdf, params, merl_path)
@@ -937,8 +957,32 @@ def bake_to_file(env_path: str, output: str, brdf: str = "microfacet", params: d
     if face_size is not None:
         check_face_size(face_size, P or 0, rb.kind)
     v = parse_view(view)
+    search = None
+    if F is None and P is None:
+        orders, search = search_orders(rb, eps)
+        if not orders.reached:
+            raise ParameterError(
+                f"eps {eps:g} is not reachable for {rb.name} within F ≤ {F_LIMIT}, P ≤ "
+                f"{P_LIMIT}: the best leaves {orders.eps_brdf:.3g} of the BRDF energy out; "
+                "give a larger --eps, or --F/--P to bake at given orders"
+            )
+    return ShrmSettings(rb, eps, F, P, face_size, v, search)
+
+
+def bake_to_file(env_path: str, output: str, settings: ShrmSettings, exr_dir: str | None = None,
+                 report: bool = False, layout=None, colorspace=None, negative: str = "clamp",
+                 fix_nonfinite=None, quiet: bool = False) -> dict:  # fmt: skip
+    """The ``shbake shrm`` command: load the map, bake at ``settings`` (checked before, by
+    :func:`shrm_settings`), write the asset (and the EXR cubes), optionally build the report;
+    return the summary dict."""
+    from shbake.envmap import load_environment
+    from shbake.format.atomic import check_writable_dir
+    from shbake.format.shrm import build_shrm_asset, write_shrm
+
+    check_writable_dir(output)
+    rb, eps, F, P = settings.rb, settings.eps, settings.F, settings.P
     env = load_environment(env_path, layout, colorspace, negative, fix_nonfinite, quiet)
-    bake = bake_shrm(env, rb, eps, F, P, face_size)
+    bake = bake_shrm(env, rb, eps, F, P, settings.face_size, coeffs_full=settings.search)
     asset = build_shrm_asset(bake, env.meta)
     write_shrm(output, asset)
     summary = {
@@ -948,7 +992,7 @@ def bake_to_file(env_path: str, output: str, brdf: str = "microfacet", params: d
         "bytes": int(bake.cube.nbytes), "seconds": bake.timings,
     }  # fmt: skip
     if exr_dir:
-        summary["exr"] = write_exr_cubes(exr_dir, bake, v)
+        summary["exr"] = write_exr_cubes(exr_dir, bake, settings.view)
     if report:
         Fs = sorted({max(1, bake.F // 2), max(1, (3 * bake.F) // 4), bake.F,
                      min(F_LIMIT, bake.F + bake.F // 2)})  # fmt: skip

@@ -275,8 +275,8 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
 def plan_shrm(env: EnvMap, model: str, params: dict, tol: float) -> dict:
     """An SHRM (Ramamoorthi & Hanrahan 2002) of an isotropic BRDF: the smallest ``F``, ``P``
     whose truncation leaves at most ``tol`` of the BRDF's energy out
-    (:func:`shbake.bakers.shrm.select_orders` on coefficients to ``F_LIMIT``, ``P_LIMIT``,
-    RH02 §5.1 and appendix C), the face size from ``F``
+    (:func:`shbake.bakers.shrm.search_orders`: ``select_orders`` on coefficients to
+    ``F_LIMIT``, ``P_LIMIT``, RH02 §5.1 and appendix C), the face size from ``F``
     (:func:`~shbake.bakers.shrm.auto_face_size`).
 
     ``impossible`` when no ``F ≤ 64``, ``P ≤ 16`` reaches ``tol`` (e.g. GGX at low roughness).
@@ -287,13 +287,12 @@ def plan_shrm(env: EnvMap, model: str, params: dict, tol: float) -> dict:
         auto_face_size,
         brdf_coefficients,
         make_reflection_brdf,
-        select_orders,
+        search_orders,
         shrm_cube,
     )
 
     rb = make_reflection_brdf(model, _param_strings(params))
-    search = brdf_coefficients(rb, F_LIMIT, 0 if rb.radially_symmetric else P_LIMIT)
-    orders = select_orders(search, tol)
+    orders, _ = search_orders(rb, tol)
     if not orders.reached:
         return {"impossible": {"shrm": orders.eps_brdf}}
     F, P = orders.F, orders.P
