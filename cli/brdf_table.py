@@ -11,6 +11,7 @@ from shbake_cli.options import (
     emit_json,
     exr_dir_opt,
     info,
+    info_lines,
     json_opt,
     output_opt,
     quiet_opt,
@@ -126,7 +127,7 @@ def brdf_table(ctx, model, output, params, as_json, quiet, **settings):
     for w in summary["warnings"]:
         warn(w, quiet)
     if "report" in summary and not as_json:
-        info(format_report(summary["report"]), quiet)
+        info_lines(format_report(summary["report"]), quiet)
     if as_json:
         emit_json(summary)
     else:

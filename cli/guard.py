@@ -27,6 +27,7 @@ import click
 from shbake import resources, signals
 from shbake.errors import ShbakeError
 from shbake.format import atomic
+from shbake.messages import printable
 
 MAX_MESSAGE = 400
 """Characters of an error message kept (arrays are never printed in full)."""
@@ -39,8 +40,10 @@ class Interrupted(Exception):
 
 
 def one_line(text) -> str:
-    """Collapse a message to one bounded line."""
-    text = " ".join(str(text).split())
+    """A message as one bounded line: control characters escaped first
+    (:func:`shbake.messages.printable`: a name's ``\\r`` or ``ESC`` is shown, not obeyed,
+    and a line break is ``\\n``), then runs of spaces and tabs collapsed."""
+    text = " ".join(printable(text).split())
     return text if len(text) <= MAX_MESSAGE else text[: MAX_MESSAGE - 1] + "…"
 
 

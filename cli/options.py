@@ -16,6 +16,7 @@ import click
 import numpy as np
 
 from shbake.errors import OutputError, ParameterError
+from shbake.messages import printable
 from shbake.progress import Progress
 
 
@@ -273,9 +274,16 @@ def command_line(ctx: click.Context) -> str:
 
 
 def info(msg: str, quiet: bool = False) -> None:
-    """A message for people: stderr."""
+    """A message for people: one line on stderr, control characters escaped
+    (:func:`shbake.messages.printable`: a file name in it cannot act on the terminal)."""
     if not quiet:
-        click.echo(msg, err=True)
+        click.echo(printable(msg), err=True)
+
+
+def info_lines(text: str, quiet: bool = False) -> None:
+    """A multi-line report (tables): :func:`info` per line."""
+    for line in text.splitlines():
+        info(line, quiet)
 
 
 def warn(msg: str, quiet: bool = False) -> None:
@@ -294,8 +302,8 @@ class BarProgress(Progress):
             return None
         from tqdm import tqdm
 
-        return tqdm(total=total, desc=description, unit=unit, file=sys.stderr, leave=False,
-                    dynamic_ncols=True)  # fmt: skip
+        return tqdm(total=total, desc=printable(description), unit=unit, file=sys.stderr,
+                    leave=False, dynamic_ncols=True)  # fmt: skip
 
     def _advance(self, handle, n):
         handle.update(n)

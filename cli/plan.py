@@ -1,11 +1,12 @@
 """``shbake plan`` and ``shbake bake``: a scene's assets, their settings, and baking them."""
 
 import click
-from shbake_cli.options import emit_json, info, json_opt, quiet_opt
+from shbake_cli.options import emit_json, info, info_lines, json_opt, quiet_opt
 
 from shbake.batch.plan import format_plan, plan_scene
 from shbake.batch.scene import SceneError, load_scene
 from shbake.batch.scene_bake import bake_scene, emit_make, format_bake
+from shbake.messages import printable
 
 
 def _scene(path):
@@ -40,7 +41,7 @@ def plan(scene, emit, shbake_cmd, as_json, quiet):
     if as_json:
         emit_json(result)
     elif not quiet:
-        click.echo(format_plan(result))
+        click.echo("\n".join(map(printable, format_plan(result).splitlines())))
 
 
 @click.command("bake")
@@ -63,4 +64,4 @@ def bake(scene, jobs, scheduler, only, as_json, quiet):
     if as_json:
         emit_json(summary)
     else:
-        info(format_bake(summary), quiet)
+        info_lines(format_bake(summary), quiet)

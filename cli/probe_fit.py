@@ -9,6 +9,7 @@ from shbake_cli.options import (
     emit_json,
     fix_nonfinite_opt,
     info,
+    info_lines,
     json_opt,
     negative_opt,
     output_opt,
@@ -113,7 +114,7 @@ def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, a
             click.echo(f"\rprobe-fit: {done}/{total}", err=True, nl=done == total)
 
     summary = fit_probes(maps, probe_list, output, out_dir, config, progress=progress,
-                         notes=lambda text: info(text, quiet), **run)  # fmt: skip
+                         notes=lambda text: info_lines(text, quiet), **run)  # fmt: skip
     for w in summary["warnings"]:
         info(f"shbake: warning: {w}", quiet)
     info(f"probe-fit: {len(summary['probes'])} probes in {summary['seconds']:.2f} s "

@@ -1,7 +1,6 @@
 """An environment map loaded, validated and ready to integrate."""
 
 import os
-import sys
 
 import numpy as np
 
@@ -14,6 +13,7 @@ from shbake.envmap.layouts import (
     texels,
 )
 from shbake.envmap.repair import apply_negative_policy, repair_nonfinite
+from shbake.messages import warn
 from shbake.sh.projection import fejer_row_weights, project_latlong, project_samples
 
 
@@ -86,12 +86,9 @@ def load_environment(
     → negative policy. See :mod:`shbake.envmap.repair` for the policies.
     """
     raw, info = read_image(path)
-    if info.get("display_referred") and colorspace is None and not quiet:
-        print(
-            f"shbake: warning: {path}: {info['format']} pixels are display-referred, read as "
-            "linear radiance; give --colorspace sRGB-display to decode sRGB",
-            file=sys.stderr,
-        )
+    if info.get("display_referred") and colorspace is None:
+        warn(f"{path}: {info['format']} pixels are display-referred, read as linear radiance; "
+             "give --colorspace sRGB-display to decode sRGB", quiet)  # fmt: skip
     rgb, channel_note = to_rgb(raw, info["channelnames"])
     h, w = rgb.shape[:2]
     layout = check_layout(layout, h, w) if layout else detect_layout(h, w, info["envmap"])

@@ -5,11 +5,10 @@ lights: esplanade reaches −3894 next to its sun). NaN/Inf are refused unless
 an explicit repair is asked for.
 """
 
-import sys
-
 import numpy as np
 
 from shbake.errors import InputError, ParameterError
+from shbake.messages import warn
 
 NEGATIVE_POLICIES = ("clamp", "keep", "error")
 NONFINITE_REPAIRS = ("black", "box3")
@@ -80,12 +79,8 @@ def apply_negative_policy(
     w = pixels.shape[1]
     omega = np.asarray(weights)[texel // w, texel % w]  # (H, W) or a broadcast view of it
     change = -np.bincount(flat_idx % nc, weights=values * omega, minlength=nc)
-    if not quiet:
-        print(
-            f"shbake: warning: {name}: clamped {count} negative pixels to 0 "
-            f"(min {float(values.min()):.6g}; ∫L dω change {np.array2string(change, precision=4)})",
-            file=sys.stderr,
-        )
+    warn(f"{name}: clamped {count} negative pixels to 0 (min {float(values.min()):.6g}; "
+         f"∫L dω change {np.array2string(change, precision=4)})", quiet)  # fmt: skip
     out = pixels if inplace else pixels.copy()
     out.flat[flat_idx] = 0.0  # the clamp writes the negatives only
     return out, count, change

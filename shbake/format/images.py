@@ -6,6 +6,7 @@ import OpenImageIO as oiio
 from shbake.conventions import REC709_LUMINANCE
 from shbake.errors import OutputError
 from shbake.format.atomic import atomic_path
+from shbake.messages import warn
 
 HALF_MAX = 65504.0
 
@@ -21,8 +22,6 @@ def clamp_to_half(levels: list, path: str) -> list:
     Non-finite values are refused (:class:`OutputError`): they are a bug, not a bright map.
     Levels that need no clamp are returned as they are (same bytes as before).
     """
-    import sys
-
     out, count, peak = [], 0, 0.0
     for lv in levels:
         a = np.asarray(lv, dtype=np.float64)
@@ -35,9 +34,10 @@ def clamp_to_half(levels: list, path: str) -> list:
             a = np.clip(a, -HALF_MAX, HALF_MAX)
         out.append(a)
     if count:
-        print(f"shbake: warning: {path}: {count} values above the half-float maximum 65504 "
-              f"(peak {peak:.6g}) clamped to 65504; send a sun as a light (--extract-sun) to "
-              "keep its energy", file=sys.stderr)  # fmt: skip
+        warn(
+            f"{path}: {count} values above the half-float maximum 65504 (peak {peak:.6g}) "
+            "clamped to 65504; send a sun as a light (--extract-sun) to keep its energy"
+        )
     return out
 
 

@@ -1,0 +1,41 @@
+"""The lines shbake prints for people, made inert: what a file name carries is shown, not obeyed.
+
+File names, scene names and the strings inside assets are untrusted (``docs/SECURITY.md``).
+Printed raw, a name could act on the terminal that shows it: an OSC sequence
+(``ESC ] 0;title BEL``) retitles it or worse, a carriage return or backspaces overwrite
+what came before (a forged ``shbake:`` line), C1 codes act as escapes on some terminals,
+and a bidi override (U+202E) shows the rest of the line reversed. Every error, warning and
+note line and every progress description goes through :func:`printable`, which writes each
+such character as its Python escape (``\\x1b``, ``\\r``, ``\\u202e``): visible and inert. The CLI
+applies it where it prints (``shbake_cli.guard.one_line``, ``shbake_cli.options.info``, the
+progress bars); the library's own warnings print through :func:`warn`.
+"""
+
+import sys
+
+CONTROLS = (*range(0x00, 0x20), *range(0x7F, 0xA0))
+"""C0 controls, DEL and C1 controls: Unicode category ``Cc``."""
+LAYOUT_CONTROLS = (0x061C, 0x200E, 0x200F, *range(0x202A, 0x202F), *range(0x2066, 0x206A),
+                   0x2028, 0x2029)  # fmt: skip
+"""Bidi marks, embeddings, overrides and isolates (Unicode TR9), line and paragraph separators."""
+KEPT = (0x09,)
+"""Tab: only moves the cursor forward (report tables are tab-separated)."""
+
+_ESCAPES = {c: repr(chr(c))[1:-1] for c in (*CONTROLS, *LAYOUT_CONTROLS) if c not in KEPT}
+"""Each character to its escape as ``repr`` writes it (``\\x1b``, ``\\r``, ``\\u202e``)."""
+
+
+def printable(text) -> str:
+    """``str(text)`` with every control and bidi-layout character written as its escape.
+
+    A newline is escaped too: one message stays one line (a multi-line report prints
+    line by line).
+    """
+    return str(text).translate(_ESCAPES)
+
+
+def warn(message: str, quiet: bool = False) -> None:
+    """``shbake: warning: MESSAGE`` on stderr, one line: the library's warnings about an input
+    (what was repaired or clamped), printed as they happen."""
+    if not quiet:
+        print(f"shbake: warning: {printable(message)}", file=sys.stderr)
