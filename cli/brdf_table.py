@@ -18,11 +18,12 @@ from shbake_cli.options import (
     report_opt,
     samples_opt,
     tol_opt,
+    usage_errors,
     warn,
 )
 
 from shbake.bakers.kautz_report import format_report
-from shbake.batch.brdf_table import bake_brdf_table
+from shbake.batch.brdf_table import bake_brdf_table, check_parameters
 from shbake.brdf import MODELS, model_spec
 from shbake.conventions import KAUTZ_LMAX_LIMIT
 
@@ -116,6 +117,8 @@ def list_params(ctx, _param, value):
 @click.pass_context
 def brdf_table(ctx, model, output, params, as_json, quiet, **settings):
     """Tabulate MODEL's BRDF product f*(s,v) = f(s,v) max(0,s_z) as SH per view direction."""
+    with usage_errors():
+        check_parameters(model, dict(params), settings["vary"])
     summary = bake_brdf_table(
         model,
         output,

@@ -2,9 +2,21 @@
 
 import click
 from click.core import ParameterSource
-from shbake_cli.options import FINITE, emit_json, info, json_opt, output_opt, quiet_opt, samples_opt
+from shbake_cli.options import (
+    FINITE,
+    FiniteRange,
+    emit_json,
+    info,
+    json_opt,
+    output_opt,
+    quiet_opt,
+    samples_opt,
+    usage_errors,
+)
 
-from shbake.batch.export import export_assets
+from shbake.bakers.cube_prefilter import CUBE_SIZE_LIMIT
+from shbake.batch.export import cube_settings, export_assets
+from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
 from shbake.format.exports import TARGETS
 from shbake.format.exports.source import FRAMES
 
@@ -50,13 +62,15 @@ from shbake.format.exports.source import FRAMES
     "--size",
     type=int,
     default=None,
-    help="Texels per side of the first cube mip, a power of two [gltf 64, ktx2/filament 128].",
+    help=f"Texels per side of the first cube mip, a power of two up to {CUBE_SIZE_LIMIT} "
+    "[gltf 64, ktx2/filament 128].",
 )
 @click.option(
     "--floor",
     type=int,
     default=None,
-    help="Texels per side of the last cube mip, a power of two [gltf 8, ktx2/filament 1].",
+    help="Texels per side of the last cube mip, a power of two up to --size "
+    "[gltf 8, ktx2/filament 1].",
 )
 @click.option(
     "--lod-mapping",
@@ -69,10 +83,11 @@ from shbake.format.exports.source import FRAMES
 @click.option(
     "--sun-radius",
     "sun_radius_deg",
-    type=FINITE,
+    type=FiniteRange(0.0, SUN_RADIUS_MAX_DEG, min_open=True),
     default=10.0,
     show_default=True,
-    help="Radius the asset's sun was extracted with, degrees (to rebuild its residual map).",
+    help=f"Radius the asset's sun was extracted with, degrees (0…{SUN_RADIUS_MAX_DEG:g}], to "
+    "rebuild its residual map.",
 )
 @click.option(
     "--babylon-scene",
@@ -95,6 +110,8 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
     if output is not None and len(assets) > 1:
         raise click.UsageError("several assets need --out-dir")
     settings = {k: cube[k] for k in ("size", "floor", "mapping", "samples") if cube[k] is not None}
+    with usage_errors():
+        cube_settings(target, **settings)
     ctx = click.get_current_context()
     explicit = {k for k in ctx.params if ctx.get_parameter_source(k) is ParameterSource.COMMANDLINE}
     written = export_assets(

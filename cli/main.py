@@ -22,6 +22,7 @@ import click
 from shbake_cli.guard import guarded_invoke, run
 
 from shbake import __version__
+from shbake.errors import ParameterError
 from shbake.resources import end_run, parse_size, set_memory_budget, start_run
 from shbake.signals import exit_quietly_on_signal
 
@@ -64,7 +65,10 @@ class LazyGroup(click.Group):
 
 def _max_memory(ctx, param, value):
     if value is not None:
-        set_memory_budget(parse_size(value))
+        try:
+            set_memory_budget(parse_size(value))
+        except ParameterError as e:
+            raise click.BadParameter(str(e), ctx, param) from None
     return value
 
 

@@ -15,6 +15,7 @@ from contextlib import contextmanager
 import click
 import numpy as np
 
+from shbake.conventions import SAMPLES_LIMIT
 from shbake.errors import OutputError, ParameterError
 from shbake.messages import printable
 from shbake.progress import Progress
@@ -93,7 +94,7 @@ def size_opt(default: int, help_text: str, lo: int = 2, hi: int = 4096):
     )
 
 
-def samples_opt(default: int | None, help_text: str, lo: int = 16, hi: int = 1 << 20):
+def samples_opt(default: int | None, help_text: str, lo: int = 16, hi: int = SAMPLES_LIMIT):
     """``--samples N``: quadrature samples per integral; the help says per what."""
     return click.option(
         "--samples",
@@ -243,17 +244,29 @@ class SizeHW(click.ParamType):
 
 
 class NameValue(click.ParamType):
-    """``NAME=VALUE`` → ``(NAME, VALUE)`` (values stay strings; the model parses them)."""
+    """``NAME=VALUE`` → ``(NAME, VALUE)``: values stay strings (the model parses them), or with
+    ``number`` must be finite numbers (``(NAME, float)``)."""
 
     name = "NAME=VALUE"
+
+    def __init__(self, number: bool = False):
+        self.number = number
 
     def convert(self, value, param, ctx):
         if isinstance(value, tuple):
             return value
         if "=" not in value:
             self.fail(f"{value!r}: expected NAME=VALUE", param, ctx)
-        k, v = value.split("=", 1)
-        return k.strip(), v.strip()
+        k, v = (part.strip() for part in value.split("=", 1))
+        if not self.number:
+            return k, v
+        try:
+            number = float(v)
+        except ValueError:
+            number = float("nan")
+        if not np.isfinite(number):
+            self.fail(f"{value!r}: VALUE must be a finite number", param, ctx)
+        return k, number
 
 
 def parse_range(text: str, option: str) -> tuple[float, float]:

@@ -53,9 +53,9 @@ from shbake.preview.render import ALL_PASSES, preview_asset
 )
 @click.option(
     "--at",
-    type=NameValue(),
+    type=NameValue(number=True),
     multiple=True,
-    help="Parameter point of a table with --vary axes (nearest tabulated value).",
+    help="Parameter point of a table with --vary axes, NAME=NUMBER (nearest tabulated value).",
 )
 @click.option(
     "--merl",

@@ -3,6 +3,7 @@ against ground truth."""
 
 import click
 from shbake_cli.options import (
+    FiniteRange,
     deprecated,
     emit_json,
     info,
@@ -11,18 +12,23 @@ from shbake_cli.options import (
     quiet_opt,
     samples_opt,
     size_opt,
+    usage_errors,
     warn,
 )
 
+from shbake.bakers.shrm import FACE_MAX, FACE_MIN
 from shbake.batch.probe_eval import (
+    ROUGHNESS_MIN,
     SHRM_EPS,
     SHRM_FACE_SIZE,
+    check_evaluation,
     evaluate_maps,
     markdown_report,
     present_comparisons,
     shrm_shortfalls,
     win_table,
 )
+from shbake.conventions import SAMPLES_LIMIT
 from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 
 
@@ -31,20 +37,21 @@ from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 @output_opt("Markdown report: win rates per α and material, bytes, every case", required=False)
 @size_opt(32, "Sphere image size", lo=8, hi=512)
 @samples_opt(4096, "per pixel of the ground truth (visible-normal + map samples)")
-@deprecated("--truth-samples", "samples", "--samples", type=int)
+@deprecated("--truth-samples", "samples", "--samples", type=click.IntRange(16, SAMPLES_LIMIT))
 @deprecated("--markdown", "output", "-o/--output", type=click.Path(dir_okay=False))
 @click.option(
     "--roughness",
     multiple=True,
-    type=click.FloatRange(0.1, 1.0),
-    help="Cases at this perceptual roughness r (GGX width α = r²; repeatable) "
+    type=FiniteRange(ROUGHNESS_MIN, 1.0),
+    help=f"Cases at this perceptual roughness r in [{ROUGHNESS_MIN:g}, 1] (GGX width α = r²; "
+    "repeatable) "
     "[default: the paper's 0.5, 0.6, …, 1.0].",
 )
 @click.option(
     "--eps",
     "--tol",
     "eps",
-    type=float,
+    type=FiniteRange(0.0, 1.0, min_open=True, max_open=True),
     default=SHRM_EPS,
     show_default=True,
     help="Error tolerance in (0, 1) of the GGX SHRM: the fraction of BRDF energy left out; "
@@ -52,10 +59,10 @@ from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 )
 @click.option(
     "--face-size",
-    type=int,
+    type=click.IntRange(FACE_MIN, FACE_MAX),
     default=SHRM_FACE_SIZE,
     show_default=True,
-    help="Cube face size in texels (4…1024) of the GGX SHRM.",
+    help=f"Cube face size in texels ({FACE_MIN}…{FACE_MAX}) of the GGX SHRM.",
 )
 @click.option(
     "--shrm/--no-shrm",
@@ -83,7 +90,8 @@ def probe_eval(maps, output, size, samples, roughness, eps, face_size, shrm, she
     SHRMs per α by the shrm command's baker, orders from --eps). A probe that
     does not cover an α (SH-exp: α < 0.2) reports n/a there.
     """
-
+    with usage_errors():
+        check_evaluation(roughness or None, eps if shrm else None, face_size)
     if output is not None:  # checked (and compared with every map read) before any work
         check_output_path(output)
         refuse_same_file([output], maps)

@@ -18,10 +18,13 @@ from shbake_cli.options import (
     report_opt,
     samples_opt,
     tol_opt,
+    usage_errors,
 )
 
-from shbake.bakers.shexp import TARGETS, WEIGHTS, FitConfig
+from shbake.bakers.shexp import SETS_LIMIT, TARGETS, WEIGHTS, FitConfig
 from shbake.batch.probe_fit import fit_probes
+from shbake.batch.probe_jobs import JOBS_LIMIT
+from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT
 from shbake.errors import ParameterError
 
 
@@ -43,10 +46,11 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
             required=False)  # fmt: skip
 @click.option("--out-dir", default=".", show_default=True, type=click.Path(file_okay=False),
               help="Without -o: one <map stem>.h5 probe per map into this folder.")  # fmt: skip
-@click.option("--lmax-p", type=int, default=4, show_default=True,
-              help="Highest band of P (mirror direction).")  # fmt: skip
-@click.option("--lmax-q", type=int, default=2, show_default=True,
-              help="Highest band of Q (half-reflection), DC dropped.")  # fmt: skip
+@click.option("--lmax-p", type=click.IntRange(0, SHEXP_LMAX_LIMIT), default=4, show_default=True,
+              help=f"Highest band of P (mirror direction), 0…{SHEXP_LMAX_LIMIT}.")  # fmt: skip
+@click.option("--lmax-q", type=click.IntRange(1, SHEXP_LMAX_LIMIT), default=2, show_default=True,
+              help=f"Highest band of Q (half-reflection, DC dropped), 1…{SHEXP_LMAX_LIMIT}."
+              )  # fmt: skip
 @click.option("--normals", type=int, default=64, show_default=True,
               help="Fit normals (Fibonacci sphere).")  # fmt: skip
 @click.option("--views", type=int, default=32, show_default=True,
@@ -59,7 +63,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
               "--alpha-range.")  # fmt: skip
 @click.option("--alpha-count", type=int, default=8, show_default=True,
               help="Fit α values, evenly spaced over the range (at least 2·sets − 1).")
-@click.option("--sets", type=click.IntRange(1, 8), default=2, show_default=True,
+@click.option("--sets", type=click.IntRange(1, SETS_LIMIT), default=2, show_default=True,
               help="Coefficient sets K, hat-blended (linear) in α; 1 with --weights log "
               "and --alpha-count 4 is the paper's model.")  # fmt: skip
 @click.option("--weights", type=click.Choice(WEIGHTS), default="shaded-nv", show_default=True,
@@ -74,13 +78,15 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
 @click.option("--targets", type=click.Choice(TARGETS), default="quadrature", show_default=True,
               help="E0 at the fit samples: quadrature (filtered importance sampling) or sh "
               "(SH lighting x GGX tables; noise-free, blurs narrow lobes).")  # fmt: skip
-@click.option("--targets-lmax", type=int, default=8, show_default=True,
-              help="Lighting bands of --targets sh.")  # fmt: skip
+@click.option("--targets-lmax", type=click.IntRange(1, SH_TARGETS_LMAX_LIMIT), default=8,
+              show_default=True,
+              help=f"Lighting bands of --targets sh, 1…{SH_TARGETS_LMAX_LIMIT}.")  # fmt: skip
 @report_opt
 @tol_opt("the fewest --samples (256-4096) whose E0 target error (log RMS, first map) is at most "
          "this")  # fmt: skip
-@click.option("--jobs", "n_jobs", type=int, default=1, show_default=True,
-              help="Local worker processes.")  # fmt: skip
+@click.option("--jobs", "n_jobs", type=click.IntRange(1, JOBS_LIMIT), default=1,
+              show_default=True,
+              help=f"Local worker processes (1…{JOBS_LIMIT}: four per CPU).")  # fmt: skip
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Dask distributed scheduler (tcp://host:port).")  # fmt: skip
 @click.option("--manifest", type=click.Path(dir_okay=False), default=None,
@@ -101,12 +107,13 @@ def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, a
     (or one set file with -o); the same inputs give byte-identical files
     with --jobs, --scheduler or neither.
     """
-    lo, hi = fit_alpha_range(alpha_range, roughness_range)
     run = {k: settings.pop(k) for k in ("negative", "fix_nonfinite", "report", "tol", "n_jobs",
                                         "scheduler", "manifest")}  # fmt: skip
     if output and probe_list is None and not maps:
         raise ParameterError("give maps as arguments or a --list file")
-    config = FitConfig(alpha_count=alpha_count, alpha_min=lo, alpha_max=hi, **settings)
+    with usage_errors():
+        lo, hi = fit_alpha_range(alpha_range, roughness_range)
+        config = FitConfig(alpha_count=alpha_count, alpha_min=lo, alpha_max=hi, **settings)
     show = not quiet and sys.stderr.isatty()
 
     def progress(done, total):

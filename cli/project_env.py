@@ -16,11 +16,13 @@ from shbake_cli.options import (
     quiet_opt,
     report_opt,
     size_opt,
+    usage_errors,
     warn,
 )
 
-from shbake.batch.project_env import project_environment
+from shbake.batch.project_env import check_settings, project_environment
 from shbake.conventions import LMAX_LIMIT
+from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
 from shbake.sh.windows import WINDOW_METHODS
 
 
@@ -67,10 +69,10 @@ from shbake.sh.windows import WINDOW_METHODS
 )
 @click.option(
     "--sun-radius",
-    type=FiniteRange(0.0, 45.0, min_open=True),
+    type=FiniteRange(0.0, SUN_RADIUS_MAX_DEG, min_open=True),
     default=10.0,
     show_default=True,
-    help="Largest angular radius of the extracted light, degrees (0…45].",
+    help=f"Largest angular radius of the extracted light, degrees (0…{SUN_RADIUS_MAX_DEG:g}].",
 )
 @exr_dir_opt("irradiance.exr and tangent_irradiance.exr, lat-long")
 @size_opt(128, "Height of the --exr-dir lat-long maps (width = 2 × height)")
@@ -95,6 +97,9 @@ def project_env(ctx, env, output, exr_dir, size, as_json, quiet, **settings):
 
     ENV: lat-long, cube strip or cross; EXR, HDR or any format OpenImageIO reads.
     """
+    with usage_errors():
+        check_settings(settings["lmax"], settings["irradiance_lmax"], settings["irradiance"],
+                       settings["exports"])  # fmt: skip
     summary = project_environment(
         env,
         output,

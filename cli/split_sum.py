@@ -12,9 +12,16 @@ from shbake_cli.options import (
     quiet_opt,
     samples_opt,
     size_opt,
+    usage_errors,
 )
 
-from shbake.bakers.splitsum import PAPER_ALPHAS, PREFILTERS
+from shbake.bakers.splitsum import (
+    LEVEL_SIZE_MAX,
+    LEVEL_SIZE_MIN,
+    PAPER_ALPHAS,
+    PREFILTERS,
+    SplitSumConfig,
+)
 from shbake.batch.probe_eval import bake_splitsum_file
 from shbake.errors import ParameterError
 
@@ -36,8 +43,10 @@ def parse_levels(alphas: str | None, roughness: str | None) -> tuple[float, ...]
 @click.command("split-sum")
 @click.argument("env", type=click.Path(dir_okay=False))
 @output_opt("The splitsum_probe asset (.h5)")
-@size_opt(128, "Texels per side of the first (sharpest) octahedral level", lo=8, hi=2048)
-@click.option("--min-size", type=int, default=32, show_default=True, help="Smallest level size.")
+@size_opt(128, "Texels per side of the first (sharpest) octahedral level", lo=LEVEL_SIZE_MIN,
+          hi=LEVEL_SIZE_MAX)  # fmt: skip
+@click.option("--min-size", type=click.IntRange(LEVEL_SIZE_MIN, LEVEL_SIZE_MAX), default=32,
+              show_default=True, help="Smallest level size (at most --size).")  # fmt: skip
 @click.option("--alphas", default=None, metavar="A,B,…",
               help="GGX width of each level, increasing [default: the evaluation's "
               "0.25,0.36,0.49,0.64,0.81,1].")  # fmt: skip
@@ -47,7 +56,7 @@ def parse_levels(alphas: str | None, roughness: str | None) -> tuple[float, ...]
               help="plain: one map texel per sample (Karis; the paper's baseline); filtered: "
               "filtered importance sampling of the solid-angle pyramid (engine-grade).")
 @samples_opt(1024, "per texel (GGX half vectors)")
-@deprecated("--top", "size", "--size", type=click.IntRange(8, 2048))
+@deprecated("--top", "size", "--size", type=click.IntRange(LEVEL_SIZE_MIN, LEVEL_SIZE_MAX))
 @negative_opt
 @fix_nonfinite_opt
 @json_opt
@@ -55,9 +64,10 @@ def parse_levels(alphas: str | None, roughness: str | None) -> tuple[float, ...]
 def split_sum(env, output, size, min_size, alphas, roughness_levels, prefilter, samples,
               negative, fix_nonfinite, as_json, quiet):  # fmt: skip
     """Bake the split-sum baseline of ENV (Karis 2013) as a probe asset of its own."""
-    levels = parse_levels(alphas, roughness_levels)
-    summary = bake_splitsum_file(env, output, size, min_size, levels, prefilter, samples,
-                                 negative, fix_nonfinite)  # fmt: skip
+    with usage_errors():
+        config = SplitSumConfig(size, min_size, parse_levels(alphas, roughness_levels), samples,
+                                prefilter)  # fmt: skip
+    summary = bake_splitsum_file(env, output, config, negative, fix_nonfinite)
     info(f"split-sum: {output}: {summary['levels']} levels, {summary['bytes']} bytes", quiet)
     if as_json:
         emit_json(summary)

@@ -10,8 +10,10 @@ from shbake_cli.options import (
     output_opt,
     quiet_opt,
     samples_opt,
+    usage_errors,
 )
 
+from shbake.batch.brdf_table import check_parameters
 from shbake.batch.tradeoff import KINDS, tradeoff, write_tradeoff
 from shbake.brdf import MODELS
 
@@ -40,6 +42,9 @@ def tradeoff_cmd(kind, map_path, model, params, tol, samples, output, csv_path, 
                  as_json, quiet):  # fmt: skip
     """Plot error vs time and bytes of KIND's candidate settings (env_sh: lmax; brdf_table:
     lmax × size), the tolerance and the chosen point."""
+    if model is not None:
+        with usage_errors():
+            check_parameters(model, dict(params))
     result = tradeoff(kind, tol, map_path, model, dict(params), samples)
     write_tradeoff(result, output, csv_path, json_path)
     if as_json:

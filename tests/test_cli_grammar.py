@@ -1,8 +1,13 @@
 """The one command-line grammar of docs/CLI.md, checked over every command's --help."""
 
+import os
+from collections import namedtuple
+
 import click
+import numpy as np
 import pytest
-from shbake_cli.main import cli
+from shbake_cli.main import cli, main
+from shbake_cli.options import SizeHW
 
 COMMANDS = sorted(cli.list_commands(None))  # lazily imported subcommands
 RETIRED = ("--exr-maps", "--map-height", "--resolution", "--exr ", "--truth-samples", "--top",
@@ -90,3 +95,188 @@ class TestDeprecatedAliases:
         code, out, err = run_cli("brdf-table", "ggx", "--list-params")
         assert code == 0, err
         assert "alpha_x=" in out and "F0=" in out
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """A small map and its env_sh asset (read-only inputs every run may name)."""
+    from helpers import write_test_exr
+
+    folder = tmp_path_factory.mktemp("inputs")
+    map_path = write_test_exr(folder / "sky.exr", np.ones((8, 16, 3)))
+    assert main(["project-env", str(map_path), "-o", str(folder / "sky.h5"), "-q"]) == 0
+    return folder
+
+
+class TestRangesAreUsageErrors:
+    """Every numeric option outside its range is a usage error (exit 2, one line, nothing
+    written), also where the range depends on another option, and in-range values pass the
+    same checks (docs/CLI.md; issue 27 item 17). The ranges are the documented ones."""
+
+    R = namedtuple("R", "lo hi integer lo_open hi_open extra good", defaults=(False, False, (), ()))
+    CPUS = os.cpu_count() or 1
+    RANGES = {
+        ("project-env", "--lmax"): R(0, 128, True),
+        ("project-env", "--irradiance-lmax"): R(0, 128, True, extra=("--lmax", "128")),
+        ("project-env", "--sun-radius"): R(0.0, 45.0, False, lo_open=True),
+        ("project-env", "--size"): R(2, 4096, True),
+        ("project-env", "--map-height"): R(2, 4096, True),
+        ("preview", "--size"): R(8, 4096, True),
+        ("preview", "--roughness"): R(0.0, 1.0, False),
+        ("preview", "--alpha"): R(0.0, 1.0, False),
+        ("preview", "--f0"): R(0.0, 1.0, False),
+        ("preview", "--index"): R(0, None, True),  # the upper bound is the probe set's size
+        ("preview", "--samples"): R(16, 1 << 20, True),
+        ("brdf-table", "--lmax"): R(0, 16, True),
+        ("brdf-table", "--size"): R(2, 4096, True, good=("16x4096", "2x2")),
+        ("brdf-table", "--resolution"): R(2, 4096, True, good=("16x4096",)),
+        ("brdf-table", "--samples"): R(16, 1 << 22, True),
+        ("brdf-table", "--tol"): R(0.0, 1.0, False, True, True),
+        ("brdf-table", "--max-samples"): R(16, 1 << 22, True),
+        ("probe-fit", "--lmax-p"): R(0, 8, True),
+        ("probe-fit", "--lmax-q"): R(1, 8, True),
+        ("probe-fit", "--normals"): R(4, 4096, True),
+        ("probe-fit", "--views"): R(4, 4096, True),
+        ("probe-fit", "--alpha-count"): R(3, 64, True),  # at least 2 × --sets − 1
+        ("probe-fit", "--roughness-count"): R(3, 64, True),
+        ("probe-fit", "--sets"): R(1, 8, True, extra=("--alpha-count", "64")),
+        ("probe-fit", "--polish"): R(0, 8, True),
+        ("probe-fit", "--samples"): R(16, 1 << 20, True),
+        ("probe-fit", "--floor"): R(0.0, 1.0, False, True, True),
+        ("probe-fit", "--targets-lmax"): R(1, 24, True),
+        ("probe-fit", "--tol"): R(0.0, 1.0, False, True, True),
+        ("probe-fit", "--jobs"): R(1, 4 * CPUS, True),
+        ("split-sum", "--size"): R(8, 2048, True, extra=("--min-size", "8")),
+        ("split-sum", "--top"): R(8, 2048, True, extra=("--min-size", "8")),
+        ("split-sum", "--min-size"): R(8, 2048, True, extra=("--size", "2048")),
+        ("split-sum", "--samples"): R(16, 1 << 20, True),
+        ("probe-eval", "--size"): R(8, 512, True),
+        ("probe-eval", "--samples"): R(16, 1 << 20, True),
+        ("probe-eval", "--truth-samples"): R(16, 1 << 20, True),
+        ("probe-eval", "--roughness"): R(0.1, 1.0, False),
+        ("probe-eval", "--eps"): R(0.0, 1.0, False, True, True),
+        # a cube of 289 terms (P 16) must stay within 2 GiB: 6 × 321² × 289 × 12 bytes
+        ("probe-eval", "--face-size"): R(4, 321, True),
+        ("export", "--rotate"): R(None, None, False, good=("-720", "0.5")),
+        ("export", "--size"): R(8, 4096, True, good=("16",)),  # powers of two from gltf's floor 8
+        ("export", "--floor"): R(1, 64, True, good=("2",)),  # powers of two up to gltf's size 64
+        ("export", "--samples"): R(16, 1 << 20, True),
+        ("export", "--sun-radius"): R(0.0, 45.0, False, lo_open=True),
+        # the lower end depends on the BRDF: what F 64, P 16 leave out (a Phong lobe: nothing)
+        ("shrm", "--eps"): R(0.0, 1.0, False, True, True, extra=("--brdf", "phong-lobe")),
+        ("shrm", "--F"): R(0, 64, True),
+        ("shrm", "--P"): R(0, 16, True),
+        ("shrm", "--face-size"): R(4, 1024, True),
+        ("bake", "--jobs"): R(1, 64, True),
+        ("tradeoff", "--tol"): R(0.0, 1.0, False, True, True),
+        ("tradeoff", "--samples"): R(16, 1 << 20, True),
+    }
+    """The documented range of every numeric option (``extra``: other options that widen a
+    range depending on them to its limits)."""
+
+    @staticmethod
+    def numeric_options():
+        for name in COMMANDS:
+            for p in cli.get_command(None, name).params:
+                numeric = (click.types.IntParamType, click.types.FloatParamType, SizeHW)
+                if isinstance(p, click.Option) and isinstance(p.type, numeric):
+                    yield name, p.opts[0], p.hidden
+
+    @staticmethod
+    def base(command, inputs, out):
+        """A run of ``command`` on ``inputs`` writing into ``out`` (a folder)."""
+        m, a = str(inputs / "sky.exr"), str(inputs / "sky.h5")
+        return {
+            "project-env": [m, "-o", out / "a.h5"], "preview": [a, "-o", out / "a.exr"],
+            "brdf-table": ["ggx", "-o", out / "a.h5"], "probe-fit": [m, "-o", out / "a.h5"],
+            "split-sum": [m, "-o", out / "a.h5"], "probe-eval": [m, "-o", out / "a.md"],
+            "export": [a, "--to", "gltf", "-o", out / "a.gltf"], "shrm": [m, "-o", out / "a.h5"],
+            "bake": [inputs / "scene.toml"],
+            "tradeoff": ["env_sh", "--map", m, "-o", out / "a.png"],
+        }[command]  # fmt: skip
+
+    def values(self, r: R):
+        """(out-of-range, in-range) values as typed on a command line."""
+        bad, good = ["nan", "inf", "-inf"], list(r.good)
+        if r.lo is not None:
+            bad += [str(r.lo - 1), str(-(10**30))] + ([str(r.lo)] if r.lo_open else [])
+            good.append(str(r.lo + (1 if r.integer else 1e-6) if r.lo_open else r.lo))
+        if r.hi is not None:
+            bad += [str(r.hi + 1), str(10**30)] + ([str(r.hi)] if r.hi_open else [])
+            good.append(str(r.hi - 1e-6 if r.hi_open else r.hi))
+        if not r.integer:
+            bad += ["1e300"] if r.hi is not None else []
+        return bad, good
+
+    def test_every_numeric_option_has_a_range(self):
+        assert {(c, o) for c, o, _ in self.numeric_options()} == set(self.RANGES)
+
+    @pytest.mark.parametrize("command,option,hidden", list(numeric_options.__func__()))
+    def test_out_of_range_is_a_usage_error(self, run_cli, tmp_path, inputs, command, option,
+                                           hidden):  # fmt: skip
+        r = self.RANGES[(command, option)]
+        before = {p: p.read_bytes() for p in inputs.iterdir()}
+        bad, good = self.values(r)
+        for value in bad:
+            code, out, err = run_cli(command, *self.base(command, inputs, tmp_path), *r.extra,
+                                     option, value)  # fmt: skip
+            *before_error, error = err.splitlines()  # a deprecated spelling warns first
+            assert code == 2 and error.startswith("shbake: error:") and out == "", (value, err)
+            assert len(before_error) <= hidden, err
+            assert all(line.startswith(f"shbake: warning: {option} is deprecated")
+                       for line in before_error), err  # fmt: skip
+
+            assert os.listdir(tmp_path) == [], value
+        assert {p: p.read_bytes() for p in inputs.iterdir()} == before
+        # in range, the same checks pass: the run goes on to read its (missing) input
+        missing = tmp_path / "missing"
+        for value in good:
+            args = [str(missing / "x") if str(a).startswith(str(inputs)) else a
+                    for a in self.base(command, inputs, missing)]  # fmt: skip
+            code, _, err = run_cli(command, *args, *r.extra, option, value)
+            assert "no such file" in err or "does not exist" in err, (value, err)
+
+    @pytest.mark.parametrize(
+        "command,args",
+        [
+            ("project-env", ["--irradiance-lmax", "5"]),  # above --lmax 2
+            ("project-env", ["--export", "gltf", "--irradiance-lmax", "1"]),
+            ("split-sum", ["--min-size", "256"]),  # above --size 128
+            ("split-sum", ["--alphas", "0.5,0.1"]),
+            ("split-sum", ["--alphas", "0.1,x"]),
+            ("probe-fit", ["--alpha-count", "2"]),  # below 2 × --sets − 1
+            ("probe-fit", ["--sets", "5"]),  # above (--alpha-count 8 + 1) / 2
+            ("probe-fit", ["--alpha-range", "0:5"]),
+            ("probe-fit", ["--roughness-range", "0.5:0.2"]),
+            ("export", ["--size", "100"]),  # not a power of two
+            ("export", ["--floor", "3"]),
+            ("export", ["--size", "16", "--floor", "32"]),
+            ("shrm", ["--face-size", "1024", "--P", "16"]),  # 20 GiB
+            ("shrm", ["--brdf", "phong-lobe", "--P", "2"]),
+            ("shrm", ["--view", "0,0,0"]),
+            ("shrm", ["--brdf", "kajiya-kay", "-p", "p=32", "--eps", "1e-6"]),  # not reachable
+            ("shrm", ["-p", "sigma=-1"]),
+            ("probe-eval", ["--face-size", "1024"]),
+            ("preview", ["--at", "alpha_x=abc"]),  # was an internal error
+            ("preview", ["--at", "alpha_x=nan"]),
+            ("brdf-table", ["-p", "alpha_x=5"]),
+            ("brdf-table", ["--vary", "alpha_x=0:5:3"]),
+            ("brdf-table", ["--vary", "alpha_x=0.1:0.5:1"]),
+        ],
+    )
+    def test_dependent_range_is_a_usage_error(self, run_cli, tmp_path, inputs, command, args):
+        code, out, err = run_cli(command, *self.base(command, inputs, tmp_path), *args)
+        assert code == 2 and err.count("\n") == 1 and err.startswith("shbake: error:"), err
+        assert os.listdir(tmp_path) == []
+
+    @pytest.mark.parametrize("value", ["-5", "0", "nan", "4Q"])
+    def test_max_memory(self, run_cli, tmp_path, inputs, value):
+        code, _, err = run_cli("--max-memory", value, "project-env", inputs / "sky.exr", "-o",
+                               tmp_path / "a.h5")  # fmt: skip
+        assert code == 2 and err.count("\n") == 1 and "--max-memory" in err, err
+        assert os.listdir(tmp_path) == []
+
+    def test_tradeoff_model_parameters(self, run_cli, tmp_path):
+        code, _, err = run_cli("tradeoff", "brdf_table", "--model", "ggx", "-p", "alpha=7", "-o",
+                               tmp_path / "a.png")  # fmt: skip
+        assert code == 2 and err.count("\n") == 1 and "alpha_x=7" in err, err

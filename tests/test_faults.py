@@ -521,7 +521,7 @@ class TestMemory:
 
     def test_max_memory_bad_value(self, run_cli, box):
         assert_failed(run_cli("--max-memory", "lots", "project-env", box / "map.exr", "-o",
-                              box / "x.h5"), fragment="--max-memory")  # fmt: skip
+                              box / "x.h5"), code=2, fragment="--max-memory")  # fmt: skip
 
 
 def traced_peak(call) -> int:
@@ -659,9 +659,9 @@ class TestOtherCommandsMemory:
     def test_export_cube_size(self, run_cli, box):
         assert run_cli("project-env", box / "map.exr", "-o", box / "e.h5", "-q")[0] == 0
         with unchanged(box):
-            assert_failed(run_cli("export", box / "e.h5", "--to", "gltf", "-o", box / "x.gltf",
-                                  "--size", 1 << 16, "--floor", 8),
-                          fragment="cube chain of 65536")  # fmt: skip
+            assert_failed(run_cli("--max-memory", "1G", "export", box / "e.h5", "--to", "gltf",
+                                  "-o", box / "x.gltf", "--size", 4096, "--floor", 8),
+                          fragment="cube chain of 4096")  # fmt: skip
 
     def test_shrm_cube(self, run_cli, box):
         with unchanged(box):
@@ -762,7 +762,8 @@ class TestOneLine:
         every float option (and was then ignored or propagated)."""
         args = [a.format(env=box / "env.h5", map=box / "map.exr", box=box) for a in args]
         with unchanged(box):
-            assert_failed(run_cli(*args), code=2, fragment="not a finite number")
+            msg = assert_failed(run_cli(*args), code=2)
+        assert "not a finite number" in msg or "is not in the range" in msg, msg
 
     def test_scheduler_not_a_url(self, run_cli, box):
         assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "d",

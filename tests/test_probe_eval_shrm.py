@@ -208,7 +208,7 @@ class TestCli:
 
         src = write_test_exr(tmp_path / "m.exr", smooth_map(16))
         code, _, err = run_cli("probe-eval", src, "--eps", "0", "-o", tmp_path / "r.md")
-        assert code == 1 and "eps" in err and len(err.strip().splitlines()) == 1
+        assert code == 2 and "eps" in err and len(err.strip().splitlines()) == 1
         assert not (tmp_path / "r.md").exists()
 
 

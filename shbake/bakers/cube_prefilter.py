@@ -348,6 +348,24 @@ def chain_memory(size: int, source_size: int, supersample: int = SUPERSAMPLE) ->
     return int(mirror + 6 * src * 24 * 2 + 6 * int(size) ** 2 * 24 * 2)
 
 
+CUBE_SIZE_LIMIT = 4096
+"""Largest level-0 face edge of a prefiltered chain (its mirror cube is twice as wide)."""
+
+
+def check_chain(size: int, floor: int, samples: int) -> None:
+    """Refuse a chain layout :func:`prefilter_chain` cannot build: ``size`` and ``floor``
+    powers of two with ``1 ≤ floor ≤ size ≤ CUBE_SIZE_LIMIT``, ``samples ≥ 1``."""
+    for name, v in (("size", size), ("floor", floor)):
+        if not 1 <= v <= CUBE_SIZE_LIMIT or v & (v - 1):
+            raise ParameterError(
+                f"{name} must be a power of two in [1, {CUBE_SIZE_LIMIT}], got {v}"
+            )
+    if floor > size:
+        raise ParameterError(f"floor {floor} exceeds size {size}")
+    if samples < 1:
+        raise ParameterError(f"samples must be >= 1, got {samples}")
+
+
 def prefilter_chain(
     env: Environment,
     size: int = 128,
@@ -381,13 +399,7 @@ def prefilter_chain(
         ``levels[i]`` is ``(6, size >> i, size >> i, 3)`` float64;
         ``roughness[i]`` its perceptual roughness (``α = r²``).
     """
-    for name, v in (("size", size), ("floor", floor)):
-        if v < 1 or v & (v - 1):
-            raise ParameterError(f"{name} must be a power of two, got {v}")
-    if floor > size:
-        raise ParameterError(f"floor {floor} exceeds size {size}")
-    if samples < 1:
-        raise ParameterError(f"samples must be >= 1, got {samples}")
+    check_chain(size, floor, samples)
     n_levels = int(round(math.log2(size // floor))) + 1
     src = source_size or 2 * size
     check_memory(chain_memory(size, src), f"a cube chain of {size}² faces from {src}² faces")

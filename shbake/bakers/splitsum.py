@@ -43,6 +43,8 @@ from shbake.texture.octahedral import decode as oct_decode
 PAPER_ALPHAS = (0.25, 0.36, 0.49, 0.64, 0.81, 1.0)
 """The evaluation's GGX widths (:mod:`shbake.evaluation.probes`): the paper's levels sit at them."""
 PREFILTERS = ("plain", "filtered")
+LEVEL_SIZE_MIN, LEVEL_SIZE_MAX = 8, 2048
+"""Range of the octahedral level sizes (texels per side)."""
 
 
 @dataclass(frozen=True)
@@ -57,8 +59,11 @@ class SplitSumConfig:
     prefilter: str = "plain"
 
     def __post_init__(self):
-        if not (8 <= self.min_size <= self.top <= 2048):
-            raise ParameterError("split-sum sizes must satisfy 8 ≤ min_size ≤ top ≤ 2048")
+        if not (LEVEL_SIZE_MIN <= self.min_size <= self.top <= LEVEL_SIZE_MAX):
+            raise ParameterError(
+                f"split-sum sizes must satisfy {LEVEL_SIZE_MIN} ≤ min_size ≤ "
+                f"top ≤ {LEVEL_SIZE_MAX}, got {self.min_size}, {self.top}"
+            )
         a = check_alpha(np.asarray(self.alphas, float).reshape(-1), name="split-sum levels")
         if not 2 <= a.size <= 16 or np.any(np.diff(a) <= 0):
             raise ParameterError("split-sum levels: 2 to 16 increasing GGX widths")

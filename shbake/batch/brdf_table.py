@@ -10,7 +10,7 @@ lmax, resolution and samples (:mod:`shbake.bakers.kautz_report`).
 import os
 
 from shbake.bakers.kautz_report import settings_report
-from shbake.brdf import make_brdf
+from shbake.brdf import make_brdf, model_spec
 from shbake.brdf.tabulate import parse_vary, tabulate_axes
 from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
 from shbake.format.asset import write_asset
@@ -18,6 +18,17 @@ from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.kautz_images import write_band_exrs, write_sheet
 from shbake.format.kautz_table import build_table_asset, table_at
 from shbake.progress import NO_PROGRESS
+
+
+def check_parameters(model: str, params: dict, vary: tuple[str, ...] = ()) -> None:
+    """``model``'s parameter values and every point of the ``vary`` axes checked by the
+    model's own ranges (:meth:`~shbake.brdf.spec.ModelSpec.resolve`) without reading a
+    file: the command line's usage check (a :class:`~shbake.errors.ParameterError`)."""
+    spec = model_spec(model)
+    spec.resolve(params)
+    for name, values in map(parse_vary, vary):
+        for value in values:
+            spec.resolve(params | {name: value})
 
 
 def bake_brdf_table(

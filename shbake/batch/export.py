@@ -8,7 +8,7 @@ DFG table (:mod:`shbake.bakers.dfg`) for ``ktx2``.
 
 import os
 
-from shbake.bakers.cube_prefilter import prefilter_chain
+from shbake.bakers.cube_prefilter import check_chain, prefilter_chain
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
 from shbake.format.atomic import makedirs
@@ -39,6 +39,22 @@ def options_of_target(target: str) -> frozenset:
     if target in ("gltf", "babylon"):
         reads.add("babylon_scene")
     return frozenset(reads)
+
+
+def cube_settings(target: str, size=None, floor=None, samples=None, mapping=None) -> dict | None:
+    """The cube-chain settings of ``target`` (its ``CUBES`` with the given ones replacing them;
+    ``filament`` always takes Filament's mapping), checked (:func:`check_chain`: a
+    :class:`~shbake.errors.ParameterError` before any input is read); ``None`` for a target
+    without cube maps."""
+    cubes = target_module(target).CUBES
+    if cubes is None:
+        return None
+    given = {"size": size, "floor": floor, "samples": samples}
+    if target != "filament":
+        given["mapping"] = mapping
+    cfg = dict(cubes) | {k: v for k, v in given.items() if v is not None}
+    check_chain(cfg["size"], cfg["floor"], cfg["samples"])
+    return cfg
 
 
 def export_assets(
@@ -98,12 +114,8 @@ def export_assets(
             stem = os.path.splitext(os.path.basename(path))[0]
             dest = os.path.join(out, stem + mod.EXTENSION)
         extra = dict(options)
-        if mod.CUBES is not None:
-            cfg = dict(mod.CUBES)
-            given = {"size": size, "floor": floor, "samples": samples}
-            if target != "filament":
-                given["mapping"] = mapping
-            cfg.update({k: v for k, v in given.items() if v is not None})
+        cfg = cube_settings(target, size, floor, samples, mapping)
+        if cfg is not None:
             if target != "ktx2":
                 require_sh(src, target)  # refuse before baking cube maps for nothing
             levels, rough = prefilter_chain(
@@ -121,4 +133,4 @@ def export_assets(
     return written
 
 
-__all__ = ["TARGET_OPTIONS", "export_assets", "options_of_target"]
+__all__ = ["TARGET_OPTIONS", "cube_settings", "export_assets", "options_of_target"]

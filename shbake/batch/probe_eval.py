@@ -160,18 +160,41 @@ def evaluate_map(env, plans: dict, split_config: SplitSumConfig, dfg, size: int 
     return rows, assets, nbytes
 
 
+ROUGHNESS_MIN = 0.1
+"""Smallest perceptual roughness of an evaluated case."""
+
+
 def evaluation_alphas(roughness=None) -> tuple:
     """GGX widths ``α = r²`` of the cases: the paper's six (:data:`ALPHAS`) by default, else
-    those of the perceptual ``roughness`` values (each in ``[0.1, 1]``), sorted, once each."""
+    those of the perceptual ``roughness`` values (each in ``[ROUGHNESS_MIN, 1]``), sorted,
+    once each."""
     if roughness is None or len(roughness) == 0:
         return ALPHAS
     out = set()
     for r in roughness:
         r = float(r)
-        if not (np.isfinite(r) and 0.1 <= r <= 1.0):
-            raise ParameterError(f"roughness {r:g} is outside [0.1, 1] (perceptual, α = r²)")
+        if not (np.isfinite(r) and ROUGHNESS_MIN <= r <= 1.0):
+            raise ParameterError(f"roughness {r:g} is outside [{ROUGHNESS_MIN:g}, 1] "
+                                 "(perceptual, α = r²)")  # fmt: skip
         out.add(round(r * r, 6))
     return tuple(sorted(out))
+
+
+def check_evaluation(
+    roughness=None, shrm_eps: float | None = SHRM_EPS, shrm_face_size: int = SHRM_FACE_SIZE
+) -> tuple[tuple, dict | None]:
+    """The settings of :func:`evaluate_maps` checked before any map is read (a
+    :class:`~shbake.errors.ParameterError` names the first bad one): the cases' ``α``
+    (:func:`evaluation_alphas`) and the GGX SHRM's settings (``None``: no SHRM)."""
+    from shbake.bakers.shrm import F_LIMIT, P_LIMIT, check_eps, check_face_size
+
+    alphas = evaluation_alphas(roughness)
+    if shrm_eps is None:
+        return alphas, None
+    eps = check_eps(shrm_eps)
+    check_face_size(shrm_face_size, P_LIMIT, "surface")
+    return alphas, {"eps": eps, "face_size": int(shrm_face_size), "F_limit": F_LIMIT,
+                    "P_limit": P_LIMIT}  # fmt: skip
 
 
 def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=None,
@@ -188,18 +211,13 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
     from pathlib import Path
 
     from shbake.bakers.shexp import FitConfig
-    from shbake.bakers.shrm import F_LIMIT, P_LIMIT, check_eps, check_face_size
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
     from shbake.envmap import load_environment
     from shbake.errors import InputError
 
-    alphas = evaluation_alphas(roughness)
-    shrm = None
-    if shrm_eps is not None:
-        eps = check_eps(shrm_eps)
-        check_face_size(shrm_face_size, P_LIMIT, "surface")
-        shrm = {"eps": eps, "face_size": int(shrm_face_size), "F_limit": F_LIMIT,
-                "P_limit": P_LIMIT, "orders": shrm_orders(alphas, eps)}  # fmt: skip
+    alphas, shrm = check_evaluation(roughness, shrm_eps, shrm_face_size)
+    if shrm is not None:
+        shrm["orders"] = shrm_orders(alphas, shrm["eps"])
     dfg = shared_dfg_table()
     split = SplitSumConfig(alphas=split_levels(alphas))
     configs = {"shexp_v2": FitConfig(), "shexp_paper": FitConfig.paper()}
@@ -361,17 +379,16 @@ def markdown_report(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def bake_splitsum_file(source, output, top=128, min_size=32, alphas=None, prefilter="plain",
-                       samples=1024, negative="clamp", fix_nonfinite=None) -> dict:  # fmt: skip
-    """``split-sum``: read a lat-long map, prefilter its chain, write the asset; a summary."""
-    from shbake.bakers.splitsum import PAPER_ALPHAS
+def bake_splitsum_file(source, output, config: SplitSumConfig, negative="clamp",
+                       fix_nonfinite=None) -> dict:  # fmt: skip
+    """``split-sum``: read a lat-long map, prefilter its chain at ``config`` (checked when it
+    was made), write the asset; a summary."""
     from shbake.batch.probe_jobs import shared_dfg_table
     from shbake.envmap import load_environment
     from shbake.errors import InputError
     from shbake.format.asset import write_asset
     from shbake.format.atomic import check_output_path
 
-    config = SplitSumConfig(top, min_size, tuple(alphas or PAPER_ALPHAS), samples, prefilter)
     check_output_path(output)
     env = load_environment(source, negative=negative, fix_nonfinite=fix_nonfinite, quiet=True)
     if env.layout != "latlong":

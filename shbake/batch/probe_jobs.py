@@ -31,6 +31,9 @@ from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
 from shbake.resources import check_memory
 
+JOBS_LIMIT = (os.cpu_count() or 1) * 4
+"""Most local worker processes (``--jobs``): four per CPU."""
+
 
 @dataclass(frozen=True)
 class ProbeJob:
@@ -181,8 +184,8 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None,
     """
     check_jobs(jobs)
     done = finished if finished is not None else []
-    if not 1 <= n_jobs <= (os.cpu_count() or 1) * 4:
-        raise ParameterError(f"--jobs must be in [1, {(os.cpu_count() or 1) * 4}], got {n_jobs}")
+    if not 1 <= n_jobs <= JOBS_LIMIT:
+        raise ParameterError(f"--jobs must be in [1, {JOBS_LIMIT}], got {n_jobs}")
     results = []
     if n_jobs == 1:
         for i in range(0, len(jobs), GATHER_BATCH):

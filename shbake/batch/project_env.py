@@ -81,6 +81,19 @@ def quality_warnings(asset, summary: dict) -> list[str]:
     return out
 
 
+def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh: bool = True,
+                   exports: tuple[str, ...] = ()) -> int:  # fmt: skip
+    """The band limits of :func:`project_environment` checked before any input is read (a
+    :class:`~shbake.errors.ParameterError` names the first bad one); returns the irradiance
+    ``lmax`` (default ``min(lmax, 2)``, at most ``lmax``; an export needs 2)."""
+    check_lmax(lmax)
+    irradiance_lmax = min(lmax, 2) if irradiance_lmax is None else irradiance_lmax
+    check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
+    if exports and (not irradiance_sh or irradiance_lmax < 2):
+        raise ParameterError("--export needs --irradiance with irradiance lmax >= 2")
+    return irradiance_lmax
+
+
 def project_environment(
     env_path: str,
     output: str,
@@ -117,11 +130,7 @@ def project_environment(
     beside them with ``png``. ``exports``: engine exports beside the asset.
     ``report``: per-band energy, truncation and the error against brute force.
     """
-    check_lmax(lmax)
-    irradiance_lmax = min(lmax, 2) if irradiance_lmax is None else irradiance_lmax
-    check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
-    if exports and (not irradiance_sh or irradiance_lmax < 2):
-        raise ParameterError("--export needs --irradiance with irradiance lmax >= 2")
+    irradiance_lmax = check_settings(lmax, irradiance_lmax, irradiance_sh, exports)
     check_output_path(output)
     if exr_dir is not None:
         check_output_dir(exr_dir, "--exr-dir")

@@ -26,6 +26,9 @@ from shbake.conventions import REC709_LUMINANCE
 from shbake.envmap.environment import Environment
 from shbake.errors import ParameterError
 
+SUN_RADIUS_MAX_DEG = 45.0
+"""Largest angular radius of an extracted light, degrees."""
+
 
 class Sun(NamedTuple):
     """A directional light: unit ``direction`` (toward the light, world frame),
@@ -47,7 +50,7 @@ def extract_sun(
 
     Parameters
     ----------
-    radius_deg : float, (0, 45]
+    radius_deg : float, (0, SUN_RADIUS_MAX_DEG]
         Largest angular radius of the light, degrees.
     min_contrast : float, > 1
         Peak-to-background luminance ratio below which no light is extracted.
@@ -58,8 +61,10 @@ def extract_sun(
         ``report`` holds the peak, background, contrast and the fraction of
         ``∫ L dω`` moved into the light.
     """
-    if not 0.0 < radius_deg <= 45.0:
-        raise ParameterError(f"sun radius must be in (0, 45] degrees, got {radius_deg}")
+    if not 0.0 < radius_deg <= SUN_RADIUS_MAX_DEG:
+        raise ParameterError(
+            f"sun radius must be in (0, {SUN_RADIUS_MAX_DEG:g}] degrees, got {radius_deg}"
+        )
     if not min_contrast > 1.0:
         raise ParameterError(f"min contrast must be > 1, got {min_contrast}")
     dirs, omega, mask = env.texels()
