@@ -45,17 +45,15 @@ FINITE = _Finite()
 
 
 @contextmanager
-def usage_errors(option: str | None = None):
+def usage_errors():
     """Run the library's check of a command's settings: its
     :class:`~shbake.errors.ParameterError` (a value outside the range the library allows,
-    which may depend on other options) becomes click's usage error (exit 2), naming
-    ``option`` when given. Only around checks made before any input is read: a parameter
-    an input turns out not to support is a bad input (exit 1)."""
+    which may depend on other options; the message names the range) becomes click's usage
+    error (exit 2). Only around checks made before any input is read: a parameter an input
+    turns out not to support is a bad input (exit 1)."""
     try:
         yield
     except ParameterError as e:
-        if option is not None:
-            raise click.BadParameter(str(e), param_hint=f"'{option}'") from None
         raise click.UsageError(str(e)) from None
 
 
