@@ -58,7 +58,7 @@ class TestKeyLines:
 
 class TestLoadScene:
     def test_example_scene(self):
-        scene = load_scene(str(ROOT / "configs" / "example-scene.toml"))
+        scene = load_scene(str(ROOT / "configs" / "example-scene.toml"), allow_outside=True)
         assert [e.name for e in scene.environments] == [
             "city", "esplanade", "forest", "night", "studio", "sunset"]  # fmt: skip
         assert {m.kind for m in scene.materials} == {
