@@ -34,9 +34,9 @@ from hypothesis import HealthCheck, Phase, event, given, settings
 from hypothesis import strategies as st
 from shbake_cli.guard import message_of
 
-from shbake.batch.makefile import MakeNameError
-from shbake.batch.scene import SceneError, load_scene
+from shbake.batch.scene import load_scene
 from shbake.batch.scene_bake import emit_make
+from shbake.errors import ParameterError
 
 pytestmark = pytest.mark.skipif(shutil.which("make") is None, reason="GNU make not installed")
 
@@ -218,7 +218,7 @@ def emitted(d) -> Layout | None:
     try:
         scene = load_scene(str(layout.scene))
         emit_make(scene, layout.plan(), str(layout.fragment), layout.shbake)
-    except (SceneError, MakeNameError) as e:
+    except ParameterError as e:  # SceneError, MakeNameError
         event(f"refused: {type(e).__name__}")
         assert layout.refusal_expected(), f"refused a safe scene: {e}"
         assert "\n" not in message_of(e) and "\r" not in message_of(e)
@@ -353,3 +353,22 @@ def test_make_runs_exactly_the_expected_commands(examples):
                 shutil.rmtree(layout.root)
 
     check()
+
+
+def test_outside_out_dir_recipes_carry_the_flag(tmp_path):
+    """An out_dir outside the scene's folder (allowed by --allow-outside at plan time): the
+    fragment's recipes pass --allow-outside on, or every make rule would be refused."""
+    d = {"folder": "scene", "scene": "s", "map_folder": "maps", "map": "sky", "out_dir": "x",
+         "fragment": "s.mk", "env": None, "name": "s", "materials": ["a", "b"],
+         "shbake": "shbake"}  # fmt: skip
+    layout = Layout(tmp_path, d)
+    layout.out = tmp_path / "elsewhere"
+    layout.scene.write_text(layout.scene.read_text().replace('"x"', '"../elsewhere"'))
+    scene = load_scene(str(layout.scene), allow_outside=True)
+    emit_make(scene, layout.plan(), str(layout.fragment), layout.shbake)
+    shell = tmp_path / "sh-record"
+    shell.write_text(SHELL_RECORDER)
+    shell.chmod(0o755)
+    dry = make(layout, "-n", "-W", str(layout.scene), "scene-assets", shell=shell)
+    lines = [sh_words(line) for line in dry.stdout.split("\n") if line]
+    assert len(lines) == 4 and all(w[-2:] == ["--allow-outside", "--quiet"] for w in lines)
