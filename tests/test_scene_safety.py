@@ -204,6 +204,17 @@ class TestEmitMakeFailsCleanly:
             assert_failed(run_cli("plan", path, "--emit-make", tmp_path / where), code=code)
 
 
+    def test_failed_asset_leaves_no_folder(self, tmp_path, run_cli):
+        # the folder a recipe creates for its asset goes again when the bake fails
+        path = tiny_scene(tmp_path, '[scene]\nout_dir = "out"\n[[environments]]\n'
+                          'map = "maps/sky.exr"\n')  # fmt: skip
+        code, _, err = run_cli("plan", path, "--emit-make", tmp_path / "scene.mk", "--quiet")
+        assert code == 0, err
+        (tmp_path / "maps" / "sky.exr").write_bytes(b"not an image")
+        with unchanged(tmp_path):
+            assert_failed(run_cli("bake", path, "--asset", "env_sh/sky"))
+
+
 class TestIssueInjections:
     """Item 1, as filed: ``make scene-assets`` ran ``touch INJECTED`` from a map folder's
     name and from the scene file's name. Now refused in one line (exit 2), nothing written,
