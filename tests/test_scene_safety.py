@@ -203,7 +203,6 @@ class TestEmitMakeFailsCleanly:
         with unchanged(tmp_path):
             assert_failed(run_cli("plan", path, "--emit-make", tmp_path / where), code=code)
 
-
     def test_failed_asset_leaves_no_folder(self, tmp_path, run_cli):
         # the folder a recipe creates for its asset goes again when the bake fails
         path = tiny_scene(tmp_path, '[scene]\nout_dir = "out"\n[[environments]]\n'
