@@ -1,17 +1,24 @@
 """``shbake plan`` and ``shbake bake``: a scene's assets, their settings, and baking them."""
 
 import click
-from shbake_cli.options import emit_json, info, info_lines, json_opt, quiet_opt
+from shbake_cli.options import emit_json, info, info_lines, json_opt, quiet_opt, warn
 
+from shbake.batch.makefile import MakeNameError
 from shbake.batch.plan import format_plan, plan_scene
 from shbake.batch.scene import SceneError, load_scene
-from shbake.batch.scene_bake import bake_scene, emit_make, format_bake
+from shbake.batch.scene_bake import bake_scene, check_makeable, emit_make, format_bake
+from shbake.format.atomic import check_output_path
 from shbake.messages import printable
 
+allow_outside_opt = click.option(
+    "--allow-outside", is_flag=True,
+    help="Let the scene's out_dir be outside its folder (absolute, or with '..').",
+)  # fmt: skip
 
-def _scene(path):
+
+def _scene(path, allow_outside):
     try:
-        return load_scene(path)
+        return load_scene(path, allow_outside)
     except SceneError as e:
         raise click.UsageError(str(e)) from None
 
@@ -22,21 +29,26 @@ def _scene(path):
               help="Also write a Makefile fragment (one rule per asset) to this file.")
 @click.option("--shbake", "shbake_cmd", default="shbake", show_default=True,
               help="How the fragment's rules call shbake (overridable as $(SHBAKE)).")
+@allow_outside_opt
 @json_opt
 @quiet_opt
-def plan(scene, emit, shbake_cmd, as_json, quiet):
+def plan(scene, emit, shbake_cmd, allow_outside, as_json, quiet):
     """Decide which assets SCENE (a TOML scene file) needs and at which settings.
 
     Prints asset, settings, predicted error (tolerance), predicted seconds and
     bytes per asset; a malformed scene is one line FILE:LINE: KEY: … (exit 2).
     """
-    sc = _scene(scene)
+    sc = _scene(scene, allow_outside)
     try:
+        if emit:  # before planning: names a Makefile cannot hold, an unwritable fragment
+            check_makeable(sc, emit, shbake_cmd)
+            check_output_path(emit, "--emit-make")
         result = plan_scene(sc)
-    except SceneError as e:
+        if emit:
+            emit_make(sc, result, emit, shbake_cmd)
+    except (SceneError, MakeNameError) as e:
         raise click.UsageError(str(e)) from None
     if emit:
-        emit_make(sc, result, emit, shbake_cmd)
         info(f"plan: wrote {emit} ({len(result['assets'])} rules)", quiet)
     if as_json:
         emit_json(result)
@@ -52,15 +64,18 @@ def plan(scene, emit, shbake_cmd, as_json, quiet):
               help="Bake on the Dask distributed scheduler at ADDR instead.")
 @click.option("--asset", "only", default=None, metavar="ID",
               help="Bake only this asset from its settings stamp (what make rules run).")
+@allow_outside_opt
 @json_opt
 @quiet_opt
-def bake(scene, jobs, scheduler, only, as_json, quiet):
+def bake(scene, jobs, scheduler, only, allow_outside, as_json, quiet):
     """Bake what SCENE needs and is out of date (scene.lock.json in the scene's out_dir)."""
-    sc = _scene(scene)
+    sc = _scene(scene, allow_outside)
     try:
         summary = bake_scene(sc, jobs=jobs, scheduler=scheduler, only=only)
     except SceneError as e:
         raise click.UsageError(str(e)) from None
+    for w in summary["warnings"]:
+        warn(w, quiet)
     if as_json:
         emit_json(summary)
     else:

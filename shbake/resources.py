@@ -22,6 +22,7 @@ _budget_override: int | None = None
 _inputs: list[str] = []
 _outputs: list[str] = []
 _tracking = False
+_reading_back = False
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 
@@ -88,10 +89,13 @@ def check_memory(nbytes: float, what: str) -> None:
 def note_input(path: str) -> None:
     """Record that this process reads ``path``: no output may then replace it
     (:func:`shbake.format.atomic.check_not_input`). Refuses at once an input that is a
-    declared output (:func:`declare_output`), before any work is done on it."""
+    declared output (:func:`declare_output`), before any work is done on it — unless
+    :func:`outputs_declared` said the run now reads back what it writes."""
     if not _tracking:
         return
     p = os.path.abspath(os.fspath(path))
+    if _reading_back and p in _outputs:
+        return
     for out in _outputs:
         _refuse_same(out, p, out, path)
     if p not in _inputs:
@@ -127,6 +131,15 @@ def _same(a: str, b: str) -> bool:
         return False
 
 
+def outputs_declared() -> None:
+    """Every output of the run is now declared and checked against every input (a scene
+    bake: the lock, each asset and stamp, after the scene, its maps and MERL files were
+    read): reading a declared output from here on is reading back what the run wrote
+    (measured errors, exports of its ``env_sh`` assets), not a new input."""
+    global _reading_back
+    _reading_back = True
+
+
 def inputs() -> list[str]:
     """Every input file this process has read (absolute paths, first-read order)."""
     return list(_inputs)
@@ -134,8 +147,8 @@ def inputs() -> list[str]:
 
 def end_run() -> None:
     """End a command run: stop tracking inputs and outputs."""
-    global _tracking
-    _tracking = False
+    global _tracking, _reading_back
+    _tracking = _reading_back = False
     _inputs.clear()
     _outputs.clear()
 
@@ -143,17 +156,18 @@ def end_run() -> None:
 def start_run() -> None:
     """Start a command run: forget earlier inputs and outputs, and track them from now on
     (library calls outside a run are not tracked: a program may write then read a file)."""
-    global _tracking
+    global _tracking, _reading_back
     _inputs.clear()
     _outputs.clear()
-    _tracking = True
+    _tracking, _reading_back = True, False
 
 
-def check_regular_file(path: str, what: str = "input") -> os.stat_result:
+def check_regular_file(path: str, what: str = "input", own_output: bool = False) -> os.stat_result:
     """``os.stat`` of ``path`` after refusing folders, FIFOs, sockets and devices.
 
     Called before a file is opened, so that reading it cannot block (FIFO) or run
-    forever (``/dev/zero``). Records ``path`` as an input (:func:`note_input`).
+    forever (``/dev/zero``). Records ``path`` as an input (:func:`note_input`) unless
+    ``own_output`` (an output of this run read back).
     """
     try:
         st = os.stat(path)
@@ -172,7 +186,8 @@ def check_regular_file(path: str, what: str = "input") -> os.stat_result:
             else "not a regular file"
         )  # fmt: skip
         raise ResourceError(f"{path}: is {kind}, not a regular file ({what})")
-    note_input(path)
+    if not own_output:
+        note_input(path)
     return st
 
 
@@ -186,11 +201,12 @@ def read_bounded(path: str, limit: int, what: str = "input") -> bytes:
     return data
 
 
-def sha256_of(path: str) -> str:
-    """Hex SHA-256 of a regular file's bytes, reading no more than its size at open time."""
+def sha256_of(path: str, own_output: bool = False) -> str:
+    """Hex SHA-256 of a regular file's bytes, reading no more than its size at open time
+    (``own_output``: see :func:`check_regular_file`)."""
     import hashlib  # 2 ms of OpenSSL set-up that a plain bake (no hash) never pays
 
-    st = check_regular_file(path, "hashed file")
+    st = check_regular_file(path, "hashed file", own_output)
     h = hashlib.sha256()
     left = st.st_size
     with open(path, "rb") as f:

@@ -56,9 +56,69 @@ class TestKeyLines:
         assert lines["arr[1].sub.z"] == 11
 
 
+def toml_value(v) -> str:
+    """``v`` (int, str, list, dict) as TOML text; strings in each of TOML's four forms, so
+    that brackets and quotes inside them test :func:`too_deep`'s lexer."""
+    if isinstance(v, list):
+        return "[" + ", ".join(map(toml_value, v)) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"k{i} = {toml_value(x)}" for i, x in enumerate(v.values())) + "}"
+    if isinstance(v, str):
+        literal, multi = "'", "'" * 3
+        if literal not in v and "\n" not in v and len(v) % 3 == 0:
+            return literal + v + literal
+        if multi not in v and not v.endswith(literal) and v[:1] != "\n" and len(v) % 3 == 1:
+            return multi + v + multi  # (a newline right after the opening quotes is dropped)
+        if '"' not in v and "\\" not in v and v[:1] != "\n" and len(v) % 3 == 2:
+            return '"""' + v + '"""'
+        return json.dumps(v)
+    return str(v)
+
+
+def depth(v) -> int:
+    """How deep lists and tables nest in ``v``."""
+    if isinstance(v, (list, dict)):
+        return 1 + max((depth(x) for x in (v.values() if isinstance(v, dict) else v)), default=0)
+    return 0
+
+
+class TestNesting:
+    """Item 11: a TOML file nested deeper than MAX_NESTING is one line, found on the text
+    (tomllib recurses once per level: a 3000-deep array was a RecursionError)."""
+
+    def test_too_deep_against_tomllib(self):
+        import tomllib
+
+        from hypothesis import given, settings
+        from hypothesis import strategies as st
+
+        from shbake.batch.scene import MAX_NESTING, too_deep
+
+        strings = st.text(st.sampled_from("[]{}'\"#\n ab\\"), max_size=6)
+        values = st.recursive(
+            st.integers(0, 9) | strings,
+            lambda inner: st.lists(inner, max_size=3)
+            | st.lists(inner, max_size=3).map(lambda xs: {f"k{i}": x for i, x in enumerate(xs)}),
+            max_leaves=8,
+        )
+
+        @settings(max_examples=300, deadline=None, database=None)
+        @given(values, st.integers(0, MAX_NESTING + 3), st.booleans())
+        def check(value, wrap, comment):
+            for _ in range(wrap):
+                value = [value]
+            text = f"[t]\nx = {toml_value(value)}" + (" # [[[{{" if comment else "") + "\n"
+            assert tomllib.loads(text)["t"]["x"] == value  # the text holds what it should
+            deep = too_deep(text)
+            assert (deep is not None) == (depth(value) > MAX_NESTING), text
+            assert deep is None or deep >= 2
+
+        check()
+
+
 class TestLoadScene:
     def test_example_scene(self):
-        scene = load_scene(str(ROOT / "configs" / "example-scene.toml"))
+        scene = load_scene(str(ROOT / "configs" / "example-scene.toml"), allow_outside=True)
         assert [e.name for e in scene.environments] == [
             "city", "esplanade", "forest", "night", "studio", "sunset"]  # fmt: skip
         assert {m.kind for m in scene.materials} == {
@@ -81,8 +141,33 @@ class TestLoadScene:
             ("sigma = 0.3 }", "sigma = 0.3 }\nroughness = 0.5", 50, "materials[5].roughness"),
             ("rotation_deg = 90", 'rotation_deg = "east"', 18, "environments[1].rotation_deg"),
             ("glossy_probe = 0.3", "glossy_probe = 0.3\nshrm = 1", 11, "tolerances.shrm"),
+            # issue 27: names, rotations, nesting, exports, out_dir
+            ('name = "dusk"', 'name = "."', 17, "environments[1].name"),
+            ('name = "dusk"', 'name = ".."', 17, "environments[1].name"),
+            ('name = "dusk"', 'name = "a/b"', 17, "environments[1].name"),
+            ('name = "dusk"', 'name = ""', 17, "environments[1].name"),
+            ('name = "dusk"', 'name = "-x"', 17, "environments[1].name"),
+            ('name = "plaster"', 'name = ".."', 22, "materials[0].name"),
+            ('name = "plaster"', 'name = "../x"', 22, "materials[0].name"),
+            ('name = "plaster"', 'name = ""', 22, "materials[0].name"),
+            ("rotation_deg = 90", "rotation_deg = nan", 18, "environments[1].rotation_deg"),
+            ("rotation_deg = 90", "rotation_deg = inf", 18, "environments[1].rotation_deg"),
+            ("rotation_deg = 90", "rotation_deg = 1e300", 18, "environments[1].rotation_deg"),
+            ("rotation_deg = 90", "rotation_deg = -361", 18, "environments[1].rotation_deg"),
+            ("rotation_deg = 90", "rotation_deg = 1" + "0" * 400, 18,
+             "environments[1].rotation_deg"),
+            ("position = [1, 2, 3]", "position = [1" + "0" * 400 + ", 2, 3]", 19,
+             "environments[1].position"),
+            ("irradiance = 0.05", "irradiance = " + "9" * 5000, 1, "(syntax)"),
+            ('exports = ["threejs"]', 'exports = ["threejs"]\nx = ' + "[" * 3000 + "]" * 3000, 5,
+             "(syntax)"),
+            ('exports = ["threejs"]', 'exports = ["threejs", "gltf", "threejs"]', 4,
+             "scene.exports[2]"),
+            ('name = "two-maps"', 'name = "two-maps"\nout_dir = "/tmp/x"', 4, "scene.out_dir"),
+            ('name = "two-maps"', 'name = "two-maps"\nout_dir = "../.."', 4, "scene.out_dir"),
+            ('name = "two-maps"', 'name = "two-maps"\nout_dir = "a/../.."', 4, "scene.out_dir"),
         ],
-    )
+    )  # fmt: skip
     def test_malformed_scene_is_one_line_with_file_line_key_exit_2(
         self, tmp_path, run_cli, old, new, line, key
     ):
@@ -91,9 +176,20 @@ class TestLoadScene:
         path = make_scene(tmp_path, text.replace(old, new, 1))
         with pytest.raises(SceneError, match=re.escape(f":{line}: {key}: ")):
             load_scene(str(path))
-        code, out, err = run_cli("plan", path)
-        assert code == 2 and out == ""
-        assert err.count("\n") == 1 and err.startswith(f"shbake: error: {path}:{line}: {key}: ")
+        before = sorted(tmp_path.rglob("*"))
+        for command in ("plan", "bake"):
+            code, out, err = run_cli(command, path)
+            assert code == 2 and out == ""
+            assert err.count("\n") == 1
+            assert err.startswith(f"shbake: error: {path}:{line}: {key}: ")
+        assert sorted(tmp_path.rglob("*")) == before  # nothing written
+
+    def test_out_dir_outside_with_allow_outside(self, tmp_path):
+        (tmp_path / "scene").mkdir()
+        text = TWO_MAPS.read_text().replace('name = "two-maps"', 'out_dir = "../elsewhere"')
+        path = make_scene(tmp_path / "scene", text)
+        scene = load_scene(str(path), allow_outside=True)
+        assert scene.out_dir == str(tmp_path / "elsewhere")
 
     def test_unreachable_tolerance_names_its_key(self, tmp_path, run_cli):
         text = TWO_MAPS.read_text().replace("brdf_table = 0.25", "brdf_table = 0.001")

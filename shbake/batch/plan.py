@@ -79,12 +79,21 @@ REFERENCE_SAMPLES = 16384
 PLAN_VERSION = 5
 
 
-def file_hash(path: str) -> str:
+def file_hash(path: str, own_output: bool = False) -> str:
     """SHA-256 of a file's bytes (hex); special files (FIFO, ``/dev/zero``) are refused
-    and no more than the file's size is read (:func:`shbake.resources.sha256_of`)."""
+    and no more than the file's size is read (:func:`shbake.resources.sha256_of`;
+    ``own_output``: a file the scene's bake wrote, not an input of the run)."""
     from shbake import resources
 
-    return resources.sha256_of(path)
+    return resources.sha256_of(path, own_output)
+
+
+def asset_output(out_dir: str, aid: str) -> str:
+    """Where asset ``aid`` is written: ``OUT/ID.h5``; an export's listing of its files
+    ``OUT/export/TARGET/MAP/files.json``."""
+    if aid.startswith("export/"):
+        return os.path.join(out_dir, aid, "files.json")
+    return os.path.join(out_dir, aid + ".h5")
 
 
 def _digest(obj) -> str:
@@ -423,8 +432,7 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 work = p["load_seconds"] + (p.get("sun_seconds", 0.0) if cube else 0.0)
                 assets.append({
                     "id": f"export/{target}/{env.name}", "kind": "export",
-                    "output": os.path.join(scene.out_dir, "export", target, env.name,
-                                           "files.json"),
+                    "output": asset_output(scene.out_dir, f"export/{target}/{env.name}"),
                     "inputs": [env.map, env_sh["output"]], "input_hashes": {"map": digest},
                     "plan_key": _digest(["export", PLAN_VERSION, key, target]),
                     "settings": {"target": target, "env_sh": aid},
@@ -540,7 +548,7 @@ def _asset(aid, kind, scene, p, inputs, hashes, key, tolerances, env=None) -> di
     return {
         "id": aid,
         "kind": kind,
-        "output": os.path.join(scene.out_dir, aid + ".h5"),
+        "output": asset_output(scene.out_dir, aid),
         "inputs": inputs,
         "input_hashes": hashes,
         "plan_key": key,
@@ -589,4 +597,4 @@ def format_plan(plan: dict) -> str:
     return "\n".join(line.rstrip() for line in lines)
 
 
-__all__ = ["plan_scene", "format_plan", "settings_text", "file_hash", "asdict"]
+__all__ = ["plan_scene", "format_plan", "settings_text", "file_hash", "asset_output", "asdict"]

@@ -10,20 +10,27 @@ keys; keys inside inline tables get the line of the key that holds them).
 
 Schema (every key optional unless marked *required*)::
 
-    [scene]        name (str), out_dir (str, relative to the scene file; default "<stem>-assets"),
-                   exports (list of str from EXPORTS)
+    [scene]        name (str), out_dir (str, relative to the scene file and inside its folder
+                   unless ``allow_outside``; default "<stem>-assets"), exports (distinct
+                   str from EXPORTS)
     [tolerances]   irradiance, tangent_irradiance, brdf_table, glossy_probe, shrm: float in
                    (0, 1) (the error each asset kind must stay within; see TOLERANCES)
     [[environments]]  map (str, required: a path or a glob, relative to the scene file),
-                   name (str; default: the map's file stem), position ([x, y, z], recorded
-                   in its assets), rotation_deg (float: turns the environment about world
-                   up +Y, shbake.envmap.turn), tolerances (table: per-probe overrides)
-    [[materials]]  name (str, required), kind (required: one of MATERIAL_KINDS),
+                   name (NAME_PATTERN; default: the map's file stem), position ([x, y, z],
+                   recorded in its assets), rotation_deg (float in [-360, 360]: turns the
+                   environment about world up +Y, shbake.envmap.turn), tolerances (table:
+                   per-probe overrides)
+    [[materials]]  name (NAME_PATTERN, required), kind (required: one of MATERIAL_KINDS),
                    model (str, brdf-table's model name; anisotropic/measured; glossy: an
                    isotropic model other than ggx gets an SHRM),
                    params (table: model parameters as brdf-table's / shrm's -p take them),
                    merl (str: a MERL .binary file, kind "measured"),
                    roughness ([lo, hi] perceptual, glossy GGX; or one number)
+
+Maps a glob matches inside the folders of ``out_dir`` that shbake writes
+(:func:`written_by_shbake`) are left out; a map or MERL file named there is refused.
+Arrays and inline tables nest at most :data:`MAX_NESTING` deep (checked on the text
+before :mod:`tomllib`, which recurses per level).
 """
 
 import glob
@@ -54,6 +61,18 @@ MATERIAL_KINDS = ("diffuse", "fibre", "anisotropic", "measured", "glossy")
 EXPORTS = ("babylon", "filament", "gltf", "ktx2", "threejs", "unity")
 """Engine exports a scene may ask for: ``shbake export --to TARGET`` of each map's ``env_sh``
 asset (docs/EXPORTS.md); cube targets also prefilter the map."""
+
+NAME_PATTERN = r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}"
+"""Environment and material names: 1-64 letters, digits, ``_ . -``, the first not ``.`` or
+``-`` (so never ``.``, ``..``, a path or an option). They become file names and asset ids."""
+MAX_ROTATION_DEG = 360.0
+"""Largest ``|rotation_deg|`` (one full turn)."""
+MAX_NESTING = 16
+"""Deepest nesting of arrays and inline tables in a scene file (a scene needs 3)."""
+LOCK_NAME = "scene.lock.json"
+STAMP_DIR = ".stamps"
+ASSET_FOLDERS = ("brdf_table", "env_sh", "export", "shexp", "shrm", "splitsum")
+"""The folders of ``out_dir`` that hold assets, one per asset kind (``kind/…`` ids)."""
 
 SCENE_KEYS = {"name": str, "out_dir": str, "exports": list}
 ENV_KEYS = {"map": str, "name": str, "position": list, "rotation_deg": (int, float),
@@ -185,6 +204,14 @@ def _line_of(lines: dict, key: str) -> int:
     return 1
 
 
+def _finite(x) -> bool:
+    """Whether the TOML number ``x`` is a finite float (a 400-digit integer is not)."""
+    try:
+        return math.isfinite(x)
+    except OverflowError:
+        return False
+
+
 def _type_name(t) -> str:
     names = {str: "a string", list: "an array", dict: "a table", int: "an integer",
              float: "a number"}  # fmt: skip
@@ -212,10 +239,24 @@ class _Checker:
                 self.fail(full, f"must be {_type_name(t)}, got {type(v).__name__} {v!r}")
         return data
 
+    def name(self, key: str, name: str) -> str:
+        """``name`` if it matches :data:`NAME_PATTERN`."""
+        if not re.fullmatch(NAME_PATTERN, name):
+            self.fail(key, f"{name!r}: a name is 1-64 letters, digits, '_', '-' or '.', "
+                      "the first not '.' or '-'")  # fmt: skip
+        return name
+
+    def not_written_by_shbake(self, key: str, path: str, out_dir: str) -> None:
+        """Refuse an input ``path`` where shbake writes (its outputs would replace it)."""
+        top = written_by_shbake(path, out_dir)
+        if top is not None:
+            self.fail(key, f"{path} is in {os.path.join(out_dir, top)}, which shbake writes "
+                      "(scene.out_dir): move it or change out_dir")  # fmt: skip
+
     def tolerances(self, data, key: str) -> dict:
         self.table(data, key, {k: (int, float) for k in TOLERANCES})
         for k, v in data.items():
-            if not (math.isfinite(v) and 0.0 < v < 1.0):
+            if not (_finite(v) and 0.0 < v < 1.0):
                 self.fail(f"{key}.{k}", f"impossible tolerance {v!r}: must be in (0, 1) "
                           f"({TOLERANCES[k]})")  # fmt: skip
         return dict(data)
@@ -224,9 +265,49 @@ class _Checker:
 MAX_SCENE_BYTES = 16 << 20
 """Largest scene file read (a scene is a few kilobytes of TOML)."""
 
+_TOML_TOKEN = re.compile(r'"""(?:[^\\]|\\.)*?"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\''
+                         r"|#[^\n]*|[\[\]{}]", re.S)  # fmt: skip
+"""Strings and comments (skipped whole) and the brackets of a TOML text."""
 
-def load_scene(path: str) -> Scene:
-    """Read and validate the scene at ``path``; raises :class:`SceneError` (one line)."""
+
+def too_deep(text: str) -> int | None:
+    """The line where the arrays and inline tables of TOML ``text`` nest deeper than
+    :data:`MAX_NESTING`, or ``None`` (table headers count their brackets too)."""
+    depth = 0
+    for m in _TOML_TOKEN.finditer(text):
+        c = m.group()
+        if c in "[{":
+            depth += 1
+            if depth > MAX_NESTING:
+                return text.count("\n", 0, m.start()) + 1
+        elif c in "]}":
+            depth = max(depth - 1, 0)
+    return None
+
+
+def is_inside(path: str, folder: str) -> bool:
+    """Whether ``path`` is ``folder`` or below it, symbolic links resolved."""
+    real, root = os.path.realpath(path), os.path.realpath(folder)
+    return os.path.commonpath([real, root]) == root
+
+
+def written_by_shbake(path: str, out_dir: str) -> str | None:
+    """The entry of ``out_dir`` that shbake writes and ``path`` is or is inside (an asset
+    folder, the settings stamps, the lock), or ``None``."""
+    if not is_inside(path, out_dir):
+        return None
+    rel = os.path.relpath(os.path.realpath(path), os.path.realpath(out_dir))
+    top = rel.split(os.sep)[0]
+    return top if top in ASSET_FOLDERS + (STAMP_DIR, LOCK_NAME) else None
+
+
+def load_scene(path: str, allow_outside: bool = False) -> Scene:
+    """Read and validate the scene at ``path``; raises :class:`SceneError` (one line).
+
+    ``allow_outside``: ``out_dir`` may be outside the scene's folder (else refused).
+    Every map and MERL file is recorded as an input of the run
+    (:func:`shbake.resources.note_input`: no output may replace it).
+    """
     from shbake import resources
     from shbake.errors import ShbakeError
 
@@ -238,9 +319,13 @@ def load_scene(path: str) -> Scene:
     except OSError as e:
         raise SceneError(f"{path}:1: (file): cannot read: {e.strerror}") from None
     text = raw.decode("utf-8", errors="replace")
+    deep = too_deep(text)
+    if deep is not None:
+        raise SceneError(f"{path}:{deep}: (syntax): arrays and inline tables nested deeper "
+                         f"than {MAX_NESTING} levels")  # fmt: skip
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
+    except ValueError as e:  # TOMLDecodeError, or an integer of more than 4300 digits
         m = re.search(r"line (\d+)", str(e))
         raise SceneError(f"{path}:{m.group(1) if m else 1}: (syntax): {e}") from None
     lines = key_lines(text)
@@ -253,8 +338,13 @@ def load_scene(path: str) -> Scene:
     for i, e in enumerate(exports):
         if e not in EXPORTS:
             chk.fail(f"scene.exports[{i}]", f"unknown export {e!r} (allowed: {', '.join(EXPORTS)})")
+        if e in exports[:i]:
+            chk.fail(f"scene.exports[{i}]", f"duplicate export {e!r}")
     stem = os.path.splitext(os.path.basename(path))[0]
     out_dir = os.path.normpath(os.path.join(base, scene.get("out_dir", f"{stem}-assets")))
+    if not allow_outside and not is_inside(out_dir, base):
+        chk.fail("scene.out_dir", f"{out_dir} is outside the scene's folder {base} (give "
+                 "--allow-outside to write there)")  # fmt: skip
     tolerances = dict(DEFAULT_TOLERANCES)
     tolerances.update(chk.tolerances(data.get("tolerances", {}), "tolerances"))
 
@@ -267,26 +357,33 @@ def load_scene(path: str) -> Scene:
         chk.table(env, key, ENV_KEYS)
         if "map" not in env:
             chk.fail(key, "missing required key 'map'")
-        pattern = os.path.join(base, env["map"])
-        found = sorted(glob.glob(pattern)) if glob.has_magic(pattern) else [pattern]
+        if glob.has_magic(env["map"]):  # never shbake's own outputs (the lock, assets, stamps)
+            pattern = os.path.join(glob.escape(base), env["map"])
+            found = [p for p in sorted(glob.glob(pattern)) if not written_by_shbake(p, out_dir)]
+        else:
+            found = [os.path.join(base, env["map"])]
+            chk.not_written_by_shbake(f"{key}.map", found[0], out_dir)
         found = [p for p in found if os.path.isfile(p)]
         if not found:
             chk.fail(f"{key}.map", f"no such map: {env['map']} (relative to {base})")
         pos = env.get("position", [0.0, 0.0, 0.0])
         if len(pos) != 3 or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                                    and math.isfinite(x) for x in pos):  # fmt: skip
+                                    and _finite(x) for x in pos):  # fmt: skip
             chk.fail(f"{key}.position", f"must be three finite numbers, got {pos!r}")
+        turn = env.get("rotation_deg", 0.0)
+        if not (_finite(turn) and abs(turn) <= MAX_ROTATION_DEG):
+            chk.fail(f"{key}.rotation_deg", f"must be a finite number of degrees in "
+                     f"[{-MAX_ROTATION_DEG:g}, {MAX_ROTATION_DEG:g}], got {turn!r}")  # fmt: skip
         tol = chk.tolerances(env.get("tolerances", {}), f"{key}.tolerances")
         for m in found:
-            name = env.get("name") if len(found) == 1 and "name" in env else None
-            name = name or os.path.splitext(os.path.basename(m))[0]
-            if not re.fullmatch(r"[A-Za-z0-9_.-]+", name):
-                chk.fail(f"{key}.name", f"{name!r}: names use letters, digits, '_', '-', '.'")
+            map_stem = os.path.splitext(os.path.basename(m))[0]
+            name = chk.name(f"{key}.name", env["name"] if len(found) == 1 and "name" in env
+                            else map_stem)  # fmt: skip
             if any(e.name == name for e in environments):
                 chk.fail(f"{key}.name", f"duplicate environment name {name!r}")
+            resources.note_input(m)
             environments.append(Environment(name, os.path.abspath(m), tuple(map(float, pos)),
-                                            float(env.get("rotation_deg", 0.0)), tol,
-                                            key))  # fmt: skip
+                                            float(turn), tol, key))  # fmt: skip
 
     materials = []
     for i, mat in enumerate(data.get("materials", [])):
@@ -298,8 +395,7 @@ def load_scene(path: str) -> Scene:
         kind = mat["kind"]
         if kind not in MATERIAL_KINDS:
             chk.fail(f"{key}.kind", f"unknown kind {kind!r} (allowed: {', '.join(MATERIAL_KINDS)})")
-        if not re.fullmatch(r"[A-Za-z0-9_.-]+", mat["name"]):
-            chk.fail(f"{key}.name", f"{mat['name']!r}: names use letters, digits, '_', '-', '.'")
+        chk.name(f"{key}.name", mat["name"])
         model = mat.get("model")
         if kind == "glossy" and model not in (None, "ggx"):
             _check_reflection_model(chk, key, mat)
@@ -312,8 +408,10 @@ def load_scene(path: str) -> Scene:
             if merl is None:
                 chk.fail(key, "a measured material needs 'merl' (a MERL .binary file)")
             merl = os.path.join(base, merl)
+            chk.not_written_by_shbake(f"{key}.merl", merl, out_dir)
             if not os.path.isfile(merl):
                 chk.fail(f"{key}.merl", f"no such file: {mat['merl']}")
+            resources.note_input(merl)
             model = "merl"
         params = mat.get("params", {})
         for k, v in params.items():

@@ -12,20 +12,44 @@ and rewrites the lock (atomically).
 
 import json
 import os
+import re
+import shlex
 import stat
 import time
 from contextlib import contextmanager
 
 import numpy as np
 
-from shbake.batch.plan import file_hash, plan_scene, settings_text
+from shbake import resources
+from shbake.batch.makefile import (
+    MakeNameError,
+    make_path,
+    shell_word,
+    variable_name,
+    variable_value,
+)
+from shbake.batch.plan import asset_output, file_hash, plan_scene, settings_text
 from shbake.batch.probe_jobs import worker_pool
-from shbake.batch.scene import Scene, _param_strings
+from shbake.batch.scene import (
+    LOCK_NAME,
+    NAME_PATTERN,
+    STAMP_DIR,
+    Scene,
+    _param_strings,
+    is_inside,
+)
 from shbake.errors import ParameterError
-from shbake.format.atomic import atomic_path, detached, transaction, write_text
+from shbake.format.atomic import (
+    atomic_path,
+    check_output_path,
+    detached,
+    makedirs,
+    transaction,
+    write_text,
+)
 
-LOCK_NAME = "scene.lock.json"
-STAMP_DIR = ".stamps"
+ASSET_ID = rf"[a-z_]+(?:/{NAME_PATTERN})+"
+"""An asset id: its kind, then the names it is baked for (``shrm/satin/dusk``)."""
 
 
 def lock_path(scene: Scene) -> str:
@@ -33,8 +57,9 @@ def lock_path(scene: Scene) -> str:
 
 
 def stamp_path(out_dir: str, aid: str) -> str:
-    """The settings stamp of asset ``aid`` (what make depends on)."""
-    return os.path.join(out_dir, STAMP_DIR, aid.replace("/", "--") + ".json")
+    """The settings stamp of asset ``aid`` (what make depends on): ``OUT/.stamps/ID.json``,
+    one folder per part of the id (names hold no ``/``, so no two ids share a stamp)."""
+    return os.path.join(out_dir, STAMP_DIR, *aid.split("/")) + ".json"
 
 
 @contextmanager
@@ -198,7 +223,7 @@ def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
     with _committed():
         files = export_assets([env_sh], a["settings"]["target"], folder, env_path=env_map,
                               many=True)  # fmt: skip
-    listing = {os.path.relpath(f, folder): file_hash(f) for f in sorted(files)}
+    listing = {os.path.relpath(f, folder): file_hash(f, own_output=True) for f in sorted(files)}
     with _committed():
         write_text(a["output"], json.dumps(listing, indent=1, sort_keys=True) + "\n")
     return {"outputs": [a["output"]] + sorted(files),
@@ -217,27 +242,30 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
     """Bake one planned asset; its lock record (outputs' hashes, measured error, seconds).
 
     ``measure``: also measure its error against the references (what the lock records).
+    The folders it creates for its output are removed again if it fails.
     """
-    os.makedirs(os.path.dirname(asset["output"]), exist_ok=True)
-    if measure and asset["kind"] not in _WARM:
-        # the first asset of a kind in this process is baked once into a scratch folder so
-        # that the time recorded is warm (numba cache loads excluded), as the plan predicts
-        import tempfile
+    with detached(), transaction() as folders:
+        folders.makedirs(os.path.dirname(asset["output"]))
+        if measure and asset["kind"] not in _WARM:
+            # the first asset of a kind in this process is baked once into a scratch folder
+            # so that the time recorded is warm (numba cache loads excluded), as the plan
+            # predicts
+            import tempfile
 
-        with tempfile.TemporaryDirectory() as tmp:
-            scratch = dict(asset, output=os.path.join(tmp, "warm.h5"))
-            BAKERS[asset["kind"]](scratch, False)
-        _WARM.add(asset["kind"])
-    t0 = time.perf_counter()
-    info, errors = BAKERS[asset["kind"]](asset, measure)
-    wall = time.perf_counter() - t0
+            with tempfile.TemporaryDirectory() as tmp:
+                scratch = dict(asset, output=os.path.join(tmp, "warm.h5"))
+                BAKERS[asset["kind"]](scratch, False)
+            _WARM.add(asset["kind"])
+        t0 = time.perf_counter()
+        info, errors = BAKERS[asset["kind"]](asset, measure)
+        wall = time.perf_counter() - t0
     return {
         "id": asset["id"],
         "plan_key": asset["plan_key"],
         "settings": asset["settings"],
         "inputs": {p: file_hash(p) for p in asset["inputs"]},
         "outputs": {
-            os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p)
+            os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p, own_output=True)
             for p in info["outputs"]
         },  # fmt: skip
         "measured_error": errors,
@@ -256,7 +284,30 @@ def _dask_bake(asset: dict) -> dict:
     return bake_asset(asset)
 
 
+def _poisoned(asset: dict, rec) -> bool:
+    """Whether lock record ``rec`` of ``asset`` cannot be trusted: not a record, or an output
+    outside the asset's folder (symbolic links resolved) or not a regular file (a FIFO,
+    ``/dev/zero``, a folder or a link would block, never end or fail the hash)."""
+    if not (isinstance(rec, dict) and isinstance(rec.get("inputs"), dict)
+            and isinstance(rec.get("outputs"), dict)):  # fmt: skip
+        return True
+    base = os.path.dirname(asset["output"])
+    for rel, digest in rec["outputs"].items():
+        path = os.path.join(base, rel)
+        if not isinstance(digest, str) or os.path.isabs(rel) or not is_inside(path, base):
+            return True
+        try:
+            mode = os.lstat(path).st_mode
+        except OSError:
+            continue  # missing: out of date, not poisoned
+        if not stat.S_ISREG(mode):
+            return True
+    return False
+
+
 def _up_to_date(asset: dict, rec: dict | None) -> bool:
+    """Whether ``asset`` matches its lock record (not :func:`_poisoned`): same plan key and
+    settings, same inputs' and outputs' bytes."""
     if not rec or (rec.get("plan_key"), rec.get("settings")) != (
         asset["plan_key"],
         asset["settings"],
@@ -265,7 +316,8 @@ def _up_to_date(asset: dict, rec: dict | None) -> bool:
     if any(not os.path.exists(p) or file_hash(p) != rec["inputs"].get(p) for p in asset["inputs"]):
         return False
     base = os.path.dirname(asset["output"])
-    return all(os.path.exists(os.path.join(base, r)) and file_hash(os.path.join(base, r)) == h
+    return all(os.path.exists(os.path.join(base, r))
+               and file_hash(os.path.join(base, r), own_output=True) == h
                for r, h in rec["outputs"].items())  # fmt: skip
 
 
@@ -286,12 +338,24 @@ def _read_state(path: str) -> str | None:
         return None
 
 
-def read_lock(path: str) -> dict:
+def _read_json(path: str):
+    """The JSON value of a lock or stamp file, ``None`` if it is missing, not a regular file
+    or not JSON (nested too deep included)."""
     text = _read_state(path)
     try:
-        return json.loads(text) if text is not None else {}
-    except ValueError:
+        return json.loads(text) if text is not None else None
+    except (ValueError, RecursionError):
+        return None
+
+
+def read_lock(path: str) -> dict:
+    """The lock at ``path``; ``{}`` if it is missing or not a lock (an object whose
+    ``assets`` and ``plans`` are objects)."""
+    lock = _read_json(path)
+    if not isinstance(lock, dict) or not all(isinstance(lock.get(k, {}), dict)
+                                             for k in ("assets", "plans")):  # fmt: skip
         return {}
+    return lock
 
 
 def write_stamps(plan: dict) -> list[str]:
@@ -303,40 +367,79 @@ def write_stamps(plan: dict) -> list[str]:
         text = settings_text(a)
         if _read_state(path) == text:
             continue
-        os.makedirs(os.path.dirname(path), exist_ok=True)
+        makedirs(os.path.dirname(path))
         write_text(path, text)
         written.append(path)
     return written
 
 
+def declare_outputs(plan: dict) -> None:
+    """Refuse, before any work, an output of ``plan`` (an asset, its settings stamp) that is
+    an input of the run (:func:`shbake.resources.declare_output`: the same path, or the same
+    file through a symbolic or hard link)."""
+    for a in plan["assets"]:
+        resources.declare_output(a["output"])
+        resources.declare_output(stamp_path(plan["out_dir"], a["id"]))
+
+
+def _stamped_asset(scene: Scene, aid: str) -> dict:
+    """Asset ``aid`` as its settings stamp holds it, refused unless the stamp is one that
+    :func:`write_stamps` could have written for ``scene`` (its output where ``aid``'s is,
+    its inputs the scene's maps, MERL files and ``env_sh`` assets)."""
+    if not re.fullmatch(ASSET_ID, aid):
+        raise ParameterError(f"--asset {aid!r}: not an asset id (KIND/NAME…, as shbake plan "
+                             "lists them)")  # fmt: skip
+    path = stamp_path(scene.out_dir, aid)
+    asset = _read_json(path)
+    if asset is None:
+        raise ParameterError(f"{path}: no settings stamp for {aid!r}; run shbake plan "
+                             "--emit-make first")  # fmt: skip
+    resources.note_input(path)
+    allowed = {e.map for e in scene.environments} | {m.merl for m in scene.materials if m.merl}
+    allowed |= {asset_output(scene.out_dir, f"env_sh/{e.name}") for e in scene.environments}
+    kind = aid.split("/")[0]
+    if not (isinstance(asset, dict) and asset.get("id") == aid and asset.get("kind") == kind
+            and kind in BAKERS and asset.get("output") == asset_output(scene.out_dir, aid)
+            and isinstance(asset.get("settings"), dict) and isinstance(asset.get("inputs"), list)
+            and all(isinstance(p, str) and os.path.abspath(p) in allowed
+                    for p in asset["inputs"])):  # fmt: skip
+        raise ParameterError(f"{path}: not a settings stamp of {aid!r} for {scene.path}; run "
+                             "shbake plan --emit-make again")  # fmt: skip
+    return asset
+
+
 def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
                only: str | None = None, progress=None) -> dict:  # fmt: skip
-    """Plan ``scene`` and bake what is out of date; the summary (baked, skipped, records).
+    """Plan ``scene`` and bake what is out of date; the summary (baked, skipped, records,
+    ``warnings``: lock records that could not be trusted and were baked again).
 
     ``only``: bake just this asset id from its stamp (what the make rules run);
     the lock is then left alone (make's own timestamps track it).
-    """
-    from shbake import resources
 
-    # A scene bake reads its own outputs back (measured errors, exports of env_sh assets),
-    # in an order it controls: the single-command guard against an output replacing an
-    # input read earlier in the run does not apply. Outputs stay atomic, per asset.
-    resources.end_run()
+    Inputs are never outputs: the scene, its maps and MERL files are the run's inputs
+    (:func:`~shbake.batch.scene.load_scene`), the lock and every planned output are
+    declared before any work and refused if one is an input; a bake then reads back only
+    its own outputs (measured errors, exports of its ``env_sh`` assets).
+    """
     if only is not None:
-        path = stamp_path(scene.out_dir, only)
-        try:
-            asset = json.loads(_read_state(path) or "")
-        except ValueError:
-            raise ParameterError(f"{path}: no settings stamp for {only!r}; run shbake plan "
-                                 "--emit-make first") from None  # fmt: skip
+        asset = _stamped_asset(scene, only)
         full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0)
+        resources.declare_output(full["output"])
         rec = bake_asset(full, measure=False)
-        return {"baked": [only], "skipped": [], "records": {only: rec}}
+        return {"baked": [only], "skipped": [], "records": {only: rec}, "warnings": []}
     lock_file = lock_path(scene)
+    resources.declare_output(lock_file)  # read, then replaced: no input may be the lock
     lock = read_lock(lock_file)
-    units = dict(lock.get("plans", {}))  # per-unit plans (measured once), filled by the plan
+    # per-unit plans (measured once), filled by the plan
+    units = {k: v for k, v in lock.get("plans", {}).items() if isinstance(v, dict)}
     plan = plan_scene(scene, cache=units)
-    todo = [a for a in plan["assets"] if not _up_to_date(a, lock.get("assets", {}).get(a["id"]))]
+    declare_outputs(plan)
+    resources.outputs_declared()
+    previous = lock.get("assets", {})
+    poisoned = [a["id"] for a in plan["assets"]
+                if a["id"] in previous and _poisoned(a, previous[a["id"]])]  # fmt: skip
+    todo = [a for a in plan["assets"]
+            if a["id"] in poisoned or not _up_to_date(a, previous.get(a["id"]))]  # fmt: skip
     ids = {a["id"] for a in todo}
     todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
              and a["settings"]["env_sh"] in ids]  # fmt: skip
@@ -355,11 +458,11 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
                 results += list(pool.map(bake_asset, wave))
     else:
         results = [bake_asset(a) for wave in waves for a in wave]
-    records = dict(lock.get("assets", {}))
-    records = {a["id"]: records[a["id"]] for a in plan["assets"] if a["id"] in records}
+    records = {a["id"]: previous[a["id"]] for a in plan["assets"]
+               if a["id"] in previous and a["id"] not in poisoned}  # fmt: skip
     for r in results:
         records[r["id"]] = r
-    os.makedirs(scene.out_dir, exist_ok=True)
+    makedirs(scene.out_dir)
     write_stamps(plan)
     keys = {a["plan_key"] for a in plan["assets"]}
     new_lock = {
@@ -370,57 +473,101 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
         json.dump(new_lock, f, indent=1, sort_keys=True)
     done = {r["id"] for r in results}
+    warnings = []
+    if poisoned:
+        warnings.append(
+            f"{lock_file}: ignored the records of {', '.join(poisoned)} (an output "
+            "outside its asset's folder or not a regular file); baked them again"
+        )
     return {"baked": [r["id"] for r in results],
             "skipped": [a["id"] for a in plan["assets"] if a["id"] not in done],
-            "records": records, "lock": lock_file}  # fmt: skip
+            "records": records, "lock": lock_file, "warnings": warnings}  # fmt: skip
+
+
+def check_makeable(scene: Scene, fragment: str, shbake: str = "shbake") -> None:
+    """Refuse, before planning, a scene a Makefile fragment cannot name exactly
+    (:mod:`shbake.batch.makefile`): its file, its maps and MERL files, its ``out_dir``
+    (:class:`~shbake.batch.scene.SceneError`: FILE:LINE: KEY), the fragment's path or the
+    ``shbake`` command (:class:`~shbake.batch.makefile.MakeNameError`, naming the option)."""
+    named = [(os.path.abspath(scene.path), "(file)"),
+             (os.path.join(scene.out_dir, STAMP_DIR), "scene.out_dir")]  # fmt: skip
+    named += [(e.map, f"{e.key}.map") for e in scene.environments]
+    named += [(m.merl, f"{m.key}.merl") for m in scene.materials if m.merl]
+    for path, key in named:
+        try:
+            make_path(path)
+        except MakeNameError as e:
+            raise scene.error(key, f"{e.reason}: {e.text!r} (shbake bake takes it)") from None
+    try:
+        make_path(os.path.abspath(fragment))
+    except MakeNameError as e:
+        raise MakeNameError(e.text, e.reason, "--emit-make") from None
+    _shbake_words(shbake)
+
+
+def _shbake_words(shbake: str) -> list[str]:
+    """The words of ``--shbake`` as ``sh`` splits them, refused unless a Makefile holds them."""
+    try:
+        words = shlex.split(shbake)
+    except ValueError as e:
+        raise MakeNameError(shbake, f"not a command ({e})", "--shbake") from None
+    if not words:
+        raise MakeNameError(shbake, "not a command (empty)", "--shbake")
+    try:
+        variable_value(words)
+        shell_word(shbake)
+    except MakeNameError as e:
+        raise MakeNameError(e.text, e.reason, "--shbake") from None
+    return words
 
 
 def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> str:
-    """Write the Makefile fragment of ``plan`` to ``path`` (atomically) and the stamps.
+    """Write the Makefile fragment of ``plan`` to ``path`` and the settings stamps
+    (together: one transaction); its text.
 
-    One rule per asset: it depends on its inputs (maps, MERL files) and on its
-    settings stamp, which :func:`write_stamps` rewrites only when the asset's
-    settings change, so a changed tolerance rebuilds only what it affects. The
-    fragment remakes itself (and the stamps) when the scene file changes; GNU
-    make then restarts with the new rules.
+    One rule per asset: it depends on its inputs (maps, MERL files, an export's
+    ``env_sh`` asset) and on its settings stamp, which :func:`write_stamps`
+    rewrites only when the asset's settings change, so a changed tolerance
+    rebuilds only what it affects. The fragment remakes itself (and the stamps)
+    when the scene file changes; GNU make then restarts with the new rules.
+    Every file name, word and value in it is written by :mod:`shbake.batch.makefile`
+    (after :func:`check_makeable`): make and ``sh`` read back exactly the paths and
+    names given, and run ``$(SHBAKE)`` with exactly the arguments given, nothing else.
     """
-    write_stamps(plan)
+    check_makeable(scene, path, shbake)
     scene_path = os.path.abspath(scene.path)
     frag = os.path.abspath(path)
-    outs = [a["output"] for a in plan["assets"]]
+    flags = [] if is_inside(scene.out_dir, os.path.dirname(scene_path)) else ["--allow-outside"]
+
+    def recipe(*words: str) -> str:
+        return "\t$(SHBAKE) " + " ".join(shell_word(w) for w in words)
+
+    assets = f"SCENE_{variable_name(scene.name)}_ASSETS"
     lines = [
-        f"# generated by: shbake plan {scene.path} --emit-make {path}  (do not edit)",
+        "# generated by shbake plan --emit-make: one rule per asset of the scene (do not edit)",
         ".DELETE_ON_ERROR:",
-        f"SHBAKE ?= {shbake}",
-        f"SCENE_{_var(scene.name)}_ASSETS := " + " ".join(_q(o) for o in outs),
+        f"SHBAKE ?= {variable_value(_shbake_words(shbake))}",
+        f"{assets} = " + " ".join(make_path(a["output"]) for a in plan["assets"]),
         ".PHONY: scene-assets",
-        f"scene-assets: $(SCENE_{_var(scene.name)}_ASSETS)",
+        f"scene-assets: $({assets})",
         "",
-        f"{_q(frag)}: {_q(scene_path)}",
-        f"\t$(SHBAKE) plan {_q(scene_path)} --emit-make {_q(frag)} --quiet",
+        f"{make_path(frag)} : {make_path(scene_path)}",
+        recipe("plan", scene_path, "--emit-make", frag, "--shbake", shbake, *flags, "--quiet"),
         "",
     ]
     for a in plan["assets"]:
-        deps = [_q(os.path.abspath(p)) for p in a["inputs"]]
-        deps.append(_q(stamp_path(plan["out_dir"], a["id"])))
+        deps = [os.path.abspath(p) for p in a["inputs"]] + [stamp_path(plan["out_dir"], a["id"])]
         lines += [
-            f"{_q(a['output'])}: {' '.join(deps)}",
-            f"\t$(SHBAKE) bake {_q(scene_path)} --asset {a['id']} --quiet",
+            f"{make_path(a['output'])} : {' '.join(make_path(p) for p in deps)}",
+            recipe("bake", scene_path, "--asset", a["id"], *flags, "--quiet"),
             "",
         ]
     text = "\n".join(lines)
+    check_output_path(path, "--emit-make")
+    declare_outputs(plan)
+    write_stamps(plan)
     write_text(path, text)
     return text
-
-
-def _var(name: str) -> str:
-    return "".join(c if c.isalnum() else "_" for c in name).upper()
-
-
-def _q(path: str) -> str:
-    if any(c in path for c in " #$:"):
-        raise ParameterError(f"{path}: make cannot name files with spaces, '#', '$' or ':'")
-    return path
 
 
 def format_bake(summary: dict) -> str:
