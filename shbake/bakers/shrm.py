@@ -813,10 +813,11 @@ def write_exr_cubes(directory: str, bake: ShrmBake, view) -> list[str]:
     ``B_p0``) and ``reflection.exr`` (eq. 12 for ``view``), OpenEXR cube strips (float32)."""
     import os
 
+    from shbake.format.atomic import makedirs
     from shbake.format.images import write_exr
     from shbake.shading.shrm import reflection_cube
 
-    os.makedirs(directory, exist_ok=True)
+    makedirs(directory)
     S = bake.face_size
     written = []
     for p in range(bake.P + 1):
@@ -925,10 +926,12 @@ def bake_to_file(env_path: str, output: str, brdf: str = "microfacet", params: d
     All parameters are checked before the map is read, so a bad value leaves no file.
     """
     from shbake.envmap import load_environment
-    from shbake.format.atomic import check_writable_dir
+    from shbake.format.atomic import check_output_dir, check_writable_dir
     from shbake.format.shrm import build_shrm_asset, write_shrm
 
     check_writable_dir(output)
+    if exr_dir:
+        check_output_dir(exr_dir, "--exr-dir")
     eps = check_eps(eps)
     F, P = check_F(F), check_P(P)
     rb = make_reflection_brdf(brdf, params, merl_path)

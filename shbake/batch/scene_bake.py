@@ -22,7 +22,7 @@ from shbake.batch.plan import file_hash, plan_scene, settings_text
 from shbake.batch.probe_jobs import worker_pool
 from shbake.batch.scene import Scene, _param_strings
 from shbake.errors import ParameterError
-from shbake.format.atomic import atomic_path, detached, transaction, write_text
+from shbake.format.atomic import atomic_path, detached, makedirs, transaction, write_text
 
 LOCK_NAME = "scene.lock.json"
 STAMP_DIR = ".stamps"
@@ -218,7 +218,7 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
 
     ``measure``: also measure its error against the references (what the lock records).
     """
-    os.makedirs(os.path.dirname(asset["output"]), exist_ok=True)
+    makedirs(os.path.dirname(asset["output"]))  # removed again if the run fails
     if measure and asset["kind"] not in _WARM:
         # the first asset of a kind in this process is baked once into a scratch folder so
         # that the time recorded is warm (numba cache loads excluded), as the plan predicts
