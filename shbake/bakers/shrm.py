@@ -823,10 +823,11 @@ def write_exr_cubes(directory: str, bake: ShrmBake, view) -> list[str]:
     ``B_p0``) and ``reflection.exr`` (eq. 12 for ``view``), OpenEXR cube strips (float32)."""
     import os
 
+    from shbake.format.atomic import makedirs
     from shbake.format.images import write_exr
     from shbake.shading.shrm import reflection_cube
 
-    os.makedirs(directory, exist_ok=True)
+    makedirs(directory)
     S = bake.face_size
     written = []
     for p in range(bake.P + 1):
@@ -976,10 +977,12 @@ def bake_to_file(env_path: str, output: str, settings: ShrmSettings, exr_dir: st
     :func:`shrm_settings`), write the asset (and the EXR cubes), optionally build the report;
     return the summary dict."""
     from shbake.envmap import load_environment
-    from shbake.format.atomic import check_writable_dir
+    from shbake.format.atomic import check_output_dir, check_writable_dir
     from shbake.format.shrm import build_shrm_asset, write_shrm
 
     check_writable_dir(output)
+    if exr_dir:
+        check_output_dir(exr_dir, "--exr-dir")
     rb, eps, F, P = settings.rb, settings.eps, settings.F, settings.P
     env = load_environment(env_path, layout, colorspace, negative, fix_nonfinite, quiet)
     bake = bake_shrm(env, rb, eps, F, P, settings.face_size, coeffs_full=settings.search)

@@ -11,7 +11,7 @@ import os
 from shbake.bakers.cube_prefilter import check_chain, prefilter_chain
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
-from shbake.format.atomic import makedirs
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.exports import target_module
 from shbake.format.exports.source import load_source, require_sh
 
@@ -104,10 +104,15 @@ def export_assets(
         raise ParameterError(f"{', '.join(stray)}: not read for --to {target}")
     if not assets:
         raise ParameterError("no asset to export")
+    one_file = not (many if many is not None else len(assets) > 1)
+    if one_file:  # refused before the cube chains are baked
+        check_output_path(out)
+    else:
+        check_output_dir(out, "--out-dir")
     written = []
     for path in assets:
         src = load_source(path, frame=frame, rotate_deg=rotate_deg, env_path=env_path)
-        if not (many if many is not None else len(assets) > 1):
+        if one_file:
             dest = out
         else:
             makedirs(out)

@@ -214,7 +214,10 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
     from shbake.envmap import load_environment
     from shbake.errors import InputError
+    from shbake.format.atomic import check_output_dir, makedirs
 
+    if sheet_dir is not None:
+        check_output_dir(sheet_dir, "--sheet-dir")
     alphas, shrm = check_evaluation(roughness, shrm_eps, shrm_face_size)
     if shrm is not None:
         shrm["orders"] = shrm_orders(alphas, shrm["eps"])
@@ -233,7 +236,7 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
             raise InputError(f"{path}: probe-eval takes lat-long maps (2:1)")
         plans = {k: fit_plan(c, env.shape) for k, c in configs.items()}
         if sheet_dir is not None:
-            Path(sheet_dir).mkdir(parents=True, exist_ok=True)
+            makedirs(sheet_dir)
         rows, _, nbytes = evaluate_map(env, plans, split, dfg, size, truth_samples, alphas,
                                        cache_dir=cache_dir, sheet_dir=sheet_dir,
                                        label=Path(path).stem, shrm=shrm)  # fmt: skip

@@ -8,6 +8,9 @@ a writer cannot store an asset its readers would refuse, and a reader refuses
 before a kernel sees a value.
 """
 
+import itertools
+import os
+
 import h5py
 import numpy as np
 
@@ -124,24 +127,125 @@ def write_asset(path: str, asset: Asset) -> None:
     deterministically. ``source_path`` attributes are stored relative to ``path``'s folder."""
     asset = Asset(asset.kind, relativise(asset.attrs, path), asset.datasets, asset.dataset_attrs)
     validate_asset(asset, "refusing to write an invalid asset: ")
+    nbytes = sum(np.asarray(d).nbytes for d in asset.datasets.values())
+    resources.check_memory(2 * nbytes, f"writing {path}")  # the image and its copy
+    image = file_image(asset)
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        f.write(image)
+
+
+def file_image(asset: Asset) -> bytes:
+    """The bytes of ``asset``'s HDF5 file, built in memory (HDF5's ``core`` driver without
+    a backing store): HDF5 never writes to disk, so a full disk or a read-only file
+    system is an ordinary failed ``write`` of these bytes (one line), never an HDF5
+    write error (which left h5py's objects half-closed: segfaults and ``Exception
+    ignored`` tracebacks at exit). The image is byte-identical to the file HDF5 writes
+    directly (tested). ``asset`` must be validated and relativised already."""
+    name = f"shbake-image-{os.getpid()}-{next(_image_serial)}"  # a name, never a file
+    with h5py.File(name, "w", driver="core", backing_store=False, **WRITE_OPTIONS) as f:
+        write_into(f, asset)
+        f.flush()
+        return f.id.get_file_image()
+
+
+WRITE_OPTIONS = {"libver": ("earliest", "v110"), "track_order": False}
+"""The h5py file options of every asset (fixed library-version bounds, no creation order:
+FORMAT.md §1)."""
+
+_image_serial = itertools.count()
+"""Distinct names for the in-memory files (HDF5 refuses a second open file of one name)."""
+
+
+def write_into(f: h5py.File, asset: Asset) -> None:
+    """Store ``asset``'s root attributes and datasets into the empty open file ``f``, in
+    sorted order, without timestamps (deterministic bytes)."""
     root = root_attrs(asset)
-    with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w", libver=("earliest", "v110"), track_order=False) as f:
-            for k in sorted(root):
-                f.attrs[k] = _attr_value(root[k])
-            for name in sorted(asset.datasets):
-                data = np.require(asset.datasets[name], requirements="C")
-                ds = f.create_dataset(name, data=data, track_times=False)
-                for k, v in sorted(asset.dataset_attrs.get(name, {}).items()):
-                    ds.attrs[k] = _attr_value(v)
+    for k in sorted(root):
+        f.attrs[k] = _attr_value(root[k])
+    for name in sorted(asset.datasets):
+        data = np.require(asset.datasets[name], requirements="C")
+        ds = f.create_dataset(name, data=data, track_times=False)
+        for k, v in sorted(asset.dataset_attrs.get(name, {}).items()):
+            ds.attrs[k] = _attr_value(v)
 
 
 def _open(path: str):
     resources.check_regular_file(path, "asset")
-    try:
-        return h5py.File(path, "r")
+    try:  # sec2 named: HDF5_DRIVER cannot choose a driver that reads other files
+        return h5py.File(path, "r", driver="sec2")
     except OSError as e:
         raise FormatError(f"{path}: not a readable HDF5 asset ({_first_line(e)})") from None
+
+
+LINKS_MAX = 4096
+"""Most links an asset may hold (the largest kinds hold a few dozen)."""
+
+PLAIN_LAYOUTS = (h5py.h5d.CONTIGUOUS, h5py.h5d.COMPACT)
+"""Dataset storage a reader accepts: bytes inside the file, unfiltered (shbake writes
+contiguous datasets; compact ones are the same bytes in the object header)."""
+
+
+def check_self_contained(f: h5py.File, where: str = "") -> None:
+    """Refuse (:class:`FormatError`, one line naming the link or dataset) a file that is not
+    plain and self-contained, before any dataset value is read.
+
+    Every link must be a hard link (soft links, dangling or not, external links to other
+    files and user-defined links are refused), and every dataset stored contiguous or
+    compact in the file: virtual datasets (bytes from other datasets or files), external
+    storage (``H5Pset_external``: bytes from any file, ``/etc/passwd`` included, resolved
+    with ``HDF5_EXTFILE_PREFIX``) and chunked storage (filters — compression, plugins
+    loaded from ``HDF5_PLUGIN_PATH`` — and chunk buffers sized by the file) are refused.
+    The checks read link and storage metadata only: neither other files nor plugins are
+    opened. More than :data:`LINKS_MAX` links are refused.
+    """
+    links = []
+
+    def collect(name, info):
+        links.append((name, info.type))
+        return True if len(links) > LINKS_MAX else None  # non-None stops the visit
+
+    f.id.links.visit(collect, info=True)
+    if len(links) > LINKS_MAX:
+        raise FormatError(f"{where}more than {LINKS_MAX} links (not a shbake asset)")
+    for raw, link_type in links:
+        name = _shown("/" + raw.decode("utf-8", "replace"))
+        if link_type == h5py.h5l.TYPE_EXTERNAL:
+            reason = f"link {name} is an external link to another file"
+        elif link_type == h5py.h5l.TYPE_SOFT:
+            reason = f"link {name} is a soft link"
+        elif link_type != h5py.h5l.TYPE_HARD:
+            reason = f"link {name} is a user-defined link (type {link_type})"
+        elif h5py.h5o.get_info(f.id, raw).type != h5py.h5o.TYPE_DATASET:
+            continue
+        else:
+            problem = _storage_problem(h5py.h5d.open(f.id, raw).get_create_plist())
+            if problem is None:
+                continue
+            reason = f"dataset {name} {problem}"
+        raise FormatError(f"{where}{reason}; shbake reads self-contained HDF5 files "
+                          "only (hard links, contiguous datasets)")  # fmt: skip
+
+
+def _storage_problem(dcpl) -> str | None:
+    """Why a dataset's storage (its creation property list) is not plain, or ``None``."""
+    layout = dcpl.get_layout()
+    if layout == h5py.h5d.VIRTUAL:
+        return "is a virtual dataset (its bytes come from other datasets or files)"
+    if dcpl.get_external_count():
+        target = dcpl.get_external(0)[0].decode("utf-8", "replace")
+        return f"keeps its bytes in the external file {registry.short(target)}"
+    if dcpl.get_nfilters():
+        code, _, _, label = dcpl.get_filter(0)
+        return (f"is stored through the filter {registry.short(label.decode('utf-8', 'replace'))}"
+                f" (id {code})")  # fmt: skip
+    if layout not in PLAIN_LAYOUTS:
+        return "has chunked storage"
+    return None
+
+
+def _shown(name: str) -> str:
+    """A name from a file as a message shows it: as is if short and printable."""
+    return name if name.isprintable() and len(name) <= 120 else registry.short(name, 120)
 
 
 def _first_line(e) -> str:
@@ -162,13 +266,15 @@ def read_asset(path: str, kinds: tuple[str, ...] | None = None,
     Raises
     ------
     FormatError
-        Not an HDF5 file, not a shbake asset, unknown kind or version, or any
-        attribute or dataset that does not match the registry (one line).
+        Not an HDF5 file, not self-contained (:func:`check_self_contained`), not a
+        shbake asset, unknown kind or version, or any attribute or dataset that does
+        not match the registry (one line).
     """
     where = f"{path}: "
     f = _open(atomic.staged(path) or path)  # an output this run wrote reads from its temporary
     try:
         with f:
+            check_self_contained(f, where)
             raw = {}
             for k in f.attrs:
                 try:

@@ -192,6 +192,12 @@ class Transaction:
         while not os.path.exists(probe):
             missing.append(probe)
             probe = os.path.dirname(probe)
+        with _lock:
+            outputs = {final for _, final in self.staged}
+        for d in missing:
+            if d in outputs:
+                raise OutputError(f"{d}: is an output file of this run; it cannot also be "
+                                  "an output folder")  # fmt: skip
         for d in reversed(missing):
             try:
                 os.mkdir(d)

@@ -1,5 +1,7 @@
 """EXR and PNG output through OpenImageIO, atomic, with explicit overflow checks."""
 
+import os
+
 import numpy as np
 import OpenImageIO as oiio
 
@@ -81,10 +83,14 @@ def write_exr(
 
 
 def write_png(path: str, img8: np.ndarray) -> None:
-    """Write an 8-bit ``(H, W, 3)`` image to PNG."""
+    """Write an 8-bit ``(H, W, 3)`` image, or ``(H, W, 4)`` with a straight (unassociated)
+    alpha stored as given (RGBD data, not a coverage mask), to PNG."""
     img8 = np.ascontiguousarray(img8, dtype=np.uint8)
     h, w, c = img8.shape
-    _write(path, oiio.ImageSpec(w, h, c, "uint8"), img8)
+    spec = oiio.ImageSpec(w, h, c, "uint8")
+    if c == 4:
+        spec.attribute("oiio:UnassociatedAlpha", 1)
+    _write(path, spec, img8)
 
 
 FIXED_ATTRIBUTES = {"compression": "zip", "DateTime": ""}
@@ -98,10 +104,32 @@ def _oiio_error(path, what, text):
         return OutputError(f"no space left on device writing {path}")
     if "Read-only file system" in text:
         return OutputError(f"read-only file system writing {path}")
+    if any(sign in text for sign in SHORT_WRITE):
+        return _short_write(path)
     return OutputError(f"{path}: {what} ({text[:200] or 'unknown error'})")
 
 
+SHORT_WRITE = ("could only write", "File output failed")
+"""How OpenImageIO's PNG writer and OpenEXR report a failed write (no errno given)."""
+
+
+def _short_write(path):
+    """A write of ``path`` failed without an errno: a full disk if its file system is
+    full now, else a quota, a file size limit or an I/O error."""
+    try:
+        full = os.statvfs(os.path.dirname(os.path.abspath(path))).f_bavail == 0
+    except OSError:
+        full = False
+    if full:
+        return OutputError(f"no space left on device writing {path}")
+    return OutputError(f"cannot write all of {path} (a disk quota, a file size limit or an "
+                       "I/O error)")  # fmt: skip
+
+
 def _write(path, spec, pixels):
+    """Write ``pixels`` through OpenImageIO, atomically. A failed write is an error even
+    where the writer's calls return success: OpenImageIO's PNG writer reports a short write
+    (full disk, file size limit) only through its error state."""
     for k, v in FIXED_ATTRIBUTES.items():
         if k != "compression" or path.lower().endswith(".exr"):
             spec.attribute(k, v)
@@ -111,12 +139,45 @@ def _write(path, spec, pixels):
             raise _oiio_error(path, "cannot create image writer", oiio.geterror())
         ok = False
         try:
-            ok = out.open(tmp, spec) and out.write_image(pixels)
+            ok = out.open(tmp, spec) and out.write_image(pixels) and not out.has_error
             err = "" if ok else out.geterror()
         finally:
-            closed = out.close()
+            closed = out.close() and not out.has_error
         if not ok or not closed:
             raise _oiio_error(path, "write failed", err if not ok else out.geterror())
+        if path.lower().endswith(".png"):
+            check_png(tmp, path)
+
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def check_png(tmp: str, path: str) -> None:
+    """Refuse a PNG file ``tmp`` (staged for ``path``) that is not whole: the signature,
+    then chunks (length, type, data, CRC-32) each with a correct CRC, the last one ``IEND``
+    ending at the end of the file (PNG spec §5.3). OpenImageIO's PNG writer drops the
+    error of its last buffered write (made at ``close``), so a full disk or a file size
+    limit can leave a short file it reports as written."""
+    import zlib
+
+    with open(tmp, "rb") as f:
+        data = f.read()
+    pos, kind = len(PNG_SIGNATURE), b""
+    whole = data.startswith(PNG_SIGNATURE)
+    while whole and pos < len(data):
+        if pos + 12 > len(data):
+            whole = False
+            break
+        length = int.from_bytes(data[pos : pos + 4], "big")
+        kind, end = data[pos + 4 : pos + 8], pos + 8 + length
+        if end + 4 > len(data) or zlib.crc32(data[pos + 4 : end]) != int.from_bytes(
+            data[end : end + 4], "big"
+        ):
+            whole = False
+            break
+        pos = end + 4
+    if not (whole and kind == b"IEND" and pos == len(data)):
+        raise _short_write(path)
 
 
 def auto_exposure(img: np.ndarray) -> float:

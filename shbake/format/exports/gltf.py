@@ -36,8 +36,9 @@ import os
 import numpy as np
 
 from shbake.errors import ParameterError
-from shbake.format.atomic import atomic_path, write_text
+from shbake.format.atomic import write_text
 from shbake.format.exports.source import ExportSource, require_sh
+from shbake.format.images import write_png
 
 EXTENSION = ".gltf"
 BABYLON_SIGNS = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1], dtype=np.float64)
@@ -145,7 +146,7 @@ def write(
         for f in range(6):
             name = f"{stem}_specular_{m}_{f}.png"
             path = os.path.join(directory, name)
-            _write_png_rgba(path, rgbd_encode(lv[f] / intensity))
+            write_png(path, rgbd_encode(lv[f] / intensity))
             written.append(path)
             faces.append(len(images))
             images.append({"uri": name, "mimeType": "image/png"})
@@ -193,17 +194,3 @@ def write(
         doc["scenes"][0]["nodes"].append(1)
     write_text(out, json.dumps(doc, indent=1, sort_keys=True) + "\n")
     return [out, *written]
-
-
-def _write_png_rgba(path: str, px: np.ndarray) -> None:
-    import OpenImageIO as oiio
-
-    h, w, c = px.shape
-    spec = oiio.ImageSpec(w, h, c, "uint8")
-    spec.attribute("oiio:UnassociatedAlpha", 1)
-    with atomic_path(path) as tmp:
-        o = oiio.ImageOutput.create(tmp)
-        if o is None or not o.open(tmp, spec):
-            raise OSError(f"{path}: cannot write PNG ({oiio.geterror()})")
-        o.write_image(np.ascontiguousarray(px))
-        o.close()
