@@ -85,7 +85,6 @@ CASES = {
 }  # fmt: skip
 
 
-
 @pytest.fixture(scope="module")
 def ws(tmp_path_factory):
     """Inputs: two small maps, an env_sh and a splitsum asset, a folder of previews."""
