@@ -119,6 +119,26 @@ json_opt = click.option(
 quiet_opt = click.option(
     "-q", "--quiet", is_flag=True, help="No progress bar, warnings or notes on stderr."
 )
+
+
+def _scheduler_address(ctx, param, value):
+    if value is None:
+        return None
+    from shbake.batch.scheduler import parse_address
+
+    try:
+        return parse_address(value)
+    except ParameterError as e:
+        raise click.BadParameter(str(e), ctx, param) from None
+
+
+scheduler_opt = click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    callback=_scheduler_address,
+    help="Run on the Dask scheduler at [tcp://]HOST:PORT (connected before any work).",
+)
 report_opt = click.option(
     "--report",
     is_flag=True,
@@ -313,6 +333,7 @@ class BarProgress(Progress):
             return None
         from tqdm import tqdm
 
+        tqdm.monitor_interval = 0  # no monitor thread: nothing of tqdm's outlives the run
         return tqdm(total=total, desc=printable(description), unit=unit, file=sys.stderr,
                     leave=False, dynamic_ncols=True)  # fmt: skip
 

@@ -1,7 +1,15 @@
 """``shbake plan`` and ``shbake bake``: a scene's assets, their settings, and baking them."""
 
 import click
-from shbake_cli.options import emit_json, info, info_lines, json_opt, quiet_opt, warn
+from shbake_cli.options import (
+    emit_json,
+    info,
+    info_lines,
+    json_opt,
+    quiet_opt,
+    scheduler_opt,
+    warn,
+)
 
 from shbake.batch.makefile import MakeNameError
 from shbake.batch.plan import format_plan, plan_scene
@@ -60,15 +68,20 @@ def plan(scene, emit, shbake_cmd, allow_outside, as_json, quiet):
 @click.argument("scene", type=click.Path(dir_okay=False))
 @click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
               help="Local worker processes.")
-@click.option("--scheduler", default=None, metavar="ADDR",
-              help="Bake on the Dask distributed scheduler at ADDR instead.")
+@scheduler_opt
 @click.option("--asset", "only", default=None, metavar="ID",
               help="Bake only this asset from its settings stamp (what make rules run).")
 @allow_outside_opt
 @json_opt
 @quiet_opt
 def bake(scene, jobs, scheduler, only, allow_outside, as_json, quiet):
-    """Bake what SCENE needs and is out of date (scene.lock.json in the scene's out_dir)."""
+    """Bake what SCENE needs and is out of date (scene.lock.json in the scene's out_dir).
+
+    With --scheduler the assets are baked on Dask workers and written here, with the
+    lock, all together or not at all.
+    """
+    if scheduler and (jobs != 1 or only):
+        raise click.UsageError("--scheduler bakes the whole scene on Dask: no --jobs or --asset")
     sc = _scene(scene, allow_outside)
     try:
         summary = bake_scene(sc, jobs=jobs, scheduler=scheduler, only=only)

@@ -17,6 +17,7 @@ from shbake_cli.options import (
     quiet_opt,
     report_opt,
     samples_opt,
+    scheduler_opt,
     tol_opt,
     usage_errors,
 )
@@ -87,8 +88,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
 @click.option("--jobs", "n_jobs", type=click.IntRange(1, JOBS_LIMIT), default=1,
               show_default=True,
               help=f"Local worker processes (1…{JOBS_LIMIT}: four per CPU).")  # fmt: skip
-@click.option("--scheduler", default=None, metavar="ADDRESS",
-              help="Dask distributed scheduler (tcp://host:port).")  # fmt: skip
+@scheduler_opt
 @click.option("--manifest", type=click.Path(dir_okay=False), default=None,
               help="JSON file listing every probe as written or not (with its SHA-256) and "
               "the run's status; written even when the batch fails, so a rerun can resume "

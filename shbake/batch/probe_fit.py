@@ -8,11 +8,13 @@ map (:mod:`shbake.bakers.shexp_report`) before the batch.
 
 import os
 import time
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 
 from shbake.bakers.shexp import FitConfig
 from shbake.batch.probe_jobs import ProbeJob, fit_plan, run_dask, run_local, shared_dfg_table
+from shbake.batch.scheduler import session
 from shbake.errors import InputError, ParameterError, ShbakeError
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.resources import read_bounded
@@ -164,7 +166,17 @@ def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_C
                scheduler=None, progress=None, notes=None, manifest=None) -> dict:  # fmt: skip
     """Fit SH-exp probes to ``maps`` (and the lines of ``probe_list``); the summary
     ``{"probes", "seconds", "probes_per_second", "config", …study}``. ``notes(text)``
-    receives the ``--tol`` choice and the ``--report`` tables."""
+    receives the ``--tol`` choice and the ``--report`` tables. ``scheduler`` (a Dask
+    address or client) is connected before any other work."""
+    if scheduler and n_jobs != 1:
+        raise ParameterError("use --jobs or --scheduler, not both")
+    with session(scheduler) if scheduler else nullcontext() as client:
+        return _fit_probes(maps, probe_list, output, out_dir, config, negative, fix_nonfinite,
+                           report, tol, n_jobs, client, progress, notes, manifest)  # fmt: skip
+
+
+def _fit_probes(maps, probe_list, output, out_dir, config, negative, fix_nonfinite, report, tol,
+                n_jobs, client, progress, notes, manifest) -> dict:  # fmt: skip
     jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, output)
     study = {}
     if report or tol is not None:
@@ -174,16 +186,14 @@ def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_C
             notes(f"probe-fit: --tol {tol:g} → --samples {config.samples}")
         if notes and text:
             notes(text)
-    if scheduler and n_jobs != 1:
-        raise ParameterError("use --jobs or --scheduler, not both")
     if manifest is not None:
         check_output_path(manifest, "--manifest")
     t0 = time.perf_counter()
     finished: list = []
     error = None
     try:
-        if scheduler:
-            results = run_dask(jobs, scheduler, progress, finished)
+        if client is not None:
+            results = run_dask(jobs, client, progress, finished)
         else:
             results = run_local(jobs, n_jobs, progress, finished)
         if output:

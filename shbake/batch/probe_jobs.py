@@ -14,7 +14,6 @@ import contextlib
 import functools
 import multiprocessing
 import os
-import re
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
@@ -23,10 +22,11 @@ import numba
 from shbake import signals
 from shbake.bakers.shexp import FitConfig, FitPlan
 from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
+from shbake.batch.scheduler import completed, session, write_returned
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
-from shbake.format.atomic import detached, refuse_same_file
+from shbake.format.atomic import collected, detached, refuse_same_file
 from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
 from shbake.resources import check_memory
@@ -206,40 +206,32 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None,
     return results
 
 
-def _dask_job(job: ProbeJob) -> dict:
+def _dask_job(job: ProbeJob) -> tuple[dict, bytes | None]:
+    """A Dask worker's probe: its summary and the bytes of its file, which the client writes
+    (:mod:`shbake.batch.scheduler`: a worker writes nothing where outputs go)."""
     _single_thread()
-    return run_probe_job(job)
+    with collected() as outputs:
+        summary = run_probe_job(job)
+        return summary, (outputs.read(job.output) if job.output else None)
 
 
-SCHEDULER_ADDRESS = re.compile(r"((tcp|tls|inproc|ucx|ws|wss)://)?[A-Za-z0-9_.\-\[\]:]+:\d+/?")
-"""What a Dask scheduler address looks like (checked before connecting, which can take 20 s)."""
-
-
-def run_dask(jobs: list[ProbeJob], address: str, progress=None,
+def run_dask(jobs: list[ProbeJob], scheduler, progress=None,
              finished: list | None = None) -> list[dict]:  # fmt: skip
-    """Run jobs on the Dask distributed scheduler at ``address``; results keep job order
-    (``finished`` as in :func:`run_local`, in completion order)."""
+    """Run jobs on a Dask scheduler (an address or a connected client,
+    :func:`shbake.batch.scheduler.session`); results keep job order (``finished`` as in
+    :func:`run_local`, in completion order). Each probe's file is written here as its
+    result arrives, atomic on its own."""
     check_jobs(jobs)
-    if not SCHEDULER_ADDRESS.fullmatch(str(address)):
-        raise ParameterError(
-            f"--scheduler {address!r}: expected an address such as tcp://host:8786"
-        )
-    try:
-        from distributed import Client, as_completed
-    except ImportError:  # pragma: no cover - dask is an install requirement
-        raise ParameterError("--scheduler needs the 'distributed' package") from None
-    try:
-        client = Client(address, timeout=10, set_as_default=False)
-    except OSError as e:
-        raise InputError(f"cannot reach the Dask scheduler at {address}: {e}") from None
-    with client:
+    with session(scheduler) as client:
+        results: list = [None] * len(jobs)
         futures = client.map(_dask_job, jobs, pure=False)
-        index = {f.key: i for i, f in enumerate(futures)}
-        results = [None] * len(jobs)
-        for done, fut in enumerate(as_completed(futures, loop=client.loop), 1):
-            results[index[fut.key]] = fut.result()
+        for done, (i, (summary, data)) in enumerate(completed(client, futures), 1):
+            if data is not None:
+                with detached():  # each probe of a batch is atomic on its own
+                    write_returned(jobs[i].output, data)
+            results[i] = summary
             if finished is not None:
-                finished.append(results[index[fut.key]])
+                finished.append(summary)
             if progress:
                 progress(done, len(jobs))
     return results

@@ -10,6 +10,7 @@ plan key, inputs and output hash match ``scene.lock.json``, bakes the rest
 and rewrites the lock (atomically).
 """
 
+import hashlib
 import json
 import os
 import re
@@ -38,12 +39,14 @@ from shbake.batch.scene import (
     _param_strings,
     is_inside,
 )
-from shbake.errors import ParameterError
+from shbake.errors import OutputError, ParameterError
 from shbake.format.atomic import (
     atomic_path,
     check_output_path,
+    collected,
     detached,
     makedirs,
+    staged,
     transaction,
     write_text,
 )
@@ -223,7 +226,8 @@ def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
     with _committed():
         files = export_assets([env_sh], a["settings"]["target"], folder, env_path=env_map,
                               many=True)  # fmt: skip
-    listing = {os.path.relpath(f, folder): file_hash(f, own_output=True) for f in sorted(files)}
+    listing = {os.path.relpath(f, folder): file_hash(staged(f) or f, own_output=True)
+               for f in sorted(files)}  # fmt: skip
     with _committed():
         write_text(a["output"], json.dumps(listing, indent=1, sort_keys=True) + "\n")
     return {"outputs": [a["output"]] + sorted(files),
@@ -259,15 +263,15 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
         t0 = time.perf_counter()
         info, errors = BAKERS[asset["kind"]](asset, measure)
         wall = time.perf_counter() - t0
+    folder = os.path.dirname(asset["output"])  # read back from a collector's scratch (Dask)
+    outputs = {os.path.relpath(p, folder): file_hash(staged(p) or p, own_output=True)
+               for p in info["outputs"]}  # fmt: skip
     return {
         "id": asset["id"],
         "plan_key": asset["plan_key"],
         "settings": asset["settings"],
-        "inputs": {p: file_hash(p) for p in asset["inputs"]},
-        "outputs": {
-            os.path.relpath(p, os.path.dirname(asset["output"])): file_hash(p, own_output=True)
-            for p in info["outputs"]
-        },  # fmt: skip
+        "inputs": {p: file_hash(staged(p) or p) for p in asset["inputs"]},
+        "outputs": outputs,
         "measured_error": errors,
         "tolerances": asset["tolerances"],
         "predicted_error": asset["predicted_error"],
@@ -277,11 +281,49 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
     }
 
 
-def _dask_bake(asset: dict) -> dict:
+def _dask_bake(asset: dict, sources: dict[str, bytes]) -> tuple[dict, dict[str, bytes]]:
+    """A Dask worker's bake of ``asset``: its lock record and its outputs' bytes by path
+    relative to the asset's folder, for the client to write (the worker writes nothing
+    where outputs go, :mod:`shbake.batch.scheduler`). ``sources``: the bytes of inputs that
+    this run baked earlier (the env_sh asset of an export), not yet committed."""
     import numba
 
     numba.set_num_threads(1)
-    return bake_asset(asset)
+    with collected() as outputs:
+        for path, data in sources.items():
+            outputs.adopt(path, data)
+        record = bake_asset(asset)
+        folder = os.path.dirname(asset["output"])
+        return record, {rel: outputs.read(os.path.join(folder, rel)) for rel in record["outputs"]}
+
+
+def _bake_on_scheduler(client, waves: list[list[dict]]) -> list[dict]:
+    """Bake ``waves`` on Dask, a wave after the other; each output is written here, in this
+    run's transaction, as its task completes (the whole run is then committed together
+    with the lock, or not at all); records in wave order."""
+    from shbake.batch.scheduler import completed, inside, write_returned
+
+    results = []
+    for wave in waves:
+        for a in wave:  # the workers check them (removed again if the run fails)
+            makedirs(os.path.dirname(a["output"]))
+        sources = [{p: _staged_bytes(p) for p in a["inputs"] if staged(p)} for a in wave]
+        records: list = [None] * len(wave)
+        futures = client.map(_dask_bake, wave, sources, pure=False)
+        for i, (record, files) in completed(client, futures):
+            folder = os.path.dirname(wave[i]["output"])
+            for rel, data in files.items():
+                if hashlib.sha256(data).hexdigest() != record["outputs"].get(rel):
+                    raise OutputError(f"{wave[i]['id']}: {rel} differs from its lock record")
+                write_returned(inside(folder, rel), data)
+            records[i] = record
+        results += records
+    return results
+
+
+def _staged_bytes(path: str) -> bytes:
+    with open(staged(path), "rb") as f:
+        return f.read()
 
 
 def _poisoned(asset: dict, rec) -> bool:
@@ -408,7 +450,7 @@ def _stamped_asset(scene: Scene, aid: str) -> dict:
     return asset
 
 
-def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
+def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
                only: str | None = None, progress=None) -> dict:  # fmt: skip
     """Plan ``scene`` and bake what is out of date; the summary (baked, skipped, records,
     ``warnings``: lock records that could not be trusted and were baked again).
@@ -420,7 +462,16 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     (:func:`~shbake.batch.scene.load_scene`), the lock and every planned output are
     declared before any work and refused if one is an input; a bake then reads back only
     its own outputs (measured errors, exports of its ``env_sh`` assets).
+
+    ``scheduler``: a Dask scheduler address, connected before planning, or a connected
+    client; the workers' outputs are written here and committed with the lock, all
+    together or not at all (:func:`_bake_on_scheduler`).
     """
+    from shbake.batch.scheduler import session
+
+    if isinstance(scheduler, str):  # connected before planning; the run is all or nothing
+        with session(scheduler) as client, transaction():
+            return bake_scene(scene, jobs, client, only, progress)
     if only is not None:
         asset = _stamped_asset(scene, only)
         full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0)
@@ -446,12 +497,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler: str | None = None,
     # two waves: exports read the env_sh assets of the first
     waves = [[a for a in todo if a["kind"] != "export"], [a for a in todo if a["kind"] == "export"]]
     results = []
-    if scheduler:
-        from distributed import Client
-
-        with Client(scheduler, timeout=10, set_as_default=False) as client:
-            for wave in waves:
-                results += client.gather(client.map(_dask_bake, wave, pure=False))
+    if scheduler is not None:
+        results = _bake_on_scheduler(scheduler, waves)
     elif jobs > 1 and len(todo) > 1:
         with worker_pool(jobs) as pool:
             for wave in waves:

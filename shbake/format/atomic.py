@@ -14,6 +14,11 @@ A run killed with ``kill -9`` cannot clean up; its temporaries carry its process
 id, and the next run that writes the same target removes those whose process
 no longer exists (never a live process's).
 
+A Dask worker bakes inside :func:`collected`: its outputs are staged in a scratch
+folder of its own and returned as bytes, and the client writes them in its
+transaction, so nothing a worker does can appear beside a target after the client
+has gone (``docs/SCENES.md``, Dask).
+
 Outside a transaction (library use), :func:`atomic_path` is a transaction of
 one file. Batches (``probe-fit`` without ``--set``) write one file per probe,
 each atomic on its own (documented in ``docs/FORMAT.md`` §1).
@@ -31,7 +36,8 @@ from shbake.errors import OutputError
 TAG = ".shbake-"
 """Marks shbake's temporaries: ``.<name>.shbake-<pid>-<n>.tmp<suffix>``."""
 
-_active = None
+_here = threading.local()
+"""Each thread's running transaction (``_here.active``): a Dask worker runs tasks in threads."""
 _open: list = []
 _lock = threading.RLock()
 _counter = 0
@@ -271,6 +277,70 @@ class Transaction:
             self.staged, self.created, self.done = [], [], True
 
 
+class Collector(Transaction):
+    """Outputs that this process makes but never commits: each is staged in ``folder``, a
+    scratch folder of its own (not beside its target), for the caller to read back and
+    hand to the process that commits them (a Dask worker's outputs, written by the
+    client). Nothing is created beside the targets, target folders included, so nothing
+    of a run can appear there after the committing process has gone."""
+
+    def __init__(self, folder: str):
+        super().__init__()
+        self.folder = folder
+
+    def makedirs(self, folder: str) -> None:
+        """Nothing: the committing process creates the target folders."""
+
+    def stage(self, path: str) -> str:
+        """A new temporary in the scratch folder standing for ``path``."""
+        global _counter
+        path = os.path.abspath(os.fspath(path))
+        with _lock:
+            if any(final == path for _, final in self.staged):
+                raise OutputError(f"{path}: written twice by one run")
+            _counter += 1
+            n = _counter
+        tmp = os.path.join(self.folder, f"{n}.tmp{os.path.splitext(path)[1]}")
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        with _lock:
+            self.staged.append((tmp, path))
+        return tmp
+
+    def adopt(self, path: str, data: bytes) -> None:
+        """Stage ``data`` as the output ``path`` of an earlier step of the run, made in
+        another process (read through :func:`staged`, as one made here)."""
+        with open(self.stage(path), "wb") as f:
+            f.write(data)
+
+    def read(self, path: str) -> bytes:
+        """The bytes staged for ``path`` (inside the :func:`collected` block)."""
+        target = os.path.abspath(os.fspath(path))
+        with _lock:
+            tmp = next((t for t, final in self.staged if final == target), None)
+        if tmp is None:
+            raise OutputError(f"{path}: not written by this run")
+        with open(tmp, "rb") as f:
+            return f.read()
+
+
+@contextmanager
+def collected():
+    """Run a block whose outputs are collected, not committed (:class:`Collector`): every
+    transaction and :func:`detached` block inside joins it; yields the collector. Its
+    scratch folder (in the system's temporary folder) is removed when the block ends."""
+    import tempfile
+
+    saved = active()
+    with tempfile.TemporaryDirectory(prefix="shbake-collect-") as folder:
+        t = Collector(folder)
+        _here.active = t
+        try:
+            with _tracked(t):
+                yield t
+        finally:
+            _here.active = saved
+
+
 def _unlink(p: str) -> None:
     try:
         os.remove(p)
@@ -281,7 +351,7 @@ def _unlink(p: str) -> None:
 def staged(path: str) -> str | None:
     """The temporary holding ``path`` if the running transaction has written it (so a step
     can read an output of an earlier step of the same run), else ``None``."""
-    t = _active
+    t = active()
     if t is None:
         return None
     target = os.path.abspath(os.fspath(path))
@@ -293,8 +363,8 @@ def staged(path: str) -> str | None:
 
 
 def active() -> Transaction | None:
-    """The transaction of the running command, if any."""
-    return _active
+    """The transaction of the running command (in this thread), if any."""
+    return getattr(_here, "active", None)
 
 
 def abort_active() -> None:
@@ -319,24 +389,27 @@ def _tracked(t):
 @contextmanager
 def detached():
     """Run a block outside the command's transaction: its files are committed on their own
-    (one probe of a batch), so completed ones stay when a later one fails."""
-    global _active
-    saved, _active = _active, None
+    (one probe of a batch), so completed ones stay when a later one fails. Inside
+    :func:`collected` the block stays in the collector (nothing is committed there)."""
+    saved = active()
+    if isinstance(saved, Collector):
+        yield
+        return
+    _here.active = None
     try:
         yield
     finally:
-        _active = saved
+        _here.active = saved
 
 
 @contextmanager
 def transaction():
     """Run a block as one transaction (nested blocks join the outer one)."""
-    global _active
-    if _active is not None:
-        yield _active
+    if active() is not None:
+        yield active()
         return
     t = Transaction()
-    _active = t
+    _here.active = t
     try:
         with _tracked(t):
             yield t
@@ -345,7 +418,7 @@ def transaction():
         t.abort()
         raise
     finally:
-        _active = None
+        _here.active = None
 
 
 @contextmanager
