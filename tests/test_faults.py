@@ -775,7 +775,7 @@ class TestOneLine:
 
     def test_scheduler_not_a_url(self, run_cli, box):
         assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "d",
-                              "--scheduler", "not a url"), fragment="--scheduler")  # fmt: skip
+                              "--scheduler", "not a url"), code=2, fragment="--scheduler")  # fmt: skip
         assert not (box / "d").exists()
 
     def test_json_stdout_full(self, box):
