@@ -774,8 +774,9 @@ class TestOneLine:
         assert "not a finite number" in msg or "is not in the range" in msg, msg
 
     def test_scheduler_not_a_url(self, run_cli, box):
-        assert_failed(run_cli("probe-fit", box / "map.exr", "--out-dir", box / "d",
-                              "--scheduler", "not a url"), code=2, fragment="--scheduler")  # fmt: skip
+        result = run_cli("probe-fit", box / "map.exr", "--out-dir", box / "d", "--scheduler",
+                         "not a url")  # fmt: skip
+        assert_failed(result, code=2, fragment="--scheduler")
         assert not (box / "d").exists()
 
     def test_json_stdout_full(self, box):
