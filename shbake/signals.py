@@ -103,9 +103,11 @@ def _watch(fd: int) -> None:
 
 
 def finish_message() -> None:
-    """Write the one line of an interrupted run."""
+    """Write the one line of an interrupted run; on a terminal it first erases the line (a
+    progress bar the watcher interrupted inside a kernel is still drawn there)."""
     try:
-        os.write(2, b"shbake: error: interrupted\n")
+        erase = b"\r\x1b[K" if os.isatty(2) else b""
+        os.write(2, erase + b"shbake: error: interrupted\n")
     except OSError:
         pass
 

@@ -4,6 +4,8 @@ Imported as ``helpers`` (pytest puts ``tests/`` on ``sys.path``; the benchmarks
 insert it). Fixtures live in ``conftest.py``.
 """
 
+import contextlib
+import logging
 import os
 from pathlib import Path
 
@@ -74,3 +76,14 @@ def write_merl(path, values: np.ndarray) -> None:
     with open(os.fspath(path), "wb") as f:
         f.write(np.array([90, 90, 180], dtype="<i4").tobytes())
         f.write((v / scales[:, None, None, None]).astype("<f8").tobytes())
+
+
+@contextlib.contextmanager
+def local_cluster():
+    """A 2-worker Dask cluster on 127.0.0.1 (processes, one thread each, logs silenced);
+    yields its scheduler address."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=":0", silence_logs=logging.CRITICAL) as c:  # fmt: skip
+        yield c.scheduler_address

@@ -10,7 +10,6 @@ it was, at exit and 10 s later (docs/SCENES.md, Dask).
 
 import hashlib
 import json
-import logging
 import os
 import signal
 import socket
@@ -22,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import write_test_exr
+from helpers import local_cluster, write_test_exr
 
 from shbake.batch import scheduler
 from shbake.errors import ParameterError
@@ -32,12 +31,8 @@ from tests.test_faults import TIMEOUT, assert_failed, shbake, snapshot, unchange
 
 @pytest.fixture(scope="module")
 def cluster():
-    """A 2-worker Dask cluster on 127.0.0.1 (one process, one thread per worker)."""
-    from distributed import LocalCluster
-
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=":0", silence_logs=logging.CRITICAL) as c:  # fmt: skip
-        yield c.scheduler_address
+    with local_cluster() as address:
+        yield address
 
 
 def nothing_listens() -> str:
