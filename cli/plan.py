@@ -80,8 +80,10 @@ def bake(scene, jobs, scheduler, only, allow_outside, as_json, quiet):
     With --scheduler the assets are baked on Dask workers and written here, with the
     lock, all together or not at all.
     """
-    if scheduler and (jobs != 1 or only):
-        raise click.UsageError("--scheduler bakes the whole scene on Dask: no --jobs or --asset")
+    if scheduler and jobs != 1:
+        raise click.UsageError("use --jobs or --scheduler, not both")
+    if scheduler and only:
+        raise click.UsageError("--asset bakes one asset in this process: no --scheduler")
     sc = _scene(scene, allow_outside)
     try:
         summary = bake_scene(sc, jobs=jobs, scheduler=scheduler, only=only)

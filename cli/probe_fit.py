@@ -111,6 +111,8 @@ def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, a
                                         "scheduler", "manifest")}  # fmt: skip
     if output and probe_list is None and not maps:
         raise ParameterError("give maps as arguments or a --list file")
+    if run["scheduler"] and run["n_jobs"] != 1:
+        raise click.UsageError("use --jobs or --scheduler, not both")
     with usage_errors():
         lo, hi = fit_alpha_range(alpha_range, roughness_range)
         config = FitConfig(alpha_count=alpha_count, alpha_min=lo, alpha_max=hi, **settings)

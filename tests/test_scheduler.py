@@ -112,6 +112,18 @@ class TestAddress:
         assert "is not a Dask scheduler address" in line
         assert "\x1b" not in err and "\x07" not in err and out == ""
 
+    @pytest.mark.parametrize("command, extra", [("bake", ["--jobs", "2"]),
+                                                ("bake", ["--asset", "env_sh/m00"]),
+                                                ("probe-fit", ["--jobs", "2"])])  # fmt: skip
+    def test_scheduler_with_local_workers_is_a_usage_error(self, run_cli, tmp_path, command,
+                                                           extra):  # fmt: skip
+        scene = write_scene(tmp_path, 1)
+        args = [scene] if command == "bake" else [tmp_path / "maps" / "m00.exr", "--out-dir",
+                                                  tmp_path / "probes"]  # fmt: skip
+        with unchanged(tmp_path):
+            result = run_cli(command, *args, *extra, "--scheduler", nothing_listens())
+        assert_failed(result, code=2, fragment="--scheduler")
+
 
 class TestConnectBeforePlanning:
     @pytest.mark.parametrize("command", ["bake", "probe-fit"])
