@@ -22,7 +22,12 @@ Error models (cheap, each measured, never assumed):
   (``e_l`` band energy, ``K_l`` the Lambert or Kajiya–Kay kernel), maximum
   over channels. Conservative with a sun: the sun is exact and only the
   residual's energy is counted in the denominator. Smallest ``L`` meeting
-  the tolerance (at least 2 with a glTF export).
+  the tolerance (at least 2 with a glTF export). With engine exports and no
+  fibre (engines read 9 coefficients and a few lights), the lights fitted with the
+  SH to the irradiance come first (:mod:`shbake.bakers.env_lights`): the fewest
+  (0 … :data:`~shbake.bakers.env_lights.AUTO_MAX_LIGHTS`) whose relative RMS error
+  against brute force at the fit's normals meets the tolerance, at ``L = 2``;
+  the Parseval rule when none does.
 * ``brdf_table``: three parts, combined as ``sqrt(a² + b² + c²)``: lmax
   truncation of ``f*`` (Parseval against a dense quadrature, as
   :mod:`shbake.bakers.kautz_report`), sample noise (projection at the chosen
@@ -49,6 +54,7 @@ from dataclasses import asdict
 
 import numpy as np
 
+from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, choose_lights, irradiance_target
 from shbake.bakers.env_sh import band_energy
 from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
@@ -76,7 +82,7 @@ TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
 REFERENCE_SAMPLES = 16384
-PLAN_VERSION = 5
+PLAN_VERSION = 6
 
 
 def file_hash(path: str) -> str:
@@ -135,6 +141,10 @@ def _downsample(pixels: np.ndarray, height: int) -> np.ndarray:
 def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
                 exports: tuple = ()) -> dict:  # fmt: skip
     """Settings, predicted error and time of one map's ``env_sh`` asset (module docstring)."""
+    if exports and irr_tol is not None and tan_tol is None:
+        lit = _plan_lights(env, load_s, irr_tol)
+        if lit is not None:
+            return lit
     (light, residual, rep), t_sun = _timed(extract_sun, env)
     sun = bool(rep["extracted"])
     coeffs, proj_s = _timed(residual.project, ERROR_LMAX)
@@ -163,6 +173,28 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
         "sun_seconds": t_sun if sun else 0.0,
         "bytes": n * (1 + settings["irradiance"] + settings["tangent"]) + (56 if sun else 0),
         "note": "error: Parseval on the full map" + (", sun removed (exact light)" if sun else ""),
+    }
+
+
+def _plan_lights(env: EnvMap, load_s: float, irr_tol: float) -> dict | None:
+    """The ``env_sh`` plan with fitted lights at ``L = 2`` (module docstring), or None
+    when no fit with up to :data:`AUTO_MAX_LIGHTS` lights meets ``irr_tol``."""
+
+    def fit():
+        return choose_lights(irradiance_target(env), irr_tol, AUTO_MAX_LIGHTS, 2, "rms_error")
+
+    (best, _), seconds = _timed(fit)
+    if best.rms_error > irr_tol:
+        return None
+    settings = {"lmax": 2, "irradiance": True, "tangent": False, "extract_sun": False,
+                "lights": best.count}  # fmt: skip
+    return {
+        "settings": settings,
+        "predicted_error": {"irradiance": best.rms_error},
+        "work_seconds": load_s + seconds,
+        "bytes": n_coeffs(2) * 3 * 8 * 2 + 48 * best.count,
+        "note": f"error: SH + {best.count} lights fitted to brute-force irradiance "
+        "(relative RMS at the fit's normals)",
     }
 
 
@@ -567,6 +599,7 @@ def format_plan(plan: dict) -> str:
         s = a["settings"]
         if a["kind"] == "env_sh":
             text = f"lmax {s['lmax']}" + (" +sun" if s["extract_sun"] else "")
+            text += f" +{s['lights']} lights" if s.get("lights") is not None else ""
         elif a["kind"] == "brdf_table":
             text = f"lmax {s['lmax']} size {s['size']} samples {s['samples']}"
         elif a["kind"] == "shexp":
