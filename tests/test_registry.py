@@ -212,7 +212,7 @@ CORRUPTIONS = {
     "probe-range-not-json": ("shexp_probe", _set_attr("alpha_range", "[0.2,"),
                              "not valid JSON"),
     "probe-config-not-json": ("shexp_probe", _set_attr("fit_config", "{"), "not valid JSON"),
-    "probe-p-float64": ("shexp_probe", _replace("/p", np.zeros((2, 25, 3))), "float32"),
+    "probe-p-float64": ("shexp_probe", _replace("/p", np.zeros((2, 36, 3))), "float32"),
     "set-count-missing": ("shexp_probe_set", _del("probe_count"), "probe_count"),
     "set-count-wrong": ("shexp_probe_set", _set_attr("probe_count", np.int64(5)), "5"),
     "levels-0": ("splitsum_probe", _set_attr("levels", np.int64(0)), "levels = 0"),
