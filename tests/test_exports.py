@@ -1,8 +1,9 @@
 """Engine exports checked in the engines' own code under node (tests/engines, ``npm ci``).
 
 Babylon.js's glTF loader and three.js's ObjectLoader/LightProbe evaluate the
-exported files; their irradiance must equal shbake's (SH + sun) at 300
-directions on every shared map, with and without ``--extract-sun``. Each test
+exported files; their irradiance must equal shbake's (SH + lights) at 300
+directions on every shared map, plain, with ``--extract-sun`` and with ``--lights auto``
+(several fitted lights). Each test
 of a convention has a twin proving that the comparison fails for a flipped
 axis or a π factor.
 """
@@ -66,8 +67,8 @@ def _scale(src, dirs) -> np.ndarray:
     from shbake.sh.basis import real_sh
 
     s = np.abs(real_sh(dirs, 2)[..., :, None] * src.irradiance9[None]).sum(axis=-2)
-    if src.sun_direction is not None:
-        s = s + np.maximum(dirs @ src.sun_direction, 0.0)[:, None] * src.sun_irradiance
+    for direction, irradiance in src.lights:
+        s = s + np.maximum(dirs @ direction, 0.0)[:, None] * irradiance
     return s
 
 
@@ -88,22 +89,25 @@ def dirs_file(tmp_path_factory):
 
 @pytest.fixture(
     scope="module",
-    params=[(m, s) for m in MAPS for s in (False, True)],
-    ids=lambda p: f"{os.path.basename(p[0])[:-4]}{'-sun' if p[1] else ''}",
+    params=[(m, s) for m in MAPS for s in ("", "sun", "lights")],
+    ids=lambda p: f"{os.path.basename(p[0])[:-4]}{'-' + p[1] if p[1] else ''}",
 )
 def baked(request, tmp_path_factory):
-    """An env_sh asset of a shared map (lmax 2), with or without sun extraction, and its exports."""
-    path, sun = request.param
+    """An env_sh asset of a shared map (lmax 2): plain, with the sun extracted or with
+    ``--lights auto``; and its exports."""
+    path, mode = request.param
+    sun = mode == "sun"
     d = tmp_path_factory.mktemp("exp")
     env = load_environment(path, quiet=True)
     asset, _ = bake_env_sh(
-        env, lmax=2, sun=sun, provenance={"input_abspath": os.path.abspath(path)}
-    )
+        env, lmax=2, sun=sun, lights="auto" if mode == "lights" else None,
+        provenance={"input_abspath": os.path.abspath(path)},
+    )  # fmt: skip
     h5 = str(d / "a.h5")
     write_asset(h5, asset)
     gltf = export_assets([h5], "gltf", str(d / "a.gltf"), **SMALL)[0]
     three = export_assets([h5], "threejs", str(d / "a.json"))[0]
-    name = os.path.basename(path)[:-4] + ("-sun" if sun else "")
+    name = os.path.basename(path)[:-4] + ("-" + mode if mode else "")
     return {"h5": h5, "gltf": gltf, "three": three, "env": env, "sun": sun, "dir": d, "name": name}
 
 
@@ -116,7 +120,7 @@ class TestBabylonGltf:
         src = load_source(baked["h5"])
         d = np.array(json.load(open(dirs_file)))
         want = shbake_irradiance(src, d)
-        assert r["lights"] == (1 if src.sun_direction is not None else 0)
+        assert r["lights"] == len(src.lights)
         print(
             f"\n{baked['name']}: Babylon vs shbake {_rel(got, want, src, d):.2e} "
             f"(per-direction |E|: {_rel(got, want):.2e})"
@@ -177,7 +181,7 @@ class TestThreejs:
         src = load_source(baked["h5"])
         d = np.array(json.load(open(dirs_file)))
         want = shbake_irradiance(src, d)
-        assert r["probes"] == 1 and r["lights"] == (3 if src.sun_direction is not None else 0)
+        assert r["probes"] == 1 and r["lights"] == 3 * len(src.lights)
         print(
             f"\n{baked['name']}: three vs shbake {_rel(got, want, src, d):.2e} "
             f"(per-direction |E|: {_rel(got, want):.2e})"

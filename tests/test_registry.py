@@ -150,6 +150,22 @@ def _del(name):
 
 NAN3 = np.array([np.nan, 0.0, 1.0])
 
+
+def _lights(direction, irradiance, keep_sun=False):
+    """Replace the example's sun by fitted lights (``/lights``) with these values."""
+
+    def fn(f):
+        if not keep_sun:
+            del f["/sun"]
+        if direction is not None:
+            f["/lights/direction"] = np.asarray(direction, dtype=np.float64)
+            attrs = {"requested": "auto", "fit_directions": 4096, "fit_mean_error": 0.01}
+            f["/lights/direction"].attrs.update(attrs | {"fit_max_error": 0.1})
+        f["/lights/irradiance"] = np.asarray(irradiance, dtype=np.float64)
+
+    return fn
+
+
 CORRUPTIONS = {
     # id: (kind, mutation, message fragment)
     "wrong-kind": ("env_sh", _set_attr("kind", "nope"), "kind 'nope' is unknown"),
@@ -175,6 +191,14 @@ CORRUPTIONS = {
                      "unit vector"),
     "sun-partial": ("env_sh", _del("/sun/radiance"), "missing dataset /sun/radiance"),
     "sun-no-direction": ("env_sh", _del("/sun/direction"), "missing dataset /sun/direction"),
+    "lights-not-unit": ("env_sh", _lights([[0.0, 2.0, 0.0]], [[1.0, 1.0, 1.0]]), "unit vector"),
+    "lights-negative": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0, -1.0, 1.0]]), "negative"),
+    "lights-no-direction": ("env_sh", _lights(None, [[1.0, 1.0, 1.0]]),
+                            "missing dataset /lights/direction"),
+    "lights-count-differs": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3, [2.0] * 3]),
+                             "lights/irradiance"),
+    "lights-and-sun": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], keep_sun=True),
+                       "not both"),
     "knots-equal": ("shexp_probe", _replace("/knots", np.array([0.5, 0.5])), "/knots must"),
     "knots-negative": ("shexp_probe", _replace("/knots", np.array([-1.0, 0.5])), "/knots must"),
     "matrix-333": ("env_sh", _replace("/tangent_irradiance/matrix", np.zeros((3, 3, 3))),
@@ -188,7 +212,7 @@ CORRUPTIONS = {
     "probe-range-not-json": ("shexp_probe", _set_attr("alpha_range", "[0.2,"),
                              "not valid JSON"),
     "probe-config-not-json": ("shexp_probe", _set_attr("fit_config", "{"), "not valid JSON"),
-    "probe-p-float64": ("shexp_probe", _replace("/p", np.zeros((2, 25, 3))), "float32"),
+    "probe-p-float64": ("shexp_probe", _replace("/p", np.zeros((2, 36, 3))), "float32"),
     "set-count-missing": ("shexp_probe_set", _del("probe_count"), "probe_count"),
     "set-count-wrong": ("shexp_probe_set", _set_attr("probe_count", np.int64(5)), "5"),
     "levels-0": ("splitsum_probe", _set_attr("levels", np.int64(0)), "levels = 0"),

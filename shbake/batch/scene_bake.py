@@ -93,7 +93,8 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
         summary = project_environment(
             a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
             irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
-            extract_sun=s["extract_sun"], quiet=True, pose=s.get("pose"),
+            extract_sun=s["extract_sun"], lights=s.get("lights"), quiet=True,
+            pose=s.get("pose"),
         )  # fmt: skip
     seconds = time.perf_counter() - t0
     outputs = summary["outputs"]

@@ -1,16 +1,17 @@
-"""What an engine's shader does with an ``env_sh`` asset: SH irradiance plus the sun.
+"""What an engine's shader does with an ``env_sh`` asset: SH irradiance plus its lights.
 
 Lambert (``/irradiance/sh``, ``Â_l`` folded in, SPEC §4)::
 
-    E(n) = Σ_i c_i y_i(n) + max(0, n·s) E_sun
+    E(n) = Σ_i c_i y_i(n) + Σ_k max(0, n·s_k) E_k
 
 Kajiya–Kay tangent irradiance (Mehta et al. 2012), from ``/tangent_irradiance/sh``
 (``A_l`` folded in) or the 4×4 matrix of eq. 23–24 (``/tangent_irradiance/matrix``)::
 
-    E(t) = Σ_i c_i y_i(t) + sqrt(1 − (t·s)²)/π² E_sun = t̃ᵀ M t̃ + sqrt(1 − (t·s)²)/π² E_sun
+    E(t) = Σ_i c_i y_i(t) + Σ_k sqrt(1 − (t·s_k)²)/π² E_k = t̃ᵀ M t̃ + Σ_k sqrt(1 − (t·s_k)²)/π² E_k
 
-with ``s`` the sun's direction and ``E_sun = radiance × solid_angle`` its
-irradiance at normal incidence (``/sun``, absent when no sun was extracted).
+with ``s_k`` a light's direction and ``E_k`` its irradiance at normal incidence: the
+extracted sun (``/sun``: ``E = radiance × solid_angle``) or the fitted lights
+(``/lights``); none when the asset has neither.
 Kernels are check-free: directions unit, arrays from a validated asset.
 """
 
@@ -36,26 +37,36 @@ def sun_tangent(c):
 
 
 @pjit
-def _matrix_with_sun(tangents, M, sun_dir, sun_energy, out):
+def _matrix_with_lights(tangents, M, light_dirs, light_energy, out):
     for p in prange(tangents.shape[0]):
         t = (tangents[p, 0], tangents[p, 1], tangents[p, 2], 1.0)
-        k = sun_tangent(t[0] * sun_dir[0] + t[1] * sun_dir[1] + t[2] * sun_dir[2])
         for ch in range(3):
-            e = k * sun_energy[ch]
+            e = 0.0
             for r in range(4):
                 for s in range(4):
                     e += t[r] * M[ch, r, s] * t[s]
             out[p, ch] = e
+        for j in range(light_dirs.shape[0]):
+            d = light_dirs[j]
+            k = sun_tangent(t[0] * d[0] + t[1] * d[1] + t[2] * d[2])
+            for ch in range(3):
+                out[p, ch] += k * light_energy[j, ch]
 
 
-def sun_of(asset):
-    """``(direction, E_sun)`` of an ``env_sh`` asset; a zero light when it has none."""
+def lights_of(asset):
+    """``(directions (K, 3), E (K, 3))`` of an ``env_sh`` asset's lights: its sun
+    (``E = radiance × solid_angle``) or its fitted ``/lights``; ``K = 0`` without."""
     if "/sun/direction" in asset:
         return (
-            np.asarray(asset["/sun/direction"], float),
-            np.asarray(asset["/sun/radiance"], float) * float(asset["/sun/solid_angle"]),
+            np.asarray(asset["/sun/direction"], float).reshape(1, 3),
+            (np.asarray(asset["/sun/radiance"], float) * float(asset["/sun/solid_angle"]))[None],
         )
-    return np.array([0.0, 0.0, 1.0]), np.zeros(3)
+    if "/lights/direction" in asset:
+        return (
+            np.asarray(asset["/lights/direction"], float).reshape(-1, 3),
+            np.asarray(asset["/lights/irradiance"], float).reshape(-1, 3),
+        )
+    return np.zeros((0, 3)), np.zeros((0, 3))
 
 
 def _flat(dirs):
@@ -74,17 +85,18 @@ def irradiance(asset, dirs, tangent: bool = False) -> np.ndarray:
     )
     d, flat = _flat(dirs)
     out = evaluate(coeffs, flat)  # fused and blocked (numpy for small jobs): sh.basis
-    sun_dir, sun_energy = sun_of(asset)
-    if sun_energy.any():
-        k = (sun_tangent if tangent else sun_lambert).py_func(flat @ sun_dir)
-        out += k[:, None] * sun_energy
+    factor = (sun_tangent if tangent else sun_lambert).py_func
+    for direction, energy in zip(*lights_of(asset), strict=True):
+        if energy.any():
+            out += factor(flat @ direction)[:, None] * energy
     return out.reshape(d.shape[:-1] + (3,))
 
 
 def tangent_irradiance_matrix(asset, tangents) -> np.ndarray:
-    """Tangent irradiance ``(..., 3)`` by the matrix form (Mehta eq. 23) plus the sun."""
+    """Tangent irradiance ``(..., 3)`` by the matrix form (Mehta eq. 23) plus the lights."""
     M = np.ascontiguousarray(asset["/tangent_irradiance/matrix"], dtype=np.float64)
     d, flat = _flat(tangents)
     out = np.empty((flat.shape[0], 3))
-    _matrix_with_sun(flat, M, *sun_of(asset), out)
+    dirs, energy = lights_of(asset)
+    _matrix_with_lights(flat, M, np.ascontiguousarray(dirs), np.ascontiguousarray(energy), out)
     return out.reshape(d.shape[:-1] + (3,))

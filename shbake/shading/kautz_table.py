@@ -29,6 +29,7 @@ from shbake.sh.rotation import (
     rotation_blocks_with,
     rotation_coefficients,
 )
+from shbake.shading.env_sh import lights_of
 from shbake.texture.parabolic import fetch_flat_into, fetch_into
 
 PIXEL_BLOCK = 64
@@ -270,7 +271,8 @@ def dot_world(coeffs_world, L, out):
 
 
 def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
-    """``(n, 3)`` world lighting coefficients of an ``env_sh`` asset, sun folded in as SH."""
+    """``(n, 3)`` world lighting coefficients of an ``env_sh`` asset, its lights (sun or
+    fitted) folded in as SH of delta lights."""
     L = np.asarray(env_asset["/lighting/sh"], dtype=float)
     n = (lmax + 1) ** 2
     if L.shape[0] < n:
@@ -279,7 +281,7 @@ def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
             f"the environment asset has lighting to lmax {have}; the table needs {lmax}"
         )
     L = L[:n].copy()
-    if "/sun/direction" in env_asset:
-        e = env_asset["/sun/radiance"] * float(env_asset["/sun/solid_angle"])
-        L += real_sh(env_asset["/sun/direction"], lmax)[:, None] * e[None, :]
+    dirs, energy = lights_of(env_asset)
+    if len(dirs):
+        L += real_sh(dirs, lmax).T @ energy
     return np.ascontiguousarray(L)

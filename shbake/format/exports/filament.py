@@ -31,6 +31,8 @@ not run by the tests (no node build of its renderer evaluates IBL on the CPU):
 * Sun: ``<stem>_sun.json`` for a ``LightManager::Type::SUN``: ``direction`` is
   where the light travels (−toward-sun), ``intensity`` in lux = the largest
   channel of the sun's irradiance, ``color`` = irradiance / intensity.
+  Fitted lights (``project-env --lights``): ``<stem>_lights.json``, a list of such
+  entries of type ``DIRECTIONAL`` (brightest first).
 """
 
 import json
@@ -130,7 +132,7 @@ def write(
 ) -> list[str]:
     """Write ``out`` (``<stem>_sh.txt``), and beside it ``<stem>_ibl.ktx``, ``<stem>_skybox.ktx``
     (given the cube chain ``levels``, made with the ``filament`` mapping) and, with a
-    sun, ``<stem>_sun.json``."""
+    sun, ``<stem>_sun.json`` (with fitted lights, ``<stem>_lights.json``)."""
     require_sh(src, "filament")
     if not out.endswith("_sh.txt"):
         raise ParameterError(f"{out}: the filament export writes <stem>_sh.txt")
@@ -148,13 +150,7 @@ def write(
                 f.write(payload)
             written.append(path)
     if src.sun_direction is not None:
-        e = np.asarray(src.sun_irradiance, dtype=np.float64)
-        intensity = float(e.max())
-        sun = {
-            "type": "SUN",
-            "direction": [float(-v) for v in src.sun_direction],
-            "intensity_lux": intensity,
-            "color_linear": [float(v) for v in e / intensity],
+        sun = _light_entry("SUN", src.sun_direction, src.sun_irradiance) | {
             "angular_radius_deg": float(
                 np.degrees(np.arccos(1 - src.sun_solid_angle / (2 * np.pi)))
             ),
@@ -162,7 +158,24 @@ def write(
         path = stem + "_sun.json"
         write_text(path, json.dumps(sun, indent=1, sort_keys=True) + "\n")
         written.append(path)
+    elif src.lights:
+        doc = {"lights": [_light_entry("DIRECTIONAL", d, e) for d, e in src.lights]}
+        path = stem + "_lights.json"
+        write_text(path, json.dumps(doc, indent=1, sort_keys=True) + "\n")
+        written.append(path)
     return written
+
+
+def _light_entry(kind: str, direction, irradiance) -> dict:
+    """A ``LightManager`` light: travel direction, intensity in lux, linear colour."""
+    e = np.asarray(irradiance, dtype=np.float64)
+    intensity = float(e.max())
+    return {
+        "type": kind,
+        "direction": [float(-v) for v in direction],
+        "intensity_lux": intensity,
+        "color_linear": [float(v) for v in (e / intensity if intensity > 0 else np.ones(3))],
+    }
 
 
 __all__ = ["basis_constants", "encode_ktx1", "filament_sh", "sh_metadata", "sh_text", "write"]

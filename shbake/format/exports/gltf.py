@@ -27,6 +27,7 @@ each step checked in Babylon's own code by ``tests/test_exports.py``):
   node's +Z points at the sun (glTF lights shine along −Z), ``intensity``
   = the largest channel of its irradiance (lux) and ``color`` = irradiance /
   intensity; the IBL holds the residual, so ``E_ibl + E_sun`` is the map's irradiance.
+  Fitted lights (``project-env --lights``): one such light and node per light.
 """
 
 import json
@@ -81,25 +82,21 @@ def _quat_z_to(d: np.ndarray) -> list[float]:
     return [float(v) for v in q]
 
 
-def sun_light(src: ExportSource) -> tuple[dict, dict] | None:
-    """The ``KHR_lights_punctual`` light and its node for the source's sun (or None)."""
-    if src.sun_direction is None:
-        return None
-    e = np.asarray(src.sun_irradiance, dtype=np.float64)
-    intensity = float(e.max())
-    color = [float(v) for v in (e / intensity if intensity > 0 else np.ones(3))]
-    light = {
-        "type": "directional",
-        "name": f"{src.name} sun",
-        "color": color,
-        "intensity": intensity,
-    }
-    node = {
-        "name": f"{src.name} sun",
-        "rotation": _quat_z_to(np.asarray(src.sun_direction, dtype=np.float64)),
-        "extensions": {"KHR_lights_punctual": {"light": 0}},
-    }
-    return light, node
+def punctual_lights(src: ExportSource) -> list[tuple[dict, dict]]:
+    """The ``KHR_lights_punctual`` light and its node for each of the source's lights."""
+    out = []
+    for j, (direction, e) in enumerate(src.lights):
+        intensity = float(e.max())
+        color = [float(v) for v in (e / intensity if intensity > 0 else np.ones(3))]
+        name = f"{src.name} sun" if src.sun_direction is not None else f"{src.name} light {j}"
+        light = {"type": "directional", "name": name, "color": color, "intensity": intensity}
+        node = {
+            "name": name,
+            "rotation": _quat_z_to(np.asarray(direction, dtype=np.float64)),
+            "extensions": {"KHR_lights_punctual": {"light": j}},
+        }
+        out.append((light, node))
+    return out
 
 
 CUBES = {"size": 64, "floor": 8, "samples": 256, "mapping": "gltf-ibl-sampler"}
@@ -185,12 +182,12 @@ def write(
             {"name": src.name, "nodes": [0], "extensions": {"EXT_lights_image_based": {"light": 0}}}
         ],
     }
-    sun = sun_light(src)
-    if sun is not None:
-        light, node = sun
+    lights = punctual_lights(src)
+    if lights:
         used.append("KHR_lights_punctual")
-        doc["extensions"]["KHR_lights_punctual"] = {"lights": [light]}
-        doc["nodes"].append(node)
-        doc["scenes"][0]["nodes"].append(1)
+        doc["extensions"]["KHR_lights_punctual"] = {"lights": [light for light, _ in lights]}
+        for _, node in lights:
+            doc["scenes"][0]["nodes"].append(len(doc["nodes"]))
+            doc["nodes"].append(node)
     write_text(out, json.dumps(doc, indent=1, sort_keys=True) + "\n")
     return [out, *written]
