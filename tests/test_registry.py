@@ -171,6 +171,7 @@ CORRUPTIONS = {
     "wrong-kind": ("env_sh", _set_attr("kind", "nope"), "kind 'nope' is unknown"),
     "kind-array": ("env_sh", _set_attr("kind", np.array([b"env_sh", b"x"])), "kind an array"),
     "newer-version": ("env_sh", _set_attr("format_version", np.int64(99)), "format_version 99"),
+    "older-version": ("env_sh", _set_attr("format_version", np.int64(1)), "format_version 1"),
     "version-array": ("env_sh", _set_attr("format_version", np.arange(40)), "format_version an"),
     "format-array": ("env_sh", _set_attr("format", np.array([1, 2])), "not a shbake asset"),
     "missing-dataset": ("env_sh", _del("/lighting/band_energy"), "missing dataset"),
@@ -247,6 +248,18 @@ class TestReadValidation:
         msg = str(e.value)
         assert "\n" not in msg and len(msg) < 400
         assert fragment in msg, msg
+
+    def test_older_version_still_read(self, tiny_map, tmp_path):
+        """An env_sh file of version 2 (before ``/lights``) is read as it was written."""
+        path = tmp_path / "v2.h5"
+        write_asset(str(path), example("env_sh", tiny_map))
+        now = read_asset(str(path))
+        with h5py.File(path, "r+") as f:
+            f.attrs["format_version"] = np.int64(2)
+        back = read_asset(str(path))
+        assert back.attrs["format_version"] == 2 and registry.kind_of("env_sh").reads == (2,)
+        assert back.datasets.keys() == now.datasets.keys()
+        assert all(np.array_equal(back[k], now[k]) for k in now.datasets)
 
     def test_truncated(self, tiny_map, tmp_path):
         path = tmp_path / "t.h5"

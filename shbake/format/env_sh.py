@@ -65,6 +65,7 @@ _LMAX_IRR = Attr("lmax", "int", "highest band", range=(0, LMAX_LIMIT), symbol="l
 ENV_SH = register(Kind(
     name="env_sh",
     version=3,
+    reads=(2,),  # version 3 added the optional /lights: a version 2 file has none
     title="SH lighting and irradiance of an environment map (`project-env`)",
     attrs=SOURCE_MAP_ATTRS + (
         Attr("source_stored_format", "str", "pixel type stored in the input file"),
