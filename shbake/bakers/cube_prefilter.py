@@ -406,9 +406,10 @@ def prefilter_chain(
 
 
 @pjit
-def _reference_kernel(src_dirs, src_omega, src_rad, dirs, alpha, out):
+def _reference_kernel(src_dirs, src_omega, src_rad, dirs, alphas, out):
     m = dirs.shape[0]
     for k in numba.prange(m):
+        alpha = alphas[k]
         nx, ny, nz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
         acc0 = 0.0
         acc1 = 0.0
@@ -432,17 +433,24 @@ def _reference_kernel(src_dirs, src_omega, src_rad, dirs, alpha, out):
         out[k, 2] = acc2 / wsum
 
 
-def reference_level(env: Environment, size: int, alpha: float) -> np.ndarray:
-    """Brute-force ``P(N, α)`` at every texel of a ``size`` cube: quadrature over all map texels.
+def reference_radiance(env: Environment, dirs: np.ndarray, alpha) -> np.ndarray:
+    """Brute-force ``P(N, α)`` at unit directions ``dirs (..., 3)``: quadrature over all map texels.
 
     ``∫ L D (N·l) dl / ∫ D (N·l) dl`` summed over the map's cells with their exact
     solid angles (``Environment.samples``); shares nothing with the sampler but ``D``.
+    ``alpha``: the GGX width, a scalar or one per direction (``dirs.shape[:-1]``), > 0.
     """
     d, w, rad = env.samples()
-    dirs, _ = cube_directions(size)
-    out = np.empty((6 * size * size, 3))
-    _reference_kernel(d, w, rad, dirs.reshape(-1, 3), float(alpha), out)
-    return out.reshape(6, size, size, 3)
+    q = np.asarray(dirs, dtype=np.float64)
+    a = np.ascontiguousarray(np.broadcast_to(np.asarray(alpha, dtype=np.float64), q.shape[:-1]))
+    out = np.empty((q.size // 3, 3))
+    _reference_kernel(d, w, rad, np.ascontiguousarray(q.reshape(-1, 3)), a.reshape(-1), out)
+    return out.reshape(q.shape)
+
+
+def reference_level(env: Environment, size: int, alpha: float) -> np.ndarray:
+    """:func:`reference_radiance` at every texel of a ``size`` cube."""
+    return reference_radiance(env, cube_directions(size)[0], alpha)
 
 
 __all__ = [
@@ -456,6 +464,7 @@ __all__ = [
     "prefilter_chain",
     "prefilter_level",
     "reference_level",
+    "reference_radiance",
     "roughness_of_level",
     "world_face_frames",
 ]

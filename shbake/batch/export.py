@@ -25,16 +25,18 @@ TARGET_OPTIONS = {
     "babylon_scene": "--babylon-scene",
 }
 """Settings that only some targets read, and the option that sets each."""
+FIXED_LOD_MAPPING = ("filament", "threejs-pmrem")
+"""Targets whose engine shader fixes the roughness of each mip level (their ``CUBES`` mapping)."""
 
 
 def options_of_target(target: str) -> frozenset:
     """The :data:`TARGET_OPTIONS` that ``target`` reads: the cube-chain settings where it
-    writes cube maps (``CUBES``; not ``mapping`` for ``filament``, which always uses
-    Filament's), ``babylon_scene`` for ``gltf``/``babylon``."""
+    writes cube maps (``CUBES``; not ``mapping`` for :data:`FIXED_LOD_MAPPING`),
+    ``babylon_scene`` for ``gltf``/``babylon``."""
     reads = set()
     if target_module(target).CUBES is not None:
         reads |= {"env_path", "size", "floor", "samples", "sun_radius_deg"}
-        if target != "filament":
+        if target not in FIXED_LOD_MAPPING:
             reads.add("mapping")
     if target in ("gltf", "babylon"):
         reads.add("babylon_scene")
@@ -73,7 +75,7 @@ def export_assets(
         Radius the asset's sun was extracted with (to rebuild its residual map).
     size, floor, samples, mapping
         Cube chain settings; ``None`` takes the target's ``CUBES`` defaults
-        (``filament`` always uses Filament's mapping).
+        (:data:`FIXED_LOD_MAPPING` targets always use their engine's).
     explicit
         Names of the settings the caller set on purpose (the command line's); one
         of :data:`TARGET_OPTIONS` that ``target`` does not read raises
@@ -101,7 +103,7 @@ def export_assets(
         if mod.CUBES is not None:
             cfg = dict(mod.CUBES)
             given = {"size": size, "floor": floor, "samples": samples}
-            if target != "filament":
+            if target not in FIXED_LOD_MAPPING:
                 given["mapping"] = mapping
             cfg.update({k: v for k, v in given.items() if v is not None})
             if target != "ktx2":
@@ -121,4 +123,4 @@ def export_assets(
     return written
 
 
-__all__ = ["TARGET_OPTIONS", "export_assets", "options_of_target"]
+__all__ = ["FIXED_LOD_MAPPING", "TARGET_OPTIONS", "export_assets", "options_of_target"]

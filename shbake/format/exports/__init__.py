@@ -17,6 +17,7 @@ TARGETS = {
     "gltf": "shbake.format.exports.gltf",
     "babylon": "shbake.format.exports.gltf",
     "threejs": "shbake.format.exports.threejs",
+    "threejs-pmrem": "shbake.format.exports.three_pmrem",
     "ktx2": "shbake.format.exports.ktx2",
     "filament": "shbake.format.exports.filament",
     "unity": "shbake.format.exports.unity",
