@@ -15,7 +15,8 @@ from shbake.format.exports.source import FRAMES
     "--to", "target", required=True, type=click.Choice(sorted(TARGETS)), help="Engine / format."
 )
 @output_opt(
-    "Output for one asset: FILE.gltf, FILE.json, FILE.ktx2, STEM_sh.txt or FILE.unity.json",
+    "Output for one asset: FILE.gltf, FILE.json, FILE.ktx2 (ktx2, threejs-pmrem), STEM_sh.txt "
+    "or FILE.unity.json",
     required=False,
 )
 @click.option(
@@ -50,20 +51,22 @@ from shbake.format.exports.source import FRAMES
     "--size",
     type=int,
     default=None,
-    help="Texels per side of the first cube mip, a power of two [gltf 64, ktx2/filament 128].",
+    help="Texels per side of the first cube mip, a power of two "
+    "[gltf 64, ktx2/filament 128, threejs-pmrem 256].",
 )
 @click.option(
     "--floor",
     type=int,
     default=None,
-    help="Texels per side of the last cube mip, a power of two [gltf 8, ktx2/filament 1].",
+    help="Texels per side of the last cube mip, a power of two "
+    "[gltf 8, ktx2/filament 1, threejs-pmrem 4].",
 )
 @click.option(
     "--lod-mapping",
     "mapping",
     type=click.Choice(["gltf-ibl-sampler", "filament"]),
     default=None,
-    help="Roughness of each mip level [gltf-ibl-sampler; filament for --to filament].",
+    help="Roughness of each mip level [gltf-ibl-sampler; fixed for filament, threejs-pmrem].",
 )
 @samples_opt(None, "per cube texel, GGX with filtered importance sampling [gltf 256, others 512]")
 @click.option(

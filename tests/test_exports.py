@@ -507,6 +507,7 @@ class TestExportCommand:
         outs = {
             "gltf": "a.gltf",
             "threejs": "a.json",
+            "threejs-pmrem": "a_pmrem.ktx2",
             "ktx2": "a.ktx2",
             "filament": "a_sh.txt",
             "unity": "a.unity.json",
@@ -535,6 +536,7 @@ class TestExportCommand:
             ("unity", ["--env", "x.exr", "--samples", "16"], "--env, --samples"),
             ("threejs", ["--sun-radius", "5"], "--sun-radius"),
             ("filament", ["--lod-mapping", "gltf-ibl-sampler"], "--lod-mapping"),
+            ("threejs-pmrem", ["--lod-mapping", "filament"], "--lod-mapping"),
             ("ktx2", ["--babylon-scene", "right-handed"], "--babylon-scene"),
         ],
     )
@@ -553,7 +555,7 @@ class TestExportCommand:
 
         cube = {"env_path", "size", "floor", "samples", "sun_radius_deg"}
         assert options_of_target("threejs") == options_of_target("unity") == frozenset()
-        assert options_of_target("filament") == cube
+        assert options_of_target("filament") == options_of_target("threejs-pmrem") == cube
         assert options_of_target("ktx2") == cube | {"mapping"}
         assert options_of_target("gltf") == options_of_target("babylon") == set(TARGET_OPTIONS)
         assert all(options_of_target(t) <= set(TARGET_OPTIONS) for t in TARGETS)
