@@ -22,6 +22,7 @@ A face flipped in the file, roughness levels mis-mapped and gamma applied twice 
 make the glossy comparison fail. ``@pytest.mark.slow``: the six shared maps.
 """
 
+import json
 import os
 import re
 
@@ -37,12 +38,13 @@ from engine_browser import (
 )
 from helpers import ROOT, SHARED_MAPS, map_path
 
-from shbake.bakers.cube_prefilter import reference_radiance
+from shbake.bakers.cube_prefilter import BABYLON_MIN_ALPHA, reference_radiance
 from shbake.bakers.env_sh import bake_env_sh
 from shbake.batch.export import export_assets
 from shbake.conventions import REC709_LUMINANCE
 from shbake.envmap import load_environment
 from shbake.format.asset import write_asset
+from shbake.format.exports.gltf import png_rgba8
 from shbake.format.exports.ktx2 import write_ktx2
 from shbake.format.exports.source import load_source, shbake_irradiance
 from shbake.reference.irradiance import brute_force_irradiance
@@ -217,15 +219,48 @@ def glossy_errors(expected: dict) -> dict:
     return out
 
 
+MIRROR_P95_TOL = 0.30
+"""The mirrors' 95th percentile, held to the measured figure (three 22.9 %, Babylon.js
+22 % on forest): the map has 0.7° texels and a high-contrast canopy; the engines show it
+resampled to 256² cube faces (box-filtered cells) and read bilinearly, the reference reads
+the map itself, so edges of its detail differ by a texel's contrast. Median and the other
+roughnesses are held to the issue's bounds."""
+
+
 def glossy_within(errors: dict) -> bool:
     """Every material within :data:`MEDIAN_TOL` (median) and :data:`P95_TOL` (95th
-    percentile), except the mirrors' 95th percentile (not asserted: three's "mirror" is a
-    roughness-0.07 lobe whose brute-force reference is resolved by a few map texels only,
-    so edges of the map's detail differ; measured and printed)."""
+    percentile; the mirrors :data:`MIRROR_P95_TOL`)."""
     return all(
-        m <= MEDIAN_TOL and (p <= P95_TOL or name.endswith("0.0"))
+        m <= MEDIAN_TOL and p <= (MIRROR_P95_TOL if name.endswith("0.0") else P95_TOL)
         for name, (m, p) in errors.items()
     )
+
+
+def print_errors(engine: str, name: str, errors: dict) -> None:
+    for material, (med, p95) in errors.items():
+        print(f"\n{name}: {engine} {material}: median {med:.2%}, p95 {p95:.2%}", end="")
+
+
+def assert_identity_wins(baked, render: dict, scale: np.ndarray) -> None:
+    """Of the 48 axis flips and swaps applied to the mirror's lookup direction, the identity
+    fits the rendered mirror (``metal0.0`` divided by its environment-BRDF ``scale``, the
+    same sphere in a unit environment) best by a factor 0.75, in every view."""
+    normal = render["normal"]
+    inner = inner_pixels(normal)
+    got_all = render["radiance"]["metal0.0"][..., :3]
+    for k in range(len(VIEWS)):
+        n = normal[k][inner[k]][:, :3]
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        refl = reflect(render["rays"][k][inner[k]], n)
+        got = got_all[k][inner[k]] / scale[k][inner[k]][:, :3]
+        medians = [
+            float(np.median(_luminance_error(got, latlong_bilinear(baked["env"].pixels,
+                                                                   refl @ m.T))))
+            for m in signed_permutations()
+        ]  # fmt: skip
+        best_other = min(medians[1:])
+        print(f"\n{baked['name']} view {k}: identity {medians[0]:.3f}, next {best_other:.3f}")
+        assert medians[0] < 0.75 * best_other
 
 
 class TestHarness:
@@ -310,30 +345,14 @@ class TestThree:
 
     def test_glossy(self, baked, three):
         errors = glossy_errors(three_expected(baked["env"], three["renders"], three["pick"]))
-        for name, (med, p95) in errors.items():
-            print(f"\n{baked['name']}: three.js {name}: median {med:.2%}, p95 {p95:.2%}", end="")
+        print_errors("three.js", baked["name"], errors)
         assert glossy_within(errors), errors
 
     def test_orientation(self, baked, three):
         """The mirror's lookup direction fits the rendered mirror best unturned, in every view."""
         renders = three["renders"]
-        normal = renders["env"]["normal"]
-        inner = inner_pixels(normal)
-        got_all = renders["env"]["radiance"]["metal0.0"][..., :3]
-        scale = renders["white"]["radiance"]["metal0.0"][..., :3]  # F0 1: single + multi
-        for k in range(len(VIEWS)):
-            n = normal[k][inner[k]][:, :3]
-            n /= np.linalg.norm(n, axis=-1, keepdims=True)
-            refl = reflect(renders["env"]["rays"][k][inner[k]], n)
-            got = got_all[k][inner[k]] / scale[k][inner[k]]
-            medians = [
-                float(np.median(_luminance_error(got, latlong_bilinear(baked["env"].pixels,
-                                                                       refl @ m.T))))
-                for m in signed_permutations()
-            ]  # fmt: skip
-            best_other = min(medians[1:])
-            print(f"\n{baked['name']} view {k}: identity {medians[0]:.3f}, next {best_other:.3f}")
-            assert medians[0] < 0.75 * best_other
+        # F0 1: single + multi scattering
+        assert_identity_wins(baked, renders["env"], renders["white"]["radiance"]["metal0.0"])
 
     @pytest.mark.parametrize("fault", ["flip-face", "roughness-mapping", "gamma"])
     def test_a_fault_fails(self, engine_browser, baked, three, fault, monkeypatch):
@@ -372,4 +391,180 @@ class TestThree:
         )  # fmt: skip
         errors = glossy_errors(three_expected(baked["env"], renders, three["pick"]))
         print(f"\nthree.js with fault {fault}: {errors}")
+        assert not glossy_within(errors)
+
+
+# ---------------------------------------------------------------- Babylon.js
+
+BABYLON_CUBES = {"size": 256, "floor": 8, "samples": 512}
+
+
+def white_env(d, size: int) -> str:
+    """A test-side Babylon ``.env`` of a unit-radiance environment: every RGBD texel
+    (255, 255, 255, 255) = 1 on every level to 1², and the polynomial of ``E/π = 1``
+    (``xx = yy = zz = 1``, since ``n_x² + n_y² + n_z² = 1``), read with level scale 1."""
+    images, position, mipmaps = [], 0, []
+    n = size
+    while n >= 1:
+        png = png_rgba8(np.full((n, n, 4), 255, np.uint8))
+        for _ in range(6):
+            images.append(png)
+            mipmaps.append({"length": len(png), "position": position})
+            position += len(png)
+        n //= 2
+    one, zero = [1.0, 1.0, 1.0], [0.0, 0.0, 0.0]
+    manifest = {
+        "version": 2, "width": size, "imageType": "image/png",
+        "irradiance": {k: one if k in ("xx", "yy", "zz") else zero
+                       for k in ("x", "y", "z", "xx", "yy", "zz", "yz", "zx", "xy")},
+        "specular": {"mipmaps": mipmaps, "lodGenerationScale": 1.0},
+    }  # fmt: skip
+    path = str(d / "white.env")
+    magic = bytes([0x86, 0x16, 0x87, 0x96, 0xF6, 0xD6, 0x96, 0x36])
+    with open(path, "wb") as f:
+        f.write(magic + json.dumps(manifest).encode() + b"\0" + b"".join(images))
+    return path
+
+
+def babylon_expected(env, src, renders: dict, white: dict, pick) -> dict:
+    """Per glossy material: (rendered, expected) radiance at the ``pick``ed sphere pixels.
+
+    Babylon.js 9 shades an environment-lit PBR surface (``pbrBlockReflection``) with the
+    radiance ``mix(prefiltered(R, α), E(n)/π, α)`` (``MIX_IBL_RADIANCE_WITH_IRRADIANCE``,
+    on by default; ``E`` its SH irradiance), ``α = r² + 0.0005`` (``pbrHelperFunctions``
+    ``convertRoughnessToAverageSlope``), ``R = reflect(−v, n)``, times its environment BRDF
+    (DFG table, energy conservation), a factor of ``n·v`` and ``r`` only: measured per pixel
+    by the same sphere in a unit environment (``white``: both terms 1). The expected value
+    puts brute-force ``P(R, α)`` and the asset's ``E`` (which the diffuse test checks
+    Babylon shades) in their place; the mirror (``α`` below the map's texel, where the
+    brute-force sum is the nearest texel) reads the map bilinearly.
+    """
+    normal = renders["normal"]
+    n = normal[..., :3][pick]
+    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    refl = reflect(renders["rays"][pick], n)
+    e_over_pi = shbake_irradiance(src, n) / np.pi
+    out = {}
+    for name, _kind, r in GLOSSY:
+        a = r * r + BABYLON_MIN_ALPHA
+        if r == 0.0:
+            prefiltered = latlong_bilinear(env.pixels, refl)
+        else:
+            prefiltered = reference_radiance(env, refl, a)
+        factor = white["radiance"][name][..., :3][pick]
+        want = factor * ((1.0 - a) * prefiltered + a * e_over_pi)
+        out[name] = (renders["radiance"][name][..., :3][pick], want)
+    return out
+
+
+LAMBERT = {"name": "lambert", "kind": "lambert", "color": [1.0, 1.0, 1.0], "metalness": 0.0,
+           "roughness": 1.0}  # fmt: skip
+"""A white diffuse sphere (Babylon: a PBR dielectric with no specular lobe, F0 factor 0)."""
+
+
+def diffuse_error(render: dict, src) -> float:
+    """Max relative error of the rendered white Lambert sphere against ``E(n)/π`` of the asset."""
+    inner = inner_pixels(render["normal"])
+    n = render["normal"][..., :3][inner]
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    want = shbake_irradiance(src, n) / np.pi
+    got = render["radiance"]["lambert"][..., :3][inner]
+    return float((np.abs(got - want).max(-1) / want.max(-1)).max())
+
+
+def render_babylon(browser, materials, **files) -> dict:
+    """The sphere with ``materials`` in the environment of ``files`` (``env=`` a .env,
+    ``gltf=`` a .gltf, loaded by the snippet), plus ``gammaSpace`` for the fault test."""
+    params = {k: browser.url(v) if k in ("env", "gltf") else v for k, v in files.items()}
+    return browser.render("babylon.html", VIEWS, SIZE, FOV_DEG, materials=materials, **params)
+
+
+class TestBabylon:
+    """Babylon.js 9.31: ``--to babylon`` as a ``.env`` and as a ``.gltf`` (same chain)."""
+
+    @pytest.fixture(scope="class")
+    @classmethod
+    def babylon(cls, baked, engine_browser):
+        import shbake.batch.export as batch
+
+        chain, bake = {}, batch.prefilter_chain
+
+        def recording(*args, **kwargs):
+            chain["levels"], chain["roughness"] = bake(*args, **kwargs)
+            return chain["levels"], chain["roughness"]
+
+        with pytest.MonkeyPatch.context() as mp:  # one bake for both files and the faults
+            mp.setattr(batch, "prefilter_chain", recording)
+            env_file = export_assets([baked["h5"]], "babylon", str(baked["dir"] / "b.env"),
+                                     **BABYLON_CUBES)[0]  # fmt: skip
+            mp.setattr(
+                batch, "prefilter_chain", lambda *a, **k: (chain["levels"], chain["roughness"])
+            )
+            gltf_file = export_assets([baked["h5"]], "babylon", str(baked["dir"] / "b.gltf"),
+                                      **BABYLON_CUBES)[0]  # fmt: skip
+        materials = [LAMBERT, *_materials()]
+        renders = {
+            "env": render_babylon(engine_browser, materials, env=env_file),
+            "gltf": render_babylon(engine_browser, materials, gltf=gltf_file),
+            "white": render_babylon(engine_browser, _materials(),
+                                    env=white_env(baked["dir"], BABYLON_CUBES["size"])),
+        }  # fmt: skip
+        pick = pick_pixels(renders["env"]["normal"])
+        return {"env": env_file, "gltf": gltf_file, "renders": renders, "pick": pick,
+                "chain": chain, "src": load_source(baked["h5"])}  # fmt: skip
+
+    def test_snippet_is_the_documented_one(self):
+        page = snippet(os.path.join(ROOT, "tests", "engines", "pages", "babylon.mjs"), "Babylon.js")
+        doc = open(os.path.join(ROOT, "docs", "EXPORTS.md"), encoding="utf-8").read()
+        assert page in doc
+
+    @pytest.mark.parametrize("path", ["env", "gltf"])
+    def test_diffuse(self, baked, babylon, path):
+        render = babylon["renders"][path]
+        err = diffuse_error(render, babylon["src"])
+        print(f"\n{baked['name']}: Babylon.js diffuse ({path}) max relative error {err:.2e}")
+        assert err < DIFFUSE_TOL
+        assert not [c for c in render["console"] if c.startswith(("error: BJS", "pageerror"))]
+
+    @pytest.mark.parametrize("path", ["env", "gltf"])
+    def test_glossy(self, baked, babylon, path):
+        r = babylon["renders"]
+        errors = glossy_errors(
+            babylon_expected(baked["env"], babylon["src"], r[path], r["white"], babylon["pick"])
+        )
+        print_errors(f"Babylon.js ({path})", baked["name"], errors)
+        assert glossy_within(errors), errors
+
+    def test_orientation(self, baked, babylon):
+        """The mirror's lookup direction fits the rendered mirror best unturned, in every view."""
+        r = babylon["renders"]
+        assert_identity_wins(baked, r["env"], r["white"]["radiance"]["metal0.0"])
+
+    @pytest.mark.parametrize("fault", ["flip-face", "roughness-mapping", "gamma"])
+    def test_a_fault_fails(self, engine_browser, baked, babylon, fault, monkeypatch):
+        """A face flipped in the file, levels baked at glTF-IBL-Sampler's even spacing and
+        the texture left in ``gammaSpace`` (Babylon's default: radiance decoded twice) each
+        break the glossy match."""
+        chain = babylon["chain"]
+        levels = [lv.copy() for lv in chain["levels"]]
+        out, files, mapping = str(baked["dir"] / f"fault-{fault}.gltf"), {}, "babylon"
+        if fault == "flip-face":
+            for lv in levels:
+                lv[2] = lv[2, ::-1]  # +Y upside down
+        elif fault == "roughness-mapping":  # baked anew (fewer samples: the fault dominates)
+            mapping = "gltf-ibl-sampler"
+            levels = None
+        else:
+            files["gammaSpace"] = True
+        if levels is not None:
+            monkeypatch.setattr("shbake.batch.export.prefilter_chain",
+                                lambda *a, **k: (levels, chain["roughness"]))  # fmt: skip
+        cubes = {**BABYLON_CUBES, "samples": 128} if levels is None else BABYLON_CUBES
+        files["gltf"] = export_assets([baked["h5"]], "babylon", out, mapping=mapping, **cubes)[0]
+        render = render_babylon(engine_browser, _materials(), **files)
+        r = babylon["renders"]
+        errors = glossy_errors(
+            babylon_expected(baked["env"], babylon["src"], render, r["white"], babylon["pick"])
+        )
+        print(f"\nBabylon.js with fault {fault}: {errors}")
         assert not glossy_within(errors)

@@ -269,7 +269,7 @@ class TestRegistry:
     """target_module: every target name resolves; unknown names are refused."""
 
     def test_targets(self):
-        assert target_module("babylon") is target_module("gltf")
+        assert target_module("babylon").CUBES is target_module("gltf").CUBES
         with pytest.raises(Exception, match="unknown export target"):
             target_module("unreal")
 
@@ -506,6 +506,7 @@ class TestExportCommand:
     def test_every_target_writes_and_is_deterministic(self, run_cli, sky_asset, tmp_path):
         outs = {
             "gltf": "a.gltf",
+            "babylon": "a.env",
             "threejs": "a.json",
             "threejs-pmrem": "a_pmrem.ktx2",
             "ktx2": "a.ktx2",
@@ -577,6 +578,24 @@ class TestExportCommand:
         code, _, err = run_cli("export", sky_asset["h5"], "--to", "gltf", "-o", tmp_path / "x.glb")
         assert code == 1 and ".gltf" in err
 
+    @pytest.mark.parametrize(
+        ("args", "named"),
+        [
+            (["--lod-mapping", "filament"], "--lod-mapping babylon"),
+            (["--babylon-scene", "right-handed"], "--rotate 180"),
+            (["--floor", "1", "--size", "1"], "--size"),
+        ],
+    )
+    def test_babylon_env_refusals(self, run_cli, sky_asset, tmp_path, args, named):
+        """What a .env cannot hold is refused with one line, nothing written."""
+        out = tmp_path / "x.env"
+        small = ["--size", "8", "--floor", "2", "--samples", "16"]
+        code, _, err = run_cli("export", sky_asset["h5"], "--to", "babylon", "-o", out, *small,
+                               *args)  # fmt: skip
+        lines = [x for x in err.splitlines() if x.startswith("shbake: error:")]
+        assert code == 1 and len(lines) == 1 and named in lines[0], err
+        assert os.listdir(tmp_path) == []
+
     def test_splitsum_probe_to_ktx2(self, run_cli, tmp_path):
         """A split-sum probe exports its map's cube chain (--env, SHA-256 checked); not SH."""
         path = os.path.join(SHARED, "hdri", "forest.exr")
@@ -631,3 +650,50 @@ class TestExportCommand:
         )
         assert code == 0, err
         assert (tmp_path / "u" / "s.unity.json").exists()
+
+
+class TestBabylonEnv:
+    """babylon.write_env: Babylon's .env layout (``environmentTextureTools``), read here as
+    ``GetEnvInfo``/``CreateRadianceImageDataArrayBufferViews`` read it; the rendering is
+    checked in Babylon itself by ``tests/test_engine_render.py``."""
+
+    @staticmethod
+    def _read(path: str) -> tuple[dict, bytes]:
+        data = open(path, "rb").read()
+        assert data[:8] == bytes([0x86, 0x16, 0x87, 0x96, 0xF6, 0xD6, 0x96, 0x36])
+        end = data.index(b"\0", 8)
+        return json.loads(data[8:end].decode("ascii")), data[end + 1 :]
+
+    def test_layout_and_the_sun_beside_it(self, sky_asset, tmp_path):
+        out = str(tmp_path / "s.env")
+        written = export_assets([sky_asset["h5"]], "babylon", out, size=16, floor=4, samples=8)
+        assert written == [out, str(tmp_path / "s_lights.gltf")]  # the asset has a sun
+        info, payload = self._read(out)
+        assert info["version"] == 2 and info["width"] == 16 and info["imageType"] == "image/png"
+        mips = info["specular"]["mipmaps"]
+        assert len(mips) == 6 * (4 + 1)  # 16² … 1², as Babylon requires
+        assert [m["position"] for m in mips] == list(
+            np.cumsum([0] + [m["length"] for m in mips])[:-1]
+        )
+        assert sum(m["length"] for m in mips) == len(payload)
+        assert all(payload[m["position"] : m["position"] + 8] == b"\x89PNG\r\n\x1a\n" for m in mips)
+        # alpha = 1 at 4² (level 2): lod = s log2(16 alpha) reaches 2 at alpha = 1
+        assert info["specular"]["lodGenerationScale"] == pytest.approx(2 / 4)
+        assert info["shbake"]["roughness_lod_mapping"] == "babylon"
+        assert info["shbake"]["specular_roughness"][2:] == [1.0, 1.0, 1.0]
+        assert set(info["irradiance"]) == {"x", "y", "z", "xx", "yy", "zz", "yz", "zx", "xy"}
+        lights = json.load(open(tmp_path / "s_lights.gltf"))
+        assert lights["extensions"]["KHR_lights_punctual"]["lights"][0]["type"] == "directional"
+
+    def test_rgbd_range_is_clamped_with_one_warning(self, sky_asset, tmp_path, capfd):
+        from shbake.format.exports.babylon import write_env
+
+        src = load_source(sky_asset["h5"])
+        levels = [np.full((6, n, n, 3), 0.5) for n in (4, 2, 1)]
+        levels[0][0, 0, 0] = 1000.0
+        out = str(tmp_path / "c.env")
+        write_env(src, out, levels, [0.0, 1.0, 1.0], "babylon", "left-handed")
+        err = capfd.readouterr().err
+        assert err.count("shbake: warning:") == 1 and "RGBD (.env) maximum 255" in err
+        info, _ = self._read(out)
+        assert info["specular"]["lodGenerationScale"] == pytest.approx(1 / 2)

@@ -8,7 +8,7 @@ DFG table (:mod:`shbake.bakers.dfg`) for ``ktx2``.
 
 import os
 
-from shbake.bakers.cube_prefilter import prefilter_chain
+from shbake.bakers.cube_prefilter import extend_chain, prefilter_chain
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
 from shbake.format.atomic import makedirs
@@ -116,6 +116,8 @@ def export_assets(
                 samples=cfg["samples"],
                 rotation=src.cube_rotation,
             )
+            if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
+                levels, rough = extend_chain(levels, rough)
             extra.update(levels=levels, roughness=rough, mapping=cfg["mapping"])
             if target == "ktx2":
                 extra["dfg_table"] = dfg_table()

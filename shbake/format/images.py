@@ -10,7 +10,9 @@ from shbake.format.atomic import atomic_path
 HALF_MAX = 65504.0
 
 
-def clamp_to_half(levels: list, path: str) -> list:
+def clamp_to_half(
+    levels: list, path: str, limit: float = HALF_MAX, kind: str = "half-float"
+) -> list:
     """Engine texture levels for a half-float file ``path``: values beyond ±65504 (the largest
     half float) clamped, with ONE warning line on stderr (how many, the peak, what to do).
 
@@ -20,6 +22,7 @@ def clamp_to_half(levels: list, path: str) -> list:
     better sent as a light (``--extract-sun``, the scene planner does when it finds one).
     Non-finite values are refused (:class:`OutputError`): they are a bug, not a bright map.
     Levels that need no clamp are returned as they are (same bytes as before).
+    ``limit``/``kind``: another format's largest value and name (Babylon's RGBD, 255).
     """
     import sys
 
@@ -28,15 +31,15 @@ def clamp_to_half(levels: list, path: str) -> list:
         a = np.asarray(lv, dtype=np.float64)
         if not np.all(np.isfinite(a)):
             raise OutputError(f"{path}: refusing to write non-finite values")
-        over = np.abs(a) > HALF_MAX
+        over = np.abs(a) > limit
         if np.any(over):
             count += int(np.count_nonzero(over))
             peak = max(peak, float(np.abs(a).max()))
-            a = np.clip(a, -HALF_MAX, HALF_MAX)
+            a = np.clip(a, -limit, limit)
         out.append(a)
     if count:
-        print(f"shbake: warning: {path}: {count} values above the half-float maximum 65504 "
-              f"(peak {peak:.6g}) clamped to 65504; send a sun as a light (--extract-sun) to "
+        print(f"shbake: warning: {path}: {count} values above the {kind} maximum {limit:g} "
+              f"(peak {peak:.6g}) clamped to {limit:g}; send a sun as a light (--extract-sun) to "
               "keep its energy", file=sys.stderr)  # fmt: skip
     return out
 
