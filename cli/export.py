@@ -51,15 +51,14 @@ from shbake.format.exports.source import FRAMES
     "--size",
     type=int,
     default=None,
-    help="Texels per side of the first cube mip, a power of two "
-    "[gltf 64, ktx2/filament 128, babylon/threejs-pmrem 256].",
+    help="Texels per side of the first cube mip, a power of two [ktx2 128, others 256].",
 )
 @click.option(
     "--floor",
     type=int,
     default=None,
     help="Texels per side of the last cube mip, a power of two "
-    "[gltf 8, babylon/ktx2/filament 1, threejs-pmrem 4].",
+    "[ktx2 1, gltf/babylon 8, filament/threejs-pmrem 4].",
 )
 @click.option(
     "--lod-mapping",
@@ -69,7 +68,7 @@ from shbake.format.exports.source import FRAMES
     help="Roughness of each mip level [gltf/babylon: babylon; ktx2: gltf-ibl-sampler; "
     "fixed for filament, threejs-pmrem].",
 )
-@samples_opt(None, "per cube texel, GGX with filtered importance sampling [gltf 256, others 512]")
+@samples_opt(None, "per cube texel, GGX with filtered importance sampling [512]")
 @click.option(
     "--sun-radius",
     "sun_radius_deg",

@@ -200,3 +200,52 @@ def latlong_bilinear(pixels: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     top = (1 - fx) * img[y0, x0] + fx * img[y0, x1]
     bottom = (1 - fx) * img[y1, x0] + fx * img[y1, x1]
     return (1 - fy) * top + fy * bottom
+
+
+def write_sphere_gltf(path: str, kind: str, lon: int = 256, lat: int = 128) -> str:
+    """A unit UV sphere (``lon × lat`` quads, analytic normals) as a glTF with an embedded
+    buffer, for engines that draw glTF materials only (Filament's gltfio ubershaders):
+    ``kind`` ``lit`` (metallic-roughness, factors set by the page), ``diffuse`` (the same
+    with ``KHR_materials_specular`` factor 0: no specular lobe) or ``normal`` (unlit,
+    vertex colour ``0.5 + 0.5 n``, the normal pass)."""
+    theta = np.linspace(0.0, np.pi, lat + 1)
+    phi = np.linspace(0.0, 2.0 * np.pi, lon + 1)
+    st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
+    n = np.stack([st * np.sin(phi), np.broadcast_to(ct, st.shape * np.array([1, 1]))
+                  * np.ones_like(phi), st * np.cos(phi)], -1).reshape(-1, 3)  # fmt: skip
+    n = (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype("<f4")
+    i = np.arange(lat)[:, None] * (lon + 1) + np.arange(lon)[None, :]
+    quads = np.stack([i, i + lon + 1, i + 1, i + 1, i + lon + 1, i + lon + 2], -1)
+    idx = quads.reshape(-1).astype("<u4")
+    attrs = [n, n] + ([(0.5 + 0.5 * n).astype("<f4")] if kind == "normal" else [])
+    blobs = [a.tobytes() for a in attrs] + [idx.tobytes()]
+    offsets = np.cumsum([0] + [len(b) for b in blobs])
+    views = [{"buffer": 0, "byteOffset": int(o), "byteLength": len(b)}
+             for o, b in zip(offsets, blobs, strict=False)]  # fmt: skip
+    accessors = [{"bufferView": k, "componentType": 5126, "count": len(n), "type": "VEC3"}
+                 for k in range(len(attrs))]  # fmt: skip
+    accessors[0].update(min=[-1.0, -1.0, -1.0], max=[1.0, 1.0, 1.0])
+    accessors.append({"bufferView": len(attrs), "componentType": 5125, "count": len(idx),
+                      "type": "SCALAR"})  # fmt: skip
+    prim = {"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": len(attrs), "material": 0}
+    material = {"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1]}}
+    used = []
+    if kind == "normal":
+        prim["attributes"]["COLOR_0"] = 2
+        material["extensions"] = {"KHR_materials_unlit": {}}
+        used.append("KHR_materials_unlit")
+    elif kind == "diffuse":
+        material["extensions"] = {"KHR_materials_specular": {"specularFactor": 0.0}}
+        used.append("KHR_materials_specular")
+    data = b"".join(blobs)
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64,"
+                     + base64.b64encode(data).decode()}],
+        "bufferViews": views, "accessors": accessors, "materials": [material],
+        "meshes": [{"primitives": [prim]}], "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}],
+        "scene": 0, **({"extensionsUsed": used} if used else {}),
+    }  # fmt: skip
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(doc, f)
+    return path
