@@ -57,13 +57,13 @@ chromium:
 	else echo "chromium not found: run 'apt-get install chromium' (as root) for the rendered engine tests" >&2; fi
 
 test: $(STAMP) engines chromium
-	$(BIN)/python -m pytest -q -n 2
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 test-extremes: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 -m extremes tests/test_extremes.py
 
 test-all: $(STAMP) engines chromium
-	$(BIN)/python -m pytest -q -n 2 -m ''
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup -m ''
 
 bench: $(STAMP)
 	$(BIN)/python bench/run_all.py

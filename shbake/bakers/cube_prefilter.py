@@ -373,6 +373,17 @@ def chain_memory(size: int, source_size: int, supersample: int = SUPERSAMPLE) ->
     return int(mirror + 6 * src * 24 * 2 + 6 * int(size) ** 2 * 24 * 2)
 
 
+def level_samples(samples: int, level: int) -> int:
+    """GGX samples per texel at chain ``level``: ``samples`` up to level 1, doubled at each
+    level from 2 on, as cmgen does (``tools/cmgen/src/cmgen.cpp`` ``iblRoughnessPrefilter``:
+    "starting at level 2, we increase the number of samples per level ... since there are 4x
+    less work per level, this doesn't slow things down a lot"): a chain costs about twice its
+    level 1. A wider lobe meets more of a map's small bright sources; with ``samples`` at
+    every level the rough levels miss them: esplanade (its sun 29 856), 8² faces at r 0.59,
+    3.5 % median / 18.6 % p95 from brute force with 512 samples, 0.6 % / 4.7 % with 4096."""
+    return int(samples) << max(0, level - 1)
+
+
 def prefilter_chain(
     env: Environment,
     size: int = 128,
@@ -394,7 +405,8 @@ def prefilter_chain(
     mapping : one of :data:`LOD_MAPPINGS`
         Perceptual roughness of each level (module docstring).
     samples : int
-        GGX samples per texel (filtered importance sampling).
+        GGX samples per texel (filtered importance sampling) up to level 1, doubled per
+        level after (:func:`level_samples`).
     source_size : power of two
         Edge of the mirror cube the filter reads (default ``2*size``).
     rotation : 3×3, optional
@@ -424,7 +436,7 @@ def prefilter_chain(
         if i == 0 or r == 0.0:
             lvl = pyramid[int(round(math.log2(src // n)))]
         else:
-            lvl = prefilter_level(pyramid, n, r * r, samples, fis)
+            lvl = prefilter_level(pyramid, n, r * r, level_samples(samples, i), fis)
         levels.append(lvl)
         rough.append(r)
     return levels, rough
@@ -498,6 +510,7 @@ __all__ = [
     "cube_pyramid",
     "extend_chain",
     "level_of_roughness",
+    "level_samples",
     "mirror_cube",
     "prefilter_chain",
     "prefilter_level",
