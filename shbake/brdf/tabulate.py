@@ -61,10 +61,11 @@ from shbake.brdf.model import BRDF
 from shbake.brdf.sampling import cosine_pdf
 from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, check_lmax, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import clock_ticks, jit, pjit, run_blocks
+from shbake.jit import jit, pjit, run_blocks
 from shbake.resources import check_memory
 from shbake.sh.basis import recurrence_tables, sh_eval_into
 from shbake.sh.point_sets import gauss_legendre_unit
+from shbake.simd import clock_ticks
 from shbake.texture.parabolic import check_resolution, texel_views
 
 MAX_SAMPLES_LIMIT = 1 << 22
@@ -434,7 +435,7 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
 
     Returns ``(steps, error estimate, samples)``; ``out`` gets the coefficients,
     ``hist[k] = (hemisphere points, lobe points, estimate, ticks)`` per step, ``ticks``
-    the :func:`~shbake.jit.clock_ticks` spent on this view up to the step's estimate.
+    the :func:`~shbake.simd.clock_ticks` spent on this view up to the step's estimate.
     """
     start = clock_ticks()
     n = (lmax + 1) * (lmax + 1)

@@ -1,13 +1,15 @@
-"""The kernel intrinsics of ``shbake/jit.py``, compiled and interpreted."""
+"""The kernel intrinsics of ``shbake/simd.py``, each compiled in a small kernel and
+interpreted, against numpy (values) or the LLVM IR numba generated (attributes, hints)."""
 
 import numpy as np
 import pytest
 
-from shbake.jit import (
+from shbake.jit import jit
+from shbake.simd import (
     LANES,
     aligned_empty,
     clock_ticks,
-    jit,
+    inline_into_callers,
     prefetch,
     stream_fence,
     stream_store,
@@ -95,6 +97,116 @@ def _split_one(img, index, out):
 def _channels_from_a_variable(img, n, out):
     (v,) = vload_channels(img, 0, n, False)
     vstore(out, 0, v)
+
+
+def _llvm_ir(kernel, *args) -> str:
+    """The LLVM IR of ``kernel`` (compiled without the on-disk cache: cached code cannot
+    be inspected) after one call."""
+    kernel(*args)
+    (ir,) = kernel.inspect_llvm().values()
+    return ir
+
+
+@jit(cache=False)
+def _sum_wide(x):
+    wide_vectors()
+    s = 0.0
+    for i in range(x.size):
+        s += x[i]
+    return s
+
+
+@jit(cache=False)
+def _cube(x):
+    inline_into_callers()
+    return x * x * x
+
+
+@jit
+def _cubes(a, out):
+    for i in range(a.size):
+        out[i] = _cube(a[i])
+
+
+@jit(cache=False)
+def _streamed_copy(a, out):
+    for i in range(a.size):
+        stream_store(out, i, a[i])
+    stream_fence()
+
+
+@jit(cache=False)
+def _prefetched_sum(a):
+    s = 0.0
+    for i in range(a.size):
+        prefetch(a, i + 64)
+        s += a[i]
+    return s
+
+
+@jit(cache=False)
+def _tick():
+    return clock_ticks()
+
+
+@jit
+def _splats(x, out):
+    vstore(out, 0, vsplat(x))
+    vstore(out, LANES, vsplat(3))  # an integer, converted
+
+
+@jit
+def _lane_sums(a, out):
+    for k in range(a.size // LANES):
+        out[k] = vsum(vload(a, k * LANES))
+
+
+class TestAttributesAndHints:
+    """Each intrinsic lowers to the LLVM construct its docstring names."""
+
+    def test_wide_vectors_sets_the_vector_width_attribute(self):
+        x = np.arange(100.0)
+        assert '"prefer-vector-width"="512"' in _llvm_ir(_sum_wide, x)
+        assert _sum_wide.py_func(x) == _sum_wide(x) == x.sum()
+
+    def test_inline_into_callers_marks_the_callee_and_keeps_values(self):
+        assert "alwaysinline" in _llvm_ir(_cube, 2.0)
+        assert "alwaysinline" not in _llvm_ir(_sum_wide, np.ones(3))
+        a = np.linspace(-2.0, 2.0, 33)
+        out = np.empty_like(a)
+        _cubes(a, out)
+        np.testing.assert_array_equal(out, a * a * a)
+        assert _cube.py_func(3.0) == 27.0
+
+    def test_stream_store_is_nontemporal_and_fenced(self):
+        ir = _llvm_ir(_streamed_copy, np.ones(4), np.empty(4))
+        assert "!nontemporal" in ir
+        assert ("llvm.x86.sse.sfence" in ir) or ("fence seq_cst" in ir)
+
+    def test_prefetch_and_clock_ticks_lower_to_their_llvm_intrinsics(self):
+        assert "llvm.prefetch" in _llvm_ir(_prefetched_sum, np.ones(8))
+        assert "llvm.readcyclecounter" in _llvm_ir(_tick)
+        assert isinstance(_tick(), int)
+
+
+class TestSplatAndSum:
+    def test_vsplat_broadcasts_floats_and_integers(self):
+        for fn in (_splats, _splats.py_func):
+            out = np.zeros(2 * LANES)
+            fn(2.5, out)
+            np.testing.assert_array_equal(out, [2.5] * LANES + [3.0] * LANES)
+
+    def test_vsum_adds_the_lanes(self):
+        a = np.random.default_rng(6).normal(size=5 * LANES)
+        ref = a.reshape(5, LANES).sum(axis=1)
+        for fn in (_lane_sums, _lane_sums.py_func):
+            out = np.zeros(5)
+            fn(a, out)
+            np.testing.assert_allclose(out, ref, rtol=1e-15, atol=1e-15)
+        exact = np.arange(float(LANES))  # small integers: every order sums exactly
+        out = np.zeros(1)
+        _lane_sums(exact, out)
+        assert out[0] == LANES * (LANES - 1) / 2
 
 
 class TestVectors:
