@@ -9,14 +9,40 @@ threads of :func:`run_blocks` run while a kernel does. The explicit SIMD and
 memory intrinsics kernels call (vectors, streaming stores, prefetch, tick
 counter) are in :mod:`shbake.simd`.
 
-Threads (SPEC §6). The machines have 2 cores shared with other work; numba's ``prange`` splits
-a loop into equal static parts, so one descheduled worker stalls the whole
-call, and a second busy-waiting pool (BLAS, OpenMP) can make 2 threads slower
-than 1. The kernels here instead run as serial, ``nogil`` numba functions over
-a range of *blocks*; :func:`run_blocks` hands blocks out one at a time from a
-shared counter to at most :func:`thread_count` Python threads (the caller is
-one of them). A worker that loses its core simply takes fewer blocks. Small
-jobs run on the calling thread alone: starting a thread costs ~50 µs.
+Threads (SPEC §6): one model, :func:`run_blocks`. A kernel is a serial ``nogil`` numba
+function over a range of *blocks* (``kernel(*args, b0, b1)``); :func:`run_blocks` hands
+blocks out a few at a time from a shared counter to at most :func:`thread_count` Python
+threads, the caller being one of them. Why not numba's ``prange`` (``parallel=True``),
+which 19 kernels used until issue 28:
+
+- the machines have 2 cores shared with other work; ``prange`` splits a loop into equal
+  static parts, so one descheduled worker stalls the whole call, while here a worker that
+  loses its core simply takes fewer blocks;
+- a second thread pool (numba's, beside OpenBLAS's and OpenImageIO's) competes for the
+  same 2 cores; these threads exist only while a kernel runs;
+- one thread budget (below) covers every kernel: ``numba.set_num_threads`` reached only
+  the ``prange`` kernels, so a pool worker's other kernels still took 2 threads
+  (:func:`use_one_thread` now limits them all);
+- small jobs run on the calling thread alone (starting a thread costs ~50 µs), where
+  ``prange`` woke every worker for any size;
+- ``parallel=True`` compiles slower: the first calls of the 18 converted public functions
+  took 88 s against 48 s from an empty cache (same process, load average 7–12).
+
+Converting them changed no output: each kernel's results are ``np.array_equal`` to the
+``prange`` version's (18 representative calls), and so are the brdf-table, split-sum,
+shrm, probe-fit and glTF-export outputs. Speed on this 2-core VM, under a load average of
+4–13 from other work (A/B in one process, alternating): whole processes split-sum 0.76×,
+shrm 0.73×, probe-fit 0.79×, export 0.97×, brdf-table ``--samples`` 1.00×, preview
+``tangent`` pass 0.83× the ``prange`` time; single-thread CPU time per kernel 0.92–1.03×.
+Two loops needed care: the probe gather allocated its accumulator per target (``prange``
+hoists such allocations; now once per call), and :meth:`~shbake.brdf.model.BRDF.evaluate`
+passed a view ``out[i]`` per point (its reference counting cost ~5 ns a point; now a
+scratch array). ``BRDF.evaluate`` stays ~7 % slower per point single-threaded (AS:
+32.5 → 34.7 ms for 500 000 points): numba's ``parallel`` pipeline compiles that loop
+into faster code for a reason not found (not the error model, aliasing or the view); it
+serves only brdf-table's ``--report`` and tests, so it follows the one model too.
+``prange`` compiled its loop bodies with ``error_model="numpy"`` (a float division by zero
+gives ``inf``/``nan``); the converted bodies divide only by guarded or non-zero values.
 
 The thread budget is ``SHBAKE_THREADS``, else ``NUMBA_NUM_THREADS``, else the
 CPUs this process may run on.
@@ -26,10 +52,6 @@ import os
 import sys
 import threading
 from functools import update_wrapper
-
-prange = range
-"""Use ``from shbake.jit import prange`` in :data:`pjit` kernels: it becomes ``numba.prange``
-when the kernel is compiled and stays ``range`` for the interpreted ``py_func``."""
 
 
 class LazyKernel:
@@ -117,9 +139,6 @@ def _compile(py_func, options: dict):
     import numba
 
     _register_with_numba()
-    g = py_func.__globals__
-    if g.get("prange") is range and "prange" in py_func.__code__.co_names:
-        g["prange"] = numba.prange  # the module's kernels are compiled from now on
     return numba.njit(**options)(py_func)
 
 
@@ -134,10 +153,8 @@ def _decorator(defaults: dict):
 
 
 jit = _decorator(dict(cache=True, fastmath=False, nogil=True))
-"""``numba.njit`` with ``cache=True``, lazily compiled; serial kernels."""
-
-pjit = _decorator(dict(cache=True, fastmath=False, nogil=True, parallel=True))
-"""``numba.njit`` with ``cache=True`` and ``parallel=True``, lazily compiled; ``prange`` kernels."""
+"""``numba.njit`` with ``cache=True`` and ``nogil=True``, lazily compiled: every kernel
+(serial; :func:`run_blocks` runs the parallel ones)."""
 
 
 if "numba" in sys.modules:  # numba already loaded: kernels may meet LazyKernels at once
@@ -161,6 +178,13 @@ def thread_budget() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def use_one_thread() -> None:
+    """Run every kernel of this process on its calling thread: for a pool worker, whose
+    siblings already keep the other cores busy. Sets ``SHBAKE_THREADS=1`` (inherited by
+    any process it starts)."""
+    os.environ["SHBAKE_THREADS"] = "1"
 
 
 def thread_count(work: float, blocks: int) -> int:

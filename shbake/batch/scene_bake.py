@@ -47,6 +47,7 @@ from shbake.format.atomic import (
     transaction,
     write_text,
 )
+from shbake.jit import use_one_thread
 
 ASSET_ID = rf"[a-z_]+(?:/{NAME_PATTERN})+"
 """An asset id: its kind, then the names it is baked for (``shrm/satin/dusk``)."""
@@ -278,9 +279,7 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
 
 
 def _dask_bake(asset: dict) -> dict:
-    import numba
-
-    numba.set_num_threads(1)
+    use_one_thread()
     return bake_asset(asset)
 
 

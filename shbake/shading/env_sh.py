@@ -16,7 +16,7 @@ Kernels are check-free: directions unit, arrays from a validated asset.
 
 import numpy as np
 
-from shbake.jit import jit, pjit, prange
+from shbake.jit import jit, run_blocks
 from shbake.sh.basis import evaluate
 
 INV_PI2 = 1.0 / (np.pi * np.pi)
@@ -35,9 +35,9 @@ def sun_tangent(c):
     return np.sqrt(np.maximum(0.0, 1.0 - c * c)) * INV_PI2
 
 
-@pjit
-def _matrix_with_sun(tangents, M, sun_dir, sun_energy, out):
-    for p in prange(tangents.shape[0]):
+@jit
+def _matrix_with_sun(tangents, M, sun_dir, sun_energy, out, b0, b1):
+    for p in range(b0, b1):
         t = (tangents[p, 0], tangents[p, 1], tangents[p, 2], 1.0)
         k = sun_tangent(t[0] * sun_dir[0] + t[1] * sun_dir[1] + t[2] * sun_dir[2])
         for ch in range(3):
@@ -86,5 +86,5 @@ def tangent_irradiance_matrix(asset, tangents) -> np.ndarray:
     M = np.ascontiguousarray(asset["/tangent_irradiance/matrix"], dtype=np.float64)
     d, flat = _flat(tangents)
     out = np.empty((flat.shape[0], 3))
-    _matrix_with_sun(flat, M, *sun_of(asset), out)
+    run_blocks(_matrix_with_sun, flat.shape[0], flat.shape[0] * 110.0, flat, M, *sun_of(asset), out)
     return out.reshape(d.shape[:-1] + (3,))
