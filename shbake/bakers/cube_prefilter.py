@@ -53,7 +53,7 @@ from shbake.brdf.ggx import ggx_d
 from shbake.envmap.environment import Environment
 from shbake.envmap.layouts import cube_face_frames, cube_texels
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
+from shbake.jit import jit, run_blocks
 from shbake.resources import check_memory
 from shbake.texture.bilinear import axis, blend
 
@@ -149,11 +149,11 @@ def _bilinear_latlong(img, u, v, out):
         out[c] = blend(img[r0, c0, c], img[r0, c1, c], img[r1, c0, c], img[r1, c1, c], fr, fc)
 
 
-@pjit
-def _resample_latlong(img, dirs_sub, out):
+@jit
+def _resample_latlong(img, dirs_sub, out, b0, b1):
     # dirs_sub: (M, S, 3) sub-texel directions; out (M, 3) box average
-    m, s = dirs_sub.shape[0], dirs_sub.shape[1]
-    for k in numba.prange(m):
+    s = dirs_sub.shape[1]
+    for k in range(b0, b1):
         acc = np.zeros(3)
         tmp = np.zeros(3)
         for q in range(s):
@@ -198,7 +198,8 @@ def mirror_cube(
     d = d.reshape(6, size, k, size, k, 3).transpose(0, 1, 3, 2, 4, 5).reshape(-1, k * k, 3)
     out = np.empty((d.shape[0], 3))
     if env.layout == "latlong":
-        _resample_latlong(env.pixels.astype(np.float64), np.ascontiguousarray(d), out)
+        run_blocks(_resample_latlong, d.shape[0], d.shape[0] * d.shape[1] * 60.0,
+                   env.pixels.astype(np.float64), np.ascontiguousarray(d), out)  # fmt: skip
     else:
         out[:] = _nearest_cube_input(env, d).mean(axis=1)
     return out.reshape(6, size, size, 3)
@@ -279,12 +280,11 @@ def _hammersley(i, n):
     return (i + 0.5) / n, r
 
 
-@pjit
-def _prefilter_fis(pyr, wf, dirs, alpha, samples, omega_p, use_fis, out):
-    n_tex = dirs.shape[0]
+@jit
+def _prefilter_fis(pyr, wf, dirs, alpha, samples, omega_p, use_fis, out, b0, b1):
     n_levels = len(pyr)
     a2 = alpha * alpha
-    for k in numba.prange(n_tex):
+    for k in range(b0, b1):
         nx, ny, nz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
         # tangent frame (Frisvad-style, branchless enough)
         if abs(nz) < 0.999:
@@ -351,7 +351,10 @@ def prefilter_level(
     omega_p = 4.0 * math.pi / (6.0 * n0 * n0)
     out = np.empty((6 * size * size, 3))
     pyr = numba.typed.List([np.ascontiguousarray(p) for p in pyramid])
-    _prefilter_fis(
+    run_blocks(
+        _prefilter_fis,
+        out.shape[0],
+        out.shape[0] * samples * 100.0,
         pyr,
         world_face_frames(),
         dirs.reshape(-1, 3),
@@ -465,10 +468,9 @@ def extend_chain(levels: list, roughness: list) -> tuple[list, list]:
     return levels, roughness
 
 
-@pjit
-def _reference_kernel(src_dirs, src_omega, src_rad, dirs, alphas, out):
-    m = dirs.shape[0]
-    for k in numba.prange(m):
+@jit
+def _reference_kernel(src_dirs, src_omega, src_rad, dirs, alphas, out, b0, b1):
+    for k in range(b0, b1):
         alpha = alphas[k]
         nx, ny, nz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
         acc0 = 0.0
@@ -504,7 +506,8 @@ def reference_radiance(env: Environment, dirs: np.ndarray, alpha) -> np.ndarray:
     q = np.asarray(dirs, dtype=np.float64)
     a = np.ascontiguousarray(np.broadcast_to(np.asarray(alpha, dtype=np.float64), q.shape[:-1]))
     out = np.empty((q.size // 3, 3))
-    _reference_kernel(d, w, rad, np.ascontiguousarray(q.reshape(-1, 3)), a.reshape(-1), out)
+    run_blocks(_reference_kernel, out.shape[0], out.shape[0] * d.shape[0] * 20.0,
+               d, w, rad, np.ascontiguousarray(q.reshape(-1, 3)), a.reshape(-1), out)  # fmt: skip
     return out.reshape(q.shape)
 
 
