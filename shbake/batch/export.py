@@ -109,6 +109,8 @@ def export_assets(
     if not assets:
         raise ParameterError("no asset to export")
     one_file = not (many if many is not None else len(assets) > 1)
+    if target == "webgl":
+        return _export_webgl(assets, out, one_file, frame, rotate_deg)
     if one_file:  # refused before the cube chains are baked
         check_output_path(out)
     else:
@@ -143,6 +145,20 @@ def export_assets(
             if target == "ktx2":
                 extra["dfg_table"] = dfg_table()
         written += mod.write(src, dest, **extra)
+    return written
+
+
+def _export_webgl(assets, out, one_file, frame, rotate_deg) -> list[str]:
+    """``--to webgl``: one folder per asset (``out`` itself for one), shbake's world frame."""
+    from shbake.format.exports.webgl import write_asset
+
+    if frame != "y-up" or rotate_deg != 0.0:
+        raise ParameterError("--to webgl writes shbake's world frame: no --frame z-up or --rotate")
+    check_output_dir(out, "-o/--output" if one_file else "--out-dir")
+    written = []
+    for path in assets:
+        stem = os.path.splitext(os.path.basename(path))[0]
+        written += write_asset(path, out if one_file else os.path.join(out, stem))
     return written
 
 

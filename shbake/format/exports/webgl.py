@@ -1,0 +1,201 @@
+"""WebGL2 export: the textures and uniforms shbake's GLSL shaders read, the shaders, a viewer.
+
+``shbake export ASSET --to webgl -o DIR`` writes into the folder ``DIR``
+(``docs/SHADERS.md``):
+
+* ``shbake.json``: the manifest — the asset's name and kind, the passes it can draw,
+  the GLSL files in include order, each texture (file, width, height, layers) and
+  each uniform (GLSL type, value), and the asset's parameters for display;
+* one ``NAME.f32`` per texture: little-endian float32 RGBA texels, rows first
+  (row 0 first: ``texelFetch(tex, ivec2(column, row))`` reads the stored array
+  ``[row, column]``), layer after layer;
+* the GLSL files of :mod:`shbake.shaders` the passes need and the loader
+  ``shbake_webgl.mjs``;
+* ``index.html`` (+ ``viewer.mjs``, ``viewer.css``): the sphere with orbit controls and
+  the asset's parameters. Served over HTTP (browsers refuse ``fetch`` from ``file:``
+  pages), e.g. ``python3 -m http.server -d DIR``.
+
+The export is in shbake's world frame (+Y up): ``--frame``/``--rotate`` are refused.
+The only string from the asset that reaches the page is its file name, in the
+autoescaped ``<title>``; the manifest's strings reach the page as text nodes
+(``textContent``) only.
+"""
+
+import json
+import os
+from importlib import resources
+
+import numpy as np
+
+from shbake.errors import InputError
+from shbake.format.atomic import atomic_path, makedirs, write_text
+
+CUBES = None
+"""No cube maps."""
+EXTENSION = ""
+"""The export is a folder (named after the asset with ``--out-dir``)."""
+MAX_LIGHTS = 8
+"""``SHBAKE_MAX_LIGHTS`` of common.glsl: the sun or up to 8 fitted lights
+(:data:`shbake.bakers.env_lights.MAX_LIGHTS`)."""
+MAX_LEVELS = 16
+"""Split-sum levels the shader's uniform arrays hold (:data:`shbake.format.splitsum.LEVELS_MAX`)."""
+COEFF_ROW = 256
+"""SH coefficients per row of a coefficient texture (texel ``i`` at ``(i mod 256, i div 256)``)."""
+VIEWER_FILES = ("shbake_webgl.mjs", "viewer.mjs", "viewer.css")
+SHADERS = {
+    "env_sh": ("common.glsl", "irradiance.glsl", "tangent_irradiance.glsl"),
+    "splitsum_probe": ("common.glsl", "dfg.glsl", "splitsum.glsl"),
+}
+"""The GLSL files of each asset kind, in include order."""
+
+
+def _rgba(a: np.ndarray) -> np.ndarray:
+    """``(..., C)`` → ``(..., 4)`` float32, channels past ``C`` zero."""
+    a = np.asarray(a, dtype=np.float64)
+    out = np.zeros(a.shape[:-1] + (4,), dtype="<f4")
+    out[..., : a.shape[-1]] = a
+    return out
+
+
+def coefficient_texture(coeffs: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` SH coefficients → ``(rows, min(n, COEFF_ROW), 4)`` texels, zero-padded."""
+    n = coeffs.shape[0]
+    width = min(n, COEFF_ROW)
+    rows = -(-n // width)
+    flat = np.zeros((rows * width, 4), dtype="<f4")
+    flat[:n] = _rgba(coeffs)
+    return flat.reshape(rows, width, 4)
+
+
+def _lights(asset) -> dict:
+    from shbake.shading.env_sh import lights_of
+
+    dirs, energy = lights_of(asset)
+    d = np.zeros((MAX_LIGHTS, 3))
+    e = np.zeros((MAX_LIGHTS, 3))
+    d[: len(dirs)], e[: len(dirs)] = dirs, energy
+    return {
+        "uLightDir": {"type": "vec3[]", "length": MAX_LIGHTS, "value": d.tolist()},
+        "uLightE": {"type": "vec3[]", "length": MAX_LIGHTS, "value": e.tolist()},
+        "uLightCount": {"type": "int", "value": len(dirs)},
+    }
+
+
+def _env_sh(asset):
+    textures, uniforms, passes = {}, _lights(asset), []
+    for key, tex, lmax_name, passname in (
+        ("/irradiance/sh", "uIrradiance", "uIrradianceLmax", "irradiance"),
+        ("/tangent_irradiance/sh", "uTangentSH", "uTangentLmax", "tangent-sh"),
+    ):
+        if key in asset:
+            c = np.asarray(asset[key], dtype=np.float64)
+            textures[tex] = coefficient_texture(c)
+            uniforms[lmax_name] = {"type": "int", "value": int(round(np.sqrt(c.shape[0]))) - 1}
+            passes.append(passname)
+    if "/tangent_irradiance/matrix" in asset:
+        m = np.asarray(asset["/tangent_irradiance/matrix"], dtype=np.float64)
+        # column-major mat4 per channel (uniformMatrix4fv, transpose false): M^T row-major
+        uniforms["uTangentM"] = {"type": "mat4[]", "length": 3,
+                                 "value": [mc.T.tolist() for mc in m]}  # fmt: skip
+        passes.append("tangent-matrix")
+    if not passes:
+        raise InputError("the env_sh asset has no irradiance to draw")
+    params = {"lights": int(uniforms["uLightCount"]["value"])}
+    for k in ("lmax", "lmax_irradiance"):
+        if k in asset.attrs:
+            params[k] = int(asset.attrs[k])
+    return textures, uniforms, passes, params
+
+
+def _dfg(asset) -> np.ndarray:
+    """``/dfg`` ``(n_μ, n_r, 2)`` → one layer, rows ``n·v``, columns ``sqrt(α)``."""
+    return _rgba(asset["/dfg"])[None]
+
+
+def _splitsum(asset):
+    n = int(asset.attrs["levels"])
+    if n > MAX_LEVELS:
+        raise InputError(f"the split-sum probe has {n} levels; the shader holds {MAX_LEVELS}")
+    levels = [np.asarray(asset[f"/levels/{k}"]) for k in range(n)]
+    top = max(lv.shape[0] for lv in levels)
+    layers = np.zeros((n, top, top, 4), dtype="<f4")
+    for k, lv in enumerate(levels):
+        layers[k, : lv.shape[0], : lv.shape[1]] = _rgba(lv)
+    alphas = np.asarray(asset["/level_alpha"], dtype=np.float64)
+    pad = MAX_LEVELS - n
+    uniforms = {
+        "uLevelSize": {"type": "int[]", "length": MAX_LEVELS,
+                       "value": [lv.shape[0] for lv in levels] + [0] * pad},
+        "uLevelAlpha": {"type": "float[]", "length": MAX_LEVELS,
+                        "value": alphas.tolist() + [0.0] * pad},
+        "uLevelCount": {"type": "int", "value": n},
+    }  # fmt: skip
+    params = {"levels": n, "alpha_range": [float(alphas[0]), float(alphas[-1])]}
+    return {"uLevels": layers, "uDFG": _dfg(asset)}, uniforms, ["splitsum"], params
+
+
+KINDS = {"env_sh": _env_sh, "splitsum_probe": _splitsum}
+"""Asset kind → ``(textures, uniforms, passes, parameters)`` of its export."""
+
+
+def _texture_entry(name: str, texels: np.ndarray) -> dict:
+    layered = texels.ndim == 4
+    h, w = texels.shape[-3], texels.shape[-2]
+    entry = {"file": name + ".f32", "width": int(w), "height": int(h)}
+    if layered:
+        entry["layers"] = int(texels.shape[0])
+    return entry
+
+
+def _copy_package_file(name: str, dest: str) -> None:
+    data = resources.files("shbake.shaders").joinpath(name).read_bytes()
+    with atomic_path(dest) as tmp, open(tmp, "wb") as f:
+        f.write(data)
+
+
+def viewer_page(title: str) -> str:
+    """``index.html`` from the autoescaped template ``shaders/viewer.html``."""
+    import jinja2
+
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("shbake", "shaders"),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+    )
+    return env.get_template("viewer.html").render(title=title)
+
+
+def write_asset(path: str, out: str) -> list[str]:
+    """Export the asset at ``path`` into the folder ``out``; the files written."""
+    from shbake.format.asset import read_asset
+
+    asset = read_asset(path, kinds=tuple(KINDS))
+    textures, uniforms, passes, params = KINDS[asset.kind](asset)
+    name = os.path.basename(path)
+    manifest = {
+        "format": "shbake-webgl",
+        "version": 1,
+        "asset": {"name": name, "kind": asset.kind, "parameters": params},
+        "passes": passes,
+        "shaders": list(SHADERS[asset.kind]),
+        "textures": {k: _texture_entry(k, t) for k, t in textures.items()},
+        "uniforms": uniforms,
+    }
+    makedirs(out)
+    written = []
+    for k, t in textures.items():
+        dest = os.path.join(out, k + ".f32")
+        with atomic_path(dest) as tmp, open(tmp, "wb") as f:
+            f.write(np.ascontiguousarray(t, dtype="<f4").tobytes())
+        written.append(dest)
+    for f in SHADERS[asset.kind] + VIEWER_FILES:
+        _copy_package_file(f, os.path.join(out, f))
+        written.append(os.path.join(out, f))
+    dest = os.path.join(out, "shbake.json")
+    write_text(dest, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    write_text(os.path.join(out, "index.html"), viewer_page(f"{name} ({asset.kind})"))
+    return written + [dest, os.path.join(out, "index.html")]
+
+
+__all__ = ["KINDS", "coefficient_texture", "viewer_page", "write_asset"]
