@@ -150,15 +150,20 @@ def export_assets(
 
 def _export_webgl(assets, out, one_file, frame, rotate_deg) -> list[str]:
     """``--to webgl``: one folder per asset (``out`` itself for one), shbake's world frame."""
-    from shbake.format.exports.webgl import write_asset
+    from shbake.format.asset import read_asset
+    from shbake.format.exports.webgl import KINDS, write_export
+    from shbake.shading.env_sh import lights_of
 
     if frame != "y-up" or rotate_deg != 0.0:
         raise ParameterError("--to webgl writes shbake's world frame: no --frame z-up or --rotate")
     check_output_dir(out, "-o/--output" if one_file else "--out-dir")
     written = []
     for path in assets:
-        stem = os.path.splitext(os.path.basename(path))[0]
-        written += write_asset(path, out if one_file else os.path.join(out, stem))
+        asset = read_asset(path, kinds=tuple(KINDS))
+        lights = lights_of(asset) if asset.kind == "env_sh" else None
+        name = os.path.basename(path)
+        dest = out if one_file else os.path.join(out, os.path.splitext(name)[0])
+        written += write_export(asset, name, dest, lights)
     return written
 
 

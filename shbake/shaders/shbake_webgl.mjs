@@ -67,7 +67,7 @@ void main() {
   float r2 = dot(p, p);
   vec3 n = uCamera * vec3(p, sqrt(max(0.0, 1.0 - r2)));
   vec3 v = uCamera[2];
-  if (r2 >= 1.0${p.grazing ? " || dot(n, v) <= 1e-3" : ""}) { fragColor = vec4(0.0); return; }
+  if (r2 >= 1.0${p.grazing ? " || dot(n, v) <= 1e-3" : ""}) discard;  // the clear colour shows
   vec3 t = vec3(0.0, 1.0, 0.0) - n.y * n;  // +Y projected on the tangent plane
   t = length(t) > 1e-12 ? normalize(t) : vec3(1.0, 0.0, 0.0);
   vec3 c = shade(n, v, t);

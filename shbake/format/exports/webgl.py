@@ -67,10 +67,8 @@ def coefficient_texture(coeffs: np.ndarray) -> np.ndarray:
     return flat.reshape(rows, width, 4)
 
 
-def _lights(asset) -> dict:
-    from shbake.shading.env_sh import lights_of
-
-    dirs, energy = lights_of(asset)
+def _lights(lights) -> dict:
+    dirs, energy = lights
     d = np.zeros((MAX_LIGHTS, 3))
     e = np.zeros((MAX_LIGHTS, 3))
     d[: len(dirs)], e[: len(dirs)] = dirs, energy
@@ -81,8 +79,8 @@ def _lights(asset) -> dict:
     }
 
 
-def _env_sh(asset):
-    textures, uniforms, passes = {}, _lights(asset), []
+def _env_sh(asset, lights):
+    textures, uniforms, passes = {}, _lights(lights), []
     for key, tex, lmax_name, passname in (
         ("/irradiance/sh", "uIrradiance", "uIrradianceLmax", "irradiance"),
         ("/tangent_irradiance/sh", "uTangentSH", "uTangentLmax", "tangent-sh"),
@@ -112,7 +110,7 @@ def _dfg(asset) -> np.ndarray:
     return _rgba(asset["/dfg"])[None]
 
 
-def _splitsum(asset):
+def _splitsum(asset, _lights):
     n = int(asset.attrs["levels"])
     if n > MAX_LEVELS:
         raise InputError(f"the split-sum probe has {n} levels; the shader holds {MAX_LEVELS}")
@@ -166,13 +164,14 @@ def viewer_page(title: str) -> str:
     return env.get_template("viewer.html").render(title=title)
 
 
-def write_asset(path: str, out: str) -> list[str]:
-    """Export the asset at ``path`` into the folder ``out``; the files written."""
-    from shbake.format.asset import read_asset
-
-    asset = read_asset(path, kinds=tuple(KINDS))
-    textures, uniforms, passes, params = KINDS[asset.kind](asset)
-    name = os.path.basename(path)
+def write_export(asset, name: str, out: str, lights=None) -> list[str]:
+    """Export ``asset`` (a kind of :data:`KINDS`, read from the file ``name``) into the
+    folder ``out``; the files written. ``lights``: ``(directions (K, 3), E (K, 3))`` of an
+    ``env_sh`` asset (:func:`shbake.shading.env_sh.lights_of`)."""
+    try:
+        textures, uniforms, passes, params = KINDS[asset.kind](asset, lights)
+    except InputError as e:
+        raise InputError(f"{name}: {e}") from None
     manifest = {
         "format": "shbake-webgl",
         "version": 1,
@@ -198,4 +197,4 @@ def write_asset(path: str, out: str) -> list[str]:
     return written + [dest, os.path.join(out, "index.html")]
 
 
-__all__ = ["KINDS", "coefficient_texture", "viewer_page", "write_asset"]
+__all__ = ["KINDS", "coefficient_texture", "viewer_page", "write_export"]

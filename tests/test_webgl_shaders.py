@@ -1,0 +1,325 @@
+"""shbake's GLSL passes (``shbake/shaders/``) rendered in WebGL2 equal the numba preview.
+
+Each asset is exported with ``shbake export --to webgl``; the page
+``tests/engines/pages/webgl.html`` loads the folder with the loader it carries
+(``shbake_webgl.mjs``) and draws every pass with the preview's camera (orthographic from
++Z, pixel centres as :func:`shbake.preview.sphere.sphere_geometry`) into a float32 render
+target in headless Chromium (WebGL2 on SwiftShader, ``tests/engines/harness.mjs``). The
+image is compared pixel by pixel with ``shbake preview``'s pass of the same asset and
+material (:mod:`shbake.preview.passes`, :mod:`shbake.preview.glossy`): float32 textures
+within :data:`FLOAT_TOL` relative RMS over the sphere. Half-float textures (the export's
+float32 texels rounded to half in a copy) are measured against the bound half precision
+implies (:func:`half_bound`). Broken conventions — a texture's rows flipped, two SH bands
+swapped, a Condon–Shortley sign added to the GLSL basis — make the comparison fail.
+The viewer page (``index.html``) opens without a WebGL error and draws a non-black sphere.
+``@pytest.mark.slow``: the six shared maps (``make test`` renders forest).
+"""
+
+import json
+import os
+import re
+import shutil
+
+import numpy as np
+import pytest
+from engine_browser import decode
+from helpers import ROOT, SHARED_MAPS, map_path
+
+from shbake.bakers.env_sh import bake_env_sh
+from shbake.bakers.splitsum import SplitSumConfig
+from shbake.batch.export import export_assets
+from shbake.batch.probe_eval import bake_splitsum_file
+from shbake.conventions import DFG_MU_MIN, ROUGHNESS_MIN
+from shbake.envmap import load_environment
+from shbake.format.asset import read_asset, write_asset
+from shbake.preview.glossy import render_glossy
+from shbake.preview.passes import render_pass
+from shbake.preview.sphere import sphere_geometry
+from shbake.sh.basis import real_sh
+from shbake.shading.env_sh import irradiance
+
+pytestmark = pytest.mark.xdist_group("webgl-shaders")
+"""One worker runs this module (``make test``: ``--dist loadgroup``): one browser, each
+map's assets baked once."""
+SIZE = 48
+"""Render edge (pixels): 1 800 sphere pixels per pass."""
+FAST_MAPS = ("forest",)
+FLOAT_TOL = 1e-3
+"""Relative RMS over the sphere, float32 textures (issue 30)."""
+HALF_EPS = 2.0**-11
+"""Unit roundoff of IEEE half floats (10 stored mantissa bits)."""
+GLOSSY = [(r, f0) for r in (0.25, 0.5, 0.75, 1.0) for f0 in (1.0, 0.04)]
+"""(perceptual roughness, F0) of the glossy passes: chrome and dielectric, r 0.25 … 1."""
+SPLIT = SplitSumConfig(top=32, min_size=8, alphas=(0.0625, 0.25, 0.5, 1.0), samples=64)
+"""A small split-sum chain over α = r² for r 0.25 … 1 (its values do not matter here)."""
+SHADERS = ROOT / "shbake" / "shaders"
+
+
+def _maps():
+    return [
+        pytest.param(m, marks=() if m in FAST_MAPS else pytest.mark.slow, id=m) for m in SHARED_MAPS
+    ]
+
+
+def relative_rms(got: np.ndarray, want: np.ndarray) -> float:
+    """``sqrt(Σ (got − want)² / Σ want²)`` over the pixels either image covers."""
+    m = np.any(want != 0.0, axis=-1) | np.any(got != 0.0, axis=-1)
+    return float(np.sqrt(np.sum((got - want)[m] ** 2) / np.sum(want[m] ** 2)))
+
+
+@pytest.fixture(scope="module", params=_maps())
+def exported(request, tmp_path_factory):
+    """A map's env_sh asset (lmax 4, sun extracted) and split-sum probe, each exported."""
+    name = request.param
+    d = tmp_path_factory.mktemp(f"webgl-{name}")
+    env = load_environment(str(map_path(name)), quiet=True)
+    asset, _ = bake_env_sh(env, lmax=4, irradiance_lmax=4, sun=True)
+    env_h5 = str(d / f"{name}.h5")
+    write_asset(env_h5, asset)
+    split_h5 = str(d / f"{name}-splitsum.h5")
+    bake_splitsum_file(str(map_path(name)), split_h5, SPLIT)
+    out = {"name": name, "dir": d, "env": env_h5, "splitsum": split_h5}
+    for key in ("env", "splitsum"):
+        export_assets([out[key]], "webgl", str(d / f"{key}-webgl"))
+        out[key + "_dir"] = str(d / f"{key}-webgl")
+    return out
+
+
+def render(browser, folder: str, jobs: list[dict]) -> dict:
+    """Draw ``jobs`` (name, pass, GGX ``alpha``, ``f0``) from an export folder: name → RGB."""
+    answer = browser.call("webgl.html", {"dir": browser.url(folder) + "/", "size": SIZE,
+                                         "jobs": jobs})  # fmt: skip
+    bad = [c for c in answer["console"] if c.startswith(("error", "pageerror", "http"))]
+    assert not bad and answer["result"]["glError"] == 0, bad
+    return {k: decode(v, SIZE)[..., :3].astype(np.float64)
+            for k, v in answer["result"]["images"].items()}  # fmt: skip
+
+
+def env_previews(h5: str) -> dict:
+    """The preview's irradiance and tangent (matrix form) passes, and the SH tangent form
+    (:func:`shbake.shading.env_sh.irradiance`, ``tangent=True``) at the preview's tangents."""
+    asset = read_asset(h5)
+    _, tangents, mask = sphere_geometry(SIZE)
+    tangent_sh = np.zeros((SIZE, SIZE, 3))
+    tangent_sh[mask] = irradiance(asset, tangents[mask], tangent=True)
+    return {
+        "irradiance": render_pass(asset, "irradiance", SIZE)[0],
+        "tangent-matrix": render_pass(asset, "tangent", SIZE)[0],
+        "tangent-sh": tangent_sh,
+    }
+
+
+ENV_JOBS = [{"name": p, "pass": p} for p in ("irradiance", "tangent-matrix", "tangent-sh")]
+SPLIT_JOBS = [{"name": f"r{r}-f{f0}", "pass": "splitsum", "alpha": r * r, "f0": [f0] * 3}
+              for r, f0 in GLOSSY]  # fmt: skip
+
+
+def splitsum_previews(h5: str) -> dict:
+    asset = read_asset(h5)
+    return {j["name"]: render_glossy(asset, "splitsum", SIZE, j["alpha"], j["f0"][0])[0]
+            for j in SPLIT_JOBS}  # fmt: skip
+
+
+def test_glsl_constants_are_shbakes():
+    """The numbers the GLSL files restate are the Python ones."""
+    from shbake.bakers.env_lights import MAX_LIGHTS
+
+    text = "".join(p.read_text() for p in SHADERS.glob("*.glsl"))
+
+    def const(name):
+        return float(re.search(rf"const \w+ {name} = ([^;]+);", text).group(1))
+
+    assert const("SHBAKE_MAX_LIGHTS") == MAX_LIGHTS
+    assert const("SHBAKE_DFG_MU_MIN") == DFG_MU_MIN
+    assert const("SHBAKE_ROUGHNESS_MIN") == ROUGHNESS_MIN
+    assert const("SHBAKE_PI") == pytest.approx(np.pi, rel=1e-14)
+
+
+class TestRenderedEqualsPreview:
+    def test_env_sh_passes(self, engine_browser, exported):
+        got = render(engine_browser, exported["env_dir"], ENV_JOBS)
+        want = env_previews(exported["env"])
+        errors = {k: relative_rms(got[k], want[k]) for k in want}
+        assert max(errors.values()) <= FLOAT_TOL, errors
+
+    def test_splitsum_pass(self, engine_browser, exported):
+        got = render(engine_browser, exported["splitsum_dir"], SPLIT_JOBS)
+        want = splitsum_previews(exported["splitsum"])
+        errors = {k: relative_rms(got[k], want[k]) for k in want}
+        assert max(errors.values()) <= FLOAT_TOL, errors
+
+
+def copy_export(folder: str, dest) -> str:
+    shutil.copytree(folder, dest)
+    return str(dest)
+
+
+def edit_texture(folder: str, name: str, edit) -> None:
+    """Replace texture ``name`` of an export by ``edit(texels)`` (``(…, H, W, 4)`` float32)."""
+    manifest = json.loads(open(os.path.join(folder, "shbake.json")).read())
+    t = manifest["textures"][name]
+    shape = ((t["layers"],) if "layers" in t else ()) + (t["height"], t["width"], 4)
+    path = os.path.join(folder, t["file"])
+    texels = np.fromfile(path, dtype="<f4").reshape(shape)
+    edit(texels).astype("<f4").tofile(path)
+
+
+def _flip_levels(sizes):
+    """An edit reversing the rows of each split-sum level (``sizes[k]`` texels in layer k)."""
+
+    def edit(levels):
+        out = levels.copy()
+        for k, n in enumerate(sizes[: levels.shape[0]]):
+            out[k, :n, :n] = levels[k, :n, :n][::-1]
+        return out
+
+    return edit
+
+
+def _swap_band_one(coeffs):
+    """SH coefficients 1 and 3 (``y_1,−1 ∝ y`` and ``y_1,1 ∝ x``) exchanged."""
+    out = coeffs.copy()
+    out[0, [1, 3]] = coeffs[0, [3, 1]]
+    return out
+
+
+CS_SIGN = (
+    "float s2q = 1.4142135623730951 * q;",
+    "float s2q = ((m & 1) == 1 ? -1.0 : 1.0) * 1.4142135623730951 * q;",
+)
+"""common.glsl's basis given the Condon–Shortley phase ``(−1)^m`` shbake does not use."""
+
+
+class TestBrokenConventionFails:
+    """Each fault, applied to a copy of the export, pushes the error far past the bound."""
+
+    @pytest.mark.parametrize("fault", ["flipped rows", "swapped band", "Condon-Shortley sign"])
+    def test_fault(self, engine_browser, exported, tmp_path, fault):
+        if fault == "flipped rows":
+            folder = copy_export(exported["splitsum_dir"], tmp_path / "x")
+            sizes = json.loads(open(os.path.join(folder, "shbake.json")).read())["uniforms"]
+            edit_texture(folder, "uLevels", _flip_levels(sizes["uLevelSize"]["value"]))
+            got = render(engine_browser, folder, SPLIT_JOBS[:1])
+            want = splitsum_previews(exported["splitsum"])
+        else:
+            folder = copy_export(exported["env_dir"], tmp_path / "x")
+            if fault == "swapped band":
+                edit_texture(folder, "uIrradiance", _swap_band_one)
+            else:
+                path = os.path.join(folder, "common.glsl")
+                text = open(path).read()
+                assert CS_SIGN[0] in text
+                open(path, "w").write(text.replace(*CS_SIGN))
+            got = render(engine_browser, folder, ENV_JOBS[:1])
+            want = env_previews(exported["env"])
+        name = next(iter(got))
+        assert relative_rms(got[name], want[name]) > 10 * FLOAT_TOL
+
+
+def half_bound(h5: str) -> float:
+    """Relative RMS bound of the irradiance pass with half-float coefficients: each stored
+    ``E_i`` moves by at most ``HALF_EPS |E_i|``, so a pixel's ``E/π`` by at most
+    ``HALF_EPS Σ_i |E_i| |y_i(n)| / π`` (the lights stay float32 uniforms)."""
+    asset = read_asset(h5)
+    normals, _, mask = sphere_geometry(SIZE)
+    c = np.asarray(asset["/irradiance/sh"])
+    n = normals[mask]
+    bound = HALF_EPS * (np.abs(real_sh(n, int(round(np.sqrt(len(c)))) - 1)) @ np.abs(c)) / np.pi
+    want = render_pass(asset, "irradiance", SIZE)[0][mask]
+    return float(np.sqrt(np.sum(bound**2) / np.sum(want**2)))
+
+
+def test_half_float_textures_within_their_bound(engine_browser, exported, tmp_path):
+    """Half-float texels (rounded from the export's float32): the irradiance pass within
+    :func:`half_bound`, the split-sum pass within ``2 HALF_EPS`` (a positive bilinear and
+    α blend of values each off by ``HALF_EPS`` relative, times a DFG factor off by as much)."""
+    env = copy_export(exported["env_dir"], tmp_path / "env")
+    edit_texture(env, "uIrradiance", lambda t: t.astype(np.float16))
+    split = copy_export(exported["splitsum_dir"], tmp_path / "split")
+    for name in ("uLevels", "uDFG"):
+        edit_texture(split, name, lambda t: t.astype(np.float16))
+    e_err = relative_rms(render(engine_browser, env, ENV_JOBS[:1])["irradiance"],
+                         env_previews(exported["env"])["irradiance"])  # fmt: skip
+    got = render(engine_browser, split, SPLIT_JOBS)
+    want = splitsum_previews(exported["splitsum"])
+    s_err = max(relative_rms(got[k], want[k]) for k in want)
+    assert e_err <= half_bound(exported["env"]), e_err
+    assert s_err <= 2 * HALF_EPS, s_err
+
+
+def test_viewer_opens_and_draws(engine_browser, exported, tmp_path):
+    """index.html over HTTP: ready, no console error nor WebGL warning from the page, and a
+    sphere of non-black pixels in the screenshot. Chromium's own notice ``GPU stall due to
+    ReadPixels`` is not the page's: headless with ``--disable-gpu`` composites the canvas in
+    software, reading it back (the viewer itself never reads pixels)."""
+    import OpenImageIO as oiio
+
+    for key in ("env_dir", "splitsum_dir"):
+        result = engine_browser.screenshot(os.path.join(exported[key], "index.html"), "canvas")
+        own = [c for c in result["console"] if "GPU stall due to ReadPixels" not in c]
+        assert result["state"] == "ready" and own == [], result["console"]
+        png = tmp_path / f"{key}.png"
+        png.write_bytes(result["png"])
+        img = oiio.ImageBuf(str(png)).get_pixels(oiio.FLOAT)[..., :3]
+        assert img.shape[:2] == (512, 512)  # the canvas element alone
+        c = np.arange(512) + 0.5 - 256
+        disc = np.hypot(c[:, None], c[None, :]) < 254  # the sphere, 2 pixels in from its rim
+        assert np.all(img[disc].max(-1) > 0.0), np.count_nonzero(img[disc].max(-1) == 0)
+        assert np.all(img[np.hypot(c[:, None], c[None, :]) > 258] == 0.0)  # black around
+
+
+class TestExportCommand:
+    """``shbake export --to webgl``: the folder, its bytes, refusals and the page's text."""
+
+    @pytest.fixture
+    def small(self, tmp_path):
+        from assets_examples import example, write_map
+
+        out = {}
+        for kind in ("env_sh", "splitsum_probe", "brdf_table"):
+            out[kind] = str(tmp_path / f"{kind}.h5")
+            write_asset(out[kind], example(kind, write_map(tmp_path / "map.exr")))
+        return out
+
+    def test_same_inputs_same_bytes(self, run_cli, small, tmp_path):
+        for kind in ("env_sh", "splitsum_probe"):
+            folders = [tmp_path / f"{kind}{i}" for i in range(2)]
+            for f in folders:
+                code, _, err = run_cli("export", small[kind], "--to", "webgl", "-o", f)
+                assert code == 0, err
+            names = sorted(os.listdir(folders[0]))
+            assert "index.html" in names and "shbake.json" in names
+            for n in names:
+                assert (folders[0] / n).read_bytes() == (folders[1] / n).read_bytes(), n
+
+    @pytest.mark.parametrize("args, named", [(["--frame", "z-up"], "--frame"),
+                                             (["--rotate", "30"], "--rotate")])  # fmt: skip
+    def test_other_frames_refused(self, run_cli, small, tmp_path, args, named):
+        code, _, err = run_cli("export", small["env_sh"], "--to", "webgl", "-o",
+                               tmp_path / "out", *args)  # fmt: skip
+        assert code == 1 and err.count("shbake: error:") == 1 and named in err, err
+        assert not (tmp_path / "out").exists()
+
+    def test_kind_without_shader_refused(self, run_cli, small, tmp_path):
+        code, _, err = run_cli("export", small["brdf_table"], "--to", "webgl", "-o",
+                               tmp_path / "out")  # fmt: skip
+        assert code == 1 and err.count("shbake: error:") == 1, err
+        assert not (tmp_path / "out").exists()
+
+    def test_asset_name_is_text_in_the_page(self, run_cli, small, tmp_path):
+        from html.parser import HTMLParser
+
+        hostile = tmp_path / "<img src=x onerror=alert(1)>&'\".h5"
+        shutil.copy(small["env_sh"], hostile)
+        code, _, err = run_cli("export", hostile, "--to", "webgl", "-o", tmp_path / "out")
+        assert code == 0, err
+        page = (tmp_path / "out" / "index.html").read_text()
+        tags = []
+
+        class Tags(HTMLParser):
+            def handle_starttag(self, tag, attrs):
+                tags.append(tag)
+
+        Tags().feed(page)
+        assert "img" not in tags and "<img" not in page
+        assert "&lt;img src=x onerror=alert(1)&gt;&amp;" in page
