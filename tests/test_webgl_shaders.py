@@ -26,9 +26,11 @@ from engine_browser import decode
 from helpers import ROOT, SHARED_MAPS, map_path
 
 from shbake.bakers.env_sh import bake_env_sh
+from shbake.bakers.shexp import FitConfig
 from shbake.bakers.splitsum import SplitSumConfig
 from shbake.batch.export import export_assets
 from shbake.batch.probe_eval import bake_splitsum_file
+from shbake.batch.probe_fit import fit_probes
 from shbake.conventions import DFG_MU_MIN, ROUGHNESS_MIN
 from shbake.envmap import load_environment
 from shbake.format.asset import read_asset, write_asset
@@ -52,6 +54,8 @@ GLOSSY = [(r, f0) for r in (0.25, 0.5, 0.75, 1.0) for f0 in (1.0, 0.04)]
 """(perceptual roughness, F0) of the glossy passes: chrome and dielectric, r 0.25 … 1."""
 SPLIT = SplitSumConfig(top=32, min_size=8, alphas=(0.0625, 0.25, 0.5, 1.0), samples=64)
 """A small split-sum chain over α = r² for r 0.25 … 1 (its values do not matter here)."""
+FIT = FitConfig(normals=16, views=8, alpha_count=4, alpha_min=0.0625, polish=0, samples=64)
+"""A quick SH-exp fit (two sets, lmax 5 and 2) over the same range."""
 SHADERS = ROOT / "shbake" / "shaders"
 
 
@@ -69,17 +73,19 @@ def relative_rms(got: np.ndarray, want: np.ndarray) -> float:
 
 @pytest.fixture(scope="module", params=_maps())
 def exported(request, tmp_path_factory):
-    """A map's env_sh asset (lmax 4, sun extracted) and split-sum probe, each exported."""
+    """A map's env_sh asset (lmax 4, sun extracted), split-sum and SH-exp probes, each
+    exported."""
     name = request.param
     d = tmp_path_factory.mktemp(f"webgl-{name}")
     env = load_environment(str(map_path(name)), quiet=True)
     asset, _ = bake_env_sh(env, lmax=4, irradiance_lmax=4, sun=True)
-    env_h5 = str(d / f"{name}.h5")
+    env_h5 = str(d / f"{name}-env.h5")
     write_asset(env_h5, asset)
     split_h5 = str(d / f"{name}-splitsum.h5")
     bake_splitsum_file(str(map_path(name)), split_h5, SPLIT)
-    out = {"name": name, "dir": d, "env": env_h5, "splitsum": split_h5}
-    for key in ("env", "splitsum"):
+    fit_probes([str(map_path(name))], out_dir=str(d), config=FIT)  # d/NAME.h5
+    out = {"name": name, "env": env_h5, "splitsum": split_h5, "shexp": str(d / f"{name}.h5")}
+    for key in ("env", "splitsum", "shexp"):
         export_assets([out[key]], "webgl", str(d / f"{key}-webgl"))
         out[key + "_dir"] = str(d / f"{key}-webgl")
     return out
@@ -110,14 +116,19 @@ def env_previews(h5: str) -> dict:
 
 
 ENV_JOBS = [{"name": p, "pass": p} for p in ("irradiance", "tangent-matrix", "tangent-sh")]
-SPLIT_JOBS = [{"name": f"r{r}-f{f0}", "pass": "splitsum", "alpha": r * r, "f0": [f0] * 3}
-              for r, f0 in GLOSSY]  # fmt: skip
 
 
-def splitsum_previews(h5: str) -> dict:
+def glossy_jobs(pass_name: str) -> list[dict]:
+    """The :data:`GLOSSY` materials of a glossy pass."""
+    return [{"name": f"r{r}-f{f0}", "pass": pass_name, "alpha": r * r, "f0": [f0] * 3}
+            for r, f0 in GLOSSY]  # fmt: skip
+
+
+def glossy_previews(h5: str, pass_name: str) -> dict:
+    """The preview's glossy pass of a probe for every :func:`glossy_jobs` material."""
     asset = read_asset(h5)
-    return {j["name"]: render_glossy(asset, "splitsum", SIZE, j["alpha"], j["f0"][0])[0]
-            for j in SPLIT_JOBS}  # fmt: skip
+    return {j["name"]: render_glossy(asset, pass_name, SIZE, j["alpha"], j["f0"][0])[0]
+            for j in glossy_jobs(pass_name)}  # fmt: skip
 
 
 def test_glsl_constants_are_shbakes():
@@ -142,9 +153,10 @@ class TestRenderedEqualsPreview:
         errors = {k: relative_rms(got[k], want[k]) for k in want}
         assert max(errors.values()) <= FLOAT_TOL, errors
 
-    def test_splitsum_pass(self, engine_browser, exported):
-        got = render(engine_browser, exported["splitsum_dir"], SPLIT_JOBS)
-        want = splitsum_previews(exported["splitsum"])
+    @pytest.mark.parametrize("pass_name", ["splitsum", "shexp"])
+    def test_glossy_pass(self, engine_browser, exported, pass_name):
+        got = render(engine_browser, exported[pass_name + "_dir"], glossy_jobs(pass_name))
+        want = glossy_previews(exported[pass_name], pass_name)
         errors = {k: relative_rms(got[k], want[k]) for k in want}
         assert max(errors.values()) <= FLOAT_TOL, errors
 
@@ -199,8 +211,8 @@ class TestBrokenConventionFails:
             folder = copy_export(exported["splitsum_dir"], tmp_path / "x")
             sizes = json.loads(open(os.path.join(folder, "shbake.json")).read())["uniforms"]
             edit_texture(folder, "uLevels", _flip_levels(sizes["uLevelSize"]["value"]))
-            got = render(engine_browser, folder, SPLIT_JOBS[:1])
-            want = splitsum_previews(exported["splitsum"])
+            got = render(engine_browser, folder, glossy_jobs("splitsum")[:1])
+            want = glossy_previews(exported["splitsum"], "splitsum")
         else:
             folder = copy_export(exported["env_dir"], tmp_path / "x")
             if fault == "swapped band":
@@ -240,8 +252,8 @@ def test_half_float_textures_within_their_bound(engine_browser, exported, tmp_pa
         edit_texture(split, name, lambda t: t.astype(np.float16))
     e_err = relative_rms(render(engine_browser, env, ENV_JOBS[:1])["irradiance"],
                          env_previews(exported["env"])["irradiance"])  # fmt: skip
-    got = render(engine_browser, split, SPLIT_JOBS)
-    want = splitsum_previews(exported["splitsum"])
+    got = render(engine_browser, split, glossy_jobs("splitsum"))
+    want = glossy_previews(exported["splitsum"], "splitsum")
     s_err = max(relative_rms(got[k], want[k]) for k in want)
     assert e_err <= half_bound(exported["env"]), e_err
     assert s_err <= 2 * HALF_EPS, s_err
@@ -254,7 +266,7 @@ def test_viewer_opens_and_draws(engine_browser, exported, tmp_path):
     software, reading it back (the viewer itself never reads pixels)."""
     import OpenImageIO as oiio
 
-    for key in ("env_dir", "splitsum_dir"):
+    for key in ("env_dir", "splitsum_dir", "shexp_dir"):
         result = engine_browser.screenshot(os.path.join(exported[key], "index.html"), "canvas")
         own = [c for c in result["console"] if "GPU stall due to ReadPixels" not in c]
         assert result["state"] == "ready" and own == [], result["console"]

@@ -35,20 +35,28 @@ vec4 shbakeBilinear(highp sampler2DArray tex, int layer, int rows, int cols, flo
                      fy, fx);
 }
 
-// SH coefficient i of a coefficient texture: texel (i mod width, i div width), RGB.
-vec3 shbakeCoeff(highp sampler2D tex, int i) {
+// Coefficient i of set `set` of a coefficient texture: sets of n = (lmax+1)^2 coefficients,
+// each starting a row (ceil(n / width) rows a set), coefficient j of a set at texel
+// (j mod width, j div width) of its rows; RGB.
+vec3 shbakeCoeff(highp sampler2D tex, int n, int set, int i) {
   int w = textureSize(tex, 0).x;
-  return texelFetch(tex, ivec2(i % w, i / w), 0).rgb;
+  int k = set * ((n + w - 1) / w) * w + i;
+  return texelFetch(tex, ivec2(k % w, k / w), 0).rgb;
 }
 
-// sum_i c_i y_i(d) for i < (lmax+1)^2, c_i = shbakeCoeff(coeffs, i), d unit.
-// The normalised recurrence of shbake.sh.basis (Q_l^m = Pbar_l^m / sin^m theta):
+// sum_i c_i y_i(d) for i < (lmax+1)^2, d unit, with
+//   c_i = exp(-l(l+1) vmfAlpha / 2) ((1 - t) C_{set0,i} + t C_{set1,i})
+// (vmfAlpha = 0, t = 0: the coefficients as stored; shexp.glsl blends two sets and
+// applies the vMF band factor). The normalised recurrence of shbake.sh.basis
+// (Q_l^m = Pbar_l^m / sin^m theta):
 //   Q_m^m = sqrt((2m+1)/(2m)) Q_{m-1}^{m-1},  Q_0^0 = 1/sqrt(4 pi)
 //   Q_l^m = a_lm (z Q_{l-1}^m - b_lm Q_{l-2}^m),
 //   a_lm = sqrt((4l^2-1)/(l^2-m^2)),  b_lm = sqrt(((l-1)^2-m^2)/(4(l-1)^2-1)),
 // y_l0 = Q_l^0, y_l+-m = sqrt(2) Q_l^m Re/Im (x + i y)^m (no (-1)^m). CPU twin:
 // shbake.sh.basis.evaluate.
-vec3 shbakeSH(highp sampler2D coeffs, int lmax, vec3 d) {
+vec3 shbakeSHBlend(highp sampler2D coeffs, int set0, int set1, float t, float vmfAlpha, int lmax,
+                   vec3 d) {
+  int n = (lmax + 1) * (lmax + 1);
   vec3 sum = vec3(0.0);
   float qmm = 0.28209479177387814;  // 1/sqrt(4 pi)
   float cm = 1.0, sm = 0.0;          // Re, Im (x + i y)^m
@@ -70,14 +78,21 @@ vec3 shbakeSH(highp sampler2D coeffs, int lmax, vec3 d) {
         q2 = q1;
         q1 = q;
       }
+      q *= exp(-float(l * (l + 1)) * vmfAlpha * 0.5);
       int base = l * (l + 1);
       if (m == 0) {
-        sum += q * shbakeCoeff(coeffs, base);
+        sum += q * mix(shbakeCoeff(coeffs, n, set0, base), shbakeCoeff(coeffs, n, set1, base), t);
       } else {
         float s2q = 1.4142135623730951 * q;
-        sum += s2q * cm * shbakeCoeff(coeffs, base + m) + s2q * sm * shbakeCoeff(coeffs, base - m);
+        sum += s2q * cm * mix(shbakeCoeff(coeffs, n, set0, base + m), shbakeCoeff(coeffs, n, set1, base + m), t)
+             + s2q * sm * mix(shbakeCoeff(coeffs, n, set0, base - m), shbakeCoeff(coeffs, n, set1, base - m), t);
       }
     }
   }
   return sum;
+}
+
+// sum_i c_i y_i(d), c_i the coefficients as stored (set 0).
+vec3 shbakeSH(highp sampler2D coeffs, int lmax, vec3 d) {
+  return shbakeSHBlend(coeffs, 0, 0, 0.0, 0.0, lmax, d);
 }

@@ -30,6 +30,10 @@ export const PASSES = {
     grazing: true,
     shade: "return shbakeSplitSum(uLevels, uLevelSize, uLevelAlpha, uLevelCount, uDFG, v, n, uAlpha, uF0);",
   },
+  shexp: {
+    grazing: true,
+    shade: "return shbakeShexp(uP, uLmaxP, uQ, uLmaxQ, uKnots, uKnotCount, uProbe, uDFG, v, n, uAlpha, uF0);",
+  },
 };
 
 const GLSL_TYPE = {

@@ -37,6 +37,8 @@ EXTENSION = ""
 MAX_LIGHTS = 8
 """``SHBAKE_MAX_LIGHTS`` of common.glsl: the sun or up to 8 fitted lights
 (:data:`shbake.bakers.env_lights.MAX_LIGHTS`)."""
+MAX_KNOTS = 8
+"""SH-exp coefficient sets the shader's uniform arrays hold (``probe-fit --sets`` ≤ 8)."""
 MAX_LEVELS = 16
 """Split-sum levels the shader's uniform arrays hold (:data:`shbake.format.splitsum.LEVELS_MAX`)."""
 COEFF_ROW = 256
@@ -45,6 +47,8 @@ VIEWER_FILES = ("shbake_webgl.mjs", "viewer.mjs", "viewer.css")
 SHADERS = {
     "env_sh": ("common.glsl", "irradiance.glsl", "tangent_irradiance.glsl"),
     "splitsum_probe": ("common.glsl", "dfg.glsl", "splitsum.glsl"),
+    "shexp_probe": ("common.glsl", "dfg.glsl", "shexp.glsl"),
+    "shexp_probe_set": ("common.glsl", "dfg.glsl", "shexp.glsl"),
 }
 """The GLSL files of each asset kind, in include order."""
 
@@ -58,13 +62,17 @@ def _rgba(a: np.ndarray) -> np.ndarray:
 
 
 def coefficient_texture(coeffs: np.ndarray) -> np.ndarray:
-    """``(n, 3)`` SH coefficients → ``(rows, min(n, COEFF_ROW), 4)`` texels, zero-padded."""
-    n = coeffs.shape[0]
+    """SH coefficients ``(n, 3)``, or sets of them ``(S, n, 3)``, → texels
+    ``(S·rows, width, 4)``, ``width = min(n, COEFF_ROW)``: each set starts a row
+    (``rows = ⌈n / width⌉`` a set), coefficient ``i`` at ``(i mod width, i div width)`` of its
+    rows, zero-padded (common.glsl, ``shbakeCoeff``)."""
+    sets = np.asarray(coeffs, dtype=np.float64).reshape((-1,) + np.shape(coeffs)[-2:])
+    n = sets.shape[1]
     width = min(n, COEFF_ROW)
     rows = -(-n // width)
-    flat = np.zeros((rows * width, 4), dtype="<f4")
-    flat[:n] = _rgba(coeffs)
-    return flat.reshape(rows, width, 4)
+    flat = np.zeros((sets.shape[0], rows * width, 4), dtype="<f4")
+    flat[:, :n] = _rgba(sets)
+    return flat.reshape(sets.shape[0] * rows, width, 4)
 
 
 def _lights(lights) -> dict:
@@ -132,7 +140,44 @@ def _splitsum(asset, _lights):
     return {"uLevels": layers, "uDFG": _dfg(asset)}, uniforms, ["splitsum"], params
 
 
-KINDS = {"env_sh": _env_sh, "splitsum_probe": _splitsum}
+def _shexp(asset, _lights):
+    """``/p`` and ``/q`` (with their DC row, zero) as coefficient textures, probe ``j``'s set
+    ``k`` in row ``j K + k``; a ``shexp_probe`` is one probe, a set's probe 0 is drawn
+    (``uProbe`` picks another)."""
+    p = np.asarray(asset["/p"], dtype=np.float64)
+    q = np.asarray(asset["/q"], dtype=np.float64)
+    if asset.kind == "shexp_probe":
+        p, q = p[None], q[None]
+    knots = np.asarray(asset["/knots"], dtype=np.float64)
+    q = np.concatenate([np.zeros(q.shape[:2] + (1, 3)), q], axis=2)  # the DC, zero
+    n_probes, k = p.shape[0], p.shape[1]
+    if k > MAX_KNOTS:
+        raise InputError(f"the probe has {k} coefficient sets; the shader holds {MAX_KNOTS}")
+    pad = MAX_KNOTS - k
+    uniforms = {
+        "uLmaxP": {"type": "int", "value": int(round(np.sqrt(p.shape[2]))) - 1},
+        "uLmaxQ": {"type": "int", "value": int(round(np.sqrt(q.shape[2]))) - 1},
+        "uKnots": {"type": "float[]", "length": MAX_KNOTS,
+                   "value": knots.tolist() + [0.0] * pad},
+        "uKnotCount": {"type": "int", "value": k},
+        "uProbe": {"type": "int", "value": 0},
+    }  # fmt: skip
+    textures = {
+        "uP": coefficient_texture(p.reshape(n_probes * k, -1, 3)),
+        "uQ": coefficient_texture(q.reshape(n_probes * k, -1, 3)),
+        "uDFG": _dfg(asset),
+    }
+    params = {"probes": n_probes, "sets": k, "alpha_range": [float(knots[0]), float(knots[-1])]}
+    params.update(lmax_p=uniforms["uLmaxP"]["value"], lmax_q=uniforms["uLmaxQ"]["value"])
+    return textures, uniforms, ["shexp"], params
+
+
+KINDS = {
+    "env_sh": _env_sh,
+    "splitsum_probe": _splitsum,
+    "shexp_probe": _shexp,
+    "shexp_probe_set": _shexp,
+}
 """Asset kind → ``(textures, uniforms, passes, parameters)`` of its export."""
 
 
