@@ -35,12 +35,11 @@ vec4 shbakeBilinear(highp sampler2DArray tex, int layer, int rows, int cols, flo
                      fy, fx);
 }
 
-// Coefficient i of set `set` of a coefficient texture: sets of n = (lmax+1)^2 coefficients,
-// each starting a row (ceil(n / width) rows a set), coefficient j of a set at texel
-// (j mod width, j div width) of its rows; RGB.
+// Coefficient i of set `set` of a coefficient texture: sets of n = (lmax+1)^2 coefficients
+// stored one after the other, element k = set n + i at texel (k mod width, k div width); RGB.
 vec3 shbakeCoeff(highp sampler2D tex, int n, int set, int i) {
   int w = textureSize(tex, 0).x;
-  int k = set * ((n + w - 1) / w) * w + i;
+  int k = set * n + i;
   return texelFetch(tex, ivec2(k % w, k / w), 0).rgb;
 }
 

@@ -11,8 +11,8 @@
 // p(alpha) = sum_k h_k(alpha) p_k: piecewise-linear hats on the knots (alpha clamped to
 // them; at most two sets blend). q has no DC term.
 //
-// p, q: RGBA32F, set k of probe j in row j K + k (K = knotCount), coefficient i at column i
-// (q's column 0, its DC, zero); knots increasing (knotCount in [1, 8]).
+// p, q: RGBA32F coefficient textures (common.glsl, shbakeCoeff): set k of probe j is set
+// j K + k (K = knotCount); q's coefficient 0, its DC, is zero; knots increasing (K in [1, 8]).
 
 // The two sets around alpha and the blend between them: shbake.shading.shexp.hat_weight.
 void shbakeHat(float knots[8], int knotCount, float alpha, out int k0, out int k1, out float t) {

@@ -41,8 +41,9 @@ MAX_KNOTS = 8
 """SH-exp coefficient sets the shader's uniform arrays hold (``probe-fit --sets`` ≤ 8)."""
 MAX_LEVELS = 16
 """Split-sum levels the shader's uniform arrays hold (:data:`shbake.format.splitsum.LEVELS_MAX`)."""
-COEFF_ROW = 256
-"""SH coefficients per row of a coefficient texture (texel ``i`` at ``(i mod 256, i div 256)``)."""
+COEFF_ROW = 1024
+"""Texels per row of a coefficient texture (element ``k`` at ``(k mod 1024, k div 1024)``):
+lmax 128 irradiance takes 17 rows, well inside WebGL2's 2048-texel minimum."""
 VIEWER_FILES = ("shbake_webgl.mjs", "viewer.mjs", "viewer.css")
 SHADERS = {
     "env_sh": ("common.glsl", "irradiance.glsl", "tangent_irradiance.glsl"),
@@ -63,16 +64,15 @@ def _rgba(a: np.ndarray) -> np.ndarray:
 
 def coefficient_texture(coeffs: np.ndarray) -> np.ndarray:
     """SH coefficients ``(n, 3)``, or sets of them ``(S, n, 3)``, → texels
-    ``(S·rows, width, 4)``, ``width = min(n, COEFF_ROW)``: each set starts a row
-    (``rows = ⌈n / width⌉`` a set), coefficient ``i`` at ``(i mod width, i div width)`` of its
-    rows, zero-padded (common.glsl, ``shbakeCoeff``)."""
-    sets = np.asarray(coeffs, dtype=np.float64).reshape((-1,) + np.shape(coeffs)[-2:])
-    n = sets.shape[1]
-    width = min(n, COEFF_ROW)
-    rows = -(-n // width)
-    flat = np.zeros((sets.shape[0], rows * width, 4), dtype="<f4")
-    flat[:, :n] = _rgba(sets)
-    return flat.reshape(sets.shape[0] * rows, width, 4)
+    ``(rows, width, 4)``: the sets one after the other, element ``k = s·n + i``
+    (coefficient ``i`` of set ``s``) at ``(k mod width, k div width)``,
+    ``width = min(S·n, COEFF_ROW)``, zero-padded (common.glsl, ``shbakeCoeff``)."""
+    flat = np.asarray(coeffs, dtype=np.float64).reshape(-1, np.shape(coeffs)[-1])
+    width = min(flat.shape[0], COEFF_ROW)
+    rows = -(-flat.shape[0] // width)
+    out = np.zeros((rows * width, 4), dtype="<f4")
+    out[: flat.shape[0]] = _rgba(flat)
+    return out.reshape(rows, width, 4)
 
 
 def _lights(lights) -> dict:
@@ -141,9 +141,9 @@ def _splitsum(asset, _lights):
 
 
 def _shexp(asset, _lights):
-    """``/p`` and ``/q`` (with their DC row, zero) as coefficient textures, probe ``j``'s set
-    ``k`` in row ``j K + k``; a ``shexp_probe`` is one probe, a set's probe 0 is drawn
-    (``uProbe`` picks another)."""
+    """``/p`` and ``/q`` (with their DC coefficient, zero) as coefficient textures, probe
+    ``j``'s set ``k`` the texture's set ``j K + k``; a ``shexp_probe`` is one probe, a set's
+    probe 0 is drawn (``uProbe`` picks another)."""
     p = np.asarray(asset["/p"], dtype=np.float64)
     q = np.asarray(asset["/q"], dtype=np.float64)
     if asset.kind == "shexp_probe":
