@@ -146,6 +146,14 @@ def test_glsl_constants_are_shbakes():
     assert const("SHBAKE_PI") == pytest.approx(np.pi, rel=1e-14)
 
 
+def test_docs_snippet_is_the_loader():
+    """docs/SHADERS.md's "use it in your engine" block is the loader's text, verbatim."""
+    loader = (SHADERS / "shbake_webgl.mjs").read_text()
+    m = re.search(r"// BEGIN snippet webgl\n(.*?)// END snippet webgl", loader, re.S)
+    assert m and 15 <= m.group(1).count("\n") <= 25
+    assert "```js\n" + m.group(1) + "```" in (ROOT / "docs" / "SHADERS.md").read_text()
+
+
 class TestRenderedEqualsPreview:
     def test_env_sh_passes(self, engine_browser, exported):
         got = render(engine_browser, exported["env_dir"], ENV_JOBS)
