@@ -27,6 +27,7 @@ from helpers import ROOT, SHARED_MAPS, map_path
 
 from shbake.bakers.env_sh import bake_env_sh
 from shbake.bakers.shexp import FitConfig
+from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
 from shbake.bakers.splitsum import SplitSumConfig
 from shbake.batch.export import export_assets
 from shbake.batch.probe_eval import bake_splitsum_file
@@ -34,8 +35,10 @@ from shbake.batch.probe_fit import fit_probes
 from shbake.conventions import DFG_MU_MIN, ROUGHNESS_MIN
 from shbake.envmap import load_environment
 from shbake.format.asset import read_asset, write_asset
+from shbake.format.shrm import build_shrm_asset, shrm_from_asset
 from shbake.preview.glossy import render_glossy
 from shbake.preview.passes import render_pass
+from shbake.preview.shrm import render_shrm
 from shbake.preview.sphere import sphere_geometry
 from shbake.sh.basis import real_sh
 from shbake.shading.env_sh import irradiance
@@ -56,6 +59,12 @@ SPLIT = SplitSumConfig(top=32, min_size=8, alphas=(0.0625, 0.25, 0.5, 1.0), samp
 """A small split-sum chain over α = r² for r 0.25 … 1 (its values do not matter here)."""
 FIT = FitConfig(normals=16, views=8, alpha_count=4, alpha_min=0.0625, polish=0, samples=64)
 """A quick SH-exp fit (two sets, lmax 5 and 2) over the same range."""
+SHRMS = {
+    "surface": ("ggx", {"alpha": 0.3, "F0": 1.0}, {"F": 6, "P": 2, "face_size": 16}),
+    "lobe": ("phong-lobe", {"s": 32.0}, {"F": 10, "P": 0, "face_size": 16}),
+    "tangent": ("kajiya-kay", {}, {"F": 8, "P": 4, "face_size": 8}),
+}
+"""One SHRM per kind (RH02 §7.5): GGX (P 2), a Phong lobe, Kajiya–Kay hair; small bakes."""
 SHADERS = ROOT / "shbake" / "shaders"
 
 
@@ -73,8 +82,8 @@ def relative_rms(got: np.ndarray, want: np.ndarray) -> float:
 
 @pytest.fixture(scope="module", params=_maps())
 def exported(request, tmp_path_factory):
-    """A map's env_sh asset (lmax 4, sun extracted), split-sum and SH-exp probes, each
-    exported."""
+    """A map's env_sh asset (lmax 4, sun extracted), split-sum and SH-exp probes and
+    :data:`SHRMS`, each exported."""
     name = request.param
     d = tmp_path_factory.mktemp(f"webgl-{name}")
     env = load_environment(str(map_path(name)), quiet=True)
@@ -85,7 +94,11 @@ def exported(request, tmp_path_factory):
     bake_splitsum_file(str(map_path(name)), split_h5, SPLIT)
     fit_probes([str(map_path(name))], out_dir=str(d), config=FIT)  # d/NAME.h5
     out = {"name": name, "env": env_h5, "splitsum": split_h5, "shexp": str(d / f"{name}.h5")}
-    for key in ("env", "splitsum", "shexp"):
+    for kind, (model, params, orders) in SHRMS.items():
+        out[f"shrm-{kind}"] = str(d / f"{name}-shrm-{kind}.h5")
+        bake = bake_shrm(env, make_reflection_brdf(model, params), **orders)
+        write_asset(out[f"shrm-{kind}"], build_shrm_asset(bake, env.meta))
+    for key in ("env", "splitsum", "shexp", *(f"shrm-{k}" for k in SHRMS)):
         export_assets([out[key]], "webgl", str(d / f"{key}-webgl"))
         out[key + "_dir"] = str(d / f"{key}-webgl")
     return out
@@ -167,6 +180,16 @@ class TestRenderedEqualsPreview:
         want = glossy_previews(exported[pass_name], pass_name)
         errors = {k: relative_rms(got[k], want[k]) for k in want}
         assert max(errors.values()) <= FLOAT_TOL, errors
+
+    @pytest.mark.parametrize("kind", sorted(SHRMS))
+    def test_shrm_pass(self, engine_browser, exported, kind):
+        """Surface kinds: where a mirror direction ties two cube faces exactly (the preview
+        sphere's diagonal pixels), float32 and float64 may pick different faces, and the
+        seam-correct fetch agrees across an edge to second order only (texture/cube.py):
+        1.3e-5 (GGX) and 1.6e-4 (Phong lobe, s 32) relative RMS at face 16 on forest."""
+        got = render(engine_browser, exported[f"shrm-{kind}_dir"], [{"name": "s", "pass": "shrm"}])
+        want = render_shrm(shrm_from_asset(read_asset(exported[f"shrm-{kind}"])), SIZE, 1)[0]
+        assert relative_rms(got["s"], want) <= FLOAT_TOL
 
 
 def copy_export(folder: str, dest) -> str:
@@ -274,7 +297,7 @@ def test_viewer_opens_and_draws(engine_browser, exported, tmp_path):
     software, reading it back (the viewer itself never reads pixels)."""
     import OpenImageIO as oiio
 
-    for key in ("env_dir", "splitsum_dir", "shexp_dir"):
+    for key in ("env_dir", "splitsum_dir", "shexp_dir", "shrm-surface_dir"):
         result = engine_browser.screenshot(os.path.join(exported[key], "index.html"), "canvas")
         own = [c for c in result["console"] if "GPU stall due to ReadPixels" not in c]
         assert result["state"] == "ready" and own == [], result["console"]

@@ -30,6 +30,10 @@ export const PASSES = {
     grazing: true,
     shade: "return shbakeSplitSum(uLevels, uLevelSize, uLevelAlpha, uLevelCount, uDFG, v, n, uAlpha, uF0);",
   },
+  shrm: {
+    shade: "return shbakeShrm(uShrm, uShrmP, uShrmTangent == 1, uCubeFaces, uShrmSize, "
+      + "uShrmTangent == 1 ? t : 2.0 * dot(n, v) * n - v, v);",
+  },
   shexp: {
     grazing: true,
     shade: "return shbakeShexp(uP, uLmaxP, uQ, uLmaxQ, uKnots, uKnotCount, uProbe, uDFG, v, n, uAlpha, uF0);",
@@ -38,7 +42,7 @@ export const PASSES = {
 
 const GLSL_TYPE = {
   int: "int", float: "float", vec3: "vec3", "int[]": "int", "float[]": "float", "vec3[]": "vec3",
-  "mat4[]": "mat4",
+  "mat3[]": "mat3", "mat4[]": "mat4",
 };
 
 function declarations(manifest) {
@@ -135,6 +139,7 @@ function setUniform(gl, loc, u) {
   if (u.type === "int" || u.type === "int[]") gl.uniform1iv(loc, [].concat(v));
   else if (u.type === "float" || u.type === "float[]") gl.uniform1fv(loc, [].concat(v));
   else if (u.type === "vec3" || u.type === "vec3[]") gl.uniform3fv(loc, v.flat());
+  else if (u.type === "mat3[]") gl.uniformMatrix3fv(loc, false, v.flat(2));
   else if (u.type === "mat4[]") gl.uniformMatrix4fv(loc, false, v.flat(2));
 }
 

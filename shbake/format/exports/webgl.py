@@ -22,6 +22,7 @@ autoescaped ``<title>``; the manifest's strings reach the page as text nodes
 """
 
 import json
+import math
 import os
 from importlib import resources
 
@@ -50,6 +51,7 @@ SHADERS = {
     "splitsum_probe": ("common.glsl", "dfg.glsl", "splitsum.glsl"),
     "shexp_probe": ("common.glsl", "dfg.glsl", "shexp.glsl"),
     "shexp_probe_set": ("common.glsl", "dfg.glsl", "shexp.glsl"),
+    "shrm": ("common.glsl", "shrm.glsl"),
 }
 """The GLSL files of each asset kind, in include order."""
 
@@ -66,9 +68,10 @@ def coefficient_texture(coeffs: np.ndarray) -> np.ndarray:
     """SH coefficients ``(n, 3)``, or sets of them ``(S, n, 3)``, → texels
     ``(rows, width, 4)``: the sets one after the other, element ``k = s·n + i``
     (coefficient ``i`` of set ``s``) at ``(k mod width, k div width)``,
-    ``width = min(S·n, COEFF_ROW)``, zero-padded (common.glsl, ``shbakeCoeff``)."""
+    ``width = min(S·n, max(COEFF_ROW, ⌈√(S·n)⌉))`` (square when large), zero-padded
+    (common.glsl, ``shbakeCoeff``)."""
     flat = np.asarray(coeffs, dtype=np.float64).reshape(-1, np.shape(coeffs)[-1])
-    width = min(flat.shape[0], COEFF_ROW)
+    width = min(flat.shape[0], max(COEFF_ROW, math.isqrt(flat.shape[0] - 1) + 1))
     rows = -(-flat.shape[0] // width)
     out = np.zeros((rows * width, 4), dtype="<f4")
     out[: flat.shape[0]] = _rgba(flat)
@@ -172,11 +175,42 @@ def _shexp(asset, _lights):
     return textures, uniforms, ["shexp"], params
 
 
+def _shrm(asset, _lights):
+    """``/shrm`` ``(6, S, S, n, 3)`` as a coefficient texture, texel ``(f, i, j)`` the set
+    ``(f S + i) S + j``; the tangent kind's ``B_p0`` at index ``p(p+1)`` of a full set."""
+    from shbake.conventions import CUBE_FACES
+
+    cube = np.asarray(asset["/shrm"], dtype=np.float64)
+    size, n = cube.shape[1], cube.shape[3]
+    tangent = asset.attrs["brdf_kind"] == "tangent"
+    P = n - 1 if tangent else int(round(np.sqrt(n))) - 1
+    if tangent:
+        full = np.zeros(cube.shape[:3] + ((P + 1) ** 2, 3))
+        full[..., [p * (p + 1) for p in range(P + 1)], :] = cube
+        cube = full
+    faces = [np.asarray(a, dtype=np.float64).T.tolist() for _, a in CUBE_FACES]  # columns of A
+    uniforms = {
+        "uShrmP": {"type": "int", "value": P},
+        "uShrmSize": {"type": "int", "value": size},
+        "uShrmTangent": {"type": "int", "value": int(tangent)},
+        "uCubeFaces": {"type": "mat3[]", "length": 6, "value": faces},
+    }
+    params = {"brdf": str(asset.attrs["brdf_model"]), "brdf_kind": str(asset.attrs["brdf_kind"]),
+              "P": P, "face_size": size}  # fmt: skip
+    return (
+        {"uShrm": coefficient_texture(cube.reshape(-1, cube.shape[3], 3))},
+        uniforms,
+        ["shrm"],
+        params,
+    )
+
+
 KINDS = {
     "env_sh": _env_sh,
     "splitsum_probe": _splitsum,
     "shexp_probe": _shexp,
     "shexp_probe_set": _shexp,
+    "shrm": _shrm,
 }
 """Asset kind → ``(textures, uniforms, passes, parameters)`` of its export."""
 
