@@ -29,14 +29,17 @@ from shbake.bakers.env_sh import bake_env_sh
 from shbake.bakers.shexp import FitConfig
 from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
 from shbake.bakers.splitsum import SplitSumConfig
+from shbake.batch.brdf_table import bake_brdf_table
 from shbake.batch.export import export_assets
 from shbake.batch.probe_eval import bake_splitsum_file
 from shbake.batch.probe_fit import fit_probes
 from shbake.conventions import DFG_MU_MIN, ROUGHNESS_MIN
 from shbake.envmap import load_environment
 from shbake.format.asset import read_asset, write_asset
+from shbake.format.kautz_table import table_at
 from shbake.format.shrm import build_shrm_asset, shrm_from_asset
 from shbake.preview.glossy import render_glossy
+from shbake.preview.kautz_table import render_kautz
 from shbake.preview.passes import render_pass
 from shbake.preview.shrm import render_shrm
 from shbake.preview.sphere import sphere_geometry
@@ -65,6 +68,9 @@ SHRMS = {
     "tangent": ("kajiya-kay", {}, {"F": 8, "P": 4, "face_size": 8}),
 }
 """One SHRM per kind (RH02 §7.5): GGX (P 2), a Phong lobe, Kajiya–Kay hair; small bakes."""
+TABLES = {"ashikhmin-shirley": {"nu": 40.0, "nv": 4.0}, "phong": {}}
+"""Kautz tables (lmax 4, 16² views, 64 samples): anisotropic Ashikhmin–Shirley (brushed
+along the preview's meridians) and an analytic, MERL-free Phong."""
 SHADERS = ROOT / "shbake" / "shaders"
 
 
@@ -83,7 +89,7 @@ def relative_rms(got: np.ndarray, want: np.ndarray) -> float:
 @pytest.fixture(scope="module", params=_maps())
 def exported(request, tmp_path_factory):
     """A map's env_sh asset (lmax 4, sun extracted), split-sum and SH-exp probes and
-    :data:`SHRMS`, each exported."""
+    :data:`SHRMS`, each exported; the :data:`TABLES` exported with the env_sh lighting."""
     name = request.param
     d = tmp_path_factory.mktemp(f"webgl-{name}")
     env = load_environment(str(map_path(name)), quiet=True)
@@ -98,8 +104,15 @@ def exported(request, tmp_path_factory):
         out[f"shrm-{kind}"] = str(d / f"{name}-shrm-{kind}.h5")
         bake = bake_shrm(env, make_reflection_brdf(model, params), **orders)
         write_asset(out[f"shrm-{kind}"], build_shrm_asset(bake, env.meta))
+    for model, params in TABLES.items():
+        out[f"kautz-{model}"] = str(d / f"{model}.h5")
+        bake_brdf_table(model, out[f"kautz-{model}"], params, lmax=4, size=(16, 16), samples=64)
     for key in ("env", "splitsum", "shexp", *(f"shrm-{k}" for k in SHRMS)):
         export_assets([out[key]], "webgl", str(d / f"{key}-webgl"))
+        out[key + "_dir"] = str(d / f"{key}-webgl")
+    for model in TABLES:
+        key = f"kautz-{model}"
+        export_assets([out[key]], "webgl", str(d / f"{key}-webgl"), env_path=env_h5)
         out[key + "_dir"] = str(d / f"{key}-webgl")
     return out
 
@@ -190,6 +203,13 @@ class TestRenderedEqualsPreview:
         got = render(engine_browser, exported[f"shrm-{kind}_dir"], [{"name": "s", "pass": "shrm"}])
         want = render_shrm(shrm_from_asset(read_asset(exported[f"shrm-{kind}"])), SIZE, 1)[0]
         assert relative_rms(got["s"], want) <= FLOAT_TOL
+
+    @pytest.mark.parametrize("model", sorted(TABLES))
+    def test_kautz_pass(self, engine_browser, exported, model):
+        key = f"kautz-{model}"
+        got = render(engine_browser, exported[key + "_dir"], [{"name": "k", "pass": "kautz"}])
+        want = render_kautz(read_asset(exported["env"]), table_at(read_asset(exported[key])), SIZE)
+        assert relative_rms(got["k"], want[0]) <= FLOAT_TOL
 
 
 def copy_export(folder: str, dest) -> str:
@@ -343,10 +363,12 @@ class TestExportCommand:
         assert code == 1 and err.count("shbake: error:") == 1 and named in err, err
         assert not (tmp_path / "out").exists()
 
-    def test_kind_without_shader_refused(self, run_cli, small, tmp_path):
-        code, _, err = run_cli("export", small["brdf_table"], "--to", "webgl", "-o",
-                               tmp_path / "out")  # fmt: skip
-        assert code == 1 and err.count("shbake: error:") == 1, err
+    @pytest.mark.parametrize("which", ["table without --env", "--env without a table"])
+    def test_env_only_with_a_table(self, run_cli, small, tmp_path, which):
+        table, env = small["brdf_table"], small["env_sh"]
+        args = [table] if which.startswith("table") else [env, "--env", env]
+        code, _, err = run_cli("export", *args, "--to", "webgl", "-o", tmp_path / "out")
+        assert code == 1 and err.count("shbake: error:") == 1 and "--env" in err, err
         assert not (tmp_path / "out").exists()
 
     def test_asset_name_is_text_in_the_page(self, run_cli, small, tmp_path):

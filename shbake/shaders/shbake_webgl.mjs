@@ -34,6 +34,10 @@ export const PASSES = {
     shade: "return shbakeShrm(uShrm, uShrmP, uShrmTangent == 1, uCubeFaces, uShrmSize, "
       + "uShrmTangent == 1 ? t : 2.0 * dot(n, v) * n - v, v);",
   },
+  kautz: {
+    shade: "return shbakeKautz(uKautzTable, uKautzH, uKautzW, uKautzL, uKautzLmax, "
+      + "transpose(mat3(t, cross(n, t), n)), v);",
+  },
   shexp: {
     grazing: true,
     shade: "return shbakeShexp(uP, uLmaxP, uQ, uLmaxQ, uKnots, uKnotCount, uProbe, uDFG, v, n, uAlpha, uF0);",

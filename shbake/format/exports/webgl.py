@@ -40,6 +40,8 @@ MAX_LIGHTS = 8
 (:data:`shbake.bakers.env_lights.MAX_LIGHTS`)."""
 MAX_KNOTS = 8
 """SH-exp coefficient sets the shader's uniform arrays hold (``probe-fit --sets`` ≤ 8)."""
+KAUTZ_LMAX = 8
+"""Largest table lmax of kautz.glsl (``SHBAKE_KAUTZ_LMAX``: its per-pixel rotation blocks)."""
 MAX_LEVELS = 16
 """Split-sum levels the shader's uniform arrays hold (:data:`shbake.format.splitsum.LEVELS_MAX`)."""
 COEFF_ROW = 1024
@@ -52,6 +54,7 @@ SHADERS = {
     "shexp_probe": ("common.glsl", "dfg.glsl", "shexp.glsl"),
     "shexp_probe_set": ("common.glsl", "dfg.glsl", "shexp.glsl"),
     "shrm": ("common.glsl", "shrm.glsl"),
+    "brdf_table": ("common.glsl", "kautz.glsl"),
 }
 """The GLSL files of each asset kind, in include order."""
 
@@ -91,6 +94,7 @@ def _lights(lights) -> dict:
 
 
 def _env_sh(asset, lights):
+    """``context``: the asset's lights (:func:`shbake.shading.env_sh.lights_of`)."""
     textures, uniforms, passes = {}, _lights(lights), []
     for key, tex, lmax_name, passname in (
         ("/irradiance/sh", "uIrradiance", "uIrradianceLmax", "irradiance"),
@@ -205,12 +209,35 @@ def _shrm(asset, _lights):
     )
 
 
+def _kautz(asset, context):
+    """``context``: ``(BRDFTable, L)``: the table's parameter point
+    (:func:`shbake.format.kautz_table.table_at`) and the world lighting that shades it,
+    ``((lmax+1)², 3)`` (:func:`shbake.shading.kautz_table.lighting_with_sun`)."""
+    table, lighting = context
+    h, w, n = table.coeffs.shape[:3]
+    if table.lmax > KAUTZ_LMAX:
+        raise InputError(f"the table has lmax {table.lmax}; the kautz shader holds {KAUTZ_LMAX}")
+    uniforms = {
+        "uKautzLmax": {"type": "int", "value": table.lmax},
+        "uKautzH": {"type": "int", "value": h},
+        "uKautzW": {"type": "int", "value": w},
+    }
+    textures = {
+        "uKautzTable": coefficient_texture(table.coeffs.reshape(h * w, n, 3)),
+        "uKautzL": coefficient_texture(lighting),
+    }
+    params = {"brdf": table.model, "brdf_parameters": table.params, "lmax": table.lmax,
+              "table": [h, w]}  # fmt: skip
+    return textures, uniforms, ["kautz"], params
+
+
 KINDS = {
     "env_sh": _env_sh,
     "splitsum_probe": _splitsum,
     "shexp_probe": _shexp,
     "shexp_probe_set": _shexp,
     "shrm": _shrm,
+    "brdf_table": _kautz,
 }
 """Asset kind → ``(textures, uniforms, passes, parameters)`` of its export."""
 
@@ -243,12 +270,13 @@ def viewer_page(title: str) -> str:
     return env.get_template("viewer.html").render(title=title)
 
 
-def write_export(asset, name: str, out: str, lights=None) -> list[str]:
+def write_export(asset, name: str, out: str, context=None) -> list[str]:
     """Export ``asset`` (a kind of :data:`KINDS`, read from the file ``name``) into the
-    folder ``out``; the files written. ``lights``: ``(directions (K, 3), E (K, 3))`` of an
-    ``env_sh`` asset (:func:`shbake.shading.env_sh.lights_of`)."""
+    folder ``out``; the files written. ``context``: what the kind's pass reads from
+    elsewhere — an ``env_sh`` asset's lights ``(directions (K, 3), E (K, 3))``
+    (:func:`shbake.shading.env_sh.lights_of`), a ``brdf_table``'s ``(BRDFTable, L)``."""
     try:
-        textures, uniforms, passes, params = KINDS[asset.kind](asset, lights)
+        textures, uniforms, passes, params = KINDS[asset.kind](asset, context)
     except InputError as e:
         raise InputError(f"{name}: {e}") from None
     manifest = {
