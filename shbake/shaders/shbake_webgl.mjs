@@ -16,6 +16,9 @@ precision highp sampler2DArray;
 // toward the viewer, longitude-line tangent) and whether grazing pixels (n.v <= 1e-3) are
 // left black, as the preview's glossy passes do (shbake.preview.glossy).
 const LIGHTS = "uLightDir, uLightE, uLightCount";
+const KAUTZ = "uKautzTable, uKautzH, uKautzW, uKautzL, uKautzLmax";
+const FRAME = "transpose(mat3(t, cross(n, t), n))";  // world -> local: rows t, b = n x t, n
+const PIXEL = "ivec2(gl_FragCoord.xy - uViewport.xy)";
 export const PASSES = {
   irradiance: {
     shade: `return shbakeIrradiance(uIrradiance, uIrradianceLmax, n, ${LIGHTS}) / SHBAKE_PI;`,
@@ -34,9 +37,17 @@ export const PASSES = {
     shade: "return shbakeShrm(uShrm, uShrmP, uShrmTangent == 1, uCubeFaces, uShrmSize, "
       + "uShrmTangent == 1 ? t : 2.0 * dot(n, v) * n - v, v);",
   },
-  kautz: {
-    shade: "return shbakeKautz(uKautzTable, uKautzH, uKautzW, uKautzL, uKautzLmax, "
-      + "transpose(mat3(t, cross(n, t), n)), v);",
+  kautz: { shade: `return shbakeKautz(${KAUTZ}, ${FRAME}, v);` },
+  // The fixed modes: `prepare` writes coefficient uCoeff of the stored per-pixel vector into
+  // layer uCoeff of uStore (once while the light, or the view, stays fixed); `shade` is the
+  // per-frame work.
+  "kautz-fixed-light": {
+    prepare: `return shbakeKautzStored(${KAUTZ}, ${FRAME}, v, uCoeff, false);`,
+    shade: `return shbakeKautzFixedLight(uKautzTable, uKautzH, uKautzW, uKautzLmax, uStore, ${PIXEL}, ${FRAME}, v);`,
+  },
+  "kautz-fixed-view": {
+    prepare: `return shbakeKautzStored(${KAUTZ}, ${FRAME}, v, uCoeff, true);`,
+    shade: `return shbakeKautzFixedView(uKautzL, uKautzLmax, uStore, ${PIXEL});`,
   },
   shexp: {
     grazing: true,
@@ -60,8 +71,9 @@ function declarations(manifest) {
   return out.join("\n");
 }
 
-/** The fragment shader of `pass`: header, the asset's uniforms, the GLSL files, the pass. */
-export function fragmentSource(asset, pass) {
+/** The fragment shader of `pass` (`stage` "prepare": its stored coefficients): header, the
+ * asset's uniforms, the GLSL files, the pass. */
+export function fragmentSource(asset, pass, stage = "shade") {
   const p = PASSES[pass];
   return `${HEADER}
 uniform mat3 uCamera;    // world <- camera: columns right, up, toward the viewer
@@ -70,10 +82,12 @@ uniform float uAlpha;    // GGX width
 uniform vec3 uF0;        // Schlick reflectance
 uniform float uExposure;
 uniform int uDisplay;    // 0: linear radiance out; 1: exposure, tone map, sRGB-like gamma
+uniform int uCoeff;      // the coefficient a "prepare" stage writes
+uniform highp sampler2DArray uStore;  // what it wrote, layer i = coefficient i
 out vec4 fragColor;
 ${declarations(asset.manifest)}
 ${asset.sources.join("\n")}
-vec3 shade(vec3 n, vec3 v, vec3 t) { ${p.shade} }
+vec3 shade(vec3 n, vec3 v, vec3 t) { ${stage === "prepare" ? p.prepare : p.shade} }
 void main() {
   vec2 p = 2.0 * (gl_FragCoord.xy - uViewport.xy) / uViewport.z - 1.0;
   float r2 = dot(p, p);
@@ -83,7 +97,7 @@ void main() {
   vec3 t = vec3(0.0, 1.0, 0.0) - n.y * n;  // +Y projected on the tangent plane
   t = length(t) > 1e-12 ? normalize(t) : vec3(1.0, 0.0, 0.0);
   vec3 c = shade(n, v, t);
-  fragColor = uDisplay == 1 ? vec4(pow(vec3(1.0) - exp(-uExposure * c), vec3(1.0 / 2.2)), 1.0)
+  fragColor = uDisplay == 1 && ${stage !== "prepare"} ? vec4(pow(vec3(1.0) - exp(-uExposure * c), vec3(1.0 / 2.2)), 1.0)
                             : vec4(c, 1.0);
 }
 `;
@@ -114,7 +128,7 @@ export async function loadShbake(gl, base) {
     textures[name] = { target, tex };
   }
   const sources = await Promise.all(manifest.shaders.map(async (f) => (await get(f)).text()));
-  return { manifest, textures, sources, programs: {} };
+  return { manifest, textures, sources, programs: {}, stores: {} };
 }
 // END snippet webgl
 
@@ -126,15 +140,53 @@ function compile(gl, type, source) {
   return s;
 }
 
-function program(gl, asset, pass) {
-  if (asset.programs[pass]) return asset.programs[pass];
+function program(gl, asset, pass, stage) {
+  const key = `${pass}/${stage}`;
+  if (asset.programs[key]) return asset.programs[key];
   const prog = gl.createProgram();
   gl.attachShader(prog, compile(gl, gl.VERTEX_SHADER, VERTEX));
-  gl.attachShader(prog, compile(gl, gl.FRAGMENT_SHADER, fragmentSource(asset, pass)));
+  gl.attachShader(prog, compile(gl, gl.FRAGMENT_SHADER, fragmentSource(asset, pass, stage)));
   gl.linkProgram(prog);
   if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
-  asset.programs[pass] = prog;
+  asset.programs[key] = prog;
   return prog;
+}
+
+// The per-pixel store of a pass with a "prepare" stage: an RGBA32F array texture, one layer
+// per SH coefficient of the table (kautz fixed modes), size x size pixels.
+function store(gl, asset, pass, size) {
+  const layers = (asset.manifest.uniforms.uKautzLmax.value + 1) ** 2;
+  const old = asset.stores[pass];
+  if (old && old.size === size) return old;
+  if (!gl.getExtension("EXT_color_buffer_float")) throw new Error("no float render target");
+  const tex = gl.createTexture();
+  gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
+  gl.texStorage3D(gl.TEXTURE_2D_ARRAY, 1, gl.RGBA32F, size, size, layers);
+  for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) {
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, p, gl.NEAREST);  // float32: complete only unfiltered
+  }
+  asset.stores[pass] = { tex, size, layers, fb: gl.createFramebuffer() };
+  return asset.stores[pass];
+}
+
+function bindInputs(gl, asset, prog, settings) {
+  let unit = 0;
+  for (const [name, t] of Object.entries(asset.textures)) {
+    gl.activeTexture(gl.TEXTURE0 + unit);
+    gl.bindTexture(t.target, t.tex);
+    gl.uniform1i(gl.getUniformLocation(prog, name), unit++);
+  }
+  for (const [name, u] of Object.entries(asset.manifest.uniforms)) {
+    setUniform(gl, gl.getUniformLocation(prog, name), u);
+  }
+  const { viewport, camera, alpha, f0, display, exposure } = settings;
+  gl.uniformMatrix3fv(gl.getUniformLocation(prog, "uCamera"), false, camera);
+  gl.uniform4f(gl.getUniformLocation(prog, "uViewport"), viewport[0], viewport[1], viewport[2], 0);
+  gl.uniform1f(gl.getUniformLocation(prog, "uAlpha"), alpha);
+  gl.uniform3fv(gl.getUniformLocation(prog, "uF0"), f0);
+  gl.uniform1f(gl.getUniformLocation(prog, "uExposure"), exposure);
+  gl.uniform1i(gl.getUniformLocation(prog, "uDisplay"), display ? 1 : 0);
+  return unit;
 }
 
 function setUniform(gl, loc, u) {
@@ -151,26 +203,39 @@ function setUniform(gl, loc, u) {
  * Draw `pass` into the bound framebuffer's square `viewport` [x, y, size]: `camera` a
  * column-major world <- camera rotation (9 numbers; identity: the preview's view from +Z),
  * `alpha` the GGX width, `f0` Schlick reflectance (RGB), `display` tone-maps for a screen.
+ * A pass with a "prepare" stage (kautz fixed light / fixed view) first fills its per-pixel
+ * store, unless `reuse` (the light, or the view, has not changed since).
  */
 export function drawPass(gl, asset, pass, { viewport, camera, alpha = 0.25, f0 = [1, 1, 1],
-                                            display = false, exposure = 1.0 }) {
-  const prog = program(gl, asset, pass);
+                                            display = false, exposure = 1.0, reuse = false }) {
+  const settings = { viewport, camera, alpha, f0, display, exposure };
+  let stored = null;
+  if (PASSES[pass].prepare) {
+    stored = store(gl, asset, pass, viewport[2]);
+    if (!reuse) {
+      const target = gl.getParameter(gl.FRAMEBUFFER_BINDING);
+      const prog = program(gl, asset, pass, "prepare");
+      gl.useProgram(prog);
+      bindInputs(gl, asset, prog, { ...settings, viewport: [0, 0, viewport[2]], display: false });
+      gl.bindFramebuffer(gl.FRAMEBUFFER, stored.fb);
+      gl.viewport(0, 0, stored.size, stored.size);
+      for (let i = 0; i < stored.layers; i++) {
+        gl.framebufferTextureLayer(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, stored.tex, 0, i);
+        gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
+        gl.uniform1i(gl.getUniformLocation(prog, "uCoeff"), i);
+        gl.drawArrays(gl.TRIANGLES, 0, 3);
+      }
+      gl.bindFramebuffer(gl.FRAMEBUFFER, target);
+    }
+  }
+  const prog = program(gl, asset, pass, "shade");
   gl.useProgram(prog);
-  let unit = 0;
-  for (const [name, t] of Object.entries(asset.textures)) {
+  const unit = bindInputs(gl, asset, prog, settings);
+  if (stored) {
     gl.activeTexture(gl.TEXTURE0 + unit);
-    gl.bindTexture(t.target, t.tex);
-    gl.uniform1i(gl.getUniformLocation(prog, name), unit++);
+    gl.bindTexture(gl.TEXTURE_2D_ARRAY, stored.tex);
+    gl.uniform1i(gl.getUniformLocation(prog, "uStore"), unit);
   }
-  for (const [name, u] of Object.entries(asset.manifest.uniforms)) {
-    setUniform(gl, gl.getUniformLocation(prog, name), u);
-  }
-  gl.uniformMatrix3fv(gl.getUniformLocation(prog, "uCamera"), false, camera);
-  gl.uniform4f(gl.getUniformLocation(prog, "uViewport"), viewport[0], viewport[1], viewport[2], 0);
-  gl.uniform1f(gl.getUniformLocation(prog, "uAlpha"), alpha);
-  gl.uniform3fv(gl.getUniformLocation(prog, "uF0"), f0);
-  gl.uniform1f(gl.getUniformLocation(prog, "uExposure"), exposure);
-  gl.uniform1i(gl.getUniformLocation(prog, "uDisplay"), display ? 1 : 0);
   gl.viewport(viewport[0], viewport[1], viewport[2], viewport[2]);
   gl.drawArrays(gl.TRIANGLES, 0, 3);
 }

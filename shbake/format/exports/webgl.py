@@ -228,7 +228,7 @@ def _kautz(asset, context):
     }
     params = {"brdf": table.model, "brdf_parameters": table.params, "lmax": table.lmax,
               "table": [h, w]}  # fmt: skip
-    return textures, uniforms, ["kautz"], params
+    return textures, uniforms, ["kautz", "kautz-fixed-light", "kautz-fixed-view"], params
 
 
 KINDS = {
