@@ -14,8 +14,7 @@ also takes perceptual ``r``, ``α = r²``) and Schlick reflectance ``F0``
 - ``reference``: the ground truth ``F0 E0 + (1 − F0) E1`` integrated over the
   original map (:func:`shbake.reference.ggx.ggx_integrals`).
 
-The probe passes read nothing but the asset's arrays. Their GLSL twins: ``shbakeShexp``
-(``shbake/shaders/shexp.glsl``) and ``shbakeSplitSum`` (``splitsum.glsl``). ``α`` outside the
+The probe passes read nothing but the asset's arrays. ``α`` outside the
 probe's range, and probes of the old perceptual convention, are refused
 (:func:`check_probe_alpha`).
 """

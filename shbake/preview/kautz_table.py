@@ -5,8 +5,7 @@ Per pixel ``p`` of the preview sphere (orthographic camera on +Z, view
 brushing direction — world +Y projected on the tangent plane (the paper's
 "constant vector projected to the tangent space"), so anisotropic lobes run
 along the sphere's meridians. The full, fixed-light and fixed-view modes are
-timed separately (GLSL twins: ``shbakeKautz``, ``shbakeKautzFixedLight`` and
-``shbakeKautzFixedView`` in ``shbake/shaders/kautz.glsl``).
+timed separately.
 """
 
 import time

@@ -6,9 +6,7 @@ of ``/sun`` if present. ``tangent``: Kajiya–Kay diffuse sphere with
 longitude-line tangents, ``E(t) = t̃ᵀ M t̃`` from ``/tangent_irradiance/matrix``
 (Mehta eq. 23) plus the sun's ``sqrt(1 − (t·s)²)/π²`` term. ``kautz``: a
 BRDF table shaded under the asset's lighting (:mod:`shbake.preview.kautz_table`).
-Shading comes from :mod:`shbake.shading`; the GLSL twins (``shbake/shaders/``):
-``shbakeIrradiance`` (irradiance.glsl), ``shbakeTangentIrradianceMatrix``
-(tangent_irradiance.glsl).
+Shading comes from :mod:`shbake.shading`.
 The reference passes compute the same quantities by brute force over the
 original map; ``reference`` with a table integrates the table's BRDF.
 """

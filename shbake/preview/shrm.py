@@ -4,8 +4,7 @@ Orthographic camera on +Z (view ``V = +Z``, :mod:`shbake.preview.sphere`).
 Each frame runs what an engine would (§7.5): eq. 12 builds the dynamic
 reflection cube map for ``V`` (:func:`shbake.shading.shrm.reflection_cube`),
 then every pixel reads it at ``R = 2(n·V)n − V`` (tangent kind: at the
-longitude-line tangent) by seam-correct bilinear cube lookup (GLSL twin: ``shbakeShrm``,
-``shbake/shaders/shrm.glsl``). The timing is
+longitude-line tangent) by seam-correct bilinear cube lookup. The timing is
 the best of a few frames after a warm-up, reported for eq. 12 alone and for
 the whole frame.
 
