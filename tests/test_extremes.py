@@ -13,7 +13,6 @@ import re
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 
 from shbake.bakers.env_sh import bake_env_sh
 from shbake.bakers.shexp import FitConfig, FitPlan
@@ -27,6 +26,7 @@ from shbake.format.asset import write_asset
 from shbake.format.exports import TARGETS
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.env_sh import irradiance
+from tests.helpers import map_path, write_test_exr
 
 pytestmark = pytest.mark.extremes
 

@@ -6,8 +6,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from helpers import map_path
-from kautz_accuracy import LMAXES, MAPS, kautz_errors
+
+from tests.helpers import map_path
+from tests.kautz_accuracy import LMAXES, MAPS, kautz_errors
 
 EXPECTED = json.loads((Path(__file__).parent / "kautz_accuracy_expected.json").read_text())
 

@@ -4,11 +4,11 @@ import json
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 
 from shbake.format.asset import read_asset
 from shbake.preview.passes import render_pass
 from shbake.preview.sphere import sphere_geometry
+from tests.helpers import map_path, write_test_exr
 
 
 @pytest.fixture

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 
 from shbake.bakers.shrm import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
 from shbake.bakers.shrm import default_quadrature as shrm_quadrature
@@ -36,6 +35,7 @@ from shbake.envmap.environment import Environment
 from shbake.errors import ParameterError
 from shbake.evaluation.probes import ALPHAS, sphere_views
 from shbake.reference.ggx import ggx_integrals
+from tests.helpers import map_path, write_test_exr
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,6 @@ import os
 
 import numpy as np
 import pytest
-from helpers import map_path, write_merl, write_test_exr
 from scipy import integrate, special
 
 from shbake.bakers.shrm import (
@@ -36,6 +35,7 @@ from shbake.sh.basis import real_sh
 from shbake.sh.rotation import SHRotation
 from shbake.shading.shrm import evaluate_shrm, reflect, reflection_cube, shade
 from shbake.texture.cube import cube_directions, sample_cube
+from tests.helpers import map_path, write_merl, write_test_exr
 
 
 def small_env(name="city", height=128):
