@@ -81,10 +81,10 @@ def _rel_rms(got, ref) -> float:
 def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.batch.project_env import project_environment
     from shbake.conventions import REC709_LUMINANCE
-    from shbake.envmap import load_environment
     from shbake.envmap.turn import turn_matrix
     from shbake.evaluation.env_sh import brute_force_reference
     from shbake.format.asset import read_asset
+    from shbake.format.provenance import reload_source
     from shbake.shading.env_sh import irradiance
 
     s = a["settings"]
@@ -99,9 +99,9 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     outputs = summary["outputs"]
     if not measure:
         return {"outputs": outputs, "bake_seconds": seconds}, {}
-    env = load_environment(a["inputs"][0], quiet=True)
-    ref = brute_force_reference(env, n_dirs=1024)  # of the map as it is, unturned
     asset = read_asset(a["output"])
+    env = reload_source(asset, a["output"], a["inputs"][0])  # the map as baked, unturned
+    ref = brute_force_reference(env, n_dirs=1024)
     turn = turn_matrix(s.get("pose", {}).get("rotation_deg", 0.0))
     errors = {}
     for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):

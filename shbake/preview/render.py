@@ -13,12 +13,11 @@ import os
 
 import numpy as np
 
-from shbake.envmap import load_environment
 from shbake.errors import ParameterError
 from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
 from shbake.format.kautz_table import table_at
-from shbake.format.provenance import resolve_source
+from shbake.format.provenance import reload_source
 from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.glossy import PASS_OF_KIND, render_glossy
@@ -86,24 +85,6 @@ def check_preview_memory(size, reference=False, coeffs=0, source=None) -> None:
     check_memory(preview_memory(size, reference, coeffs, texels), what)
 
 
-def load_source(asset, asset_path, source_path=None):
-    """The map an asset was baked from: ``source_path`` (``--source``), else the asset's
-    ``source_path`` relative to the asset (:func:`shbake.format.provenance.resolve_source`),
-    SHA-256-checked and read with the policies the asset records."""
-    a = asset.attrs
-    path = resolve_source(a, asset_path, source_path)
-    cs_in = a.get("source_colorspace_in")
-    nonfinite = a.get("source_nonfinite_policy")
-    return load_environment(
-        path,
-        a.get("source_layout"),
-        None if cs_in in (None, a.get("source_colorspace")) else cs_in,
-        a.get("source_negative_policy") or "clamp",
-        None if nonfinite in (None, "", "error") else nonfinite,
-        quiet=True,
-    )
-
-
 def _render_env(asset, asset_path, pass_name, size, diff, source, table_path, at, merl_path):
     pass_name = pass_name or "irradiance"
     if pass_name in PASS_OF_KIND.values():
@@ -121,7 +102,7 @@ def _render_env(asset, asset_path, pass_name, size, diff, source, table_path, at
     check_preview_memory(size, diff, coeffs)
     if table is not None and needs_source:
         brdf = table.make_brdf(merl_path)
-    src = load_source(asset, asset_path, source) if needs_source else None
+    src = reload_source(asset, asset_path, source) if needs_source else None
     check_preview_memory(size, diff, coeffs, src)
     img, timing = render_pass(asset, pass_name, size, src, table, brdf)
     summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
@@ -144,7 +125,7 @@ def _render_probe(asset, asset_path, pass_name, size, diff, source, roughness, f
         raise ParameterError("--diff compares a probe pass with the reference")
     needs_source = pass_name == "reference" or diff
     check_preview_memory(size, diff)
-    src = load_source(asset, asset_path, source) if needs_source else None
+    src = reload_source(asset, asset_path, source) if needs_source else None
     check_preview_memory(size, diff, 0, src)
     alpha = roughness * roughness  # probes take the GGX width (probe format 2)
     img, timing = render_glossy(asset, pass_name, size, alpha, f0, src, samples)
@@ -197,7 +178,7 @@ def preview_asset(
         if asset.kind == "shrm":  # SHRM hook (issue 13): shbake.preview.shrm.preview_shrm
             needs_source = diff or pass_name == "reference"
             check_preview_memory(size, diff)
-            src = load_source(asset, asset_path, source) if needs_source else None
+            src = reload_source(asset, asset_path, source) if needs_source else None
             check_preview_memory(size, diff, 0, src)
             img, reference, summary, settings = preview_shrm(asset, pass_name, size, diff, src)
         elif asset.kind in PASS_OF_KIND:
