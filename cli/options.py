@@ -15,7 +15,7 @@ from contextlib import contextmanager
 import click
 import numpy as np
 
-from shbake.conventions import SAMPLES_LIMIT
+from shbake.conventions import SAMPLES_LIMIT, perceptual_roughness
 from shbake.errors import OutputError, ParameterError
 from shbake.messages import printable
 from shbake.progress import Progress
@@ -196,7 +196,7 @@ def roughness_opts(default_roughness: float | None, what: str):
             if r is not None and a is not None:
                 raise click.UsageError("give --roughness or --alpha, not both")
             if a is not None:
-                r = float(np.sqrt(a))
+                r = perceptual_roughness(a)
             kwargs["roughness"] = default_roughness if r is None else r
             return f(*args, **kwargs)
 

@@ -25,7 +25,7 @@ from shbake_cli.options import (
 from shbake.bakers.shexp import SETS_LIMIT, TARGETS, WEIGHTS, FitConfig
 from shbake.batch.probe_fit import fit_probes
 from shbake.batch.probe_jobs import JOBS_LIMIT
-from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT
+from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT, ggx_alpha
 from shbake.errors import ParameterError
 
 
@@ -35,7 +35,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
         raise click.UsageError("give --alpha-range or --roughness-range, not both")
     if roughness_text is not None:
         lo, hi = parse_range(roughness_text, "--roughness-range")
-        return lo * lo, hi * hi
+        return ggx_alpha(lo), ggx_alpha(hi)
     return parse_range(alpha_text or "0.2:1", "--alpha-range")
 
 

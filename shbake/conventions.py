@@ -79,8 +79,27 @@ def check_lmax(lmax, name: str = "lmax", limit: int = LMAX_LIMIT) -> int:
 
 
 def ggx_alpha(roughness):
-    """GGX width ``α = r²`` of perceptual roughness ``r`` (Burley 2012; SPEC §1)."""
-    return np.asarray(roughness, dtype=float) ** 2
+    """GGX width ``α = r²`` of perceptual roughness ``r`` (Burley 2012; SPEC §1): a float
+    for a number, an array for an array.
+
+    >>> ggx_alpha(0.5)
+    0.25
+    >>> ggx_alpha([0.1, 1.0]).tolist()
+    [0.010000000000000002, 1.0]
+    """
+    a = np.asarray(roughness, dtype=float) ** 2
+    return float(a) if a.ndim == 0 else a
+
+
+def perceptual_roughness(alpha):
+    """Perceptual roughness ``r = sqrt(α)`` of GGX width ``α``, the inverse of
+    :func:`ggx_alpha` (a float for a number, an array for an array).
+
+    >>> perceptual_roughness(0.25)
+    0.5
+    """
+    r = np.sqrt(np.asarray(alpha, dtype=float))
+    return float(r) if r.ndim == 0 else r
 
 
 SAMPLES_LIMIT = 1 << 20

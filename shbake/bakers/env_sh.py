@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from shbake.conventions import band_of_index, check_lmax
+from shbake.conventions import band_of_index, check_lmax, lmax_of
 from shbake.envmap.environment import Environment
 from shbake.envmap.sun import extract_sun
 from shbake.errors import ParameterError
@@ -28,7 +28,7 @@ REPORT_LMAX = 64
 def band_energy(coeffs) -> np.ndarray:
     """``Σ_m L_lm²`` per band and channel, shape ``(lmax+1, C)`` (RH02 §5.1)."""
     c = np.asarray(coeffs, dtype=np.float64)
-    lmax = int(round(np.sqrt(c.shape[0]))) - 1
+    lmax = lmax_of(c.shape[0])
     return np.stack([np.sum(c[l * l : (l + 1) ** 2] ** 2, axis=0) for l in range(lmax + 1)])
 
 

@@ -57,7 +57,6 @@ reported as a check.
 
 import time
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numba
 import numpy as np
@@ -71,6 +70,7 @@ from shbake.errors import ParameterError
 from shbake.jit import jit, pjit
 from shbake.resources import check_memory
 from shbake.sh.basis import real_sh_numba
+from shbake.sh.point_sets import gauss_legendre
 from shbake.sh.rotation import SHRotation
 from shbake.texture.cube import cube_directions
 
@@ -272,25 +272,17 @@ class Quadrature:
         return (self.xi.size, self.xo.size, self.phi.size)
 
 
-@lru_cache(maxsize=16)
-def _gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss–Legendre nodes and weights on [−1, 1] (cached: ``leggauss`` is O(n³))."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    x.flags.writeable = w.flags.writeable = False
-    return x, w
-
-
 def default_quadrature(kind: str, n_theta_i: int = 320, n_theta_o: int = 64, n_phi: int = 64):
     """The quadrature used by default: ``n_theta_i`` nodes about ``R``, etc.
 
     Resolves lobes down to ``σ ≈ 0.05`` rad / Phong exponents ≈ 2000; radially
     symmetric lobes take one ``θ_o`` and one ``φ`` node, tangent lobes no ``φ``.
     """
-    xi, wi = _gauss_legendre(n_theta_i)
+    xi, wi = gauss_legendre(n_theta_i)
     if kind == "lobe":
         xo, wo = np.array([0.0]), np.array([2.0])
     else:
-        xo, wo = _gauss_legendre(n_theta_i if kind == "tangent" else n_theta_o)
+        xo, wo = gauss_legendre(n_theta_i if kind == "tangent" else n_theta_o)
     if kind == "surface":
         phi = np.linspace(0.0, np.pi, n_phi + 1)
         wphi = np.full(n_phi + 1, 2.0 * np.pi / n_phi)

@@ -58,7 +58,7 @@ from shbake.batch.plan_costs import cpu_timed, recipe_overheads
 from shbake.batch.scene import Scene, _param_strings
 from shbake.brdf import make_brdf
 from shbake.brdf.tabulate import project_views, tabulate
-from shbake.conventions import n_coeffs
+from shbake.conventions import ggx_alpha, n_coeffs
 from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment as EnvMap
 from shbake.envmap.sun import extract_sun
@@ -264,7 +264,7 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
     from shbake.bakers.shexp import FitPlan
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
 
-    a_lo, a_hi = lo * lo, hi * hi
+    a_lo, a_hi = ggx_alpha(lo), ggx_alpha(hi)
     config = FitConfig.paper(alpha_min=a_lo, alpha_max=a_hi,
                              alpha_count=4 if a_hi > a_lo else 1, samples=256)  # fmt: skip
     small = _downsample(env.pixels, FIT_PREDICT_HEIGHT)
@@ -332,8 +332,8 @@ def plan_splitsum(env: EnvMap, lo: float, hi: float) -> dict:
     from shbake.batch.probe_jobs import shared_dfg_table
 
     shared_dfg_table()  # the bake's DFG table, now in the plan cache
-    a_lo = max(lo * lo, 1e-3)
-    a_hi = max(hi * hi, a_lo + 0.01)
+    a_lo = max(ggx_alpha(lo), 1e-3)
+    a_hi = max(ggx_alpha(hi), a_lo + 0.01)
     alphas = tuple(float(a) for a in np.linspace(a_lo, min(a_hi, 1.0), 4))
     config = SplitSumConfig(top=64, min_size=16, alphas=alphas, samples=256)
     small = SplitSumConfig(**(config.as_dict() | {"top": 32, "min_size": 8}))
@@ -442,8 +442,8 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 })  # fmt: skip
         if glossy:
             tol, tkey = scene.tolerance("glossy_probe", env)
-            high = [m for m in glossy if m.roughness[0] ** 2 >= SHEXP_MIN_ALPHA]
-            low = [m for m in glossy if m.roughness[0] ** 2 < SHEXP_MIN_ALPHA]
+            high = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA]
+            low = [m for m in glossy if ggx_alpha(m.roughness[0]) < SHEXP_MIN_ALPHA]
             if high:
                 lo = min(m.roughness[0] for m in high)
                 hi = max(m.roughness[1] for m in high)
@@ -464,7 +464,7 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
             # material's F0 (the SHRM bakes the whole BRDF, Schlick Fresnel included; the
             # probes leave F0 to shading) when its orders meet `shrm`
             for m in [m for m in low if m.roughness[0] == m.roughness[1]]:
-                alpha = max(m.roughness[0] ** 2, 1e-4)
+                alpha = max(ggx_alpha(m.roughness[0]), 1e-4)
                 terms = [("", {"alpha": alpha, **m.params})]
                 aids = _plan_shrm_asset(scene, env, m, "ggx", terms, digest, get_env, cache,
                                         assets, add, optional=True)  # fmt: skip

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
+from shbake.conventions import ggx_alpha, perceptual_roughness
 from shbake.errors import ParameterError
 from shbake.evaluation.probes import ALPHAS, MATERIALS, VIEW_YAWS, evaluate_cases
 from shbake.format.probe import probe_bytes
@@ -51,7 +52,7 @@ def shrm_orders(alphas, eps: float) -> list[dict]:
 
     out = []
     for a in alphas:
-        row = {"alpha": float(a), "roughness": float(np.sqrt(a))}
+        row = {"alpha": float(a), "roughness": perceptual_roughness(float(a))}
         for term, f0 in (("E0", 1.0), ("E1", 0.0)):
             o = select_orders(ggx_shrm_coefficients(float(a), f0)[1], eps)
             row[term] = {"F": o.F, "P": o.P, "captured": 1.0 - o.eps_brdf, "reached": o.reached}
@@ -176,7 +177,7 @@ def evaluation_alphas(roughness=None) -> tuple:
         if not (np.isfinite(r) and ROUGHNESS_MIN <= r <= 1.0):
             raise ParameterError(f"roughness {r:g} is outside [{ROUGHNESS_MIN:g}, 1] "
                                  "(perceptual, α = r²)")  # fmt: skip
-        out.add(round(r * r, 6))
+        out.add(round(ggx_alpha(r), 6))
     return tuple(sorted(out))
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from shbake.conventions import ggx_alpha
 from shbake.errors import ParameterError
 from shbake.format.probe import check_probe_alpha
 from shbake.preview.contact_sheet import write_contact_sheet
@@ -31,7 +32,7 @@ from shbake.shading.shexp import evaluate_shexp
 from shbake.shading.splitsum import evaluate_splitsum
 
 MATERIALS = {"chrome": 1.0, "dielectric": 0.04}
-ALPHAS = tuple(round(r * r, 6) for r in (0.5, 0.6, 0.7, 0.8, 0.9, 1.0))
+ALPHAS = tuple(round(ggx_alpha(r), 6) for r in (0.5, 0.6, 0.7, 0.8, 0.9, 1.0))
 VIEW_YAWS = (0.0, 90.0, 180.0, 270.0)
 
 

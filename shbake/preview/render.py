@@ -13,6 +13,7 @@ import os
 
 import numpy as np
 
+from shbake.conventions import ggx_alpha
 from shbake.errors import ParameterError
 from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
@@ -127,7 +128,7 @@ def _render_probe(asset, asset_path, pass_name, size, diff, source, roughness, f
     check_preview_memory(size, diff)
     src = reload_source(asset, asset_path, source) if needs_source else None
     check_preview_memory(size, diff, 0, src)
-    alpha = roughness * roughness  # probes take the GGX width (probe format 2)
+    alpha = ggx_alpha(roughness)  # probes take the GGX width (probe format 2)
     img, timing = render_glossy(asset, pass_name, size, alpha, f0, src, samples)
     summary = {"pass": pass_name, "size": size, "roughness": roughness, "alpha": alpha, "f0": f0,
                "seconds": timing["seconds"], "fps": timing["fps"]}  # fmt: skip
@@ -135,7 +136,7 @@ def _render_probe(asset, asset_path, pass_name, size, diff, source, roughness, f
     if diff:
         reference, ref_timing = render_glossy(asset, "reference", size, alpha, f0, src, samples)
         summary["reference_seconds"] = ref_timing["seconds"]
-    settings = f"roughness {roughness:g} (α {roughness * roughness:.4g}), F0 {f0:g}, size {size}"
+    settings = f"roughness {roughness:g} (α {alpha:.4g}), F0 {f0:g}, size {size}"
     return img, reference, summary, settings, src
 
 

@@ -20,6 +20,7 @@ band-limited like the rest.
 
 import numpy as np
 
+from shbake.conventions import lmax_of
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.sh.basis import real_sh
@@ -274,7 +275,7 @@ def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
     L = np.asarray(env_asset["/lighting/sh"], dtype=float)
     n = (lmax + 1) ** 2
     if L.shape[0] < n:
-        have = int(round(np.sqrt(L.shape[0]))) - 1
+        have = lmax_of(L.shape[0])
         raise ParameterError(
             f"the environment asset has lighting to lmax {have}; the table needs {lmax}"
         )

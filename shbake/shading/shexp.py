@@ -17,6 +17,7 @@ Fitted by :mod:`shbake.bakers.shexp`.
 
 import numpy as np
 
+from shbake.conventions import lmax_of
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.sh.basis import (
@@ -220,8 +221,8 @@ def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots
     if p.ndim == 2:
         p, q = p[None], q[None]
     knots = np.zeros(1) if knots is None else np.asarray(knots, float).reshape(-1)
-    lmax_p = int(round(np.sqrt(p.shape[1]))) - 1
-    lmax_q = int(round(np.sqrt(q.shape[1] + 1))) - 1
+    lmax_p = lmax_of(p.shape[1])
+    lmax_q = lmax_of(q.shape[1] + 1)  # q has no DC row
     v = np.ascontiguousarray(np.asarray(views, float).reshape(-1, 3))
     n = np.ascontiguousarray(np.asarray(normals, float).reshape(-1, 3))
     out = np.empty((v.shape[0], 3))

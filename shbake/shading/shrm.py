@@ -20,7 +20,7 @@ arrays.
 
 import numpy as np
 
-from shbake.conventions import check_vectors, unit_vectors
+from shbake.conventions import check_vectors, lmax_of, unit_vectors
 from shbake.errors import ParameterError
 from shbake.sh.basis import real_sh
 from shbake.texture.cube import cube_directions, sample_cube
@@ -35,10 +35,12 @@ def _terms(shrm, kind: str) -> int:
     if len(s) != 5 or s[0] != 6 or s[1] != s[2] or s[4] != 3:
         raise ParameterError(f"an SHRM has shape (6, S, S, n, 3), got {s}")
     n = s[3]
-    P = n - 1 if kind == "tangent" else int(round(np.sqrt(n))) - 1
-    if kind != "tangent" and (P + 1) ** 2 != n:
-        raise ParameterError(f"{n} coefficients per texel is not (P+1)² for any P")
-    return P
+    if kind == "tangent":
+        return n - 1
+    try:
+        return lmax_of(n)
+    except ParameterError:
+        raise ParameterError(f"{n} coefficients per texel is not (P+1)² for any P") from None
 
 
 def reflection_cube(shrm, view, kind: str = "surface") -> np.ndarray:
