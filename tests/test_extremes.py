@@ -288,7 +288,8 @@ class TestShrmExtremes:
         ("ggx", {"alpha": "1e-4"}, 16, 2), ("ggx", {"alpha": "1"}, 8, 2),
         ("phong-lobe", {"s": "1e4"}, 64, 0)])  # fmt: skip
     def test_finite(self, maps, kind, brdf, params, F, P):
-        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+        from shbake.bakers.shrm import bake_shrm
+        from shbake.brdf.reflection import make_reflection_brdf
 
         env = load_environment(maps[kind], quiet=True)
         rb = make_reflection_brdf(brdf, params)
@@ -299,7 +300,8 @@ class TestShrmExtremes:
 
     def test_constant_map_lobe_is_the_constant(self, maps):
         # the radially symmetric lobe integrates to 1 over the sphere: radiance c everywhere
-        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+        from shbake.bakers.shrm import bake_shrm
+        from shbake.brdf.reflection import make_reflection_brdf
         from shbake.shading.shrm import reflection_cube
 
         env = load_environment(maps["constant"], quiet=True)
@@ -314,7 +316,8 @@ class TestHugeAndTinyMaps:
 
     @pytest.mark.parametrize("kind", ["tiny", "large"])
     def test_splitsum_shrm_and_export(self, maps, tmp_path, kind):
-        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+        from shbake.bakers.shrm import bake_shrm
+        from shbake.brdf.reflection import make_reflection_brdf
 
         env = load_environment(maps[kind], quiet=True)
         config = SplitSumConfig(top=16, min_size=8, alphas=(0.01, 1.0), samples=64)

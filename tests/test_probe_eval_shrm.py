@@ -15,8 +15,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shbake.bakers.shrm import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
-from shbake.bakers.shrm import default_quadrature as shrm_quadrature
 from shbake.batch.probe_eval import (
     ShrmProbe,
     evaluate_maps,
@@ -30,6 +28,8 @@ from shbake.batch.probe_eval import (
     split_levels,
     win_table,
 )
+from shbake.brdf.reflection import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
+from shbake.brdf.reflection import default_quadrature as shrm_quadrature
 from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment
 from shbake.errors import ParameterError

@@ -255,7 +255,7 @@ class TestPlan:
         a = next(x for x in plan["assets"] if x["id"] == "shrm/satin/dusk")
         assert a["settings"]["pose"] == {"position": [1.0, 2.0, 3.0], "rotation_deg": 90.0}
         # the orders are the smallest meeting the tolerance: one band less in F misses it
-        from shbake.bakers.shrm import brdf_coefficients, make_reflection_brdf
+        from shbake.brdf.reflection import brdf_coefficients, make_reflection_brdf
 
         co = brdf_coefficients(make_reflection_brdf("microfacet", {"sigma": "0.3"}), 64, 16)
         missed = 1.0 - co.captured()  # energy fraction left out by orders (F, P)

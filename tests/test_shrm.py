@@ -14,16 +14,14 @@ import numpy as np
 import pytest
 from scipy import integrate, special
 
-from shbake.bakers.shrm import (
+from shbake.bakers.shrm import auto_face_size, bake_shrm, shrm_from_directions
+from shbake.brdf import make_brdf
+from shbake.brdf.reflection import (
     F_LIMIT,
-    auto_face_size,
-    bake_shrm,
     brdf_coefficients,
     make_reflection_brdf,
     select_orders,
-    shrm_from_directions,
 )
-from shbake.brdf import make_brdf
 from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import n_coeffs
 from shbake.envmap import load_environment
@@ -236,6 +234,21 @@ class TestPhongAgainstBruteForce:
         got = bake.cube.reshape(-1, 3).astype(float) * real_sh(np.array([0.0, 0, 1]), 0)[0]
         err = np.abs(got - ref).max() / np.abs(ref).max()
         assert err < 1e-3
+
+
+class TestShrmCheck:
+    """The check the scene bake and ``shrm --report`` measure by (issue 28: its lobe
+    reference was divided by √(4π), so a converged phong-lobe SHRM measured a relative
+    error energy of ~6.6)."""
+
+    @pytest.mark.parametrize("brdf, params", [("phong-lobe", {"s": 8}), ("ggx", {"alpha": 0.5})])
+    def test_converged_bake_measures_small(self, brdf, params):
+        from shbake.evaluation.shrm import ShrmCheck
+
+        env = small_env("city", 32)
+        rb = make_reflection_brdf(brdf, params)
+        bake = bake_shrm(env, rb, eps=1e-4, face_size=32)
+        assert ShrmCheck(env, rb, sphere=16).rel_energy(bake.cube) < 0.01
 
 
 class TestMicrofacetAgainstBruteForce:

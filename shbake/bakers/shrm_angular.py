@@ -22,8 +22,8 @@ larger of the two neighbouring entries). ``ε → 0`` gives the full hemisphere
 import numba
 import numpy as np
 
-from shbake.bakers.shrm import ReflectionBRDF, _rho_grid, check_eps
 from shbake.brdf.dispatch import brdf_eval
+from shbake.brdf.reflection import ReflectionBRDF, check_eps, rho_grid
 from shbake.brdf.sampling import tangent_frame
 from shbake.envmap.layouts import latlong_solid_angles
 from shbake.errors import ParameterError
@@ -48,7 +48,7 @@ def truncation_angles(rb: ReflectionBRDF, eps: float, n_theta_i: int = 512) -> n
     wphi = np.full(phi.size, np.pi / 64)
     wphi[[0, -1]] *= 0.5
     grid = np.zeros((xi.size, xo.size, phi.size, 3))
-    _rho_grid(rb.kind_id, rb.model_id, np.ascontiguousarray(rb.prm, float), rb.data, xi, xo, phi,
+    rho_grid(rb.kind_id, rb.model_id, np.ascontiguousarray(rb.prm, float), rb.data, xi, xo, phi,
               grid)  # fmt: skip
     lum = np.einsum("iokc,k->io", grid, wphi) * wi[:, None]  # ∫ ρ̂ dφ dcosθ_i, all channels
     order = np.argsort(-xi)  # from θ_i = 0 outward

@@ -34,7 +34,7 @@ Error models (cheap, each measured, never assumed):
 * split-sum: no error model in shbake (its approximation error is not a
   quadrature error); the plan says so instead of predicting one.
 * SHRM: the BRDF energy the orders ``F``, ``P`` leave out (RH02 §5.1,
-  :func:`shbake.bakers.shrm.select_orders`).
+  :func:`shbake.brdf.reflection.select_orders`).
 
 Predicted times are CPU seconds of each asset's make recipe: the recipe's
 fixed part (:func:`shbake.batch.plan_costs.recipe_overheads`, once per
@@ -52,11 +52,11 @@ import numpy as np
 from shbake.bakers.env_sh import band_energy
 from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
-from shbake.bakers.shrm import F_LIMIT, P_LIMIT
 from shbake.bakers.splitsum import SplitSumConfig
 from shbake.batch.plan_costs import cpu_timed, recipe_overheads
 from shbake.batch.scene import Scene, _param_strings
 from shbake.brdf import make_brdf
+from shbake.brdf.reflection import F_LIMIT, P_LIMIT
 from shbake.brdf.tabulate import project_views, tabulate
 from shbake.conventions import ggx_alpha, n_coeffs
 from shbake.envmap import load_environment
@@ -284,7 +284,7 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
 def plan_shrm(env: EnvMap, model: str, params: dict, tol: float) -> dict:
     """An SHRM (Ramamoorthi & Hanrahan 2002) of an isotropic BRDF: the smallest ``F``, ``P``
     whose truncation leaves at most ``tol`` of the BRDF's energy out
-    (:func:`shbake.bakers.shrm.search_orders`: ``select_orders`` on coefficients to
+    (:func:`shbake.brdf.reflection.search_orders`: ``select_orders`` on coefficients to
     ``F_LIMIT``, ``P_LIMIT``, RH02 §5.1 and appendix C), the face size from ``F``
     (:func:`~shbake.bakers.shrm.auto_face_size`).
 
@@ -292,13 +292,8 @@ def plan_shrm(env: EnvMap, model: str, params: dict, tol: float) -> dict:
     Time: the BRDF coefficients at ``(F, P)`` and the lighting projection as the bake computes
     them, the cube at half the face size scaled by texel count.
     """
-    from shbake.bakers.shrm import (
-        auto_face_size,
-        brdf_coefficients,
-        make_reflection_brdf,
-        search_orders,
-        shrm_cube,
-    )
+    from shbake.bakers.shrm import auto_face_size, shrm_cube
+    from shbake.brdf.reflection import brdf_coefficients, make_reflection_brdf, search_orders
 
     rb = make_reflection_brdf(model, _param_strings(params))
     orders, _ = search_orders(rb, tol)

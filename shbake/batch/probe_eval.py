@@ -36,19 +36,19 @@ SHRM_FACE_SIZE = 64
 def ggx_shrm_coefficients(alpha: float, f0: float):
     """``ρ̂_lpq`` of GGX (``α``, Schlick ``F0``; separable Smith G, SPEC §4) to the baker's caps
     ``F ≤ 64``, ``P ≤ 16``, once per process (they do not depend on the map)."""
-    from shbake.bakers.shrm import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
+    from shbake.brdf.reflection import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
 
     rb = make_reflection_brdf("ggx", {"alpha": float(alpha), "F0": float(f0)})
     return rb, brdf_coefficients(rb, F_LIMIT, P_LIMIT)
 
 
 def shrm_orders(alphas, eps: float) -> list[dict]:
-    """The orders the baker's rule (:func:`shbake.bakers.shrm.select_orders`) picks for the
+    """The orders the baker's rule (:func:`shbake.brdf.reflection.select_orders`) picks for the
     ``E0`` (``F0 = 1``) and ``E1`` (``F0 = 0``) SHRM of every ``α``: per ``α`` a dict with
     ``alpha``, ``roughness`` and, for ``E0``/``E1``, ``F``, ``P``, ``captured`` (the BRDF
     energy fraction kept) and ``reached`` (False: ``1 − ε`` is not reachable within
     ``F ≤ 64``, ``P ≤ 16``; the capped orders are used and reported)."""
-    from shbake.bakers.shrm import select_orders
+    from shbake.brdf.reflection import select_orders
 
     out = []
     for a in alphas:
@@ -187,7 +187,8 @@ def check_evaluation(
     """The settings of :func:`evaluate_maps` checked before any map is read (a
     :class:`~shbake.errors.ParameterError` names the first bad one): the cases' ``α``
     (:func:`evaluation_alphas`) and the GGX SHRM's settings (``None``: no SHRM)."""
-    from shbake.bakers.shrm import F_LIMIT, P_LIMIT, check_eps, check_face_size
+    from shbake.bakers.shrm import check_face_size
+    from shbake.brdf.reflection import F_LIMIT, P_LIMIT, check_eps
 
     alphas = evaluation_alphas(roughness)
     if shrm_eps is None:

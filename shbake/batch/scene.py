@@ -422,7 +422,7 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
                      "params.F0 (Schlick F0, used by an SHRM; the probes apply F0 at shading)")
         if kind == "glossy" and model in (None, "ggx") and params:
             try:
-                from shbake.bakers.shrm import make_reflection_brdf
+                from shbake.brdf.reflection import make_reflection_brdf
 
                 make_reflection_brdf("ggx", {"alpha": "0.5", **_param_strings(params)})
             except ParameterError as e:
@@ -458,8 +458,8 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
 
 def _check_reflection_model(chk: _Checker, key: str, mat: dict) -> None:
     """A glossy material with a model other than GGX gets an SHRM: the model must be one the
-    SHRM takes (isotropic; :func:`shbake.bakers.shrm.make_reflection_brdf` says)."""
-    from shbake.bakers.shrm import LOBE_MODELS, TANGENT_MODELS, make_reflection_brdf
+    SHRM takes (isotropic; :func:`shbake.brdf.reflection.make_reflection_brdf` says)."""
+    from shbake.brdf.reflection import LOBE_MODELS, TANGENT_MODELS, make_reflection_brdf
 
     model = mat["model"]
     if "roughness" in mat:

@@ -199,8 +199,10 @@ def _bake_splitsum(a: dict, measure: bool = True) -> tuple[dict, dict]:
 def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
     """An SHRM at the planned ``F``, ``P`` and face size; measured: the relative energy of
     the shading error on a sphere against brute force under the (turned) map
-    (:class:`shbake.bakers.shrm.ShadingCheck`), comparable with the BRDF energy left out."""
-    from shbake.bakers.shrm import ShadingCheck, bake_shrm, make_reflection_brdf
+    (:class:`shbake.evaluation.shrm.ShrmCheck`), comparable with the BRDF energy left out."""
+    from shbake.bakers.shrm import bake_shrm
+    from shbake.brdf.reflection import make_reflection_brdf
+    from shbake.evaluation.shrm import ShrmCheck
     from shbake.format.shrm import build_shrm_asset, write_shrm
 
     s = a["settings"]
@@ -213,7 +215,7 @@ def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
     info = {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}
     if not measure:
         return info, {}
-    check = ShadingCheck(env, rb, rotation=rotation)
+    check = ShrmCheck(env, rb, rotation=rotation)
     return info, ({"shrm": check.rel_energy(bake.cube)} if check.ref is not None else {})
 
 

@@ -9,10 +9,7 @@ the best of a few frames after a warm-up, reported for eq. 12 alone and for
 the whole frame.
 
 ``reference``: the same BRDF integrated against the original map by brute
-force — :func:`shbake.reference.brdf_shading.brute_force_shading` for
-surface BRDFs, the direct texel sum of ``(s+1)/(2π) max(0, R·ω)^s`` for the
-``phong-lobe`` and of the tangent-parameterised Kajiya–Kay lobe for the
-``tangent`` kind.
+force (:func:`shbake.reference.reflection.brute_force_reflection`).
 """
 
 import json
@@ -20,12 +17,10 @@ import time
 
 import numpy as np
 
-from shbake.brdf import make_brdf
-from shbake.brdf.sampling import tangent_frame
 from shbake.errors import ParameterError
 from shbake.format.shrm import SHRM
 from shbake.preview.sphere import paint, sphere_geometry
-from shbake.reference.brdf_shading import brute_force_shading
+from shbake.reference.reflection import brute_force_reflection
 from shbake.shading.shrm import reflection_cube, shade
 
 VIEW = np.array([0.0, 0.0, 1.0])
@@ -82,41 +77,10 @@ def render_reference(shrm: SHRM, source, size: int = 192):
     params = params if isinstance(params, dict) else json.loads(params)
     out = np.zeros((size, size, 3))
     t0 = time.perf_counter()
-    if shrm.kind == "surface":
-        brdf = make_brdf(a["brdf_model"], a.get("brdf_source") or None, **params)
-        frames = np.array([np.array([*tangent_frame(*x), x]) for x in n])
-        paint(out, mask, brute_force_shading(dirs, om, rad, frames, frames @ VIEW, brdf))
-    elif shrm.kind == "lobe":
-        s = float(params["s"])
-        r = 2.0 * n[:, 2:3] * n - VIEW
-        lobe = _chunked(
-            r, dirs, om, rad, lambda c: (s + 1) / (2 * np.pi) * np.clip(c, 0, None) ** s
-        )
-        paint(out, mask, lobe)
-    elif shrm.kind == "tangent":
-        kd, ks, p = (np.asarray(params[k], float) for k in ("kd", "ks", "p"))
-        co = tg @ VIEW
-        so = np.sqrt(np.maximum(0.0, 1.0 - co * co))
-        res = np.zeros((len(tg), 3))
-        for i in range(0, len(tg), 64):
-            ci = tg[i : i + 64] @ dirs.T
-            si = np.sqrt(np.maximum(0.0, 1.0 - ci * ci))
-            spec = np.clip(si * so[i : i + 64, None] - ci * co[i : i + 64, None], 0, None) ** p
-            for c in range(3):
-                f = kd[c] * si / np.pi + ks[c] * (p + 2) / (2 * np.pi) * spec
-                res[i : i + 64, c] = (f * om) @ rad[:, c]
-        paint(out, mask, res)
-    else:
-        raise ParameterError(f"unknown SHRM kind {shrm.kind!r}")
+    paint(out, mask, brute_force_reflection(dirs, om, rad, shrm.kind, a["brdf_model"], params,
+                                            n, VIEW, tg, a.get("brdf_source") or ""))  # fmt: skip
     dt = time.perf_counter() - t0
     return out, {"seconds": dt, "fps": 1.0 / dt if dt > 0 else float("inf")}
-
-
-def _chunked(r, dirs, om, rad, kernel):
-    res = np.zeros((len(r), 3))
-    for i in range(0, len(r), 64):
-        res[i : i + 64] = (kernel(r[i : i + 64] @ dirs.T) * om) @ rad
-    return res
 
 
 def preview_shrm(asset, pass_name, size: int, diff: bool, source):
