@@ -25,7 +25,7 @@ from shbake.envmap.image_io import read_image
 from shbake.format.asset import write_asset
 from shbake.format.exports import TARGETS
 from shbake.sh.point_sets import fibonacci_sphere
-from shbake.shading.env_sh import irradiance
+from shbake.shading.shader import shader
 from tests.helpers import map_path, write_test_exr
 
 pytestmark = pytest.mark.extremes
@@ -80,7 +80,7 @@ class TestEnvShExtremes:
         asset, _ = bake_env_sh(env, lmax=lmax, irradiance_lmax=min(lmax, 2), sun=sun)
         _finite(asset)
         dirs = fibonacci_sphere(256)
-        e = irradiance(asset, dirs)
+        e = shader(asset, "irradiance").irradiance(dirs)
         assert np.all(np.isfinite(e))
         if kind == "black":
             assert np.all(e == 0.0)

@@ -244,11 +244,13 @@ class TestShrmCheck:
     @pytest.mark.parametrize("brdf, params", [("phong-lobe", {"s": 8}), ("ggx", {"alpha": 0.5})])
     def test_converged_bake_measures_small(self, brdf, params):
         from shbake.evaluation.shrm import ShrmCheck
+        from shbake.format.shrm import build_shrm_asset
 
         env = small_env("city", 32)
         rb = make_reflection_brdf(brdf, params)
         bake = bake_shrm(env, rb, eps=1e-4, face_size=32)
-        assert ShrmCheck(env, rb, sphere=16).rel_energy(bake.cube) < 0.01
+        check = ShrmCheck(env, rb, sphere=16)
+        assert check.rel_energy(build_shrm_asset(bake, env.meta)) < 0.01
 
 
 class TestMicrofacetAgainstBruteForce:
@@ -475,7 +477,7 @@ class TestPreviewPass:
                                   "--diff", "--source", src, "--json", "-q")  # fmt: skip
         assert rc == 0, err
         summary = json.loads(stdout)
-        assert summary["pass"] == "shrm" and summary["eq12_fps"] > 0
+        assert summary["pass"] == "shrm" and summary["modes"]["eq12"]["fps"] > 0
         assert summary["relative_rms_error"] < 0.05
 
 

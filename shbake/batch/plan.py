@@ -44,7 +44,6 @@ machine) plus the map load and the baker's work, CPU time measured here
 
 import hashlib
 import json
-import os
 from dataclasses import asdict
 
 import numpy as np
@@ -53,8 +52,8 @@ from shbake.bakers.env_sh import band_energy
 from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
 from shbake.bakers.splitsum import SplitSumConfig
-from shbake.batch.plan_costs import cpu_timed, recipe_overheads
-from shbake.batch.scene import Scene, _param_strings
+from shbake.batch.plan_costs import WARMED, cpu_timed, recipe_overheads, warm_seconds
+from shbake.batch.scene import Scene, asset_output, param_strings
 from shbake.brdf import make_brdf
 from shbake.brdf.reflection import F_LIMIT, P_LIMIT
 from shbake.brdf.tabulate import project_views, tabulate
@@ -88,14 +87,6 @@ def file_hash(path: str, own_output: bool = False) -> str:
     return resources.sha256_of(path, own_output)
 
 
-def asset_output(out_dir: str, aid: str) -> str:
-    """Where asset ``aid`` is written: ``OUT/ID.h5``; an export's listing of its files
-    ``OUT/export/TARGET/MAP/files.json``."""
-    if aid.startswith("export/"):
-        return os.path.join(out_dir, aid, "files.json")
-    return os.path.join(out_dir, aid + ".h5")
-
-
 def _digest(obj) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -112,23 +103,6 @@ def irradiance_truncation(coeffs: np.ndarray, kernel) -> np.ndarray:
     tail = np.cumsum(k2[::-1], axis=0)[::-1]  # tail[l] = Σ_{l' ≥ l}
     lost = np.vstack([tail[1:], np.zeros((1, e.shape[1]))]) / total
     return np.sqrt(np.clip(lost, 0.0, None)).max(axis=1)
-
-
-_WARM: set[str] = set()
-"""Kinds already called once in this process (numba cache loads, lazy imports done)."""
-
-
-def _cold(kind: str, fn, *a, **k) -> float:
-    """Warm CPU seconds of ``fn(*a, **k)``: the first call per kind and process is not timed
-    (its numba cache loads and imports are the recipe's fixed part,
-    :func:`shbake.batch.plan_costs.recipe_overheads`); short calls: the best of three."""
-    if kind not in _WARM:
-        fn(*a, **k)
-        _WARM.add(kind)
-    best = _timed(fn, *a, **k)[1]
-    for _ in range(2 if best < 0.05 else 0):  # short calls: the best of three (timer noise)
-        best = min(best, _timed(fn, *a, **k)[1])
-    return best
 
 
 _timed = cpu_timed
@@ -157,7 +131,7 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
                  if all(e[L] <= t for e, t in errs.values())), None)  # fmt: skip
     if lmax is None:
         return {"impossible": {k: float(e[MAX_IRRADIANCE_LMAX]) for k, (e, _) in errs.items()}}
-    t_l = _cold("env_sh", residual.project, lmax)
+    t_l = warm_seconds("env_sh", residual.project, lmax)
     settings = {
         "lmax": lmax,
         "irradiance": irr_tol is not None,
@@ -217,7 +191,7 @@ class TableErrors:
 def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> dict:
     """Cheapest ``(lmax, size, samples)`` whose predicted error meets ``tol`` (greedy: lmax for
     60 % of it, then samples, then the smallest size meeting the whole)."""
-    brdf, t_make = _timed(make_brdf, model, merl_path=merl, **_param_strings(params))
+    brdf, t_make = _timed(make_brdf, model, merl_path=merl, **param_strings(params))
     views = probe_views()
     energy = product_energy(brdf, views, 256)
     norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
@@ -233,7 +207,7 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
         diff = np.sqrt(np.sum((got - ref[:, : n_coeffs(lmax)]) ** 2, axis=(1, 2)))
         if np.mean(diff / norm) <= 0.4 * tol:
             break
-    t8 = _cold("brdf_table", tabulate, brdf, lmax, (8, 8), samples=samples)
+    t8 = warm_seconds("brdf_table", tabulate, brdf, lmax, (8, 8), samples=samples)
     errors = TableErrors(brdf, lmax, samples, views, energy, ref, projected=got)
     sizes = TABLE_SIZES
     if np.hypot(errors.truncation, errors.samples) > tol:
@@ -271,7 +245,7 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
     probe = FitPlan(config, small.shape[:2]).fit(small)
     full = fit_plan(config, env.shape)  # the bake's plan, now in the plan cache
     shared_dfg_table()
-    t_fit = _cold("shexp", full.fit, env.pixels)
+    t_fit = warm_seconds("shexp", full.fit, env.pixels)
     return {
         "settings": {"fit": config.as_dict()},
         "predicted_error": {"glossy_probe": float(probe.stats["log_rms"])},
@@ -295,17 +269,17 @@ def plan_shrm(env: EnvMap, model: str, params: dict, tol: float) -> dict:
     from shbake.bakers.shrm import auto_face_size, shrm_cube
     from shbake.brdf.reflection import brdf_coefficients, make_reflection_brdf, search_orders
 
-    rb = make_reflection_brdf(model, _param_strings(params))
+    rb = make_reflection_brdf(model, param_strings(params))
     orders, _ = search_orders(rb, tol)
     if not orders.reached:
         return {"impossible": {"shrm": orders.eps_brdf}}
     F, P = orders.F, orders.P
     size = auto_face_size(F)
-    t_coeffs = _cold("shrm_coeffs", brdf_coefficients, rb, F, P)
+    t_coeffs = warm_seconds("shrm_coeffs", brdf_coefficients, rb, F, P)
     co = brdf_coefficients(rb, F, P)
     L, t_light = _timed(env.project, F)
     half = max(4, size // 2)
-    t_cube = _cold("shrm_cube", shrm_cube, L, co, half, rb.kind)
+    t_cube = warm_seconds("shrm_cube", shrm_cube, L, co, half, rb.kind)
     terms = P + 1 if rb.kind == "tangent" else (P + 1) ** 2
     return {
         "settings": {"brdf": model, "params": params, "merl": None, "eps": tol, "F": F,
@@ -332,7 +306,7 @@ def plan_splitsum(env: EnvMap, lo: float, hi: float) -> dict:
     alphas = tuple(float(a) for a in np.linspace(a_lo, min(a_hi, 1.0), 4))
     config = SplitSumConfig(top=64, min_size=16, alphas=alphas, samples=256)
     small = SplitSumConfig(**(config.as_dict() | {"top": 32, "min_size": 8}))
-    t = _cold("splitsum", prefilter_chain, env.pixels, small)
+    t = warm_seconds("splitsum", prefilter_chain, env.pixels, small)
     texels = sum(s * s for s in config.sizes)
     return {
         "settings": {"splitsum": config.as_dict()},
@@ -389,8 +363,8 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
             nonlocal env_map, load_s
             if env_map is None:
                 env_map, load_s = _timed(load_environment, path, quiet=True)
-                if "load" not in _WARM:  # the first load also pays imports: time it again
-                    _WARM.add("load")
+                if "load" not in WARMED:  # the first load also pays imports: time it again
+                    WARMED.add("load")
                     env_map, load_s = _timed(load_environment, path, quiet=True)
             return (env_map, load_s) if with_load else env_map
 
@@ -556,12 +530,6 @@ def _asset(aid, kind, scene, p, inputs, hashes, key, tolerances, env=None) -> di
     }
 
 
-def settings_text(asset: dict) -> str:
-    """What decides an asset's bytes (kind, settings, inputs' hashes): its stamp file's text."""
-    keep = {k: asset[k] for k in ("id", "kind", "output", "inputs", "input_hashes", "settings")}
-    return json.dumps(keep, sort_keys=True, indent=1) + "\n"
-
-
 def format_plan(plan: dict) -> str:
     """The plan as a text table: asset, settings, predicted error (tolerance), time, bytes."""
     rows = [("asset", "settings", "pred. error (tol)", "pred. s", "bytes")]
@@ -592,4 +560,4 @@ def format_plan(plan: dict) -> str:
     return "\n".join(line.rstrip() for line in lines)
 
 
-__all__ = ["plan_scene", "format_plan", "settings_text", "file_hash", "asset_output", "asdict"]
+__all__ = ["plan_scene", "format_plan", "file_hash", "asdict"]

@@ -86,7 +86,7 @@ class ShrmProbe:
                 return row
         return None
 
-    def covers(self, alpha: float) -> bool:
+    def covers(self, alpha=None, **material) -> bool:
         return self._level(float(alpha)) is not None
 
     @property
@@ -112,11 +112,15 @@ class ShrmProbe:
             self._held = (row["alpha"], tuple(cubes))
         return self._held[1]
 
-    def shade(self, views, normals, alpha, f0):
-        from shbake.shading.shrm import evaluate_ggx_shrm
+    def shade(self, normals, views, alpha=None, f0=1.0):
+        """The shader protocol's ``shade``: the registry's ``ggx-shrm`` shader
+        (:class:`~shbake.shading.shrm.GgxShrmShader`) of this ``α``'s cubes (baked on
+        first use)."""
+        from shbake.shading.shader import shader_class
 
         c0, c1 = self.cubes(alpha)
-        return evaluate_ggx_shrm([(float(alpha), c0, c1)], views, normals, alpha, f0)
+        ggx = shader_class("ggx-shrm")([(float(alpha), c0, c1)])
+        return ggx.shade(normals, views, alpha, f0)
 
 
 def split_levels(alphas) -> tuple:

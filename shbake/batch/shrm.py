@@ -21,6 +21,7 @@ from shbake.brdf.reflection import (
 from shbake.conventions import check_vectors
 from shbake.errors import ParameterError
 from shbake.evaluation.shrm import ShrmCheck
+from shbake.format.shrm import build_shrm_asset
 
 
 def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32,
@@ -43,7 +44,7 @@ def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32
                    "bytes": int(b.cube.nbytes), "measured_rel_rms": None,
                    "measured_rel_energy": None}  # fmt: skip
             if check.ref is not None:
-                e2 = check.rel_energy(b.cube)
+                e2 = check.rel_energy(build_shrm_asset(b, env.meta))
                 row["measured_rel_rms"] = float(np.sqrt(e2))
                 row["measured_rel_energy"] = e2  # comparable with eps_brdf and the bound
             rows.append(row)
@@ -113,7 +114,7 @@ def bake_shrm_file(env_path: str, output: str, settings: ShrmSettings,
     summary dict."""
     from shbake.envmap import load_environment
     from shbake.format.atomic import check_output_dir, check_writable_dir
-    from shbake.format.shrm import build_shrm_asset, write_exr_cubes, write_shrm
+    from shbake.format.shrm import write_exr_cubes, write_shrm
     from shbake.shading.shrm import reflection_cube
 
     check_writable_dir(output)

@@ -11,8 +11,10 @@ surface to shade. Used by ``shrm --report`` and the scene bake's error check.
 import numpy as np
 
 from shbake.brdf.reflection import ReflectionBRDF
+from shbake.evaluation.metrics import relative_error_energy
 from shbake.preview.sphere import sphere_geometry
 from shbake.reference.reflection import brute_force_reflection
+from shbake.shading.shader import shader
 
 VIEW = np.array([0.0, 0.0, 1.0])
 """The check sphere's view (toward the viewer, world)."""
@@ -36,9 +38,9 @@ class ShrmCheck:
                                               rb.describe()["parameters"], n, VIEW,
                                               source=rb.source)  # fmt: skip
 
-    def rel_energy(self, cube: np.ndarray) -> float:
-        """``Σ (shaded − ref)² / Σ ref²`` of the SHRM ``cube`` (comparable with ``eps_brdf``)."""
-        from shbake.shading.shrm import reflection_cube, shade
-
-        img = shade(reflection_cube(cube, self.view), self.normals, self.view)
-        return float(np.sum((img - self.ref) ** 2) / max(float(np.sum(self.ref**2)), 1e-300))
+    def rel_energy(self, asset) -> float:
+        """``Σ (shaded − ref)² / Σ ref²`` (:func:`~shbake.evaluation.metrics.
+        relative_error_energy`, comparable with ``eps_brdf``) of an ``shrm`` asset, shaded
+        by the registry's ``shrm`` shader."""
+        img = shader(asset).shade(self.normals, np.broadcast_to(self.view, self.normals.shape))
+        return relative_error_energy(img, self.ref)

@@ -498,11 +498,6 @@ def kinds() -> dict[str, Kind]:
     return KINDS
 
 
-def versions() -> dict[str, int]:
-    """``kind → format version``."""
-    return {k: v.version for k, v in kinds().items()}
-
-
 def render_doc(text: str) -> str:
     """``docs/FORMAT.md`` text with every generated block replaced by the registry's.
 

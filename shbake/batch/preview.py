@@ -1,8 +1,11 @@
-"""``preview`` as one unit of work: read an asset, render a pass (and its reference), write images.
+"""``shbake preview`` as one unit of work: read an asset, render a pass (and its reference),
+write images.
 
 :func:`preview_asset` reads the asset (and, for references, the original map
-it records, hash-checked), renders the pass on a sphere
-(:mod:`shbake.preview.passes`, :mod:`shbake.preview.glossy`), and writes the
+it records, hash-checked: :func:`shbake.format.provenance.reload_source`), takes the
+pass's shader from the registry (:func:`shbake.shading.shader.shader`: a pass is a
+technique of the asset's kind, or a ``reference`` pass — the ground truth of one),
+renders it on a sphere (:mod:`shbake.preview.passes`), and writes the
 float32 EXR of the pass, with ``diff`` the reference and the signed error as
 EXRs too, and always a labelled contact sheet ``<stem>-sheet.png``
 (:mod:`shbake.preview.contact_sheet`); ``png`` adds a plain tone-mapped PNG
@@ -15,20 +18,25 @@ import numpy as np
 
 from shbake.conventions import ggx_alpha
 from shbake.errors import ParameterError
+from shbake.evaluation.metrics import mean_squared_error, relative_rms_error
 from shbake.format.asset import read_asset
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
 from shbake.format.kautz_table import table_at
 from shbake.format.provenance import reload_source
 from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import write_contact_sheet
-from shbake.preview.glossy import PASS_OF_KIND, render_glossy
-from shbake.preview.passes import PASSES, render_pass
-from shbake.preview.shrm import preview_shrm
+from shbake.preview.passes import render_pass
 from shbake.progress import NO_PROGRESS
 from shbake.resources import check_memory
+from shbake.shading.shader import DEFAULT_OF_KIND, shader, shader_classes, shaders_of_kind
 
-REFERENCE_OF = {"irradiance": "reference", "tangent": "reference-tangent", "kautz": "reference"}
-ALL_PASSES = PASSES + tuple(PASS_OF_KIND.values()) + ("shrm",)
+REFERENCE_PASSES = {"reference": None, "reference-tangent": "tangent"}
+"""Reference passes → the technique whose ground truth they draw (``None``: the asset's
+main technique — the Kautz table's BRDF when ``--table`` is given)."""
+ALL_PASSES = tuple(n for n, c in shader_classes().items() if c.kinds) + tuple(REFERENCE_PASSES)
+"""Every ``--pass``: the registry's techniques, then the reference passes."""
+KINDS = ("env_sh", "shexp_probe", "shexp_probe_set", "splitsum_probe", "shrm")
+"""Asset kinds the preview reads (a probe set is shaded one probe at a time)."""
 
 KIND_OPTIONS = {
     "table_path": "--table",
@@ -41,18 +49,17 @@ KIND_OPTIONS = {
     "index": "--index",
 }
 """Settings that only some asset kinds read, and the option that sets each."""
-
-
-def options_of_kind(kind: str) -> frozenset:
-    """The :data:`KIND_OPTIONS` an asset of ``kind`` reads: env_sh the Kautz table's
-    (``--table``, ``--at``, ``--merl``), probes the glossy sphere's (``--roughness``/
-    ``--alpha``, ``--f0``, ``--samples``; sets also ``--index``), shrm none."""
-    if kind == "env_sh":
-        return frozenset(("table_path", "at", "merl_path"))
-    if kind == "shrm":
-        return frozenset()
-    probe = frozenset(("roughness", "alpha", "f0", "samples"))
-    return probe | {"index"} if kind == "shexp_probe_set" else probe
+_PROBE_OPTIONS = frozenset(("roughness", "alpha", "f0", "samples"))
+OPTIONS_OF_KIND = {
+    "env_sh": frozenset(("table_path", "at", "merl_path")),
+    "shrm": frozenset(),
+    "shexp_probe": _PROBE_OPTIONS,
+    "splitsum_probe": _PROBE_OPTIONS,
+    "shexp_probe_set": _PROBE_OPTIONS | {"index"},
+}
+"""The :data:`KIND_OPTIONS` an asset of each kind reads: env_sh the Kautz table's
+(``--table``, ``--at``, ``--merl``), probes the glossy sphere's (``--roughness``/
+``--alpha``, ``--f0``, ``--samples``; sets also ``--index``), shrm none."""
 
 
 PIXEL_BYTES = 256
@@ -86,58 +93,25 @@ def check_preview_memory(size, reference=False, coeffs=0, source=None) -> None:
     check_memory(preview_memory(size, reference, coeffs, texels), what)
 
 
-def _render_env(asset, asset_path, pass_name, size, diff, source, table_path, at, merl_path):
-    pass_name = pass_name or "irradiance"
-    if pass_name in PASS_OF_KIND.values():
-        raise ParameterError(f"--pass {pass_name} needs a {pass_name}_probe asset")
-    if pass_name == "kautz" and table_path is None:
-        raise ParameterError("--pass kautz needs --table TABLE.h5")
-    if diff and pass_name not in REFERENCE_OF:
-        raise ParameterError("--diff needs the irradiance, tangent or kautz pass")
-    table = brdf = None
-    if table_path is not None:
-        table = table_at(read_asset(table_path, kinds=("brdf_table",)),
-                         {k: float(v) for k, v in (at or {}).items()})  # fmt: skip
-    needs_source = pass_name.startswith("reference") or diff
-    coeffs = table.coeffs.shape[-2] if pass_name == "kautz" else 0
-    check_preview_memory(size, diff, coeffs)
-    if table is not None and needs_source:
-        brdf = table.make_brdf(merl_path)
-    src = reload_source(asset, asset_path, source) if needs_source else None
-    check_preview_memory(size, diff, coeffs, src)
-    img, timing = render_pass(asset, pass_name, size, src, table, brdf)
-    summary = {"pass": pass_name, "size": size, "seconds": timing["seconds"], "fps": timing["fps"]}
-    if "modes" in timing:
-        summary["modes"] = timing["modes"]
-    settings = f"size {size}" + (f", table {os.path.basename(table_path)}" if table_path else "")
-    reference = None
-    if diff:
-        reference, ref_timing = render_pass(asset, REFERENCE_OF[pass_name], size, src, None, brdf)
-        summary["reference_seconds"] = ref_timing["seconds"]
-    return img, reference, summary, settings, src
+def _main_technique(kind: str, companions: dict) -> str:
+    """The technique a ``reference`` pass draws the truth of: the one that reads the
+    companions given (a Kautz table), else the kind's default."""
+    if companions:
+        classes = shader_classes()
+        for name in shaders_of_kind(kind):
+            if len(classes[name].kinds) > 1:
+                return name
+    return DEFAULT_OF_KIND[kind]
 
 
-def _render_probe(asset, asset_path, pass_name, size, diff, source, roughness, f0, samples):
-    own = PASS_OF_KIND[asset.kind]
-    pass_name = pass_name or own
-    if pass_name not in (own, "reference"):
-        raise ParameterError(f"a {asset.kind} asset has passes {own} and reference")
-    if diff and pass_name == "reference":
-        raise ParameterError("--diff compares a probe pass with the reference")
-    needs_source = pass_name == "reference" or diff
-    check_preview_memory(size, diff)
-    src = reload_source(asset, asset_path, source) if needs_source else None
-    check_preview_memory(size, diff, 0, src)
+def _material(sh, roughness: float, f0: float) -> tuple[dict, dict, str]:
+    """What the shader reads of the sphere's material: ``(material, summary, text)``."""
+    if "alpha" not in sh.material:
+        return {}, {}, ""
     alpha = ggx_alpha(roughness)  # probes take the GGX width (probe format 2)
-    img, timing = render_glossy(asset, pass_name, size, alpha, f0, src, samples)
-    summary = {"pass": pass_name, "size": size, "roughness": roughness, "alpha": alpha, "f0": f0,
-               "seconds": timing["seconds"], "fps": timing["fps"]}  # fmt: skip
-    reference = None
-    if diff:
-        reference, ref_timing = render_glossy(asset, "reference", size, alpha, f0, src, samples)
-        summary["reference_seconds"] = ref_timing["seconds"]
-    settings = f"roughness {roughness:g} (α {alpha:.4g}), F0 {f0:g}, size {size}"
-    return img, reference, summary, settings, src
+    material = sh.check(alpha=alpha, f0=f0)
+    text = f"roughness {roughness:g} (α {alpha:.4g}), F0 {f0:g}"
+    return material, {"roughness": roughness, "alpha": alpha, "f0": f0}, text
 
 
 def preview_asset(
@@ -160,38 +134,64 @@ def preview_asset(
 ) -> dict:
     """Render pass ``pass_name`` of the asset at ``asset_path`` into ``output`` (EXR); the summary.
 
-    ``env_sh`` assets: irradiance, tangent, kautz (``table_path``) and their references;
-    probe assets: their own pass or the glossy reference at ``roughness``, ``f0``.
+    A pass is a technique of the registry that shades the asset's kind
+    (:func:`~shbake.shading.shader.shaders_of_kind`; default: the kind's) or a reference
+    pass (:data:`REFERENCE_PASSES`); ``diff`` adds the ground truth of the pass's technique.
+    Probes are drawn as a GGX sphere of perceptual ``roughness`` and Schlick ``f0``;
+    ``table_path`` (``at``) is the Kautz pass's BRDF table.
     ``explicit``: names of the settings the caller set on purpose (the command line's);
     one of :data:`KIND_OPTIONS` that the asset's kind does not read raises
     :class:`~shbake.errors.ParameterError` rather than being ignored.
     """
     if pass_name is not None and pass_name not in ALL_PASSES:
         raise ParameterError(f"unknown pass {pass_name!r}; choose one of {', '.join(ALL_PASSES)}")
-    asset = read_asset(asset_path, kinds=("env_sh", "shexp_probe_set", "shrm", *PASS_OF_KIND))
-    reads = options_of_kind(asset.kind)
+    asset = read_asset(asset_path, kinds=KINDS)
+    reads = OPTIONS_OF_KIND[asset.kind]
     stray = [o for k, o in KIND_OPTIONS.items() if k in explicit and k not in reads]
     if stray:
         raise ParameterError(f"{', '.join(stray)}: not read for a {asset.kind} asset")
     if asset.kind == "shexp_probe_set":
         asset = probe_from_set(asset, index)
+    companions = {}
+    if table_path is not None:
+        companions["table"] = table_at(read_asset(table_path, kinds=("brdf_table",)),
+                                       {k: float(v) for k, v in (at or {}).items()})  # fmt: skip
+    reference = pass_name in REFERENCE_PASSES
+    if reference and diff:
+        raise ParameterError("--diff compares a shading pass with its reference")
+    if reference:
+        technique = REFERENCE_PASSES[pass_name] or _main_technique(asset.kind, companions)
+    else:
+        technique = pass_name or DEFAULT_OF_KIND[asset.kind]
+    techniques = shaders_of_kind(asset.kind)
+    if technique not in techniques:
+        refs = [r for r, t in REFERENCE_PASSES.items() if t is None or t in techniques]
+        passes = [*techniques, *refs]
+        raise ParameterError(f"a {asset.kind} asset has passes {', '.join(passes[:-1])} and "
+                             f"{passes[-1]}; not {pass_name}")  # fmt: skip
+    sh = shader(asset, technique, **companions)
+    material, summary, text = _material(sh, roughness, f0)
+    needs_source = reference or diff
+    coeffs = 0 if reference else sh.point_coeffs  # a reference pass runs no shader
+    check_preview_memory(size, diff, coeffs)
+    src = reload_source(asset, asset_path, source) if needs_source else None
+    check_preview_memory(size, diff, coeffs, src)
+    truth = {"samples": samples, "merl_path": merl_path}
+    name = pass_name or technique
     with progress.task(f"preview {os.path.basename(asset_path)}", total=None, unit="pass"):
-        if asset.kind == "shrm":  # SHRM hook (issue 13): shbake.preview.shrm.preview_shrm
-            needs_source = diff or pass_name == "reference"
-            check_preview_memory(size, diff)
-            src = reload_source(asset, asset_path, source) if needs_source else None
-            check_preview_memory(size, diff, 0, src)
-            img, reference, summary, settings = preview_shrm(asset, pass_name, size, diff, src)
-        elif asset.kind in PASS_OF_KIND:
-            img, reference, summary, settings, src = _render_probe(
-                asset, asset_path, pass_name, size, diff, source, roughness, f0, samples
-            )
+        if reference:
+            img, timing = render_pass(sh, size, material, src, **truth)
         else:
-            img, reference, summary, settings, src = _render_env(
-                asset, asset_path, pass_name, size, diff, source, table_path, at, merl_path
-            )
-    title = f"{os.path.basename(asset_path)} ({asset.kind}): pass {summary['pass']}, {settings}"
-    write_outputs(output, img, reference, summary, title, png, src)
+            img, timing = render_pass(sh, size, material)
+        ref = None
+        if diff:
+            ref, ref_timing = render_pass(sh, size, material, src, **truth)
+    summary = {"pass": name, "size": size, **summary, **timing}
+    if diff:
+        summary["reference_seconds"] = ref_timing["seconds"]
+    settings = ", ".join(x for x in (sh.label(), text, f"size {size}") if x)
+    title = f"{os.path.basename(asset_path)} ({asset.kind}): pass {name}, {settings}"
+    write_outputs(output, img, ref, summary, title, png, src)
     return summary
 
 
@@ -206,8 +206,8 @@ def write_outputs(output, img, reference, summary, title, png=False, source=None
     if reference is not None:
         mask = mask | np.any(reference != 0.0, axis=-1)
         err = img - reference
-        mse = float(np.mean(err[mask] ** 2)) if mask.any() else 0.0
-        rel = float(np.sqrt(np.sum(err**2) / max(np.sum(reference**2), 1e-300)))
+        mse = mean_squared_error(img[mask], reference[mask])
+        rel = relative_rms_error(img, reference)
         images[stem + "-reference.exr"] = reference
         images[stem + "-diff.exr"] = err
         summary.update(mse=mse, relative_rms_error=rel)
