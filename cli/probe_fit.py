@@ -28,6 +28,8 @@ from shbake.batch.probe_jobs import JOBS_LIMIT
 from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT, ggx_alpha
 from shbake.errors import ParameterError
 
+DEFAULT = FitConfig()
+
 
 def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
     """The fit's GGX-width range from ``--alpha-range`` or ``--roughness-range`` (``α = r²``)."""
@@ -47,12 +49,13 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
             required=False)  # fmt: skip
 @click.option("--out-dir", default=".", show_default=True, type=click.Path(file_okay=False),
               help="Without -o: one <map stem>.h5 probe per map into this folder.")  # fmt: skip
-@click.option("--lmax-p", type=click.IntRange(0, SHEXP_LMAX_LIMIT), default=4, show_default=True,
+@click.option("--lmax-p", type=click.IntRange(0, SHEXP_LMAX_LIMIT), default=DEFAULT.lmax_p,
+              show_default=True,
               help=f"Highest band of P (mirror direction), 0…{SHEXP_LMAX_LIMIT}.")  # fmt: skip
 @click.option("--lmax-q", type=click.IntRange(1, SHEXP_LMAX_LIMIT), default=2, show_default=True,
               help=f"Highest band of Q (half-reflection, DC dropped), 1…{SHEXP_LMAX_LIMIT}."
               )  # fmt: skip
-@click.option("--normals", type=int, default=64, show_default=True,
+@click.option("--normals", type=int, default=DEFAULT.normals, show_default=True,
               help="Fit normals (Fibonacci sphere).")  # fmt: skip
 @click.option("--views", type=int, default=32, show_default=True,
               help="Fit views per normal (uniform on the hemisphere; weighted 2 n·v by "
@@ -70,7 +73,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
 @click.option("--weights", type=click.Choice(WEIGHTS), default="shaded-nv", show_default=True,
               help="Log-space sample weights: log (eq. 13), shaded (E0²), shaded-nv "
               "(E0² · 2 n·v), shaded-nv-f0 (+ chrome/dielectric balance).")  # fmt: skip
-@click.option("--polish", type=click.IntRange(0, 8), default=1, show_default=True,
+@click.option("--polish", type=click.IntRange(0, 8), default=DEFAULT.polish, show_default=True,
               help="Gauss–Newton steps on the shaded error after the log fit (shaded-nv*; "
               "a step that does not lower it is dropped).")  # fmt: skip
 @samples_opt(1024, "per E0 fit target (filtered visible-normal samples)")
@@ -101,7 +104,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
 @quiet_opt
 def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, alpha_count,
               as_json, quiet, **settings):  # fmt: skip
-    """Fit SH-exp v2 probes (2 × 33 numbers per channel by default) to MAPS.
+    """Fit SH-exp v2 probes (2 × 44 numbers per channel by default) to MAPS.
 
     α is the GGX width (SPEC §1). Each probe is one atomic, idempotent file
     (or one set file with -o); the same inputs give byte-identical files

@@ -16,10 +16,12 @@ from shbake_cli.options import (
     quiet_opt,
     report_opt,
     size_opt,
+    tol_opt,
     usage_errors,
     warn,
 )
 
+from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, MAX_LIGHTS
 from shbake.batch.project_env import check_settings, project_environment
 from shbake.conventions import LMAX_LIMIT
 from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
@@ -65,7 +67,19 @@ from shbake.sh.windows import WINDOW_METHODS
 @click.option(
     "--extract-sun",
     is_flag=True,
-    help="Take the dominant compact light out as a directional light before projecting.",
+    help="Take the dominant compact light out of the map as a directional light before "
+    "projecting (map-domain; --lights 1 fits one light to the irradiance instead).",
+)
+@click.option(
+    "--lights",
+    type=click.Choice(["auto"] + [str(k) for k in range(MAX_LIGHTS + 1)]),
+    default=None,
+    help="Fit K directional lights and the SH together by least squares on the irradiance "
+    f"(0…{MAX_LIGHTS}); auto: the fewest (0…{AUTO_MAX_LIGHTS}) meeting --tol.",
+)
+@tol_opt(
+    "with --lights auto, the mean relative luminance error of SH + lights against brute force "
+    "(4096 Fibonacci normals) to meet [default: 0.01]"
 )
 @click.option(
     "--sun-radius",
@@ -97,9 +111,16 @@ def project_env(ctx, env, output, exr_dir, size, as_json, quiet, **settings):
 
     ENV: lat-long, cube strip or cross; EXR, HDR or any format OpenImageIO reads.
     """
+    lights = settings.pop("lights")
+    tol = settings.pop("tol")
+    if tol is not None and lights != "auto":
+        raise click.UsageError("--tol applies to --lights auto only")
+    settings["lights"] = None if lights is None else lights if lights == "auto" else int(lights)
+    settings["light_tol"] = 0.01 if tol is None else tol
     with usage_errors():
         check_settings(settings["lmax"], settings["irradiance_lmax"], settings["irradiance"],
-                       settings["exports"])  # fmt: skip
+                       settings["exports"], settings["lights"], settings["light_tol"],
+                       settings["extract_sun"], settings["window"])  # fmt: skip
     summary = project_environment(
         env,
         output,
@@ -150,3 +171,8 @@ def print_report(summary: dict, quiet: bool) -> None:
         )
     elif sun:
         info(f"sun: none extracted (peak/background contrast {sun['contrast']:.1f})", quiet)
+    lights = summary.get("lights")
+    if lights:
+        for f in lights["tried"]:
+            info(f"lights: {f['count']} fitted, irradiance vs brute force (fit normals) mean "
+                 f"{f['mean_error']:.4%}, max {f['max_error']:.4%}", quiet)  # fmt: skip

@@ -120,6 +120,7 @@ class TestRangesAreUsageErrors:
         ("project-env", "--irradiance-lmax"): R(0, 128, True, extra=("--lmax", "128")),
         ("project-env", "--sun-radius"): R(0.0, 45.0, False, lo_open=True),
         ("project-env", "--size"): R(2, 4096, True),
+        ("project-env", "--tol"): R(0.0, 1.0, False, True, True, extra=("--lights", "auto")),
         ("project-env", "--map-height"): R(2, 4096, True),
         ("preview", "--size"): R(8, 4096, True),
         ("preview", "--roughness"): R(0.0, 1.0, False),

@@ -453,7 +453,7 @@ class TestBatch:
             assert filecmp.cmp(a, tmp_path / "two" / f"p{i}.h5", shallow=False)
             assert filecmp.cmp(a, tmp_path / "dask" / f"p{i}.h5", shallow=False)
         asset = read_asset(str(tmp_path / "one" / "p0.h5"), ("shexp_probe",))
-        assert asset["/p"].shape == (2, 25, 3) and asset["/q"].shape == (2, 8, 3)
+        assert asset["/p"].shape == (2, 36, 3) and asset["/q"].shape == (2, 8, 3)
 
 
 class TestGlossyPreview:
@@ -558,7 +558,7 @@ class TestProbeSet:
         assert code == 0 and "--set is deprecated" in err
         assert filecmp.cmp(tmp_path / "set1.h5", tmp_path / "old.h5", shallow=False)
         probe_set = read_asset(str(tmp_path / "set1.h5"), ("shexp_probe_set",))
-        assert probe_set["/p"].shape == (4, 2, 25, 3) and probe_set["/q"].shape == (4, 2, 8, 3)
+        assert probe_set["/p"].shape == (4, 2, 36, 3) and probe_set["/q"].shape == (4, 2, 8, 3)
         for i in range(4):
             single = read_asset(str(tmp_path / f"m{i}.h5"), ("shexp_probe",))
             np.testing.assert_array_equal(probe_set["/p"][i], single["/p"])
@@ -601,10 +601,11 @@ class TestCli:
     def test_probe_fit_and_split_sum(self, probe_maps, tmp_path, capsys):
         rc = main(["probe-fit", probe_maps[0], "--out-dir", str(tmp_path), "--normals", "16",
                    "--views", "16", "--samples", "256", "--json", "-q"])  # fmt: skip
-        assert rc == 0 and '"bytes": 792' in capsys.readouterr().out
+        assert rc == 0 and '"bytes": 1056' in capsys.readouterr().out
         rc = main(["probe-fit", probe_maps[0], "-o", str(tmp_path / "paper.h5"), "--sets", "1",
                    "--weights", "log", "--alpha-count", "4", "--polish", "0", "--normals", "16",
-                   "--views", "16", "--samples", "256", "--json", "-q"])  # fmt: skip
+                   "--views", "16", "--samples", "256", "--lmax-p", "4", "--json",
+                   "-q"])  # fmt: skip
         assert rc == 0 and '"bytes": 396' in capsys.readouterr().out
         rc = main(["split-sum", probe_maps[0], "-o", str(tmp_path / "s.h5"), "--size", "32",
                    "--samples", "256", "--prefilter", "filtered", "--roughness-levels",
@@ -649,7 +650,7 @@ class TestProbeEvalCli:
         assert code == 0, err
         summary = json.loads(out)
         assert all(n == 48 for _, n in summary["totals"].values())
-        assert summary["bytes"]["shexp_v2"] == 792 and summary["bytes"]["shexp_paper"] == 396
+        assert summary["bytes"]["shexp_v2"] == 1056 and summary["bytes"]["shexp_paper"] == 396
         assert "shexp_v2 vs splitsum_plain" in (tmp_path / "eval.md").read_text()
 
 

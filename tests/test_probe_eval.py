@@ -38,9 +38,16 @@ class TestReportedFigures:
             assert sorted({r["alpha"] for r in rows}) == list(ALPHAS)
         assert result["size"] == 32 and result["truth_samples"] == 2048
 
-    def test_v2_beats_the_papers_split_sum_in_90_percent(self, result):
+    def test_v2_beats_the_papers_split_sum_in_95_percent(self, result):
         wins, cases = totals(result)[("shexp_v2", "splitsum_plain")]
-        assert cases == 288 and wins / cases >= 0.90 and wins == REPORTED["v2_plain"]
+        assert cases == 288 and wins / cases >= 0.95 and wins == REPORTED["v2_plain"]
+
+    def test_where_v2_still_loses(self, result):
+        """Every (material, α) at 90 % or more but the dielectric at α 0.25 and 0.36 (17/24,
+        19/24), the range the planner gives the split-sum (batch/plan.py)."""
+        cells = win_table(result, "shexp_v2", "splitsum_plain")["cells"]
+        short = {k: v for k, v in cells.items() if v[0] / v[1] < 0.9}
+        assert short == {("dielectric", 0.25): (17, 24), ("dielectric", 0.36): (19, 24)}
 
     def test_other_win_rates_are_the_reported_ones(self, result):
         t = totals(result)
@@ -49,7 +56,7 @@ class TestReportedFigures:
         assert t[("shexp_paper", "splitsum_filtered")][0] == REPORTED["paper_filtered"]
 
     def test_bytes_per_probe(self, result):
-        assert result["bytes"]["shexp_v2"] == 792 and result["bytes"]["shexp_paper"] == 396
+        assert result["bytes"]["shexp_v2"] == 1056 and result["bytes"]["shexp_paper"] == 396
         assert result["bytes"]["splitsum_plain"] == 4 * 3 * (128**2 + 64**2 + 4 * 32**2)
 
 
@@ -67,5 +74,5 @@ def test_recomputed_map_has_the_reported_winners(result, name):
             assert new["mse"][k] == pytest.approx(v, rel=1e-6)
 
 
-REPORTED = {"v2_plain": 270, "v2_filtered": 263, "paper_plain": 192, "paper_filtered": 162}
+REPORTED = {"v2_plain": 274, "v2_filtered": 267, "paper_plain": 192, "paper_filtered": 162}
 """The win counts docs/BENCHMARKS.md reports (out of 288)."""

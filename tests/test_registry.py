@@ -150,11 +150,28 @@ def _del(name):
 
 NAN3 = np.array([np.nan, 0.0, 1.0])
 
+
+def _lights(direction, irradiance, keep_sun=False):
+    """Replace the example's sun by fitted lights (``/lights``) with these values."""
+
+    def fn(f):
+        if not keep_sun:
+            del f["/sun"]
+        if direction is not None:
+            f["/lights/direction"] = np.asarray(direction, dtype=np.float64)
+            attrs = {"requested": "auto", "fit_directions": 4096, "fit_mean_error": 0.01}
+            f["/lights/direction"].attrs.update(attrs | {"fit_max_error": 0.1})
+        f["/lights/irradiance"] = np.asarray(irradiance, dtype=np.float64)
+
+    return fn
+
+
 CORRUPTIONS = {
     # id: (kind, mutation, message fragment)
     "wrong-kind": ("env_sh", _set_attr("kind", "nope"), "kind 'nope' is unknown"),
     "kind-array": ("env_sh", _set_attr("kind", np.array([b"env_sh", b"x"])), "kind an array"),
     "newer-version": ("env_sh", _set_attr("format_version", np.int64(99)), "format_version 99"),
+    "older-version": ("env_sh", _set_attr("format_version", np.int64(1)), "format_version 1"),
     "version-array": ("env_sh", _set_attr("format_version", np.arange(40)), "format_version an"),
     "format-array": ("env_sh", _set_attr("format", np.array([1, 2])), "not a shbake asset"),
     "missing-dataset": ("env_sh", _del("/lighting/band_energy"), "missing dataset"),
@@ -175,6 +192,14 @@ CORRUPTIONS = {
                      "unit vector"),
     "sun-partial": ("env_sh", _del("/sun/radiance"), "missing dataset /sun/radiance"),
     "sun-no-direction": ("env_sh", _del("/sun/direction"), "missing dataset /sun/direction"),
+    "lights-not-unit": ("env_sh", _lights([[0.0, 2.0, 0.0]], [[1.0, 1.0, 1.0]]), "unit vector"),
+    "lights-negative": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0, -1.0, 1.0]]), "negative"),
+    "lights-no-direction": ("env_sh", _lights(None, [[1.0, 1.0, 1.0]]),
+                            "missing dataset /lights/direction"),
+    "lights-count-differs": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3, [2.0] * 3]),
+                             "lights/irradiance"),
+    "lights-and-sun": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], keep_sun=True),
+                       "not both"),
     "knots-equal": ("shexp_probe", _replace("/knots", np.array([0.5, 0.5])), "/knots must"),
     "knots-negative": ("shexp_probe", _replace("/knots", np.array([-1.0, 0.5])), "/knots must"),
     "matrix-333": ("env_sh", _replace("/tangent_irradiance/matrix", np.zeros((3, 3, 3))),
@@ -188,7 +213,7 @@ CORRUPTIONS = {
     "probe-range-not-json": ("shexp_probe", _set_attr("alpha_range", "[0.2,"),
                              "not valid JSON"),
     "probe-config-not-json": ("shexp_probe", _set_attr("fit_config", "{"), "not valid JSON"),
-    "probe-p-float64": ("shexp_probe", _replace("/p", np.zeros((2, 25, 3))), "float32"),
+    "probe-p-float64": ("shexp_probe", _replace("/p", np.zeros((2, 36, 3))), "float32"),
     "set-count-missing": ("shexp_probe_set", _del("probe_count"), "probe_count"),
     "set-count-wrong": ("shexp_probe_set", _set_attr("probe_count", np.int64(5)), "5"),
     "levels-0": ("splitsum_probe", _set_attr("levels", np.int64(0)), "levels = 0"),
@@ -223,6 +248,18 @@ class TestReadValidation:
         msg = str(e.value)
         assert "\n" not in msg and len(msg) < 400
         assert fragment in msg, msg
+
+    def test_older_version_still_read(self, tiny_map, tmp_path):
+        """An env_sh file of version 2 (before ``/lights``) is read as it was written."""
+        path = tmp_path / "v2.h5"
+        write_asset(str(path), example("env_sh", tiny_map))
+        now = read_asset(str(path))
+        with h5py.File(path, "r+") as f:
+            f.attrs["format_version"] = np.int64(2)
+        back = read_asset(str(path))
+        assert back.attrs["format_version"] == 2 and registry.kind_of("env_sh").reads == (2,)
+        assert back.datasets.keys() == now.datasets.keys()
+        assert all(np.array_equal(back[k], now[k]) for k in now.datasets)
 
     def test_truncated(self, tiny_map, tmp_path):
         path = tmp_path / "t.h5"

@@ -10,12 +10,21 @@ import time
 
 import numpy as np
 
+from shbake.bakers.env_lights import (
+    AUTO_MAX_LIGHTS,
+    FIT_DIRECTIONS,
+    MAX_LIGHTS,
+    choose_lights,
+    fit_lights,
+    irradiance_target,
+)
 from shbake.conventions import band_of_index, check_lmax, lmax_of
 from shbake.envmap.environment import Environment
 from shbake.envmap.sun import extract_sun
 from shbake.errors import ParameterError
 from shbake.format.asset import Asset
 from shbake.format.provenance import map_source
+from shbake.sh.basis import real_sh
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 from shbake.sh.rotation import rotate
 from shbake.sh.tangent_irradiance import matrix_form
@@ -43,6 +52,8 @@ def bake_env_sh(
     sun_radius_deg: float = 10.0,
     provenance: dict | None = None,
     rotation: np.ndarray | None = None,
+    lights: int | str | None = None,
+    light_tol: float = 0.01,
 ) -> tuple[Asset, dict]:
     """Bake an ``env_sh`` asset.
 
@@ -62,6 +73,11 @@ def bake_env_sh(
         Turn the environment by ``R`` (a scene probe's pose, :mod:`shbake.envmap.turn`):
         the SH become ``M(R) L`` (:func:`shbake.sh.rotation.rotate`, exact) and the sun's
         direction ``R d``; everything derived from them follows.
+    lights : ``"auto"``, int 0 … 8, or None
+        Fit directional lights and the residual's irradiance SH together by least squares
+        on the irradiance (:mod:`shbake.bakers.env_lights`): that many lights, or with
+        ``"auto"`` the fewest (up to 3) whose mean relative error meets ``light_tol``.
+        Not with ``sun`` nor a window (the fit is the irradiance).
 
     Returns
     -------
@@ -81,6 +97,21 @@ def bake_env_sh(
     dattrs: dict = {}
     light = None
     residual = env
+    fit = None
+    check_lights(lights, light_tol, sun, window_name)
+    if lights is not None:
+        fit, summary["lights"] = _fit(env, lights, light_tol, irradiance_lmax)
+    if fit is not None and fit.count:  # no light found: the SH alone (fitted), no /lights
+        directions = fit.directions if rotation is None else fit.directions @ np.asarray(rotation).T
+        datasets["/lights/direction"] = directions
+        datasets["/lights/irradiance"] = fit.irradiance
+        dattrs["/lights/direction"] = {
+            "requested": str(lights),
+            **({"tolerance": float(light_tol)} if lights == "auto" else {}),
+            "fit_directions": FIT_DIRECTIONS,
+            "fit_mean_error": fit.mean_error,
+            "fit_max_error": fit.max_error,
+        }
     if sun:
         light, residual, sun_report = extract_sun(env, radius_deg=sun_radius_deg)
         summary["sun"] = _jsonable(sun_report)
@@ -92,6 +123,8 @@ def bake_env_sh(
             dattrs["/sun/direction"] = {"frame": "world, unit vector toward the light"}
             dattrs["/sun/radiance"] = {"units": "radiance; radiance * solid_angle = irradiance"}
     L = residual.project(lmax)
+    if fit is not None:
+        L = _with_fit(L, fit, irradiance_lmax)
     if rotation is not None:
         L = rotate(L, rotation)
     datasets["/lighting/sh"] = L
@@ -99,6 +132,7 @@ def bake_env_sh(
         "lmax": lmax,
         "sun_removed": light is not None,
         "quadrature": "fejer-1 rows" if env.layout == "latlong" else "exact texel solid angles",
+        **({"lights_fitted": True} if fit is not None else {}),
     }
     datasets["/lighting/band_energy"] = band_energy(L)
 
@@ -134,6 +168,60 @@ def bake_env_sh(
     summary["bake_seconds"] = time.perf_counter() - t0
     attrs = map_source(env.meta) | dict(provenance or {})
     return Asset("env_sh", attrs, datasets, dattrs), summary
+
+
+def check_lights(lights, tol: float, sun: bool, window_name: str) -> None:
+    """Refuse light settings :func:`bake_env_sh` cannot honour (before any map is read)."""
+    if lights is None:
+        return
+    if lights != "auto" and not (
+        isinstance(lights, int) and not isinstance(lights, bool) and 0 <= lights <= MAX_LIGHTS
+    ):
+        raise ParameterError(f"--lights must be auto or 0…{MAX_LIGHTS}, got {lights!r}")
+    if not 0.0 < tol < 1.0:
+        raise ParameterError(f"--tol must be in (0, 1), got {tol}")
+    if sun:
+        raise ParameterError("--lights and --extract-sun exclude each other "
+                             "(--lights 1 fits one light to the irradiance)")  # fmt: skip
+    if window_name != "none":
+        raise ParameterError("--lights fits the irradiance itself: no --window with it")
+
+
+def _fit(env: Environment, lights, tol: float, lmax: int):
+    """The light fit ``--lights`` asks for and its summary (each fit tried: its errors)."""
+    if lights == "auto":
+        fit, tried = choose_lights(irradiance_target(env), tol, AUTO_MAX_LIGHTS, lmax)
+    else:
+        fit = fit_lights(irradiance_target(env), lights, lmax)
+        tried = [fit]
+    summary = {
+        "requested": lights,
+        "count": fit.count,
+        "mean_error": fit.mean_error,
+        "max_error": fit.max_error,
+        "rms_error": fit.rms_error,
+        "fit_directions": FIT_DIRECTIONS,
+        "tried": [{"count": f.count, "mean_error": f.mean_error, "max_error": f.max_error}
+                  for f in tried],  # fmt: skip
+        "energy_fraction": (fit.irradiance.sum(axis=0)
+                            / np.where(env.total_energy() > 0, env.total_energy(), 1.0)).tolist(),
+    }  # fmt: skip
+    if lights == "auto":
+        summary["tolerance"] = tol
+        summary["met"] = fit.mean_error <= tol
+    return fit, summary
+
+
+def _with_fit(L: np.ndarray, fit, irradiance_lmax: int) -> np.ndarray:
+    """The residual's lighting SH with lights: the map's projection less the lights as
+    delta lights, then the bands the Lambert kernel sees up to ``irradiance_lmax``
+    replaced by the fitted irradiance SH over ``Â_l``."""
+    lmax = lmax_of(L.shape[0])
+    out = L - real_sh(fit.directions, lmax).T @ fit.irradiance
+    a = lambert_kernel(irradiance_lmax)[band_of_index(irradiance_lmax)]
+    seen = np.flatnonzero(a != 0.0)
+    out[seen] = fit.sh[seen] / a[seen, None]
+    return out
 
 
 def _jsonable(d: dict) -> dict:

@@ -9,8 +9,12 @@
 with ``h_k`` the piecewise-linear hat functions of ``α`` on ``K`` knots spread
 evenly over the fitted range (:func:`shbake.shading.shexp.hat_weights`;
 ``K = 1``: the paper's single set; ``K = 2``: coefficients linear in ``α``).
-``p``: ``lmax_p`` (default 4, 25 coefficients per set); ``q``: ``lmax_q``
-(default 2) without its DC term (8), which ``p`` already holds (§4.1).
+``p``: ``lmax_p`` (default 5, 36 coefficients per set; the paper's 4, 25); ``q``:
+``lmax_q`` (default 2) without its DC term (8), which ``p`` already holds (§4.1).
+Default fit (issue 33): 2 sets, ``lmax_p`` 5, 48 normals × 32 views × 8 α, two
+polish steps — 1056 bytes per probe; it beats the plain split-sum in 274 of the 288
+shared-map cases (``docs/BENCHMARKS.md``), where 2 sets at ``lmax_p`` 4, 64 normals
+and one step (792 bytes) won 270.
 
 The fit is one weighted linear least-squares problem in log space over fixed
 ``(v, n, α)`` samples (eq. 13–14, all sets jointly), per channel::
@@ -78,16 +82,16 @@ class FitConfig:
     to ``targets_lmax`` × GGX tables).
     """
 
-    lmax_p: int = 4
+    lmax_p: int = 5
     lmax_q: int = 2
-    normals: int = 64
+    normals: int = 48
     views: int = 32
     alpha_count: int = 8
     alpha_min: float = 0.2
     alpha_max: float = 1.0
     sets: int = 2
     weights: str = "shaded-nv"
-    polish: int = 1
+    polish: int = 2
     samples: int = 1024
     floor: float = 1e-4
     targets: str = "quadrature"
@@ -129,10 +133,11 @@ class FitConfig:
 
     @classmethod
     def paper(cls, **changes) -> "FitConfig":
-        """The paper's fit (§5.1): one set, log weights, 4 α samples over [0.2, 1], no polish."""
-        return cls(
-            **({"sets": 1, "weights": "log", "alpha_count": 4, "polish": 0, "views": 64} | changes)
-        )
+        """The paper's fit (§5.1): one set, ``lmax_p`` 4, log weights, 4 α samples over
+        [0.2, 1], 64 normals × 64 views, no polish."""
+        paper = {"sets": 1, "weights": "log", "alpha_count": 4, "polish": 0, "views": 64,
+                 "lmax_p": 4, "normals": 64}  # fmt: skip
+        return cls(**(paper | changes))
 
     @property
     def alphas(self) -> np.ndarray:
@@ -386,18 +391,19 @@ class FitPlan:
         return float(np.sum(self.sample_weight * (pq - target_lin[:, c]) ** 2)), pq
 
     def _polish_step(self, x, target_lin):
-        """One Gauss–Newton step per channel on ``Σ 2n·v (P Q − E0)²`` (module docstring);
-        returns the new coefficients and how many channels took their step."""
+        """One Gauss–Newton step per channel on ``Σ 2n·v (P Q − E0)²`` (module docstring),
+        the three channels' normal equations built in one pass; returns the new
+        coefficients and how many channels took their step."""
         out = x.copy()
         took = 0
-        for c in range(x.shape[1]):
-            base, pq = self._shaded_cost(x[:, c], target_lin, c)
-            scale = target_lin[:, c].mean()
-            # J = diag(PQ) A; residual PQ − E0; (Jᵀ W J) δ = −Jᵀ W (PQ − E0)
-            w = self.sample_weight * (pq / scale) ** 2
-            delta = self.design.solve(w[:, None], ((target_lin[:, c] - pq) / pq)[:, None])[:, 0]
+        costs = [self._shaded_cost(x[:, c], target_lin, c) for c in range(x.shape[1])]
+        pq = np.stack([p for _, p in costs], axis=1)
+        # J = diag(PQ) A; residual PQ − E0; (Jᵀ W J) δ = −Jᵀ W (PQ − E0)
+        w = self.sample_weight[:, None] * (pq / target_lin.mean(axis=0)) ** 2
+        delta = self.design.solve(w, (target_lin - pq) / pq)
+        for c, (base, _) in enumerate(costs):
             for k in range(STEP_HALVINGS + 1):
-                trial = x[:, c] + 0.5**k * delta
+                trial = x[:, c] + 0.5**k * delta[:, c]
                 cost, _ = self._shaded_cost(trial, target_lin, c)
                 if cost < base:
                     out[:, c] = trial

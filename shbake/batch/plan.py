@@ -10,7 +10,11 @@ Rules (one asset per map or per BRDF, shared by every material that needs it):
   GGX width α = r² starts at :data:`SHEXP_MIN_ALPHA` or above, when the fit's
   predicted error meets ``glossy_probe``; a split-sum probe per map for the
   rest (low roughness, or a fit that misses the tolerance) — except a material
-  with ONE roughness whose SHRM orders meet ``shrm``: it gets an SHRM.
+  with ONE roughness whose SHRM orders meet ``shrm``: it gets an SHRM. A
+  dielectric (``params.F0`` below :data:`SHEXP_DIELECTRIC_F0`) whose range starts
+  below :data:`SHEXP_DIELECTRIC_ALPHA` goes to the split-sum (or SHRM) too, the
+  asset's note says why: there SH-exp's Fresnel tail (eq. 15) loses to the plain
+  split-sum in more than 10 % of the shared-map cases.
 * ``glossy`` with another isotropic ``model`` (Phong, Blinn–Phong, Ward,
   microfacet σ, Lafortune…) → one SHRM per map and distinct BRDF.
 
@@ -22,7 +26,12 @@ Error models (cheap, each measured, never assumed):
   (``e_l`` band energy, ``K_l`` the Lambert or Kajiya–Kay kernel), maximum
   over channels. Conservative with a sun: the sun is exact and only the
   residual's energy is counted in the denominator. Smallest ``L`` meeting
-  the tolerance (at least 2 with a glTF export).
+  the tolerance (at least 2 with a glTF export). With engine exports and no
+  fibre (engines read 9 coefficients and a few lights), the lights fitted with the
+  SH to the irradiance come first (:mod:`shbake.bakers.env_lights`): the fewest
+  (0 … :data:`~shbake.bakers.env_lights.AUTO_MAX_LIGHTS`) whose relative RMS error
+  against brute force at the fit's normals meets the tolerance, at ``L = 2``;
+  the Parseval rule when none does.
 * ``brdf_table``: three parts, combined as ``sqrt(a² + b² + c²)``: lmax
   truncation of ``f*`` (Parseval against a dense quadrature, as
   :mod:`shbake.bakers.kautz_report`), sample noise (projection at the chosen
@@ -48,6 +57,7 @@ from dataclasses import asdict
 
 import numpy as np
 
+from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, choose_lights, irradiance_target
 from shbake.bakers.env_sh import band_energy
 from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
@@ -70,12 +80,19 @@ MAX_IRRADIANCE_LMAX = 16
 SHEXP_MIN_ALPHA = FIT_ALPHA_MIN
 """Lowest GGX width α = r² the SH-exp fit takes (:data:`shbake.bakers.shexp.FIT_ALPHA_MIN`);
 materials whose roughness range starts below ``sqrt(SHEXP_MIN_ALPHA)`` get split-sum."""
+SHEXP_DIELECTRIC_F0 = 0.5
+"""Schlick ``F0`` below which a GGX material is a dielectric for :data:`SHEXP_DIELECTRIC_ALPHA`."""
+SHEXP_DIELECTRIC_ALPHA = 0.49
+"""GGX width below which SH-exp loses to the plain split-sum for dielectrics (F0 0.04) in
+more than 10 % of the 24 shared-map cases per α (α 0.25: 17/24 wins, 0.36: 19/24, 0.49:
+23/24; docs/BENCHMARKS.md): eq. 15's Fresnel tail ``E1 ≈ E0 A1/A0`` is the limit — with
+the exact ``E0`` it wins 17/24 and 18/24 at 0.25 and 0.36."""
 FIT_PREDICT_HEIGHT = 32
 TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
 REFERENCE_SAMPLES = 16384
-PLAN_VERSION = 5
+PLAN_VERSION = 6
 
 
 def file_hash(path: str, own_output: bool = False) -> str:
@@ -118,6 +135,10 @@ def _downsample(pixels: np.ndarray, height: int) -> np.ndarray:
 def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
                 exports: tuple = ()) -> dict:  # fmt: skip
     """Settings, predicted error and time of one map's ``env_sh`` asset (module docstring)."""
+    if exports and irr_tol is not None and tan_tol is None:
+        lit = _plan_lights(env, load_s, irr_tol)
+        if lit is not None:
+            return lit
     (light, residual, rep), t_sun = _timed(extract_sun, env)
     sun = bool(rep["extracted"])
     coeffs, proj_s = _timed(residual.project, ERROR_LMAX)
@@ -146,6 +167,28 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
         "sun_seconds": t_sun if sun else 0.0,
         "bytes": n * (1 + settings["irradiance"] + settings["tangent"]) + (56 if sun else 0),
         "note": "error: Parseval on the full map" + (", sun removed (exact light)" if sun else ""),
+    }
+
+
+def _plan_lights(env: EnvMap, load_s: float, irr_tol: float) -> dict | None:
+    """The ``env_sh`` plan with fitted lights at ``L = 2`` (module docstring), or None
+    when no fit with up to :data:`AUTO_MAX_LIGHTS` lights meets ``irr_tol``."""
+
+    def fit():
+        return choose_lights(irradiance_target(env), irr_tol, AUTO_MAX_LIGHTS, 2, "rms_error")
+
+    (best, _), seconds = _timed(fit)
+    if best.rms_error > irr_tol:
+        return None
+    settings = {"lmax": 2, "irradiance": True, "tangent": False, "extract_sun": False,
+                "lights": best.count}  # fmt: skip
+    return {
+        "settings": settings,
+        "predicted_error": {"irradiance": best.rms_error},
+        "work_seconds": load_s + seconds,
+        "bytes": n_coeffs(2) * 3 * 8 * 2 + 48 * best.count,
+        "note": f"error: SH + {best.count} lights fitted to brute-force irradiance "
+        "(relative RMS at the fit's normals)",
     }
 
 
@@ -411,8 +454,12 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 })  # fmt: skip
         if glossy:
             tol, tkey = scene.tolerance("glossy_probe", env)
-            high = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA]
-            low = [m for m in glossy if ggx_alpha(m.roughness[0]) < SHEXP_MIN_ALPHA]
+            tail_bound = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA
+                          and ggx_alpha(m.roughness[0]) < SHEXP_DIELECTRIC_ALPHA
+                          and float(m.params.get("F0", 1.0)) < SHEXP_DIELECTRIC_F0]  # fmt: skip
+            high = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA
+                    and m not in tail_bound]  # fmt: skip
+            low = [m for m in glossy if ggx_alpha(m.roughness[0]) < SHEXP_MIN_ALPHA] + tail_bound
             if high:
                 lo = min(m.roughness[0] for m in high)
                 hi = max(m.roughness[1] for m in high)
@@ -448,7 +495,11 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                     cache[key] = plan_splitsum(get_env(), lo, hi)
                     cache[key]["work_seconds"] += load_s
                 aid = f"splitsum/{env.name}"
-                add(aid, "splitsum", cache[key], [env.map], {"map": digest}, key, {}, env)
+                why = [m.name for m in tail_bound if m in low]
+                p = cache[key] if not why else cache[key] | {"note": cache[key]["note"] + (
+                    f"; {', '.join(why)}: dielectric below α {SHEXP_DIELECTRIC_ALPHA:g}, where "
+                    "SH-exp's Fresnel tail (eq. 15) loses to split-sum")}  # fmt: skip
+                add(aid, "splitsum", p, [env.map], {"map": digest}, key, {}, env)
                 for m in low:
                     used[m.name].append(aid)
         for m in reflective:
@@ -537,6 +588,7 @@ def format_plan(plan: dict) -> str:
         s = a["settings"]
         if a["kind"] == "env_sh":
             text = f"lmax {s['lmax']}" + (" +sun" if s["extract_sun"] else "")
+            text += f" +{s['lights']} lights" if s.get("lights") is not None else ""
         elif a["kind"] == "brdf_table":
             text = f"lmax {s['lmax']} size {s['size']} samples {s['samples']}"
         elif a["kind"] == "shexp":

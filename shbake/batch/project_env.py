@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from shbake.bakers.env_sh import bake_env_sh, truncation_report
+from shbake.bakers.env_sh import bake_env_sh, check_lights, truncation_report
 from shbake.conventions import check_lmax
 from shbake.envmap import load_environment
 from shbake.envmap import sun as sun_light
@@ -57,10 +57,17 @@ def quality_warnings(asset, summary: dict) -> list[str]:
     """
     out = []
     fixes = []
-    if summary.get("window") != "dering":
+    lights = summary.get("lights")
+    if summary.get("window") != "dering" and not lights:
         fixes.append("--window dering")
-    if not summary.get("sun", {}).get("extracted"):
+    if not summary.get("sun", {}).get("extracted") and not lights:
         fixes.append("--extract-sun")
+    if lights and lights.get("met") is False:
+        out.append(
+            f"--lights auto: no fit with at most {len(lights['tried']) - 1} lights meets "
+            f"--tol {lights['tolerance']:g}; kept {lights['count']} (mean error "
+            f"{lights['mean_error']:.2%}, max {lights['max_error']:.2%})"
+        )
     if "/irradiance/sh" in asset:
         e = shader(asset, "irradiance").irradiance(fibonacci_sphere(MINIMUM_DIRECTIONS))
         lowest = float(e.min())
@@ -82,15 +89,18 @@ def quality_warnings(asset, summary: dict) -> list[str]:
 
 
 def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh: bool = True,
-                   exports: tuple[str, ...] = ()) -> int:  # fmt: skip
-    """The band limits of :func:`project_environment` checked before any input is read (a
-    :class:`~shbake.errors.ParameterError` names the first bad one); returns the irradiance
-    ``lmax`` (default ``min(lmax, 2)``, at most ``lmax``; an export needs 2)."""
+                   exports: tuple[str, ...] = (), lights: int | str | None = None,
+                   light_tol: float = 0.01, extract_sun: bool = False,
+                   window: str = "none") -> int:  # fmt: skip
+    """The band limits and light settings of :func:`project_environment` checked before any
+    input is read (a :class:`~shbake.errors.ParameterError` names the first bad one); returns
+    the irradiance ``lmax`` (default ``min(lmax, 2)``, at most ``lmax``; an export needs 2)."""
     check_lmax(lmax)
     irradiance_lmax = min(lmax, 2) if irradiance_lmax is None else irradiance_lmax
     check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
     if exports and (not irradiance_sh or irradiance_lmax < 2):
         raise ParameterError("--export needs --irradiance with irradiance lmax >= 2")
+    check_lights(lights, light_tol, extract_sun, window)
     return irradiance_lmax
 
 
@@ -104,6 +114,8 @@ def project_environment(
     tangent_irradiance: bool = True,
     extract_sun: bool = False,
     sun_radius: float = 10.0,
+    lights: int | str | None = None,
+    light_tol: float = 0.01,
     exr_dir: str | None = None,
     map_size: int = 128,
     float_exr: bool = False,
@@ -129,8 +141,11 @@ def project_environment(
     rows (``2 × map_size`` columns), half floats unless ``float_exr``, PNGs
     beside them with ``png``. ``exports``: engine exports beside the asset.
     ``report``: per-band energy, truncation and the error against brute force.
+    ``lights``/``light_tol``: directional lights fitted with the SH to the irradiance
+    (:func:`shbake.bakers.env_sh.bake_env_sh`).
     """
-    irradiance_lmax = check_settings(lmax, irradiance_lmax, irradiance_sh, exports)
+    irradiance_lmax = check_settings(lmax, irradiance_lmax, irradiance_sh, exports, lights,
+                                     light_tol, extract_sun, window)
     check_output_path(output)
     if exr_dir is not None:
         check_output_dir(exr_dir, "--exr-dir")
@@ -160,6 +175,8 @@ def project_environment(
         sun_radius_deg=sun_radius,
         provenance=provenance,
         rotation=rotation,
+        lights=lights,
+        light_tol=light_tol,
     )
     maps = {}
     if exr_dir is not None:

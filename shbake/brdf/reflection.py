@@ -39,7 +39,6 @@ smallest ``P`` capturing ``1 − ε`` with ``F`` at its limit, then the smallest
 
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
 from shbake.brdf import kajiya_kay
@@ -47,7 +46,7 @@ from shbake.brdf.dispatch import brdf_eval
 from shbake.brdf.model import NO_DATA, make_brdf
 from shbake.brdf.sampling import tangent_frame
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
+from shbake.jit import jit, run_blocks
 from shbake.sh.basis import real_sh_numba
 from shbake.sh.point_sets import gauss_legendre
 
@@ -190,9 +189,9 @@ def rho_hat(kind, model, prm, data, ci, si, co, so, cphi, sphi, f, out):
         out[c] = f[c] * lz
 
 
-@pjit
-def rho_grid(kind, model, prm, data, xi, xo, phi, out):
-    for i in numba.prange(xi.shape[0]):
+@jit
+def _rho_grid_rows(kind, model, prm, data, xi, xo, phi, out, b0, b1):
+    for i in range(b0, b1):
         f = np.empty(3)
         v = np.empty(3)
         ci = xi[i]
@@ -207,6 +206,14 @@ def rho_grid(kind, model, prm, data, xi, xo, phi, out):
                 out[i, o, k, 0] = v[0]
                 out[i, o, k, 1] = v[1]
                 out[i, o, k, 2] = v[2]
+
+
+def rho_grid(kind, model, prm, data, xi, xo, phi, out) -> None:
+    """``out[i, o, k] = ρ̂(cos θ_i = xi[i], cos θ_o = xo[o], φ = phi[k])`` (RGB,
+    :func:`rho_hat`) for a BRDF's numba ids and parameters; rows ``i`` in parallel
+    (:func:`~shbake.jit.run_blocks`)."""
+    run_blocks(_rho_grid_rows, xi.shape[0], out.size * 40.0, kind, model, prm, data, xi, xo,
+               phi, out)  # fmt: skip
 
 
 def legendre_table(x, lmax: int, qmax: int) -> np.ndarray:

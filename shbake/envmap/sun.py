@@ -43,6 +43,57 @@ class Sun(NamedTuple):
         return self.radiance * self.solid_angle
 
 
+def _cap_and_background(dirs, mask, px, d0, radius_deg: float):
+    """The texels within ``radius_deg`` of ``d0`` and the background colour: the
+    per-channel median of the annulus ``R < angle < 2R`` (zero if it holds no texel)."""
+    cos_r = np.cos(np.radians(radius_deg))
+    cos_2r = np.cos(np.radians(2.0 * radius_deg))
+    cosang = dirs @ d0
+    annulus = mask & (cosang < cos_r) & (cosang >= cos_2r)
+    background = np.median(px[annulus], axis=0) if annulus.any() else np.zeros(3)
+    return mask & (cosang >= cos_r), background
+
+
+def remove_lights(
+    env: Environment, directions: np.ndarray, irradiance: np.ndarray, radius_deg: float = 10.0
+) -> tuple[Environment, dict]:
+    """The map less the energy of given directional lights, taken from around each.
+
+    For lights fitted to the irradiance (:mod:`shbake.bakers.env_lights`), whose
+    energy the map holds as compact bright regions: for each light, brightest first,
+    the texels within ``radius_deg`` of its direction give a share of their excess over
+    the background (as in :func:`extract_sun`), the same fraction of each texel's
+    excess per channel, until the light's irradiance ``E_k`` (radiance × sr, by the
+    projection's quadrature weights) is removed or the excess is spent.
+
+    Returns
+    -------
+    (residual, report)
+        ``report``: ``removed`` (K, 3) per light, ``shortfall_fraction`` — the
+        luminance of ``Σ E_k`` not found near the lights over that of ``Σ E_k``.
+    """
+    if not 0.0 < radius_deg <= 45.0:
+        raise ParameterError(f"light radius must be in (0, 45] degrees, got {radius_deg}")
+    dirs, _, mask = env.texels()
+    weights = env.quadrature_weights()
+    px = env.pixels.astype(np.float64)
+    wanted = np.asarray(irradiance, dtype=np.float64).reshape(-1, 3)
+    removed = np.zeros_like(wanted)
+    for k in np.argsort(-(wanted @ REC709_LUMINANCE), kind="stable"):
+        cap, background = _cap_and_background(dirs, mask, px, np.asarray(directions[k]),
+                                               radius_deg)  # fmt: skip
+        excess = np.where(cap[:, :, None], np.maximum(px - background, 0.0), 0.0)
+        available = np.einsum("hwc,hw->c", excess, weights)
+        share = np.where(available > 0.0, np.minimum(1.0, wanted[k] / np.where(
+            available > 0.0, available, 1.0)), 0.0)  # fmt: skip
+        px = px - excess * share
+        removed[k] = available * share
+    total = float(wanted.sum(axis=0) @ REC709_LUMINANCE)
+    short = float((wanted - removed).sum(axis=0) @ REC709_LUMINANCE)
+    report = {"removed": removed, "shortfall_fraction": short / total if total > 0 else 0.0}
+    return Environment(px.astype(np.float32), env.layout, dict(env.meta)), report
+
+
 def extract_sun(
     env: Environment, radius_deg: float = 10.0, min_contrast: float = 20.0
 ) -> tuple[Sun | None, Environment, dict]:
@@ -74,11 +125,7 @@ def extract_sun(
     peak_idx = np.unravel_index(int(np.argmax(lum)), lum.shape)
     peak = float(lum[peak_idx])
     d0 = dirs[peak_idx]
-    cos_r = np.cos(np.radians(radius_deg))
-    cos_2r = np.cos(np.radians(2.0 * radius_deg))
-    cosang = dirs @ d0
-    annulus = mask & (cosang < cos_r) & (cosang >= cos_2r)
-    background = np.median(px[annulus], axis=0) if annulus.any() else np.zeros(3)
+    cap, background = _cap_and_background(dirs, mask, px, d0, radius_deg)
     bg_lum = float(background @ REC709_LUMINANCE)
     contrast = peak / max(bg_lum, 1e-12)
     total = env.total_energy()
@@ -86,7 +133,6 @@ def extract_sun(
     if peak <= 0.0 or contrast < min_contrast:
         report["extracted"] = False
         return None, env, report
-    cap = mask & (cosang >= cos_r)
     excess = np.where(cap[:, :, None], np.maximum(px - background, 0.0), 0.0)
     ex_lum = excess @ REC709_LUMINANCE
     gave = ex_lum > 0.0

@@ -297,10 +297,12 @@ def read_asset(path: str, kinds: tuple[str, ...] | None = None,
                                   f"{', '.join(kinds)}")  # fmt: skip
             kind = registry.kind_of(kind_name)
             version = raw.get("format_version")
-            if isinstance(version, bool) or not isinstance(version, int) or version != kind.version:
+            readable = (kind.version, *kind.reads)
+            if isinstance(version, bool) or not isinstance(version, int) or version not in readable:
                 raise FormatError(
                     f"{where}format_version {registry.short(version)} of kind {kind_name} is not "
-                    f"supported by shbake {__version__} (reads version {kind.version})"
+                    f"supported by shbake {__version__} (reads version "
+                    f"{', '.join(map(str, sorted(readable)))})"
                 )
             shapes = {}
 

@@ -232,13 +232,16 @@ class Transaction:
         folder, base = os.path.split(path)
         suffix = os.path.splitext(base)[1]
         tmp = os.path.join(folder, f".{base}{TAG}{os.getpid()}-{n}.tmp{suffix}")
-        try:
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        except OSError as e:
-            raise OutputError(os_error_message(e, path)) from None
-        os.close(fd)
+        # registered before it exists: a signal between the two steps leaves nothing that
+        # abort does not remove (removing a temporary not yet made is a no-op)
         with _lock:
             self.staged.append((tmp, path))
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        except OSError as e:
+            with _lock:
+                self.staged.remove((tmp, path))
+            raise OutputError(os_error_message(e, path)) from None
         return tmp
 
     def discard(self, tmp: str) -> None:
@@ -300,9 +303,9 @@ class Collector(Transaction):
             _counter += 1
             n = _counter
         tmp = os.path.join(self.folder, f"{n}.tmp{os.path.splitext(path)[1]}")
-        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
-        with _lock:
+        with _lock:  # registered first, as in Transaction.stage
             self.staged.append((tmp, path))
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
         return tmp
 
     def adopt(self, path: str, data: bytes) -> None:

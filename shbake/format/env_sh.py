@@ -1,4 +1,8 @@
-"""The ``env_sh`` asset kind: SH lighting, Lambert and Kajiya–Kay irradiance, an optional sun.
+"""The ``env_sh`` asset kind: SH lighting, Lambert and Kajiya–Kay irradiance, optional lights.
+
+Version 3 (issue 33) added ``/lights/*``: directional lights fitted to the irradiance
+(:mod:`shbake.bakers.env_lights`); a version-2 reader would have ignored them and shaded
+without their energy, hence the new version.
 
 Built by :func:`shbake.bakers.env_sh.bake_env_sh`, shaded by :mod:`shbake.shading.env_sh`.
 """
@@ -27,6 +31,10 @@ def _check(attrs, shapes, dattrs, symbols):
     sun = [n for n in ("/sun/solid_angle", "/sun/radiance") if n in shapes]
     if sun and "/sun/direction" not in shapes:  # the light would be dropped silently
         raise FormatError(f"missing dataset /sun/direction (required with {sun[0]})")
+    if "/lights/irradiance" in shapes and "/lights/direction" not in shapes:
+        raise FormatError("missing dataset /lights/direction (required with /lights/irradiance)")
+    if "/lights/direction" in shapes and "/sun/direction" in shapes:
+        raise FormatError("an env_sh asset holds /sun or /lights, not both")
 
 
 def check_sun(direction: np.ndarray) -> None:
@@ -36,12 +44,28 @@ def check_sun(direction: np.ndarray) -> None:
         raise FormatError(f"dataset /sun/direction is not a unit vector (length {n:.6g})")
 
 
+def check_light_directions(directions: np.ndarray) -> None:
+    """Refuse light directions that are not unit vectors."""
+    n = np.linalg.norm(np.asarray(directions, dtype=np.float64).reshape(-1, 3), axis=1)
+    bad = np.flatnonzero(np.abs(n - 1.0) > SUN_NORM_TOLERANCE)
+    if bad.size:
+        raise FormatError(f"dataset /lights/direction row {int(bad[0])} is not a unit vector "
+                          f"(length {n[bad[0]]:.6g})")  # fmt: skip
+
+
+def check_light_irradiance(irradiance: np.ndarray) -> None:
+    """Refuse negative light irradiance (a light cannot take energy away)."""
+    if np.any(np.asarray(irradiance) < 0.0):
+        raise FormatError("dataset /lights/irradiance has negative values")
+
+
 _LMAX = Attr("lmax", "int", "highest band", range=(0, LMAX_LIMIT), symbol="lmax")
 _LMAX_IRR = Attr("lmax", "int", "highest band", range=(0, LMAX_LIMIT), symbol="lmax_irr")
 
 ENV_SH = register(Kind(
     name="env_sh",
-    version=2,
+    version=3,
+    reads=(2,),  # version 3 added the optional /lights: a version 2 file has none
     title="SH lighting and irradiance of an environment map (`project-env`)",
     attrs=SOURCE_MAP_ATTRS + (
         Attr("source_stored_format", "str", "pixel type stored in the input file"),
@@ -54,9 +78,14 @@ ENV_SH = register(Kind(
     ),
     datasets=(
         Data("/lighting/sh", ("(lmax+1)**2", 3), "float64",
-             "`L_lm = ∫ L y_lm dω`, raw projection (of the residual if a sun was extracted)",
+             "`L_lm = ∫ L y_lm dω`, raw projection (of the residual if a sun was extracted); "
+             "with `/lights`, the residual's SH: bands the Lambert kernel sees up to the "
+             "irradiance lmax fitted (`E_i / Â_l`), the others projected from the map less "
+             "the lights as directional (delta) lights",
              attrs=(_LMAX, Attr("sun_removed", "bool", "a sun was extracted first"),
-                    Attr("quadrature", "str", "how the integral was computed", required=False))),
+                    Attr("quadrature", "str", "how the integral was computed", required=False),
+                    Attr("lights_fitted", "bool", "`/lights` were fitted with this residual",
+                         required=False))),
         Data("/lighting/band_energy", ("lmax+1", 3), "float64", "`Σ_m L_lm²` per band"),
         Data("/lighting/window", ("lmax_irr+1",), "float64",
              "band window applied before the kernels",
@@ -78,12 +107,33 @@ ENV_SH = register(Kind(
         Data("/sun/radiance", (3,), "float64",
              "RGB radiance; `radiance × solid_angle` is its irradiance at normal incidence",
              required=False, with_="/sun/direction"),
+        Data("/lights/direction", ("K", 3), "float64", "unit vectors toward the lights, world "
+             "frame, brightest (luminance) first", required=False, values=check_light_directions,
+             attrs=(Attr("requested", "str", "`auto` or the number of lights asked for"),
+                    Attr("tolerance", "float", "`auto`: the mean relative error aimed at",
+                         required=False, range=(0.0, 1.0)),
+                    Attr("fit_directions", "int", "spherical-Fibonacci normals the fit was "
+                         "measured at", range=(1, 1 << 30)),
+                    Attr("fit_mean_error", "float", "mean relative luminance error of SH + "
+                         "lights against brute force at those normals", range=(0.0, 1e300)),
+                    Attr("fit_max_error", "float", "the largest", range=(0.0, 1e300)))),
+        Data("/lights/irradiance", ("K", 3), "float64", "RGB irradiance at normal incidence "
+             "(radiance × sr), ≥ 0", required=False, with_="/lights/direction",
+             values=check_light_irradiance),
     ),
     notes=(
         "When `/sun/*` is present, consumers MUST add the light to the SH irradiance: "
         "`E(n) += radiance·solid_angle·max(0, n·s)` and "
         "`E_t(t) += radiance·solid_angle·sqrt(1 − (t·s)²)/π²`.",
         "`/sun/direction` MUST be a unit vector (to 1e-3).",
+        "When `/lights/*` is present (`project-env --lights`), consumers MUST add every "
+        "light `k`: `E(n) += irradiance_k·max(0, n·d_k)` and "
+        "`E_t(t) += irradiance_k·sqrt(1 − (t·d_k)²)/π²`; the lights and the SH were fitted "
+        "together by least squares on the irradiance, so neither is meaningful alone, but "
+        "the SH irradiance is non-negative by itself (a shadowed light leaves a valid SH) "
+        "and `∫ E dn` of SH + lights is `π ∫ L dω` of the map (energy conserved).",
+        "An asset holds `/sun` or `/lights`, never both; every `/lights/direction` row "
+        "MUST be a unit vector (to 1e-3) and `/lights/irradiance` MUST be ≥ 0.",
     ),
     check=_check,
 ))  # fmt: skip

@@ -31,6 +31,7 @@ from shbake.sh.rotation import (
     rotation_blocks_many,
     rotation_coefficients,
 )
+from shbake.shading.env_sh import lights_of
 from shbake.shading.shader import Shader, Texture
 from shbake.texture.parabolic import fetch_flat_into, fetch_into
 
@@ -249,7 +250,8 @@ def dot_world(coeffs_world, L, out):
 
 
 def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
-    """``(n, 3)`` world lighting coefficients of an ``env_sh`` asset, sun folded in as SH."""
+    """``(n, 3)`` world lighting coefficients of an ``env_sh`` asset, its lights (sun or
+    fitted) folded in as SH of delta lights."""
     L = np.asarray(env_asset["/lighting/sh"], dtype=float)
     n = (lmax + 1) ** 2
     if L.shape[0] < n:
@@ -258,14 +260,14 @@ def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
             f"the environment asset has lighting to lmax {have}; the table needs {lmax}"
         )
     L = L[:n].copy()
-    if "/sun/direction" in env_asset:
-        e = env_asset["/sun/radiance"] * float(env_asset["/sun/solid_angle"])
-        L += real_sh(env_asset["/sun/direction"], lmax)[:, None] * e[None, :]
+    dirs, energy = lights_of(env_asset)
+    if len(dirs):
+        L += real_sh(dirs, lmax).T @ energy
     return np.ascontiguousarray(L)
 
 
 class KautzShader(Shader):
-    """A BRDF table (Kautz et al. 2002) under an ``env_sh`` asset's lighting, sun folded in
+    """A BRDF table (Kautz et al. 2002) under an ``env_sh`` asset's lighting, lights folded in
     (:func:`lighting_with_sun`): per point the local frame of :func:`~shbake.brdf.sampling.
     fibre_frames` (normal, brushing ``tangents``), the view in it (``z`` clamped to 0),
     steps 1–4 of the module docstring. ``from_asset(env_asset, table=BRDFTable)``
@@ -275,9 +277,10 @@ class KautzShader(Shader):
     kinds = ("env_sh", "brdf_table")
     inputs = (
         Texture("lighting_sh", "sh-vector", ("(lmax+1)**2", 3),
-                "/lighting/sh + /sun/direction + /sun/radiance × /sun/solid_angle",
-                "radiance SH L_lm of the env_sh asset to the table's lmax, the sun added as "
-                "E_sun y_i(s)"),
+                "/lighting/sh + /sun/direction + /sun/radiance × /sun/solid_angle + "
+                "/lights/direction + /lights/irradiance",
+                "radiance SH L_lm of the env_sh asset to the table's lmax, each light (the sun "
+                "or the fitted ones) added as E_k y_i(s_k)"),
         Texture("brdf_table", "parabolic", ("*lead", "H", "W", "(lmax+1)**2"),
                 "brdf_table: /table", "c_i(v) = ∫ y_i(s) f(s, v) max(0, s_z) ds over the view "
                 "hemisphere; lead: RGB channels and varied parameters (one point is shaded)"),

@@ -15,6 +15,7 @@ counter-clockwise seen from above (right-hand rule). Directions map as
 """
 
 import os
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,6 +30,9 @@ _FRAME_MATRICES = {
     "z-up": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
 }
 _UP_AXIS = {"y-up": 1, "z-up": 2}
+LIGHT_SHORTFALL_WARNING = 0.01
+"""Fraction of the fitted lights' energy missing near them in the map above which an
+export with cube maps warns (that energy is then in both the lights and the cubes)."""
 
 
 def frame_matrix(frame: str = "y-up", rotate_deg: float = 0.0) -> np.ndarray:
@@ -54,6 +58,9 @@ class ExportSource:
         Unit vector toward the extracted sun, target frame.
     sun_irradiance : (3,) or None
         Sun irradiance at normal incidence, ``radiance × solid_angle``.
+    light_directions, light_irradiance : (K, 3) or None
+        The asset's fitted lights (``/lights``, ``project-env --lights``): unit vectors
+        toward them, target frame, and their irradiance at normal incidence.
     position : (3,) or None
         The probe's position (the asset's ``probe_position``, scene units) in the
         target frame: the frame's axes only — ``rotate_deg`` turns the environment,
@@ -68,6 +75,8 @@ class ExportSource:
     sun_direction: np.ndarray | None = None
     sun_irradiance: np.ndarray | None = None
     sun_solid_angle: float | None = None
+    light_directions: np.ndarray | None = None
+    light_irradiance: np.ndarray | None = None
     env_path: str | None = None
     """The source map given (``--env``); ``None``: the one the asset records."""
     attrs: dict = field(default_factory=dict)
@@ -80,12 +89,23 @@ class ExportSource:
     from the map's; ``None``: ``rotation``."""
 
     @property
+    def lights(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """``(direction, irradiance)`` of every light an export carries: the sun, or each
+        fitted light (brightest first); empty without."""
+        if self.sun_direction is not None:
+            return [(self.sun_direction, np.asarray(self.sun_irradiance, dtype=np.float64))]
+        if self.light_directions is None:
+            return []
+        return list(zip(self.light_directions, self.light_irradiance, strict=True))
+
+    @property
     def cube_rotation(self) -> np.ndarray:
         """The rotation the cube maps are resampled with (:attr:`map_rotation`)."""
         return self.rotation if self.map_rotation is None else self.map_rotation
 
     def environment(self, sun_radius_deg: float = 10.0):
-        """The map the SH came from, world frame (its sun removed if the asset's was).
+        """The map the SH came from, world frame (its sun removed if the asset's was; with
+        fitted lights, their energy taken from the map around each, :func:`remove_lights`).
 
         Read as the bake read it (:func:`shbake.format.provenance.reload_source`): the
         asset's recorded input path or ``env_path`` (``--env``), checked by SHA-256, with
@@ -95,6 +115,20 @@ class ExportSource:
         from shbake.format.provenance import reload_source
 
         env = reload_source(self, self.asset_path, self.env_path, "--env")
+        if self.light_directions is not None:
+            from shbake.envmap.sun import remove_lights
+
+            residual, report = remove_lights(
+                env, self.light_directions @ self.cube_rotation, self.light_irradiance,
+                radius_deg=sun_radius_deg,
+            )  # fmt: skip
+            short = float(report["shortfall_fraction"])
+            if short > LIGHT_SHORTFALL_WARNING:
+                print(f"shbake: warning: {self.name}: {short:.1%} of the lights' energy is not "
+                      f"within {sun_radius_deg:g}° of them in the map; the cube maps keep it "
+                      "too (the lights were fitted to the diffuse irradiance)",
+                      file=sys.stderr)  # fmt: skip
+            return residual
         if self.sun_irradiance is None:
             return env
         sun, residual, _ = extract_sun(env, radius_deg=sun_radius_deg)
@@ -160,6 +194,10 @@ def load_source(
         omega = float(asset["/sun/solid_angle"])
         src.sun_solid_angle = omega
         src.sun_irradiance = np.asarray(asset["/sun/radiance"], dtype=np.float64) * omega
+    if "/lights/direction" in asset:
+        d = np.asarray(asset["/lights/direction"], dtype=np.float64).reshape(-1, 3) @ R.T
+        src.light_directions = d / np.linalg.norm(d, axis=1, keepdims=True)
+        src.light_irradiance = np.asarray(asset["/lights/irradiance"], dtype=np.float64)
     return src
 
 
@@ -170,13 +208,10 @@ def require_sh(src: ExportSource, target: str) -> None:
 
 
 def shbake_irradiance(src: ExportSource, dirs: np.ndarray) -> np.ndarray:
-    """``E(n)`` of the source in its (target) frame at unit ``dirs`` (…, 3): SH plus sun."""
+    """``E(n)`` of the source in its (target) frame at unit ``dirs`` (…, 3): SH plus lights."""
     from shbake.sh.basis import real_sh
 
     E = real_sh(dirs, 2) @ src.irradiance9
-    if src.sun_direction is not None:
-        E = (
-            E
-            + np.maximum(np.asarray(dirs) @ src.sun_direction, 0.0)[..., None] * src.sun_irradiance
-        )
+    for direction, irradiance in src.lights:
+        E = E + np.maximum(np.asarray(dirs) @ direction, 0.0)[..., None] * irradiance
     return E

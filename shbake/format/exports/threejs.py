@@ -19,9 +19,14 @@ with three's own ``ObjectLoader``, ``SphericalHarmonics3.getIrradianceAt``):
   as of the probe's irradiance. One light per channel because ``Object3D.toJSON``
   writes ``color`` as a ``0xRRGGBB`` integer (8 bits per channel), which would
   quantise the sun's colour.
+* Fitted lights (``project-env --lights``): three ``DirectionalLight`` s per light,
+  the same way, named ``<name> light <k> <channel>``; ``LightProbe.sh`` is then the
+  fitted residual (``/lighting/sh``, bands 0–2 = fitted irradiance / ``Â_l``).
 * The probe's position (``probe_position`` of a scene probe, target frame) is the
   ``LightProbe``'s translation (``matrix`` elements 12–14, column-major); the sun
   lights are the scene's children, not the probe's, so they do not move with it.
+
+Glossy lighting for three is the ``threejs-pmrem`` target (:mod:`.three_pmrem`).
 """
 
 import json
@@ -62,21 +67,22 @@ def scene_json(src: ExportSource) -> dict:
             "sh": probe_array(src.lighting9),
         }
     ]
-    if src.sun_direction is not None:
-        d = [float(v) for v in src.sun_direction]
+    for j, (direction, irradiance) in enumerate(src.lights):
+        d = [float(v) for v in direction]
+        light = "sun" if src.sun_direction is not None else f"light {j}"
         for k, (name, colour) in enumerate(
             (("red", 0xFF0000), ("green", 0x00FF00), ("blue", 0x0000FF))
         ):
             children.append(
                 {
-                    "uuid": _UUID.format(3 + k),
+                    "uuid": _UUID.format(3 + 3 * j + k),
                     "type": "DirectionalLight",
-                    "name": f"{src.name} sun {name}",
+                    "name": f"{src.name} {light} {name}",
                     "layers": 1,
                     "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, d[0], d[1], d[2], 1],
                     "up": [0, 1, 0],
                     "color": colour,
-                    "intensity": float(src.sun_irradiance[k]),
+                    "intensity": float(irradiance[k]),
                 }
             )
     return {
@@ -97,6 +103,13 @@ def scene_json(src: ExportSource) -> dict:
                     if src.sun_irradiance is None
                     else [float(v) for v in src.sun_irradiance],
                 }
+                | (
+                    {}
+                    if src.light_irradiance is None
+                    else {
+                        "lights_irradiance": [[float(v) for v in e] for e in src.light_irradiance]
+                    }
+                )
             },
         },
     }

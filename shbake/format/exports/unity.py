@@ -25,6 +25,7 @@ not run by the tests:
   ``E_sun / π`` (built-in pipeline lights have no 1/π: diffuse = albedo ×
   colour × intensity × n·l) and ``intensity_lux`` = largest channel of ``E_sun``
   (HDRP, physical units); ``color`` = ``E_sun`` / its largest channel.
+* Fitted lights (``project-env --lights``): ``lights``, one such entry per light.
 """
 
 import json
@@ -49,6 +50,19 @@ def unity_sh(irradiance9: np.ndarray) -> np.ndarray:
     return (e * (X_ODD * basis_constants() / np.pi)[:, None]).T
 
 
+def _directional(direction, irradiance) -> dict:
+    """A directional light entry: ``forward`` (Unity frame), colour and intensities."""
+    e = np.asarray(irradiance, dtype=np.float64)
+    top = float(e.max())
+    d = UNITY_FROM_WORLD @ np.asarray(direction, dtype=np.float64)
+    return {
+        "forward": [float(-v) for v in d],
+        "color": [float(v) for v in (e / top if top > 0 else np.ones(3))],
+        "intensity_builtin": top / np.pi,
+        "intensity_lux": top,
+    }
+
+
 def write(src: ExportSource, out: str, **_ignored) -> list[str]:
     """Write ``out``: the SH (``sh[c][i]``) and the sun for Unity, as JSON."""
     require_sh(src, "unity")
@@ -60,15 +74,10 @@ def write(src: ExportSource, out: str, **_ignored) -> list[str]:
     }
     if src.position is not None:  # a LightProbeGroup's probePositions entry, Unity's frame
         doc["position"] = [float(v) for v in UNITY_FROM_WORLD @ src.position]
+    entries = [_directional(d, e) for d, e in src.lights]
     if src.sun_direction is not None:
-        e = np.asarray(src.sun_irradiance, dtype=np.float64)
-        top = float(e.max())
-        d = UNITY_FROM_WORLD @ np.asarray(src.sun_direction, dtype=np.float64)
-        doc["sun"] = {
-            "forward": [float(-v) for v in d],
-            "color": [float(v) for v in e / top],
-            "intensity_builtin": top / np.pi,
-            "intensity_lux": top,
-        }
+        doc["sun"] = entries[0]
+    elif entries:
+        doc["lights"] = entries
     write_text(out, json.dumps(doc, indent=1, sort_keys=True) + "\n")
     return [out]

@@ -1,0 +1,383 @@
+"""Compact lights fitted to irradiance: ``K`` directional lights plus an SH residual (issue 33).
+
+Engines take little for diffuse lighting: 9 SH coefficients per channel and a few
+punctual lights. This module chooses both **by least squares on the irradiance**, not
+by projecting radiance. The model, at a unit normal ``n``::
+
+    E(n) = Σ_i e_i y_i(n) + Σ_k a_k max(0, n·d_k)
+
+``e_i``: irradiance SH (``Â_l`` folded in, SPEC §4) of bands ``l ≤ irradiance lmax``
+where ``Â_l ≠ 0`` (``l = 0, 1`` and even ``l``); ``d_k``: unit direction toward light
+``k``; ``a_k`` (RGB, ``≥ 0``): its irradiance at normal incidence. The target is the
+brute-force irradiance of the map (:func:`shbake.reference.irradiance.brute_force_irradiance`)
+at :data:`FIT_DIRECTIONS` spherical-Fibonacci normals; each residual is divided by the
+target's luminance there, so the fit minimises the *relative* error (RMS over normals,
+per channel).
+
+Constraints:
+
+* **energy**: ``∫ E dn = π ∫ L dω`` holds exactly, so nothing is lost between the lights
+  and the residual. With ``∫ max(0, n·d) dn = π`` and ``∫ y_0 dn = 2√π`` this fixes
+  ``e_0 = (Φ − Σ_k a_k) √π / 2`` (``Φ = ∫ L dω`` per channel, the brute force's own sum);
+  the lights enter as zero-mean lobes ``max(0, n·d) − 1/4`` against the fixed constant
+  ``Φ/4``.
+* ``a_k ≥ 0`` (NNLS for the intensities once the SH columns are projected out: variable
+  projection, so the outer search sees only the ``2K`` direction angles);
+* the **SH part alone is never negative**: a light an engine shadows leaves the SH,
+  which must still be a valid irradiance. It is checked at :data:`CHECK_DIRECTIONS`
+  normals (16× denser than the fit's); when the unconstrained optimum breaks it, the
+  linear parameters are solved again as a quadratic programme (SLSQP, directions kept)
+  with ``SH part ≥ m Φ/4`` at the fit normals, the margin ``m`` growing through
+  :data:`NONNEGATIVE_MARGINS` until the dense check passes (a polynomial constrained only
+  at points may dip between them).
+
+Directions are searched by ``scipy.optimize.least_squares`` (trust region) from
+several starts: each ``K`` keeps the ``K − 1`` lights found and adds one at each of
+the map's brightest coarse cells (:data:`MAP_STARTS`) and at the fit normals where the
+``K − 1`` fit falls furthest short (:data:`RESIDUAL_STARTS`); the best optimum wins.
+:func:`choose_lights` takes the fewest lights (``0 … max``) whose mean relative
+luminance error on the fit normals is at most the tolerance.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from shbake.conventions import REC709_LUMINANCE
+from shbake.envmap.environment import Environment
+from shbake.errors import ParameterError
+from shbake.reference.irradiance import brute_force_irradiance
+from shbake.sh.basis import real_sh
+from shbake.sh.kernels import lambert_kernel
+from shbake.sh.point_sets import fibonacci_sphere
+
+FIT_DIRECTIONS = 4096
+"""Spherical-Fibonacci normals (:func:`~shbake.sh.point_sets.fibonacci_sphere`) the fit
+and its tolerance are measured at (a different lattice from the 2048 of the benchmarks)."""
+FIT_ROWS = 256
+"""A map with more texels than ``FIT_ROWS × 2 FIT_ROWS`` is binned into that many
+lat-long cells (radiance × solid angle summed, directions averaged) before the
+brute-force target: its error is second order in the cell size (0.7°)."""
+MAX_LIGHTS = 8
+"""Most lights ``--lights K`` takes."""
+AUTO_MAX_LIGHTS = 3
+"""Most lights ``--lights auto`` tries: the handful of punctual lights engines afford."""
+MAP_STARTS = 6
+"""Brightest coarse map cells (11.25°) tried as the start of a new light."""
+RESIDUAL_STARTS = 3
+"""Fit normals where the fit with one light fewer falls furthest short, tried likewise."""
+START_SEPARATION_DEG = 15.0
+"""Starts closer than this to a better one are dropped."""
+CHECK_DIRECTIONS = 65536
+"""Fibonacci normals at which the SH part is checked to be non-negative."""
+NONNEGATIVE_MARGINS = (1e-3, 4e-3, 1.6e-2, 6.4e-2)
+"""Margins ``m`` (fractions of the mean irradiance ``Φ/4``) the constrained solve tries."""
+WEIGHT_FLOOR = 1e-6
+"""Target luminance below this fraction of its largest value is weighted as this fraction
+(a black hemisphere would otherwise get infinite weight)."""
+
+
+class IrradianceTarget(NamedTuple):
+    """Brute-force irradiance of a map at the fit normals.
+
+    ``normals`` (N, 3); ``irradiance`` (N, 3) RGB; ``energy`` (3,) ``Φ = ∫ L dω`` by the
+    same quadrature; ``coarse`` ``(directions (M, 3), luminous energy (M,))`` of the
+    map's coarse cells, the starts of new lights.
+    """
+
+    normals: np.ndarray
+    irradiance: np.ndarray
+    energy: np.ndarray
+    coarse: tuple
+
+
+class LightFit(NamedTuple):
+    """``K`` lights and the irradiance SH of the residual, with the fit's errors.
+
+    ``directions`` (K, 3) unit, toward the lights; ``irradiance`` (K, 3) at normal
+    incidence; ``sh`` ((lmax+1)², 3) irradiance SH ``e_i`` (zero where ``Â_l = 0``);
+    errors: relative luminance error on the fit normals (``mean``, ``max``) and the
+    relative RMS ``sqrt(Σ (Y − Y_ref)² / Σ Y_ref²)`` (the scene tolerance's measure).
+    """
+
+    directions: np.ndarray
+    irradiance: np.ndarray
+    sh: np.ndarray
+    mean_error: float
+    max_error: float
+    rms_error: float
+
+    @property
+    def count(self) -> int:
+        return int(self.directions.shape[0])
+
+
+def _binned_samples(env: Environment, rows: int):
+    """``(dirs, solid angles, radiance)`` of the map, binned into ``rows × 2 rows`` lat-long
+    cells when it has more texels (energy and the energy-weighted direction kept)."""
+    dirs, omega, radiance = env.samples()
+    if dirs.shape[0] <= 2 * rows * rows:
+        return dirs, omega, radiance
+    v = np.arccos(np.clip(dirs[:, 1], -1.0, 1.0)) / np.pi
+    u = np.mod(np.arctan2(dirs[:, 0], -dirs[:, 2]) / (2.0 * np.pi), 1.0)
+    cell = np.minimum((v * rows).astype(np.int64), rows - 1) * (2 * rows) + np.minimum(
+        (u * 2 * rows).astype(np.int64), 2 * rows - 1
+    )
+    n = 2 * rows * rows
+    om = np.bincount(cell, omega, n)
+    lw = np.stack([np.bincount(cell, radiance[:, c] * omega, n) for c in range(3)], axis=1)
+    dw = np.stack([np.bincount(cell, dirs[:, k] * omega, n) for k in range(3)], axis=1)
+    keep = om > 0.0
+    d = dw[keep] / np.linalg.norm(dw[keep], axis=1, keepdims=True)
+    return d, om[keep], lw[keep] / om[keep, None]
+
+
+def _coarse_cells(dirs, omega, radiance, rows: int = 16):
+    """Luminous energy and energy-weighted direction of ``rows × 2 rows`` lat-long cells."""
+    v = np.arccos(np.clip(dirs[:, 1], -1.0, 1.0)) / np.pi
+    u = np.mod(np.arctan2(dirs[:, 0], -dirs[:, 2]) / (2.0 * np.pi), 1.0)
+    cell = np.minimum((v * rows).astype(np.int64), rows - 1) * (2 * rows) + np.minimum(
+        (u * 2 * rows).astype(np.int64), 2 * rows - 1
+    )
+    lum = np.maximum(radiance @ REC709_LUMINANCE, 0.0) * omega
+    n = 2 * rows * rows
+    e = np.bincount(cell, lum, n)
+    dw = np.stack([np.bincount(cell, dirs[:, k] * lum, n) for k in range(3)], axis=1)
+    keep = e > 0.0
+    return dw[keep] / np.linalg.norm(dw[keep], axis=1, keepdims=True), e[keep]
+
+
+def irradiance_target(env: Environment, n_dirs: int = FIT_DIRECTIONS) -> IrradianceTarget:
+    """Brute-force irradiance of ``env`` at ``n_dirs`` Fibonacci normals.
+
+    Cost ``O(texels × n_dirs)`` after binning to at most ``2 FIT_ROWS²`` cells (about
+    0.5 s per core for 131 072 texels × 4096 normals).
+    """
+    dirs, omega, radiance = _binned_samples(env, FIT_ROWS)
+    normals = fibonacci_sphere(n_dirs)
+    target = brute_force_irradiance(dirs, omega, radiance, normals)
+    energy = np.einsum("nc,n->c", radiance, omega)
+    return IrradianceTarget(normals, target, energy, _coarse_cells(dirs, omega, radiance))
+
+
+def fitted_bands(lmax: int) -> np.ndarray:
+    """Indices ``i ≥ 1`` of the SH coefficients the fit solves for (``Â_l ≠ 0``)."""
+    kernel = lambert_kernel(lmax)
+    return np.array([i for i in range(1, (lmax + 1) ** 2) if kernel[int(np.sqrt(i))] != 0.0])
+
+
+def _frames(starts: np.ndarray) -> np.ndarray:
+    """Per start direction ``s`` a rotation ``R`` with ``R (1, 0, 0) = s``: the angles
+    ``(θ, φ) = (π/2, 0)`` start there, 90° from the parameterisation's poles."""
+    out = np.empty((len(starts), 3, 3))
+    for k, s in enumerate(starts):
+        a = np.array([0.0, 0.0, 1.0]) if abs(s[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        b = np.cross(s, a)
+        b /= np.linalg.norm(b)
+        out[k] = np.stack([s, b, np.cross(s, b)], axis=1)
+    return out
+
+
+def _directions(angles: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    th, ph = angles[0::2], angles[1::2]
+    local = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], axis=1)
+    return np.einsum("kij,kj->ki", frames, local)
+
+
+class _Problem:
+    """The weighted linear algebra shared by every direction set of one fit."""
+
+    def __init__(self, target: IrradianceTarget, lmax: int):
+        self.target = target
+        self.lmax = lmax
+        self.bands = fitted_bands(lmax)
+        y = target.irradiance @ REC709_LUMINANCE
+        self.lum = y
+        self.w = 1.0 / np.maximum(y, WEIGHT_FLOOR * max(float(y.max()), 1e-300))
+        self.Y = real_sh(target.normals, lmax)[:, self.bands]
+        self.T = (target.irradiance - target.energy[None, :] / 4.0) * self.w[:, None]
+        Yw = self.Y * self.w[:, None]
+        self.Yw = Yw
+        self.Qy = np.linalg.qr(Yw)[0] if Yw.shape[1] else np.zeros((len(y), 0))
+        self.pinv = np.linalg.pinv(Yw) if Yw.shape[1] else np.zeros((0, len(y)))
+        self.Tp = self.T - self.Qy @ (self.Qy.T @ self.T)
+
+    def lobes(self, dirs: np.ndarray) -> np.ndarray:
+        """Zero-mean lobes ``max(0, n·d) − 1/4`` at the fit normals, ``(N, K)``."""
+        return np.maximum(self.target.normals @ dirs.T, 0.0) - 0.25
+
+    def linear(self, dirs: np.ndarray):
+        """``(e (bands, 3), a (K, 3))`` minimising the weighted residual, ``a ≥ 0``."""
+        from scipy.optimize import nnls
+
+        Cw = self.lobes(dirs) * self.w[:, None]
+        a = np.zeros((len(dirs), 3))
+        if len(dirs):
+            Cp = Cw - self.Qy @ (self.Qy.T @ Cw)
+            for c in range(3):
+                a[:, c] = nnls(Cp, self.Tp[:, c])[0]
+        e = self.pinv @ (self.T - Cw @ a)
+        return e, a
+
+    def residual(self, dirs, e, a) -> np.ndarray:
+        """Weighted residuals ``(N, 3)``."""
+        return self.Yw @ e + (self.lobes(dirs) * self.w[:, None]) @ a - self.T
+
+    def sh_minimum(self, e, a) -> float:
+        """The SH part's smallest value over the channels at :data:`CHECK_DIRECTIONS`
+        normals, relative to its mean ``(Φ − Σ a)/4`` (1 for a black map)."""
+        mean = (self.target.energy - a.sum(axis=0)) / 4.0
+        if float(mean.max()) <= 0.0:
+            return 1.0
+        low = (mean[None, :] + real_sh(fibonacci_sphere(CHECK_DIRECTIONS), self.lmax)[:, self.bands]
+               @ e).min(axis=0)  # fmt: skip
+        return float(np.min(low / np.where(mean > 0.0, mean, 1.0)))
+
+    def constrained(self, dirs, e, a, margin: float):
+        """Solve the linear parameters again with ``SH part ≥ margin Φ/4`` at the fit
+        normals and ``a ≥ 0`` (SLSQP)."""
+        from scipy.optimize import minimize
+
+        C = self.lobes(dirs)
+        Cw = C * self.w[:, None]
+        A = np.hstack([self.Yw, Cw])
+        nb, k = self.Y.shape[1], len(dirs)
+        G = np.hstack([self.Y, -0.25 * np.ones((len(self.w), k))])
+        e2, a2 = e.copy(), a.copy()
+        for c in range(3):
+            h = self.target.energy[c] / 4.0 * (1.0 - margin)
+            x0 = np.concatenate([e[:, c], a[:, c]])
+            scale = max(float(np.abs(self.T[:, c]).max()), 1e-300)
+            t = self.T[:, c] / scale
+            As = A / scale
+            res = minimize(
+                lambda x, As=As, t=t: float(np.sum((As @ x - t) ** 2)),
+                x0,
+                jac=lambda x, As=As, t=t: 2.0 * As.T @ (As @ x - t),
+                method="SLSQP",
+                bounds=[(None, None)] * nb + [(0.0, None)] * k,
+                constraints=[
+                    {"type": "ineq", "fun": lambda x, h=h: G @ x + h, "jac": lambda x: G}
+                ],  # fmt: skip
+                options={"maxiter": 200, "ftol": 1e-12},
+            )
+            e2[:, c], a2[:, c] = res.x[:nb], np.maximum(res.x[nb:], 0.0)
+        return e2, a2
+
+    def result(self, dirs, e, a) -> LightFit:
+        keep = a.sum(axis=1) > 0.0
+        dirs, a = dirs[keep], a[keep]
+        order = np.argsort(-(a @ REC709_LUMINANCE), kind="stable")
+        dirs, a = dirs[order], a[order]
+        sh = np.zeros(((self.lmax + 1) ** 2, 3))
+        sh[0] = (self.target.energy - a.sum(axis=0)) * np.sqrt(np.pi) / 2.0
+        sh[self.bands] = e
+        model = self.Y @ e + np.maximum(self.target.normals @ dirs.T, 0.0) @ a
+        model += sh[0][None, :] / (2.0 * np.sqrt(np.pi))
+        got = model @ REC709_LUMINANCE
+        rel = np.abs(got - self.lum) / np.maximum(self.lum, 1e-300)
+        rms = np.sqrt(np.sum((got - self.lum) ** 2) / max(float(np.sum(self.lum**2)), 1e-300))
+        return LightFit(dirs, a, sh, float(rel.mean()), float(rel.max()), float(rms))
+
+
+def _search(problem: _Problem, starts: np.ndarray):
+    """Directions (K, 3) and the cost of the least-squares optimum from ``starts``."""
+    from scipy.optimize import least_squares
+
+    frames = _frames(starts)
+
+    def fun(angles):
+        dirs = _directions(angles, frames)
+        return problem.residual(dirs, *problem.linear(dirs)).ravel()
+
+    x0 = np.tile([np.pi / 2.0, 0.0], len(starts))
+    res = least_squares(fun, x0, method="trf", x_scale=0.1, diff_step=1e-4)
+    return _directions(res.x, frames), float(np.sum(res.fun**2))
+
+
+def _new_light_starts(problem: _Problem, previous: np.ndarray) -> np.ndarray:
+    """Starts for one more light: bright map cells and the largest shortfalls of ``previous``."""
+    cells, energy = problem.target.coarse
+    picks = list(cells[np.argsort(-energy, kind="stable")])
+    e, a = problem.linear(previous)
+    short = -(problem.residual(previous, e, a) @ REC709_LUMINANCE)
+    by_short = problem.target.normals[np.argsort(-short, kind="stable")]
+    out: list[np.ndarray] = []
+    cos_sep = np.cos(np.radians(START_SEPARATION_DEG))
+    for pool, limit in ((picks, MAP_STARTS), (by_short, RESIDUAL_STARTS)):
+        taken = 0
+        for d in pool:
+            if taken == limit:
+                break
+            if all(float(d @ o) < cos_sep for o in out):
+                out.append(d)
+                taken += 1
+    return np.array(out).reshape(-1, 3)
+
+
+def fit_lights(target: IrradianceTarget, count: int, lmax: int = 2,
+               previous: np.ndarray | None = None) -> LightFit:  # fmt: skip
+    """The best fit with ``count`` lights (fewer if the optimum turns some off).
+
+    ``previous``: directions of a fit with ``count − 1`` lights to build on (found
+    here when omitted).
+    """
+    if not 0 <= count <= MAX_LIGHTS:
+        raise ParameterError(f"number of lights must be in 0…{MAX_LIGHTS}, got {count}")
+    problem = _Problem(target, lmax)
+    if count > 0 and previous is None:
+        previous = fit_lights(target, count - 1, lmax).directions
+    dirs = np.zeros((0, 3))
+    if count > 0 and float(np.max(target.energy)) > 0.0:
+        best = None
+        for s in _new_light_starts(problem, previous):
+            d, cost = _search(problem, np.vstack([previous, s[None, :]]))
+            if best is None or cost < best[1]:
+                best = (d, cost)
+        if best is not None:
+            dirs = best[0]
+    e, a = problem.linear(dirs)
+    if problem.sh_minimum(e, a) < 0.0:
+        for margin in NONNEGATIVE_MARGINS:
+            e, a = problem.constrained(dirs, e, a, margin)
+            if problem.sh_minimum(e, a) >= 0.0:
+                break
+    return problem.result(dirs, e, a)
+
+
+def choose_lights(
+    target: IrradianceTarget,
+    tol: float,
+    max_count: int = AUTO_MAX_LIGHTS,
+    lmax: int = 2,
+    measure: str = "mean_error",
+) -> tuple[LightFit, list[LightFit]]:
+    """The fit with the fewest lights (``0 … max_count``) whose ``measure`` (a
+    :class:`LightFit` error: ``mean_error`` by default, ``rms_error`` for scene
+    tolerances) is at most ``tol``, else the one with the lowest; and every fit tried."""
+    if not 0.0 < tol < 1.0:
+        raise ParameterError(f"light tolerance must be in (0, 1), got {tol}")
+    tried: list[LightFit] = []
+    previous = np.zeros((0, 3))
+    for k in range(max_count + 1):
+        fit = fit_lights(target, k, lmax, previous)
+        tried.append(fit)
+        if getattr(fit, measure) <= tol:
+            return fit, tried
+        if fit.count < k:  # the optimum turned a light off: more starts find no more
+            break
+        previous = fit.directions
+    return min(tried, key=lambda f: getattr(f, measure)), tried
+
+
+__all__ = [
+    "AUTO_MAX_LIGHTS",
+    "FIT_DIRECTIONS",
+    "IrradianceTarget",
+    "LightFit",
+    "MAX_LIGHTS",
+    "choose_lights",
+    "fit_lights",
+    "fitted_bands",
+    "irradiance_target",
+]
