@@ -422,6 +422,21 @@ class TestAngularBaseline:
             )
             assert rel_rms(fr[keep], full[k][keep]) < 0.01
 
+    def test_truncated_surface_brdf_close_to_the_full_hemisphere(self):
+        """Appendix D's cap for a surface BRDF (``eps > 0``: ``truncation_angles`` from the
+        ρ̂ grid) drops at most about ``eps`` of the reflected light; the full hemisphere
+        (``eps = 0``) is the reference. Failed on main before the merge of issue 28: the
+        ρ̂ grid kernel was called without its block bounds (TypeError)."""
+        from shbake.bakers.shrm_angular import angular_reflection_maps
+
+        env = small_env("city", 64)
+        rb = make_reflection_brdf("microfacet", {"sigma": 0.3})
+        R = cube_directions(8).reshape(-1, 3)
+        views = np.array([[0.0, 0.0, 1.0]])
+        full = angular_reflection_maps(env.pixels, rb, R, views, eps=0.0)[0]
+        cut = angular_reflection_maps(env.pixels, rb, R, views, eps=0.01)[0]
+        assert 0.0 < rel_rms(cut, full) < 0.02
+
 
 class TestMeasuredAndTangent:
     def test_merl_through_the_same_path(self, tmp_path):
