@@ -71,6 +71,7 @@ from shbake.conventions import ggx_alpha, n_coeffs
 from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment as EnvMap
 from shbake.envmap.sun import extract_sun
+from shbake.evaluation.metrics import mean_relative_norm
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 from shbake.texture.parabolic import fetch
 
@@ -208,24 +209,23 @@ class TableErrors:
         self.brdf, self.lmax, self.sample_count = brdf, lmax, samples
         self.views = probe_views() if views is None else views
         energy = product_energy(brdf, self.views, 256) if energy is None else energy
-        self.norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
+        self.energy = energy.sum(axis=1)
         if reference is None:
             reference, _ = project_views(brdf, self.views, lmax, samples=REFERENCE_SAMPLES)
         ref = reference[:, : n_coeffs(lmax)]
         if projected is None:
             projected, _ = project_views(brdf, self.views, lmax, samples=samples)
         self.projected = projected
-        kept = np.sum(ref * ref, axis=(1, 2))
-        lost = np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None))
-        self.truncation = float(np.mean(lost / self.norm))
-        noise = np.sqrt(np.sum((self.projected - ref) ** 2, axis=(1, 2)))
-        self.samples = float(np.mean(noise / self.norm))
+        lost = np.clip(self.energy - np.sum(ref * ref, axis=(1, 2)), 0, None)
+        self.truncation = mean_relative_norm(lost, self.energy)
+        self.samples = mean_relative_norm(np.sum((self.projected - ref) ** 2, axis=(1, 2)),
+                                          self.energy)  # fmt: skip
 
     def at(self, size: int) -> dict:
         """``truncation``, ``samples``, ``lookup`` and their ``total`` for a ``size²`` table."""
         table, _ = tabulate(self.brdf, self.lmax, (size, size), samples=self.sample_count)
         diff = fetch(table, self.views) - self.projected
-        look = float(np.mean(np.sqrt(np.sum(diff**2, axis=(1, 2))) / self.norm))
+        look = mean_relative_norm(np.sum(diff**2, axis=(1, 2)), self.energy)
         total = float(np.sqrt(self.truncation**2 + self.samples**2 + look**2))
         return {"truncation": self.truncation, "samples": self.samples, "lookup": look,
                 "total": total}  # fmt: skip
@@ -237,18 +237,18 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
     brdf, t_make = _timed(make_brdf, model, merl_path=merl, **param_strings(params))
     views = probe_views()
     energy = product_energy(brdf, views, 256)
-    norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
+    total = energy.sum(axis=1)
     ref, _ = project_views(brdf, views, max(TABLE_LMAX), samples=REFERENCE_SAMPLES)
     lmax = TABLE_LMAX[-1]
     for L in TABLE_LMAX:
         kept = np.sum(ref[:, : n_coeffs(L)] ** 2, axis=(1, 2))
-        if np.mean(np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None)) / norm) <= 0.6 * tol:
+        if mean_relative_norm(np.clip(total - kept, 0, None), total) <= 0.6 * tol:
             lmax = L
             break
     for samples in TABLE_SAMPLES:  # the last one if none meets 40 % of tol
         got, _ = project_views(brdf, views, lmax, samples=samples)
-        diff = np.sqrt(np.sum((got - ref[:, : n_coeffs(lmax)]) ** 2, axis=(1, 2)))
-        if np.mean(diff / norm) <= 0.4 * tol:
+        noise = np.sum((got - ref[:, : n_coeffs(lmax)]) ** 2, axis=(1, 2))
+        if mean_relative_norm(noise, total) <= 0.4 * tol:
             break
     t8 = warm_seconds("brdf_table", tabulate, brdf, lmax, (8, 8), samples=samples)
     errors = TableErrors(brdf, lmax, samples, views, energy, ref, projected=got)

@@ -125,14 +125,14 @@ def _table_file_error(brdf, table, lmax, views) -> float:
     from shbake.bakers.kautz_report import product_energy
     from shbake.batch.plan import REFERENCE_SAMPLES
     from shbake.brdf.tabulate import project_views
+    from shbake.evaluation.metrics import mean_relative_norm
     from shbake.texture.parabolic import fetch
 
     energy = product_energy(brdf, views, 256).sum(axis=1)
     ref, _ = project_views(brdf, views, lmax, samples=REFERENCE_SAMPLES)
     got = fetch(np.asarray(table), views)
     trunc2 = np.clip(energy - np.sum(ref * ref, axis=(1, 2)), 0, None)
-    err2 = np.sum((got - ref) ** 2, axis=(1, 2)) + trunc2
-    return float(np.mean(np.sqrt(err2 / np.maximum(energy, 1e-300))))
+    return mean_relative_norm(np.sum((got - ref) ** 2, axis=(1, 2)) + trunc2, energy)
 
 
 def _posed_env(a: dict, turn_pixels: bool):

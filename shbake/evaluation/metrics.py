@@ -12,7 +12,10 @@ sums run over every element.
 - :func:`relative_error_energy`: ``Σ (got − ref)² / Σ ref²``, its square — the SHRM checks
   (comparable with the BRDF energy the orders leave out);
 - :func:`mean_relative_error`, :func:`max_relative_error`: ``mean``/``max`` of the
-  pointwise ``|got − ref| / ref`` — ``project-env --report``.
+  pointwise ``|got − ref| / ref`` — ``project-env --report``;
+- :func:`mean_relative_norm`: ``mean_k sqrt(e_k / E_k)`` over rows ``k`` given their
+  squared error norms ``e_k`` and reference energies ``E_k`` — a BRDF table's error (its
+  rows the probe views, the reference ``f*``: ``plan``, ``tradeoff``, the scene bake).
 
 The relative RMS error weighs points by their brightness (a scene's tolerance: how much of
 the signal is wrong); the mean relative error weighs every point alike (dark directions
@@ -73,3 +76,16 @@ def mean_relative_error(got, ref) -> float:
 def max_relative_error(got, ref) -> float:
     """``max(|got − ref| / ref)`` (:func:`relative_errors`)."""
     return float(np.max(relative_errors(got, ref)))
+
+
+def mean_relative_norm(error_energy, energy) -> float:
+    """``mean_k sqrt(e_k / E_k)``: per row ``k`` the norm of the error relative to the
+    reference's, averaged over the rows. ``error_energy``: ``e_k``, the squared norm of row
+    ``k``'s error; ``energy``: ``E_k``, the reference's squared norm (a BRDF table's row is
+    a view ``v`` and ``E_k = ∫ f*(s, v)² ds``, so truncation counts as error).
+
+    >>> mean_relative_norm([1.0, 0.0], [4.0, 1.0])
+    0.25
+    """
+    e = np.asarray(error_energy, dtype=np.float64)
+    return float(np.mean(np.sqrt(e / np.maximum(np.asarray(energy, dtype=np.float64), TINY))))
