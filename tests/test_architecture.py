@@ -199,6 +199,38 @@ class TestModuleGraph:
         assert not bad, "\n".join(sorted(set(bad)))
 
 
+CLI = PACKAGE.parent / "cli"
+
+
+def literal_choices(path: Path) -> list[str]:
+    """``click.Choice`` calls in ``path`` whose choices are written out as a literal list or
+    tuple of strings (rather than a library constant, or an expression built from one)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                and node.func.attr == "Choice" and node.args):  # fmt: skip
+            continue
+        arg = node.args[0]
+        if isinstance(arg, ast.List | ast.Tuple) and all(
+            isinstance(e, ast.Constant) and isinstance(e.value, str) for e in arg.elts
+        ):
+            found.append(f"{path.name}:{node.lineno}")
+    return found
+
+
+class TestCliChoices:
+    def test_choices_come_from_library_constants(self):
+        """A command's choices are the library's own tuple (the one its validation reads),
+        never a copy that can drift from it (issue 28 item 7)."""
+        bad = [hit for path in sorted(CLI.glob("*.py")) for hit in literal_choices(path)]
+        assert not bad, bad
+
+    def test_finder_finds_a_literal(self, tmp_path):
+        (tmp_path / "m.py").write_text('import click\nclick.Choice(["a", "b"])\n'
+                                       "click.Choice(NAMES)\n")  # fmt: skip
+        assert literal_choices(tmp_path / "m.py") == ["m.py:2"]
+
+
 def _loaded_after(statement: str) -> set[str]:
     code = (
         "import sys\n" + statement + "\n"

@@ -26,6 +26,8 @@ from shbake.resources import check_memory
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.shader import shader
 
+EXPORTS = ("gltf", "babylon", "threejs")
+"""The engines ``--export`` writes beside the asset, as ``shbake export --to TARGET`` would."""
 TRUNCATION_WARNING = 0.10
 """Relative irradiance error (max vs brute force) above which ``--report`` warns."""
 MINIMUM_DIRECTIONS = 4096
