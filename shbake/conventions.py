@@ -52,12 +52,20 @@ REC709_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
 def n_coeffs(lmax: int) -> int:
-    """Number of coefficients of a set with highest band ``lmax``: ``(lmax+1)^2``."""
+    """Number of coefficients of a set with highest band ``lmax``: ``(lmax+1)^2``.
+
+    >>> n_coeffs(2)
+    9
+    """
     return (lmax + 1) ** 2
 
 
 def lmax_of(n: int) -> int:
-    """Inverse of :func:`n_coeffs`; raises if ``n`` is not a perfect square."""
+    """Inverse of :func:`n_coeffs`; raises if ``n`` is not a perfect square.
+
+    >>> lmax_of(9)
+    2
+    """
     lmax = int(round(np.sqrt(n))) - 1
     if n_coeffs(lmax) != n:
         raise ParameterError(f"{n} coefficients is not (lmax+1)^2 for any lmax")

@@ -35,7 +35,7 @@ REFERENCE_PASSES = {"reference": None, "reference-tangent": "tangent"}
 main technique — the Kautz table's BRDF when ``--table`` is given)."""
 ALL_PASSES = tuple(n for n, c in shader_classes().items() if c.kinds) + tuple(REFERENCE_PASSES)
 """Every ``--pass``: the registry's techniques, then the reference passes."""
-KINDS = ("env_sh", "shexp_probe", "shexp_probe_set", "splitsum_probe", "shrm")
+PREVIEW_KINDS = ("env_sh", "shexp_probe", "shexp_probe_set", "splitsum_probe", "shrm")
 """Asset kinds the preview reads (a probe set is shaded one probe at a time)."""
 
 KIND_OPTIONS = {
@@ -145,7 +145,7 @@ def preview_asset(
     """
     if pass_name is not None and pass_name not in ALL_PASSES:
         raise ParameterError(f"unknown pass {pass_name!r}; choose one of {', '.join(ALL_PASSES)}")
-    asset = read_asset(asset_path, kinds=KINDS)
+    asset = read_asset(asset_path, kinds=PREVIEW_KINDS)
     reads = OPTIONS_OF_KIND[asset.kind]
     stray = [o for k, o in KIND_OPTIONS.items() if k in explicit and k not in reads]
     if stray:

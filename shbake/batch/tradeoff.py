@@ -36,7 +36,7 @@ from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, write_text
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 
-KINDS = ("env_sh", "brdf_table")
+TRADEOFF_KINDS = ("env_sh", "brdf_table")
 
 
 def env_sh_tradeoff(map_path: str, tol: float, sun: bool = True) -> dict:
@@ -129,7 +129,7 @@ def write_tradeoff(result: dict, output: str, csv_path: str | None, json_path: s
 
 def tradeoff(kind: str, tol: float, map_path: str | None = None, model: str | None = None,
              params: dict | None = None, samples: int = 256) -> dict:  # fmt: skip
-    """Dispatch on ``kind`` (one of :data:`KINDS`), validating what it needs."""
+    """Dispatch on ``kind`` (one of :data:`TRADEOFF_KINDS`), validating what it needs."""
     if not 0.0 < tol < 1.0:
         raise ParameterError(f"--tol must be in (0, 1), got {tol}")
     if kind == "env_sh":
