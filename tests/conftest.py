@@ -39,7 +39,7 @@ def engine_browser(tmp_path_factory):
     """One headless Chromium for the session's rendered engine tests (``engine_browser.py``),
     serving files under the session's temporary folder. Without Chromium the tests skip with
     the reason, except as root or in CI, where ``make test`` installs it: there they fail."""
-    from engine_browser import EngineBrowser, chromium_or_reason
+    from tests.engine_browser import EngineBrowser, chromium_or_reason
 
     reason = chromium_or_reason()
     if reason is not None:

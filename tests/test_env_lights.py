@@ -13,7 +13,6 @@ import subprocess
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 
 from shbake.bakers.env_lights import choose_lights, fit_lights, irradiance_target
 from shbake.bakers.env_sh import bake_env_sh
@@ -28,6 +27,7 @@ from shbake.reference.irradiance import brute_force_irradiance
 from shbake.sh.basis import real_sh
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.shader import shader
+from tests.helpers import map_path, write_test_exr
 
 ENGINES = os.path.join(os.path.dirname(__file__), "engines")
 LIGHTS = np.array([[0.3, 0.8, -0.52], [-0.7, 0.2, 0.68]])
