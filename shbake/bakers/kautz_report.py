@@ -21,6 +21,7 @@ import numpy as np
 
 from shbake.brdf.model import BRDF
 from shbake.brdf.tabulate import SQRT_4PI, project_views, tabulate
+from shbake.sh.point_sets import gauss_legendre
 from shbake.texture.parabolic import fetch
 
 LMAX_STUDY = (2, 4, 6, 8)
@@ -45,7 +46,7 @@ def probe_views(count: int = 16, seed: int = 7) -> np.ndarray:
 
 def product_energy(brdf: BRDF, views: np.ndarray, n_theta: int = 1024) -> np.ndarray:
     """``∫ f*(s, v)² ds`` per view and channel by a dense hemisphere product rule."""
-    x, w = np.polynomial.legendre.leggauss(n_theta)
+    x, w = gauss_legendre(n_theta)
     theta = 0.25 * np.pi * (x + 1.0)
     wt = 0.25 * np.pi * w * np.sin(theta)
     n_phi = 2 * n_theta
