@@ -25,21 +25,21 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-
-from engine_browser import EngineBrowser, chromium_or_reason  # noqa: E402
-from helpers import map_path  # noqa: E402
-from test_webgl_shaders import FIT, GLOSSY, SHRMS, SPLIT, TABLES  # noqa: E402
+sys.path.insert(0, str(ROOT))  # the tests package (tests.helpers), as pytest sees it
 
 from shbake.bakers.env_sh import bake_env_sh  # noqa: E402
-from shbake.bakers.shrm import bake_shrm, make_reflection_brdf  # noqa: E402
+from shbake.bakers.shrm import bake_shrm  # noqa: E402
 from shbake.batch.brdf_table import bake_brdf_table  # noqa: E402
 from shbake.batch.export import export_assets  # noqa: E402
 from shbake.batch.probe_eval import bake_splitsum_file  # noqa: E402
 from shbake.batch.probe_fit import fit_probes  # noqa: E402
+from shbake.brdf.reflection import make_reflection_brdf  # noqa: E402
 from shbake.envmap import load_environment  # noqa: E402
 from shbake.format.asset import write_asset  # noqa: E402
 from shbake.format.shrm import build_shrm_asset  # noqa: E402
+from tests.engine_browser import EngineBrowser, chromium_or_reason  # noqa: E402
+from tests.helpers import map_path  # noqa: E402
+from tests.test_webgl_shaders import FIT, GLOSSY, SHRMS, SPLIT, TABLES  # noqa: E402
 
 WIDTH, HEIGHT = 1920, 1080
 SMALL_PASSES = ("kautz", "kautz-fixed-light", "kautz-fixed-view")

@@ -6,8 +6,10 @@ Each asset is exported with ``shbake export --to webgl``; the page
 +Z, pixel centres as :func:`shbake.preview.sphere.sphere_geometry`) into a float32 render
 target in headless Chromium (WebGL2 on SwiftShader, ``tests/engines/harness.mjs``). The
 image is compared pixel by pixel with ``shbake preview``'s pass of the same asset and
-material (:mod:`shbake.preview.passes`, :mod:`shbake.preview.glossy`): float32 textures
-within :data:`FLOAT_TOL` relative RMS over the sphere. Half-float textures (the export's
+material: the registry's shader of the technique (:func:`shbake.shading.shader.shader`)
+drawn by :func:`shbake.preview.passes.render_pass`, as :mod:`shbake.batch.preview` does
+(float32 textures
+within :data:`FLOAT_TOL` relative RMS over the sphere). Half-float textures (the export's
 float32 texels rounded to half in a copy) are measured against the bound half precision
 implies (:func:`half_bound`). Broken conventions — a texture's rows flipped, two SH bands
 swapped, a Condon–Shortley sign added to the GLSL basis — make the comparison fail.
@@ -22,29 +24,27 @@ import shutil
 
 import numpy as np
 import pytest
-from engine_browser import decode
-from helpers import ROOT, SHARED_MAPS, map_path
 
 from shbake.bakers.env_sh import bake_env_sh
 from shbake.bakers.shexp import FitConfig
-from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+from shbake.bakers.shrm import bake_shrm
 from shbake.bakers.splitsum import SplitSumConfig
 from shbake.batch.brdf_table import bake_brdf_table
 from shbake.batch.export import export_assets
 from shbake.batch.probe_eval import bake_splitsum_file
 from shbake.batch.probe_fit import fit_probes
+from shbake.brdf.reflection import make_reflection_brdf
 from shbake.conventions import DFG_MU_MIN, ROUGHNESS_MIN
 from shbake.envmap import load_environment
 from shbake.format.asset import read_asset, write_asset
 from shbake.format.kautz_table import table_at
-from shbake.format.shrm import build_shrm_asset, shrm_from_asset
-from shbake.preview.glossy import render_glossy
-from shbake.preview.kautz_table import render_kautz
+from shbake.format.shrm import build_shrm_asset
 from shbake.preview.passes import render_pass
-from shbake.preview.shrm import render_shrm
 from shbake.preview.sphere import sphere_geometry
 from shbake.sh.basis import real_sh
-from shbake.shading.env_sh import irradiance
+from shbake.shading.shader import shader
+from tests.engine_browser import decode
+from tests.helpers import ROOT, SHARED_MAPS, map_path
 
 pytestmark = pytest.mark.xdist_group("webgl-shaders")
 """One worker runs this module (``make test``: ``--dist loadgroup``): one browser, each
@@ -135,18 +135,22 @@ def render(browser, folder: str, jobs: list[dict]) -> dict:
             for k, v in answer["result"]["images"].items()}  # fmt: skip
 
 
+def preview(asset, technique: str | None = None, material: dict | None = None, **companions):
+    """The preview's image of ``asset`` through the registry's shader ``technique`` (default:
+    the kind's), as ``shbake preview`` draws it (:mod:`shbake.batch.preview`)."""
+    sh = shader(asset, technique, **companions)
+    return render_pass(sh, SIZE, sh.check(**material) if material else None)[0]
+
+
+ENV_PASSES = {"irradiance": "irradiance", "tangent-matrix": "tangent", "tangent-sh": "tangent-sh"}
+"""GLSL pass → the registry technique it twins (the irradiance, the Mehta matrix and SH
+tangent forms)."""
+
+
 def env_previews(h5: str) -> dict:
-    """The preview's irradiance and tangent (matrix form) passes, and the SH tangent form
-    (:func:`shbake.shading.env_sh.irradiance`, ``tangent=True``) at the preview's tangents."""
+    """The preview's irradiance, tangent (matrix form) and tangent-sh passes."""
     asset = read_asset(h5)
-    _, tangents, mask = sphere_geometry(SIZE)
-    tangent_sh = np.zeros((SIZE, SIZE, 3))
-    tangent_sh[mask] = irradiance(asset, tangents[mask], tangent=True)
-    return {
-        "irradiance": render_pass(asset, "irradiance", SIZE)[0],
-        "tangent-matrix": render_pass(asset, "tangent", SIZE)[0],
-        "tangent-sh": tangent_sh,
-    }
+    return {gl: preview(asset, technique) for gl, technique in ENV_PASSES.items()}
 
 
 ENV_JOBS = [{"name": p, "pass": p} for p in ("irradiance", "tangent-matrix", "tangent-sh")]
@@ -161,7 +165,7 @@ def glossy_jobs(pass_name: str) -> list[dict]:
 def glossy_previews(h5: str, pass_name: str) -> dict:
     """The preview's glossy pass of a probe for every :func:`glossy_jobs` material."""
     asset = read_asset(h5)
-    return {j["name"]: render_glossy(asset, pass_name, SIZE, j["alpha"], j["f0"][0])[0]
+    return {j["name"]: preview(asset, pass_name, {"alpha": j["alpha"], "f0": j["f0"][0]})
             for j in glossy_jobs(pass_name)}  # fmt: skip
 
 
@@ -209,7 +213,7 @@ class TestRenderedEqualsPreview:
         seam-correct fetch agrees across an edge to second order only (texture/cube.py):
         1.3e-5 (GGX) and 1.6e-4 (Phong lobe, s 32) relative RMS at face 16 on forest."""
         got = render(engine_browser, exported[f"shrm-{kind}_dir"], [{"name": "s", "pass": "shrm"}])
-        want = render_shrm(shrm_from_asset(read_asset(exported[f"shrm-{kind}"])), SIZE, 1)[0]
+        want = preview(read_asset(exported[f"shrm-{kind}"]), "shrm")
         assert relative_rms(got["s"], want) <= FLOAT_TOL
 
     @pytest.mark.parametrize("model, modes", KAUTZ_MODES)
@@ -220,8 +224,9 @@ class TestRenderedEqualsPreview:
         got = render(
             engine_browser, exported[key + "_dir"], [{"name": m, "pass": m} for m in modes]
         )
-        want = render_kautz(read_asset(exported["env"]), table_at(read_asset(exported[key])), SIZE)
-        errors = {m: relative_rms(got[m], want[0]) for m in modes}
+        table = table_at(read_asset(exported[key]))
+        want = preview(read_asset(exported["env"]), "kautz", table=table)
+        errors = {m: relative_rms(got[m], want) for m in modes}
         assert max(errors.values()) <= FLOAT_TOL, errors
 
 
@@ -301,7 +306,7 @@ def half_bound(h5: str) -> float:
     c = np.asarray(asset["/irradiance/sh"])
     n = normals[mask]
     bound = HALF_EPS * (np.abs(real_sh(n, int(round(np.sqrt(len(c)))) - 1)) @ np.abs(c)) / np.pi
-    want = render_pass(asset, "irradiance", SIZE)[0][mask]
+    want = preview(asset, "irradiance")[mask]
     return float(np.sqrt(np.sum(bound**2) / np.sum(want**2)))
 
 
@@ -349,7 +354,7 @@ class TestExportCommand:
 
     @pytest.fixture
     def small(self, tmp_path):
-        from assets_examples import example, write_map
+        from tests.assets_examples import example, write_map
 
         out = {}
         for kind in ("env_sh", "splitsum_probe", "brdf_table"):

@@ -1,6 +1,6 @@
 // shbake irradiance: SH irradiance of an env_sh asset plus its directional lights.
-// Needs common.glsl. CPU twin: shbake.shading.env_sh.irradiance (the preview's
-// `irradiance` pass, shbake.preview.passes, shows E(n)/pi: a white Lambert sphere).
+// Needs common.glsl. CPU twin: shbake.shading.env_sh.IrradianceShader, the registry's
+// `irradiance` (the preview's `irradiance` pass shows E(n)/pi: a white Lambert sphere).
 //
 //   E(n) = sum_i E_i y_i(n) + sum_k max(0, n.s_k) E_k
 //

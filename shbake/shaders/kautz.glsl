@@ -1,7 +1,7 @@
 // shbake kautz: a BRDF table shaded under SH lighting (Kautz, Sloan & Snyder 2002, "Fast,
 // arbitrary BRDF shading for low-frequency lighting using spherical harmonics", section 4:
-// rotate, fetch, dot). Needs common.glsl. CPU twin: shbake.shading.kautz_table (shade_full;
-// the preview's `kautz` pass, shbake.preview.kautz_table), the rotation of
+// rotate, fetch, dot). Needs common.glsl. CPU twin: shbake.shading.kautz_table.KautzShader
+// (shade_full; the registry's and the preview's `kautz`, its three modes), the rotation of
 // shbake.sh.rotation (Ivanic & Ruedenberg 1996, with the 1998 erratum), the parabolic fetch
 // of shbake.texture.parabolic (Heidrich & Seidel 1999).
 //

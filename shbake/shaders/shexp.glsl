@@ -1,7 +1,7 @@
 // shbake shexp: the SH-exponential glossy probe, shbake's v2 (Silvennoinen, Ikonen, Lehtinen
 // et al. 2025, "SH-exponential" glossy probes, section 4), GGX of width alpha, Schlick F0.
-// Needs common.glsl and dfg.glsl. CPU twin: shbake.shading.shexp.evaluate_shexp (the
-// preview's `shexp` pass, shbake.preview.glossy).
+// Needs common.glsl and dfg.glsl. CPU twin: shbake.shading.shexp.ShexpShader (the
+// registry's and the preview's `shexp`).
 //
 //   E0(v, n, alpha) = P(rho, alpha) Q(h_rho, alpha)                         (eq. 9-11)
 //   P = exp(sum_lm vMF_l y_lm(rho) p_lm(alpha)),  Q = exp(sum_lm vMF_l y_lm(h_rho) q_lm(alpha))

@@ -1,7 +1,7 @@
 // shbake shrm: shading with a Spherical Harmonic Reflection Map (Ramamoorthi & Hanrahan 2002,
 // "Frequency space environment map rendering", section 7.5). Needs common.glsl. CPU twins:
-// shbake.shading.shrm.reflection_cube and .shade (the preview's `shrm` pass,
-// shbake.preview.shrm), shbake.texture.cube.cube_bilinear (the seam-correct fetch).
+// shbake.shading.shrm.ShrmShader (reflection_cube and shade; the registry's and the
+// preview's `shrm`), shbake.texture.cube.cube_bilinear (the seam-correct fetch).
 //
 // Eq. 12, the reflection cube map for a distant viewer V (unit, toward the eye), read at
 // the reflection vector R = 2(n.V)n - V:

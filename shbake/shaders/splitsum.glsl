@@ -1,7 +1,7 @@
 // shbake splitsum: the split-sum baseline (Karis 2013, "Real shading in Unreal Engine 4",
 // eq. 4-5 and the environment BRDF), GGX of width alpha, Schlick F0. Needs common.glsl and
-// dfg.glsl. CPU twin: shbake.shading.splitsum.evaluate_splitsum (the preview's `splitsum`
-// pass, shbake.preview.glossy).
+// dfg.glsl. CPU twin: shbake.shading.splitsum.SplitsumShader (the registry's and the
+// preview's `splitsum`).
 //
 //   E(v, n, alpha) = Lpre(rho, alpha) (F0 A0(n.v, alpha) + (1 - F0) A1(n.v, alpha)),
 //   rho = 2(n.v)n - v,

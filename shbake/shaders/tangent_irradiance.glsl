@@ -1,8 +1,8 @@
 // shbake tangent_irradiance: Kajiya-Kay diffuse irradiance of hair with unit tangent t
 // (Mehta, Ramamoorthi, Meyer & Hery 2012, "Analytic tangent irradiance environment maps
-// for anisotropic surfaces"). Needs common.glsl. CPU twins: shbake.shading.env_sh.irradiance
-// (tangent=True: the SH form) and shbake.shading.env_sh.tangent_irradiance_matrix (the
-// matrix form, the preview's `tangent` pass, shbake.preview.passes).
+// for anisotropic surfaces"). Needs common.glsl. CPU twins: shbake.shading.env_sh.
+// TangentSHShader (the SH form, the registry's `tangent-sh`) and TangentShader (the matrix
+// form, the registry's `tangent`), the preview's passes of the same names.
 //
 // SH form (Mehta eq. 13-15: the Kajiya-Kay kernel's coefficients A_l folded into E_i):
 //   E(t) = sum_i E_i y_i(t) + sum_k sqrt(1 - (t.s_k)^2)/pi^2 E_k
