@@ -192,6 +192,22 @@ def test_docs_snippet_is_the_loader():
     assert "```js\n" + m.group(1) + "```" in (ROOT / "docs" / "SHADERS.md").read_text()
 
 
+def test_registry_shaders_name_their_glsl():
+    """Each registry shader of an asset kind names its GLSL twin (``Shader.glsl``): a
+    function that file defines, shipped by ``--to webgl`` with one of the shader's kinds
+    (``ggx-shrm``, made from baked arrays, has none)."""
+    from shbake.format.exports.webgl import SHADERS as FILES_OF_KIND
+    from shbake.shading.shader import shader_classes
+
+    for name, cls in shader_classes().items():
+        if not cls.kinds:
+            assert cls.glsl == "", name
+            continue
+        file, function = cls.glsl.split(":")
+        assert re.search(rf"^vec3 {function}\(", (SHADERS / file).read_text(), re.M), name
+        assert any(file in FILES_OF_KIND.get(k, ()) for k in cls.kinds), name
+
+
 class TestRenderedEqualsPreview:
     def test_env_sh_passes(self, engine_browser, exported):
         got = render(engine_browser, exported["env_dir"], ENV_JOBS)
