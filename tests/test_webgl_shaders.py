@@ -422,3 +422,64 @@ class TestExportCommand:
         Tags().feed(page)
         assert "img" not in tags and "<img" not in page
         assert "&lt;img src=x onerror=alert(1)&gt;&amp;" in page
+
+    def test_export_again_replaces_the_folder(self, run_cli, small, tmp_path):
+        """``-o`` naming an earlier export's folder: the new export replaces it whole (a
+        split-sum export over an env_sh one keeps none of the env_sh files), no temporary."""
+        out = tmp_path / "out"
+        for kind in ("env_sh", "splitsum_probe"):
+            code, _, err = run_cli("export", small[kind], "--to", "webgl", "-o", out)
+            assert code == 0, err
+        fresh = tmp_path / "fresh"
+        assert run_cli("export", small["splitsum_probe"], "--to", "webgl", "-o", fresh)[0] == 0
+        assert sorted(os.listdir(out)) == sorted(os.listdir(fresh))
+        for n in os.listdir(fresh):
+            assert (out / n).read_bytes() == (fresh / n).read_bytes(), n
+        assert sorted(os.listdir(tmp_path)) == sorted(["fresh", "map.exr", "out", *map(
+            os.path.basename, small.values())])  # fmt: skip
+
+    @pytest.mark.parametrize("content", ["a user's file", "a subfolder", "a foreign manifest"])
+    def test_other_folder_refused(self, run_cli, small, tmp_path, content):
+        """An existing folder that is not an export is never replaced: one line, exit 1,
+        the folder byte-identical."""
+        from tests.test_faults import snapshot
+
+        out = tmp_path / "out"
+        out.mkdir()
+        if content == "a user's file":
+            (out / "notes.txt").write_text("keep me")
+        elif content == "a subfolder":
+            (out / "uIrradiance.f32").mkdir()
+        else:
+            (out / "shbake.json").write_text('{"format": "other"}')
+        before = snapshot(tmp_path)
+        code, _, err = run_cli("export", small["env_sh"], "--to", "webgl", "-o", out)
+        assert code == 1 and err.count("shbake: error:") == 1 and "not replaced" in err, err
+        assert snapshot(tmp_path) == before
+
+    def test_failed_export_keeps_the_old_folder(self, run_cli, small, tmp_path, monkeypatch):
+        """A failure after the new files are staged (the page's template fails): the
+        earlier export byte-identical, no staged folder or temporary left."""
+        from shbake.errors import OutputError
+        from shbake.format.exports import webgl
+        from tests.test_faults import snapshot
+
+        out = tmp_path / "out"
+        assert run_cli("export", small["env_sh"], "--to", "webgl", "-o", out)[0] == 0
+        before = snapshot(tmp_path)
+
+        def broken(title):
+            raise OutputError("no space left on device")
+
+        monkeypatch.setattr(webgl, "viewer_page", broken)
+        code, _, err = run_cli("export", small["splitsum_probe"], "--to", "webgl", "-o", out)
+        assert code == 1 and err.count("shbake: error:") == 1, err
+        assert snapshot(tmp_path) == before
+
+    def test_stale_staged_folder_removed(self, run_cli, small, tmp_path):
+        """A staged folder left by a killed run (its process gone) goes with the next run."""
+        stale = tmp_path / ".out.shbake-2147483646-1.tmp"
+        stale.mkdir()
+        (stale / "uIrradiance.f32").write_bytes(b"\0" * 16)
+        assert run_cli("export", small["env_sh"], "--to", "webgl", "-o", tmp_path / "out")[0] == 0
+        assert not stale.exists()

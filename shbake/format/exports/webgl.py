@@ -1,7 +1,9 @@
 """WebGL2 export: the textures and uniforms shbake's GLSL shaders read, the shaders, a viewer.
 
-``shbake export ASSET --to webgl -o DIR`` writes into the folder ``DIR``
-(``docs/SHADERS.md``):
+``shbake export ASSET --to webgl -o DIR`` writes the folder ``DIR`` (``docs/SHADERS.md``),
+staged beside it and put in place whole when the run commits: a folder of an earlier
+export there is replaced, never merged into (:func:`check_replaceable`; any other
+existing folder is refused):
 
 * ``shbake.json``: the manifest — the asset's name and kind, the passes it can draw,
   the GLSL files in include order, each texture (file, width, height, layers) and
@@ -24,12 +26,14 @@ autoescaped ``<title>``; the manifest's strings reach the page as text nodes
 import json
 import math
 import os
+import re
+import stat
 from importlib import resources
 
 import numpy as np
 
-from shbake.errors import InputError
-from shbake.format.atomic import atomic_path, makedirs, write_text
+from shbake.errors import InputError, OutputError
+from shbake.format.atomic import atomic_folder, atomic_path, makedirs, transaction, write_text
 
 CUBES = None
 """No cube maps."""
@@ -257,6 +261,42 @@ def _copy_package_file(name: str, dest: str) -> None:
         f.write(data)
 
 
+MANIFEST = "shbake.json"
+MANIFEST_BYTES = 1 << 20
+"""Largest manifest :func:`check_replaceable` reads (an export's is a few KiB)."""
+TEXTURE_FILE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*\.f32$")
+
+
+def check_replaceable(out: str) -> None:
+    """Refuse to replace ``out`` unless it is missing, an empty folder, or a folder of an
+    earlier export: regular files only, each named as an export names its files (textures
+    ``NAME.f32``, the package's GLSL and viewer files, ``index.html``, :data:`MANIFEST`),
+    and a manifest of format ``shbake-webgl``. A user's other folder is never removed."""
+    if not os.path.lexists(out):
+        return
+    if os.path.islink(out) or not os.path.isdir(out):
+        raise OutputError(f"{out}: exists and is not a folder (-o names the export's folder)")
+    known = {MANIFEST, "index.html", *VIEWER_FILES, *(f for fs in SHADERS.values() for f in fs)}
+    names = os.listdir(out)
+    for name in names:
+        mode = os.lstat(os.path.join(out, name)).st_mode
+        if not (stat.S_ISREG(mode) and (name in known or TEXTURE_FILE.match(name))):
+            raise OutputError(f"{out}: holds {name!r}, not a file of a webgl export; "
+                              "not replaced (name a new or an export's folder)")  # fmt: skip
+    if not names:
+        return
+    try:
+        with open(os.path.join(out, MANIFEST), "rb") as f:
+            data = f.read(MANIFEST_BYTES + 1)
+        manifest = json.loads(data) if len(data) <= MANIFEST_BYTES else None
+        ok = isinstance(manifest, dict) and manifest.get("format") == "shbake-webgl"
+    except (OSError, ValueError):
+        ok = False
+    if not ok:
+        raise OutputError(f"{out}: has no {MANIFEST} of a webgl export; not replaced "
+                          "(name a new or an export's folder)")  # fmt: skip
+
+
 def viewer_page(title: str) -> str:
     """``index.html`` from the autoescaped template ``shaders/viewer.html``."""
     import jinja2
@@ -271,8 +311,9 @@ def viewer_page(title: str) -> str:
 
 
 def write_export(asset, name: str, out: str, context=None) -> list[str]:
-    """Export ``asset`` (a kind of :data:`KINDS`, read from the file ``name``) into the
-    folder ``out``; the files written. ``context``: what the kind's pass reads from
+    """Export ``asset`` (a kind of :data:`KINDS`, read from the file ``name``) as the
+    folder ``out`` (replacing an earlier export there, :func:`check_replaceable`); the
+    files written, as they are named once committed. ``context``: what the kind's pass reads from
     elsewhere — an ``env_sh`` asset's lights ``(directions (K, 3), E (K, 3))``
     (:func:`shbake.shading.env_sh.lights_of`), a ``brdf_table``'s ``(BRDFTable, L)``."""
     try:
@@ -288,20 +329,22 @@ def write_export(asset, name: str, out: str, context=None) -> list[str]:
         "textures": {k: _texture_entry(k, t) for k, t in textures.items()},
         "uniforms": uniforms,
     }
-    makedirs(out)
-    written = []
-    for k, t in textures.items():
-        dest = os.path.join(out, k + ".f32")
-        with atomic_path(dest) as tmp, open(tmp, "wb") as f:
-            f.write(np.ascontiguousarray(t, dtype="<f4").tobytes())
-        written.append(dest)
-    for f in SHADERS[asset.kind] + VIEWER_FILES:
-        _copy_package_file(f, os.path.join(out, f))
-        written.append(os.path.join(out, f))
-    dest = os.path.join(out, "shbake.json")
-    write_text(dest, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
-    write_text(os.path.join(out, "index.html"), viewer_page(f"{name} ({asset.kind})"))
-    return written + [dest, os.path.join(out, "index.html")]
+    out = os.path.abspath(out)
+    check_replaceable(out)
+    names = [k + ".f32" for k in textures] + [*SHADERS[asset.kind], *VIEWER_FILES]
+    names += [MANIFEST, "index.html"]
+    with transaction():
+        makedirs(os.path.dirname(out))
+        with atomic_folder(out) as folder:
+            for k, t in textures.items():
+                with atomic_path(os.path.join(folder, k + ".f32")) as tmp, open(tmp, "wb") as f:
+                    f.write(np.ascontiguousarray(t, dtype="<f4").tobytes())
+            for f in SHADERS[asset.kind] + VIEWER_FILES:
+                _copy_package_file(f, os.path.join(folder, f))
+            write_text(os.path.join(folder, MANIFEST),
+                       json.dumps(manifest, indent=1, sort_keys=True) + "\n")  # fmt: skip
+            write_text(os.path.join(folder, "index.html"), viewer_page(f"{name} ({asset.kind})"))
+    return [os.path.join(out, n) for n in names]
 
 
-__all__ = ["KINDS", "coefficient_texture", "viewer_page", "write_export"]
+__all__ = ["KINDS", "check_replaceable", "coefficient_texture", "viewer_page", "write_export"]
