@@ -29,8 +29,10 @@ from shbake.format.exports.source import FRAMES
 )
 @output_opt(
     "Output for one asset: FILE.gltf, FILE.env (babylon), FILE.json, FILE.ktx2 (ktx2, "
-    "threejs-pmrem), STEM_sh.txt or FILE.unity.json",
+    "threejs-pmrem), STEM_sh.txt, FILE.unity.json, or the folder DIR (webgl: an earlier "
+    "export there is replaced whole)",
     required=False,
+    dir_okay=True,
 )
 @click.option(
     "--out-dir",

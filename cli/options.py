@@ -59,14 +59,15 @@ def usage_errors():
         raise click.UsageError(str(e)) from None
 
 
-def output_opt(help_text: str, required: bool = True):
-    """``-o/--output FILE``: the command's main output, always a file."""
+def output_opt(help_text: str, required: bool = True, dir_okay: bool = False):
+    """``-o/--output FILE``: the command's main output, a file (``dir_okay``: or a folder
+    written whole, ``export --to webgl``)."""
     return click.option(
         "-o",
         "--output",
         required=required,
-        type=click.Path(dir_okay=False, writable=False),
-        help=f"{help_text} (a file; written atomically).",
+        type=click.Path(dir_okay=dir_okay, writable=False),
+        help=f"{help_text} ({'a file or folder' if dir_okay else 'a file'}; written atomically).",
     )
 
 

@@ -102,14 +102,28 @@ class EngineBrowser:
     def call(self, page: str, params: dict) -> dict:
         """Run ``window.shbakeRender(params)`` in a fresh tab of ``page``: the answer
         (``result``, ``console`` lines); raises with the page's error and console."""
-        self._next += 1
-        self.proc.stdin.write(json.dumps({"id": self._next, "page": page, "params": params}) + "\n")
-        self.proc.stdin.flush()
-        answer = json.loads(self.proc.stdout.readline() or "{}")
+        answer = self._ask({"page": page, "params": params})
         if not answer.get("ok"):
             console = "\n".join(answer.get("console", []))
             raise RuntimeError(f"{page}: {answer.get('error', 'harness died')}\n{console}")
         return answer
+
+    def _ask(self, request: dict) -> dict:
+        self._next += 1
+        self.proc.stdin.write(json.dumps({"id": self._next, **request}) + "\n")
+        self.proc.stdin.flush()
+        return json.loads(self.proc.stdout.readline() or "{}")
+
+    def screenshot(self, path: str, selector: str | None = None) -> dict:
+        """Open the page ``path`` (a file under ``data_root``: an export's own viewer), wait
+        until its body's ``data-state`` leaves ``loading`` and capture it (the element
+        ``selector`` alone, if given): ``state``, ``png`` (bytes) and ``console``, the
+        page's lines before the capture."""
+        answer = self._ask({"screenshot": self.url(path), "selector": selector})
+        if not answer.get("ok"):
+            raise RuntimeError(f"{path}: {answer.get('error', 'harness died')}")
+        r = answer["result"]
+        return {"state": r["state"], "png": base64.b64decode(r["png"]), "console": r["console"]}
 
     def render(self, page: str, views: list[View], size: int, fov_deg: float, **params) -> dict:
         """Render ``params['materials']`` on the unit sphere from ``views``: a dict with

@@ -21,6 +21,7 @@ ALLOWED = {
     "reference": {"sh", "envmap", "brdf"},
     "shading": {"sh", "texture", "brdf", "format"},
     "format": {"sh", "texture", "brdf", "envmap"},
+    "shaders": set(),  # GLSL and the viewer: package data, no Python
     "bakers": {"sh", "texture", "envmap", "brdf", "format", "reference", "shading"},
     "preview": {"sh", "texture", "envmap", "brdf", "format", "shading", "reference"},
     "evaluation": {"sh", "texture", "envmap", "brdf", "format", "shading", "reference", "preview"},

@@ -205,7 +205,7 @@ class TestReader:
 class TestCommands:
     """Every command that reads assets refuses them: the issue's case and the FIFO cases."""
 
-    @pytest.mark.parametrize("target", ["threejs", "gltf", "babylon", "unity", "filament"])
+    @pytest.mark.parametrize("target", ["threejs", "gltf", "babylon", "unity", "filament", "webgl"])
     def test_etc_passwd_export(self, run_cli, ws, tmp_path, target):
         """The issue's case: ``external=[('/etc/passwd', 0, 216)]`` was exported as SH."""
         path = tmp_path / "passwd.h5"

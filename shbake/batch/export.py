@@ -42,6 +42,8 @@ def options_of_target(target: str) -> frozenset:
             reads.add("mapping")
     if target in ("gltf", "babylon"):
         reads.add("babylon_scene")
+    if target == "webgl":
+        reads.add("env_path")  # the env_sh asset lighting a brdf_table
     return frozenset(reads)
 
 
@@ -109,6 +111,8 @@ def export_assets(
     if not assets:
         raise ParameterError("no asset to export")
     one_file = not (many if many is not None else len(assets) > 1)
+    if target == "webgl":
+        return _export_webgl(assets, out, one_file, frame, rotate_deg, env_path)
     if one_file:  # refused before the cube chains are baked
         check_output_path(out)
     else:
@@ -143,6 +147,39 @@ def export_assets(
             if target == "ktx2":
                 extra["dfg_table"] = dfg_table()
         written += mod.write(src, dest, **extra)
+    return written
+
+
+def _export_webgl(assets, out, one_file, frame, rotate_deg, env_path) -> list[str]:
+    """``--to webgl``: one folder per asset (``out`` itself for one), shbake's world frame;
+    ``env_path``: the ``env_sh`` asset that lights ``brdf_table`` assets (the kautz pass)."""
+    from shbake.format.asset import read_asset
+    from shbake.format.exports.webgl import KINDS, write_export
+    from shbake.format.kautz_table import table_at
+    from shbake.shading.env_sh import lights_of
+    from shbake.shading.kautz_table import lighting_with_sun
+
+    if frame != "y-up" or rotate_deg != 0.0:
+        raise ParameterError("--to webgl writes shbake's world frame: no --frame z-up or --rotate")
+    check_output_dir(out, "-o/--output" if one_file else "--out-dir")
+    read = [(path, read_asset(path, kinds=tuple(KINDS))) for path in assets]
+    tables = any(asset.kind == "brdf_table" for _, asset in read)
+    if tables != (env_path is not None):
+        raise ParameterError("--to webgl: a brdf_table needs --env ENV_SH.h5 (its lighting); "
+                             "--env is read for brdf_table assets only")  # fmt: skip
+    env = read_asset(env_path, kinds=("env_sh",)) if tables else None
+    written = []
+    for path, asset in read:
+        if asset.kind == "env_sh":
+            context = lights_of(asset)
+        elif asset.kind == "brdf_table":
+            table = table_at(asset)
+            context = (table, lighting_with_sun(env, table.lmax))
+        else:
+            context = None
+        name = os.path.basename(path)
+        dest = out if one_file else os.path.join(out, os.path.splitext(name)[0])
+        written += write_export(asset, name, dest, context)
     return written
 
 

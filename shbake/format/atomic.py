@@ -24,9 +24,11 @@ one file. Batches (``probe-fit`` without ``--set``) write one file per probe,
 each atomic on its own (documented in ``docs/FORMAT.md`` §1).
 """
 
+import ctypes
 import errno
 import os
 import re
+import shutil
 import stat
 import threading
 from contextlib import contextmanager
@@ -73,12 +75,36 @@ def remove_stale(path: str) -> list[str]:
     for name in names:
         m = pattern.match(name)
         if m and int(m.group(1)) != os.getpid() and not pid_alive(int(m.group(1))):
+            stale = os.path.join(folder, name)
             try:
-                os.remove(os.path.join(folder, name))
+                if os.path.isdir(stale) and not os.path.islink(stale):
+                    shutil.rmtree(stale)  # a staged folder (Transaction.stage_folder)
+                else:
+                    os.remove(stale)
                 removed.append(name)
             except OSError:
                 pass
     return removed
+
+
+RENAME_EXCHANGE = 2
+"""``renameat2`` flag (linux/fs.h): swap two paths atomically."""
+
+
+def exchange(a: str, b: str) -> bool:
+    """Swap the paths ``a`` and ``b`` in one step (Linux ``renameat2(RENAME_EXCHANGE)``);
+    ``False`` where the system or file system cannot (nothing moved)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    renameat2 = getattr(libc, "renameat2", None)
+    if renameat2 is None:
+        return False
+    at_cwd = -100  # AT_FDCWD
+    if renameat2(at_cwd, os.fsencode(a), at_cwd, os.fsencode(b), RENAME_EXCHANGE) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP):
+        return False
+    raise OSError(err, os.strerror(err), b)
 
 
 def _read_only_fs(folder: str) -> bool:
@@ -188,6 +214,7 @@ class Transaction:
 
     def __init__(self):
         self.staged: list[tuple[str, str]] = []
+        self.folders: list[tuple[str, str]] = []
         self.created: list[str] = []
         self.done = False
 
@@ -244,6 +271,35 @@ class Transaction:
             raise OutputError(os_error_message(e, path)) from None
         return tmp
 
+    def stage_folder(self, path: str) -> str:
+        """A new empty folder beside the folder ``path``, for the run to write into (its
+        files staged in it as any other); at :meth:`commit`, after those files, it replaces
+        ``path`` whole: swapped in one step where Linux can (``renameat2``), the old folder
+        and its files then removed, so ``path`` never holds a mix of two runs. The caller
+        checks that an existing ``path`` may be replaced."""
+        global _counter
+        path = os.path.abspath(os.fspath(path))
+        if os.path.islink(path) or (os.path.exists(path) and not os.path.isdir(path)):
+            raise OutputError(f"{path}: exists and is not a folder")
+        check_output_dir(os.path.dirname(path), "-o/--output", missing_ok=False, shown=path)
+        with _lock:
+            if any(final == path for _, final in self.folders):
+                raise OutputError(f"{path}: written twice by one run")
+            _counter += 1
+            n = _counter
+        remove_stale(path)
+        folder, base = os.path.split(path)
+        tmp = os.path.join(folder, f".{base}{TAG}{os.getpid()}-{n}.tmp")
+        with _lock:  # registered first, as in stage
+            self.folders.append((tmp, path))
+        try:
+            os.mkdir(tmp, 0o755)
+        except OSError as e:
+            with _lock:
+                self.folders.remove((tmp, path))
+            raise OutputError(os_error_message(e, path)) from None
+        return tmp
+
     def discard(self, tmp: str) -> None:
         """Remove one staged temporary (its writer failed)."""
         with _lock:
@@ -263,7 +319,13 @@ class Transaction:
                     self.staged = [(t, f) for t, f in self.staged if f not in done]
                     raise OutputError(os_error_message(e, final)) from None
                 done.append(final)
-            self.staged, self.created, self.done = [], [], True
+            for tmp, final in self.folders:
+                try:
+                    _replace_folder(tmp, final)
+                except OSError as e:
+                    raise OutputError(os_error_message(e, final)) from None
+                done.append(final)
+            self.staged, self.folders, self.created, self.done = [], [], [], True
             return done
 
     def abort(self) -> None:
@@ -271,12 +333,28 @@ class Transaction:
         with _lock:
             for tmp, _ in self.staged:
                 _unlink(tmp)
+            for tmp, _ in self.folders:
+                shutil.rmtree(tmp, ignore_errors=True)
             for d in reversed(self.created):
                 try:
                     os.rmdir(d)
                 except OSError:
                     pass
-            self.staged, self.created, self.done = [], [], True
+            self.staged, self.folders, self.created, self.done = [], [], [], True
+
+
+def _replace_folder(tmp: str, final: str) -> None:
+    """Move the staged folder ``tmp`` onto ``final`` (:meth:`Transaction.stage_folder`)."""
+    if not os.path.lexists(final):
+        os.rename(tmp, final)
+        return
+    if exchange(tmp, final):  # final is the new folder, tmp the old one
+        shutil.rmtree(tmp, ignore_errors=True)
+        return
+    old = tmp + ".old"  # without renameat2: a moment where final is missing
+    os.rename(final, old)
+    os.rename(tmp, final)
+    shutil.rmtree(old, ignore_errors=True)
 
 
 class Collector(Transaction):
@@ -307,6 +385,10 @@ class Collector(Transaction):
             self.staged.append((tmp, path))
         os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
         return tmp
+
+    def stage_folder(self, path: str) -> str:
+        """Refused: a folder replaced whole is committed by the process that makes it."""
+        raise OutputError(f"{path}: a folder output cannot be made by a worker")
 
     def adopt(self, path: str, data: bytes) -> None:
         """Stage ``data`` as the output ``path`` of an earlier step of the run, made in
@@ -457,6 +539,15 @@ def atomic_path(path: str, independent: bool = False):
         except BaseException:
             t.discard(tmp)
             raise
+
+
+@contextmanager
+def atomic_folder(folder: str):
+    """Yield a staged folder, to write files into, that replaces ``folder`` whole when the
+    run's transaction commits (at the block's end outside one;
+    :meth:`Transaction.stage_folder`)."""
+    with transaction() as t:
+        yield t.stage_folder(folder)
 
 
 def makedirs(folder: str) -> None:

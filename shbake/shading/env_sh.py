@@ -105,6 +105,7 @@ class IrradianceShader(Shader):
     """
 
     name = "irradiance"
+    glsl = "irradiance.glsl:shbakeIrradiance"
     kinds = ("env_sh",)
     inputs = (
         Texture("irradiance_sh", "sh-vector", ("(lmax_irr+1)**2", 3), "/irradiance/sh",
@@ -150,6 +151,7 @@ class TangentSHShader(IrradianceShader):
     Σ_k sqrt(1 − (t·s_k)²)/π² E_k`` at unit fibre ``tangents``; view-independent."""
 
     name = "tangent-sh"
+    glsl = "tangent_irradiance.glsl:shbakeTangentIrradianceSH"
     inputs = (
         Texture("tangent_irradiance_sh", "sh-vector", ("(lmax_irr+1)**2", 3),
                 "/tangent_irradiance/sh", "tangent irradiance SH (A_l and 1/π² folded in)"),
@@ -172,6 +174,7 @@ class TangentShader(Shader):
     preview's ``tangent`` pass draws."""
 
     name = "tangent"
+    glsl = "tangent_irradiance.glsl:shbakeTangentIrradianceMatrix"
     kinds = ("env_sh",)
     inputs = (
         Texture("tangent_irradiance_matrix", "sh-matrix", (3, 4, 4),

@@ -274,6 +274,7 @@ class KautzShader(Shader):
     (:func:`shbake.format.kautz_table.table_at`)."""
 
     name = "kautz"
+    glsl = "kautz.glsl:shbakeKautz"
     kinds = ("env_sh", "brdf_table")
     inputs = (
         Texture("lighting_sh", "sh-vector", ("(lmax+1)**2", 3),

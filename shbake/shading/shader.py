@@ -19,7 +19,10 @@ same inputs). Each technique's module in :mod:`shbake.shading` defines one subcl
     ``{"frame": …}`` by default; the Kautz shader adds fixed light and fixed view, the
     SHRM the eq. 12 reflection-cube update;
 ``truth``
-    the name of the brute-force integral it approximates (:mod:`shbake.reference.truth`).
+    the name of the brute-force integral it approximates (:mod:`shbake.reference.truth`);
+``glsl``
+    its GPU twin, ``file:function`` in ``shbake/shaders/`` (``docs/SHADERS.md``), which
+    ``export --to webgl`` ships with the asset.
 
 The preview, the evaluation, ``probe-eval`` and the scene bake's error checks reach the
 shaders through :func:`shader` and :data:`SHADERS` only (``tests/test_architecture.py``).
@@ -82,6 +85,9 @@ class Shader:
     inputs: ClassVar[tuple]
     material: ClassVar[dict] = {}
     truth: ClassVar[str]
+    glsl: ClassVar[str] = ""
+    """The GLSL function this shader twins, ``file:function`` of ``shbake/shaders/``
+    (``""``: none)."""
     tangents: ClassVar[bool] = False
     min_nv: ClassVar[float | None] = None
     """Points with ``n·v`` at or below this are left unshaded (glossy lobes at grazing)."""

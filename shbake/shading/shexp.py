@@ -293,6 +293,7 @@ class ShexpShader(ProbeShader):
     docstring; :func:`evaluate_shexp`)."""
 
     name = "shexp"
+    glsl = "shexp.glsl:shbakeShexp"
     kinds = ("shexp_probe",)
     inputs = (
         Texture("p", "sh-vector", ("K", "(lmax_p+1)**2", 3), "/p",

@@ -151,6 +151,7 @@ class ShrmShader(Shader):
     take eq. 7 per point (:func:`evaluate_shrm`)."""
 
     name = "shrm"
+    glsl = "shrm.glsl:shbakeShrm"
     kinds = ("shrm",)
     inputs = (
         Texture("shrm", "cube-faces", (6, "S", "S", "n", 3), "/shrm",

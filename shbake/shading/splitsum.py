@@ -81,6 +81,7 @@ class SplitsumShader(ProbeShader):
     ``F0 A0 + (1 − F0) A1`` (module docstring; :func:`evaluate_splitsum`)."""
 
     name = "splitsum"
+    glsl = "splitsum.glsl:shbakeSplitSum"
     kinds = ("splitsum_probe",)
     inputs = (
         Texture("levels", "octahedral", ("S", "S", 3), "/levels/{k}",

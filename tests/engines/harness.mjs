@@ -8,7 +8,9 @@
 //   stdout: one JSON answer a line, {"id": 1, "ok": true, "result": ..., "console": [...]}
 //           (or "ok": false, "error": "..."); the first line is {"ready": true, "chromium": VERSION}.
 // A page defines `window.shbakeRender(params)` (async, returns JSON) once its modules are loaded;
-// the harness opens a fresh tab for each request, calls it and closes the tab. Files are named
+// the harness opens a fresh tab for each request, calls it and closes the tab. A request
+// {"id", "screenshot": "/data/DIR/index.html", "selector": "canvas"} opens that page instead and
+// returns its PNG (of the element `selector` alone, if given). Files are named
 // to the page as "/data/<path relative to DATA_ROOT>". The page's console lines (warnings and
 // errors included) come back with the answer so that a test can require there are none.
 // Render-target conventions every page follows (tests/engine_browser.py reads them): float32
@@ -73,7 +75,9 @@ async function handle(request) {
   const lines = [];
   page.on("console", (m) => lines.push(`${m.type()}: ${m.text()}`));
   page.on("pageerror", (e) => lines.push(`pageerror: ${e.message}`));
+  page.on("response", (r) => { if (r.status() >= 400) lines.push(`http ${r.status()}: ${new URL(r.url()).pathname}`); });
   try {
+    if (request.screenshot) return { id: request.id, ok: true, result: await screenshot(page, { ...request, lines }), console: lines };
     await page.goto(`${origin}/engines/pages/${request.page}`, { waitUntil: "load" });
     await page.waitForFunction("typeof window.shbakeRender === 'function'", { timeout: 120000 });
     const result = await page.evaluate((p) => window.shbakeRender(p), request.params || {});
@@ -83,6 +87,19 @@ async function handle(request) {
   } finally {
     await page.close();
   }
+}
+
+// A page of the data root (an export's own viewer): opened, given until its body's data-state
+// leaves "loading", then captured as PNG (base64) with that state.
+async function screenshot(page, request) {
+  await page.setViewport({ width: request.width || 640, height: request.height || 720 });
+  await page.goto(`${origin}${request.screenshot}`, { waitUntil: "load" });
+  await page.waitForFunction("document.body && document.body.dataset.state !== 'loading'", { timeout: 120000 });
+  await new Promise((r) => setTimeout(r, 200));  // a composited frame after the first draw
+  const state = await page.evaluate(() => document.body.dataset.state);
+  const before = request.lines.slice();  // the page's own lines: capturing reads pixels back
+  const target = request.selector ? await page.$(request.selector) : page;  // an element alone
+  return { state, console: before, png: await target.screenshot({ encoding: "base64" }) };
 }
 
 async function shutdown() {

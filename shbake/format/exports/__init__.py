@@ -21,6 +21,7 @@ TARGETS = {
     "ktx2": "shbake.format.exports.ktx2",
     "filament": "shbake.format.exports.filament",
     "unity": "shbake.format.exports.unity",
+    "webgl": "shbake.format.exports.webgl",
 }
 """Target name → module (``babylon``: the glTF export, Babylon implements the extension, or
 Babylon's ``.env``)."""

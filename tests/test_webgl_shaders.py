@@ -1,0 +1,485 @@
+"""shbake's GLSL passes (``shbake/shaders/``) rendered in WebGL2 equal the numba preview.
+
+Each asset is exported with ``shbake export --to webgl``; the page
+``tests/engines/pages/webgl.html`` loads the folder with the loader it carries
+(``shbake_webgl.mjs``) and draws every pass with the preview's camera (orthographic from
++Z, pixel centres as :func:`shbake.preview.sphere.sphere_geometry`) into a float32 render
+target in headless Chromium (WebGL2 on SwiftShader, ``tests/engines/harness.mjs``). The
+image is compared pixel by pixel with ``shbake preview``'s pass of the same asset and
+material: the registry's shader of the technique (:func:`shbake.shading.shader.shader`)
+drawn by :func:`shbake.preview.passes.render_pass`, as :mod:`shbake.batch.preview` does
+(float32 textures
+within :data:`FLOAT_TOL` relative RMS over the sphere). Half-float textures (the export's
+float32 texels rounded to half in a copy) are measured against the bound half precision
+implies (:func:`half_bound`). Broken conventions — a texture's rows flipped, two SH bands
+swapped, a Condon–Shortley sign added to the GLSL basis — make the comparison fail.
+The viewer page (``index.html``) opens without a WebGL error and draws a non-black sphere.
+``@pytest.mark.slow``: the six shared maps (``make test`` renders forest).
+"""
+
+import json
+import os
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from shbake.bakers.env_sh import bake_env_sh
+from shbake.bakers.shexp import FitConfig
+from shbake.bakers.shrm import bake_shrm
+from shbake.bakers.splitsum import SplitSumConfig
+from shbake.batch.brdf_table import bake_brdf_table
+from shbake.batch.export import export_assets
+from shbake.batch.probe_eval import bake_splitsum_file
+from shbake.batch.probe_fit import fit_probes
+from shbake.brdf.reflection import make_reflection_brdf
+from shbake.conventions import DFG_MU_MIN, ROUGHNESS_MIN
+from shbake.envmap import load_environment
+from shbake.format.asset import read_asset, write_asset
+from shbake.format.kautz_table import table_at
+from shbake.format.shrm import build_shrm_asset
+from shbake.preview.passes import render_pass
+from shbake.preview.sphere import sphere_geometry
+from shbake.sh.basis import real_sh
+from shbake.shading.shader import shader
+from tests.engine_browser import decode
+from tests.helpers import ROOT, SHARED_MAPS, map_path
+
+pytestmark = pytest.mark.xdist_group("webgl-shaders")
+"""One worker runs this module (``make test``: ``--dist loadgroup``): one browser, each
+map's assets baked once."""
+SIZE = 48
+"""Render edge (pixels): 1 800 sphere pixels per pass."""
+FAST_MAPS = ("forest",)
+FLOAT_TOL = 1e-3
+"""Relative RMS over the sphere, float32 textures (issue 30)."""
+HALF_EPS = 2.0**-11
+"""Unit roundoff of IEEE half floats (10 stored mantissa bits)."""
+GLOSSY = [(r, f0) for r in (0.25, 0.5, 0.75, 1.0) for f0 in (1.0, 0.04)]
+"""(perceptual roughness, F0) of the glossy passes: chrome and dielectric, r 0.25 … 1."""
+SPLIT = SplitSumConfig(top=32, min_size=8, alphas=(0.0625, 0.25, 0.5, 1.0), samples=64)
+"""A small split-sum chain over α = r² for r 0.25 … 1 (its values do not matter here)."""
+FIT = FitConfig(normals=16, views=8, alpha_count=4, alpha_min=0.0625, polish=0, samples=64)
+"""A quick SH-exp fit (two sets, lmax 5 and 2) over the same range."""
+SHRMS = {
+    "surface": ("ggx", {"alpha": 0.3, "F0": 1.0}, {"F": 6, "P": 2, "face_size": 16}),
+    "lobe": ("phong-lobe", {"s": 32.0}, {"F": 10, "P": 0, "face_size": 16}),
+    "tangent": ("kajiya-kay", {}, {"F": 8, "P": 4, "face_size": 8}),
+}
+"""One SHRM per kind (RH02 §7.5): GGX (P 2), a Phong lobe, Kajiya–Kay hair; small bakes."""
+TABLES = {"ashikhmin-shirley": {"nu": 40.0, "nv": 4.0}, "phong": {}}
+"""Kautz tables (lmax 4, 16² views, 64 samples): anisotropic Ashikhmin–Shirley (brushed
+along the preview's meridians) and an analytic, MERL-free Phong."""
+FIXED = ("kautz-fixed-light", "kautz-fixed-view")
+KAUTZ_MODES = [
+    pytest.param("phong", ("kautz", *FIXED), id="phong"),
+    pytest.param("ashikhmin-shirley", ("kautz",), id="ashikhmin-shirley"),
+    pytest.param("ashikhmin-shirley", FIXED, marks=pytest.mark.slow, id="ashikhmin-shirley-fixed"),
+]
+"""The three modes of each table; the fixed modes' per-pixel store takes SwiftShader ~18 s a
+mode (25 layers, each a draw), so ``make test`` runs them on one table."""
+SHADERS = ROOT / "shbake" / "shaders"
+
+
+def _maps():
+    return [
+        pytest.param(m, marks=() if m in FAST_MAPS else pytest.mark.slow, id=m) for m in SHARED_MAPS
+    ]
+
+
+def relative_rms(got: np.ndarray, want: np.ndarray) -> float:
+    """``sqrt(Σ (got − want)² / Σ want²)`` over the pixels either image covers."""
+    m = np.any(want != 0.0, axis=-1) | np.any(got != 0.0, axis=-1)
+    return float(np.sqrt(np.sum((got - want)[m] ** 2) / np.sum(want[m] ** 2)))
+
+
+@pytest.fixture(scope="module", params=_maps())
+def exported(request, tmp_path_factory):
+    """A map's env_sh asset (lmax 4, sun extracted), split-sum and SH-exp probes and
+    :data:`SHRMS`, each exported; the :data:`TABLES` exported with the env_sh lighting."""
+    name = request.param
+    d = tmp_path_factory.mktemp(f"webgl-{name}")
+    env = load_environment(str(map_path(name)), quiet=True)
+    asset, _ = bake_env_sh(env, lmax=4, irradiance_lmax=4, sun=True)
+    env_h5 = str(d / f"{name}-env.h5")
+    write_asset(env_h5, asset)
+    split_h5 = str(d / f"{name}-splitsum.h5")
+    bake_splitsum_file(str(map_path(name)), split_h5, SPLIT)
+    fit_probes([str(map_path(name))], out_dir=str(d), config=FIT)  # d/NAME.h5
+    out = {"name": name, "env": env_h5, "splitsum": split_h5, "shexp": str(d / f"{name}.h5")}
+    for kind, (model, params, orders) in SHRMS.items():
+        out[f"shrm-{kind}"] = str(d / f"{name}-shrm-{kind}.h5")
+        bake = bake_shrm(env, make_reflection_brdf(model, params), **orders)
+        write_asset(out[f"shrm-{kind}"], build_shrm_asset(bake, env.meta))
+    for model, params in TABLES.items():
+        out[f"kautz-{model}"] = str(d / f"{model}.h5")
+        bake_brdf_table(model, out[f"kautz-{model}"], params, lmax=4, size=(16, 16), samples=64)
+    for key in ("env", "splitsum", "shexp", *(f"shrm-{k}" for k in SHRMS)):
+        export_assets([out[key]], "webgl", str(d / f"{key}-webgl"))
+        out[key + "_dir"] = str(d / f"{key}-webgl")
+    for model in TABLES:
+        key = f"kautz-{model}"
+        export_assets([out[key]], "webgl", str(d / f"{key}-webgl"), env_path=env_h5)
+        out[key + "_dir"] = str(d / f"{key}-webgl")
+    return out
+
+
+def render(browser, folder: str, jobs: list[dict]) -> dict:
+    """Draw ``jobs`` (name, pass, GGX ``alpha``, ``f0``) from an export folder: name → RGB."""
+    answer = browser.call("webgl.html", {"dir": browser.url(folder) + "/", "size": SIZE,
+                                         "jobs": jobs})  # fmt: skip
+    bad = [c for c in answer["console"] if c.startswith(("error", "pageerror", "http"))]
+    assert not bad and answer["result"]["glError"] == 0, bad
+    return {k: decode(v, SIZE)[..., :3].astype(np.float64)
+            for k, v in answer["result"]["images"].items()}  # fmt: skip
+
+
+def preview(asset, technique: str | None = None, material: dict | None = None, **companions):
+    """The preview's image of ``asset`` through the registry's shader ``technique`` (default:
+    the kind's), as ``shbake preview`` draws it (:mod:`shbake.batch.preview`)."""
+    sh = shader(asset, technique, **companions)
+    return render_pass(sh, SIZE, sh.check(**material) if material else None)[0]
+
+
+ENV_PASSES = {"irradiance": "irradiance", "tangent-matrix": "tangent", "tangent-sh": "tangent-sh"}
+"""GLSL pass → the registry technique it twins (the irradiance, the Mehta matrix and SH
+tangent forms)."""
+
+
+def env_previews(h5: str) -> dict:
+    """The preview's irradiance, tangent (matrix form) and tangent-sh passes."""
+    asset = read_asset(h5)
+    return {gl: preview(asset, technique) for gl, technique in ENV_PASSES.items()}
+
+
+ENV_JOBS = [{"name": p, "pass": p} for p in ("irradiance", "tangent-matrix", "tangent-sh")]
+
+
+def glossy_jobs(pass_name: str) -> list[dict]:
+    """The :data:`GLOSSY` materials of a glossy pass."""
+    return [{"name": f"r{r}-f{f0}", "pass": pass_name, "alpha": r * r, "f0": [f0] * 3}
+            for r, f0 in GLOSSY]  # fmt: skip
+
+
+def glossy_previews(h5: str, pass_name: str) -> dict:
+    """The preview's glossy pass of a probe for every :func:`glossy_jobs` material."""
+    asset = read_asset(h5)
+    return {j["name"]: preview(asset, pass_name, {"alpha": j["alpha"], "f0": j["f0"][0]})
+            for j in glossy_jobs(pass_name)}  # fmt: skip
+
+
+def test_glsl_constants_are_shbakes():
+    """The numbers the GLSL files restate are the Python ones."""
+    from shbake.bakers.env_lights import MAX_LIGHTS
+
+    text = "".join(p.read_text() for p in SHADERS.glob("*.glsl"))
+
+    def const(name):
+        return float(re.search(rf"const \w+ {name} = ([^;]+);", text).group(1))
+
+    assert const("SHBAKE_MAX_LIGHTS") == MAX_LIGHTS
+    assert const("SHBAKE_DFG_MU_MIN") == DFG_MU_MIN
+    assert const("SHBAKE_ROUGHNESS_MIN") == ROUGHNESS_MIN
+    assert const("SHBAKE_PI") == pytest.approx(np.pi, rel=1e-14)
+
+
+def test_docs_snippet_is_the_loader():
+    """docs/SHADERS.md's "use it in your engine" block is the loader's text, verbatim."""
+    loader = (SHADERS / "shbake_webgl.mjs").read_text()
+    m = re.search(r"// BEGIN snippet webgl\n(.*?)// END snippet webgl", loader, re.S)
+    assert m and 15 <= m.group(1).count("\n") <= 25
+    assert "```js\n" + m.group(1) + "```" in (ROOT / "docs" / "SHADERS.md").read_text()
+
+
+def test_registry_shaders_name_their_glsl():
+    """Each registry shader of an asset kind names its GLSL twin (``Shader.glsl``): a
+    function that file defines, shipped by ``--to webgl`` with one of the shader's kinds
+    (``ggx-shrm``, made from baked arrays, has none)."""
+    from shbake.format.exports.webgl import SHADERS as FILES_OF_KIND
+    from shbake.shading.shader import shader_classes
+
+    for name, cls in shader_classes().items():
+        if not cls.kinds:
+            assert cls.glsl == "", name
+            continue
+        file, function = cls.glsl.split(":")
+        assert re.search(rf"^vec3 {function}\(", (SHADERS / file).read_text(), re.M), name
+        assert any(file in FILES_OF_KIND.get(k, ()) for k in cls.kinds), name
+
+
+class TestRenderedEqualsPreview:
+    def test_env_sh_passes(self, engine_browser, exported):
+        got = render(engine_browser, exported["env_dir"], ENV_JOBS)
+        want = env_previews(exported["env"])
+        errors = {k: relative_rms(got[k], want[k]) for k in want}
+        assert max(errors.values()) <= FLOAT_TOL, errors
+
+    @pytest.mark.parametrize("pass_name", ["splitsum", "shexp"])
+    def test_glossy_pass(self, engine_browser, exported, pass_name):
+        got = render(engine_browser, exported[pass_name + "_dir"], glossy_jobs(pass_name))
+        want = glossy_previews(exported[pass_name], pass_name)
+        errors = {k: relative_rms(got[k], want[k]) for k in want}
+        assert max(errors.values()) <= FLOAT_TOL, errors
+
+    @pytest.mark.parametrize("kind", sorted(SHRMS))
+    def test_shrm_pass(self, engine_browser, exported, kind):
+        """Surface kinds: where a mirror direction ties two cube faces exactly (the preview
+        sphere's diagonal pixels), float32 and float64 may pick different faces, and the
+        seam-correct fetch agrees across an edge to second order only (texture/cube.py):
+        1.3e-5 (GGX) and 1.6e-4 (Phong lobe, s 32) relative RMS at face 16 on forest."""
+        got = render(engine_browser, exported[f"shrm-{kind}_dir"], [{"name": "s", "pass": "shrm"}])
+        want = preview(read_asset(exported[f"shrm-{kind}"]), "shrm")
+        assert relative_rms(got["s"], want) <= FLOAT_TOL
+
+    @pytest.mark.parametrize("model, modes", KAUTZ_MODES)
+    def test_kautz_modes(self, engine_browser, exported, model, modes):
+        """Full (rotate per pixel), fixed light (M(R)L stored per pixel by a first pass) and
+        fixed view (M(R)ᵀc(v) stored): each equals the preview's image."""
+        key = f"kautz-{model}"
+        got = render(
+            engine_browser, exported[key + "_dir"], [{"name": m, "pass": m} for m in modes]
+        )
+        table = table_at(read_asset(exported[key]))
+        want = preview(read_asset(exported["env"]), "kautz", table=table)
+        errors = {m: relative_rms(got[m], want) for m in modes}
+        assert max(errors.values()) <= FLOAT_TOL, errors
+
+
+def copy_export(folder: str, dest) -> str:
+    shutil.copytree(folder, dest)
+    return str(dest)
+
+
+def edit_texture(folder: str, name: str, edit) -> None:
+    """Replace texture ``name`` of an export by ``edit(texels)`` (``(…, H, W, 4)`` float32)."""
+    manifest = json.loads(open(os.path.join(folder, "shbake.json")).read())
+    t = manifest["textures"][name]
+    shape = ((t["layers"],) if "layers" in t else ()) + (t["height"], t["width"], 4)
+    path = os.path.join(folder, t["file"])
+    texels = np.fromfile(path, dtype="<f4").reshape(shape)
+    edit(texels).astype("<f4").tofile(path)
+
+
+def _flip_levels(sizes):
+    """An edit reversing the rows of each split-sum level (``sizes[k]`` texels in layer k)."""
+
+    def edit(levels):
+        out = levels.copy()
+        for k, n in enumerate(sizes[: levels.shape[0]]):
+            out[k, :n, :n] = levels[k, :n, :n][::-1]
+        return out
+
+    return edit
+
+
+def _swap_band_one(coeffs):
+    """SH coefficients 1 and 3 (``y_1,−1 ∝ y`` and ``y_1,1 ∝ x``) exchanged."""
+    out = coeffs.copy()
+    out[0, [1, 3]] = coeffs[0, [3, 1]]
+    return out
+
+
+CS_SIGN = (
+    "float s2q = 1.4142135623730951 * q;",
+    "float s2q = ((m & 1) == 1 ? -1.0 : 1.0) * 1.4142135623730951 * q;",
+)
+"""common.glsl's basis given the Condon–Shortley phase ``(−1)^m`` shbake does not use."""
+
+
+class TestBrokenConventionFails:
+    """Each fault, applied to a copy of the export, pushes the error far past the bound."""
+
+    @pytest.mark.parametrize("fault", ["flipped rows", "swapped band", "Condon-Shortley sign"])
+    def test_fault(self, engine_browser, exported, tmp_path, fault):
+        if fault == "flipped rows":
+            folder = copy_export(exported["splitsum_dir"], tmp_path / "x")
+            sizes = json.loads(open(os.path.join(folder, "shbake.json")).read())["uniforms"]
+            edit_texture(folder, "uLevels", _flip_levels(sizes["uLevelSize"]["value"]))
+            got = render(engine_browser, folder, glossy_jobs("splitsum")[:1])
+            want = glossy_previews(exported["splitsum"], "splitsum")
+        else:
+            folder = copy_export(exported["env_dir"], tmp_path / "x")
+            if fault == "swapped band":
+                edit_texture(folder, "uIrradiance", _swap_band_one)
+            else:
+                path = os.path.join(folder, "common.glsl")
+                text = open(path).read()
+                assert CS_SIGN[0] in text
+                open(path, "w").write(text.replace(*CS_SIGN))
+            got = render(engine_browser, folder, ENV_JOBS[:1])
+            want = env_previews(exported["env"])
+        name = next(iter(got))
+        assert relative_rms(got[name], want[name]) > 10 * FLOAT_TOL
+
+
+def half_bound(h5: str) -> float:
+    """Relative RMS bound of the irradiance pass with half-float coefficients: each stored
+    ``E_i`` moves by at most ``HALF_EPS |E_i|``, so a pixel's ``E/π`` by at most
+    ``HALF_EPS Σ_i |E_i| |y_i(n)| / π`` (the lights stay float32 uniforms)."""
+    asset = read_asset(h5)
+    normals, _, mask = sphere_geometry(SIZE)
+    c = np.asarray(asset["/irradiance/sh"])
+    n = normals[mask]
+    bound = HALF_EPS * (np.abs(real_sh(n, int(round(np.sqrt(len(c)))) - 1)) @ np.abs(c)) / np.pi
+    want = preview(asset, "irradiance")[mask]
+    return float(np.sqrt(np.sum(bound**2) / np.sum(want**2)))
+
+
+def test_half_float_textures_within_their_bound(engine_browser, exported, tmp_path):
+    """Half-float texels (rounded from the export's float32): the irradiance pass within
+    :func:`half_bound`, the split-sum pass within ``2 HALF_EPS`` (a positive bilinear and
+    α blend of values each off by ``HALF_EPS`` relative, times a DFG factor off by as much)."""
+    env = copy_export(exported["env_dir"], tmp_path / "env")
+    edit_texture(env, "uIrradiance", lambda t: t.astype(np.float16))
+    split = copy_export(exported["splitsum_dir"], tmp_path / "split")
+    for name in ("uLevels", "uDFG"):
+        edit_texture(split, name, lambda t: t.astype(np.float16))
+    e_err = relative_rms(render(engine_browser, env, ENV_JOBS[:1])["irradiance"],
+                         env_previews(exported["env"])["irradiance"])  # fmt: skip
+    got = render(engine_browser, split, glossy_jobs("splitsum"))
+    want = glossy_previews(exported["splitsum"], "splitsum")
+    s_err = max(relative_rms(got[k], want[k]) for k in want)
+    assert e_err <= half_bound(exported["env"]), e_err
+    assert s_err <= 2 * HALF_EPS, s_err
+
+
+def test_viewer_opens_and_draws(engine_browser, exported, tmp_path):
+    """index.html over HTTP: ready, no console error nor WebGL warning from the page, and a
+    sphere of non-black pixels in the screenshot. Chromium's own notice ``GPU stall due to
+    ReadPixels`` is not the page's: headless with ``--disable-gpu`` composites the canvas in
+    software, reading it back (the viewer itself never reads pixels)."""
+    import OpenImageIO as oiio
+
+    for key in ("env_dir", "splitsum_dir", "shexp_dir", "shrm-surface_dir"):
+        result = engine_browser.screenshot(os.path.join(exported[key], "index.html"), "canvas")
+        own = [c for c in result["console"] if "GPU stall due to ReadPixels" not in c]
+        assert result["state"] == "ready" and own == [], result["console"]
+        png = tmp_path / f"{key}.png"
+        png.write_bytes(result["png"])
+        img = oiio.ImageBuf(str(png)).get_pixels(oiio.FLOAT)[..., :3]
+        assert img.shape[:2] == (512, 512)  # the canvas element alone
+        c = np.arange(512) + 0.5 - 256
+        disc = np.hypot(c[:, None], c[None, :]) < 254  # the sphere, 2 pixels in from its rim
+        assert np.all(img[disc].max(-1) > 0.0), np.count_nonzero(img[disc].max(-1) == 0)
+        assert np.all(img[np.hypot(c[:, None], c[None, :]) > 258] == 0.0)  # black around
+
+
+class TestExportCommand:
+    """``shbake export --to webgl``: the folder, its bytes, refusals and the page's text."""
+
+    @pytest.fixture
+    def small(self, tmp_path):
+        from tests.assets_examples import example, write_map
+
+        out = {}
+        for kind in ("env_sh", "splitsum_probe", "brdf_table"):
+            out[kind] = str(tmp_path / f"{kind}.h5")
+            write_asset(out[kind], example(kind, write_map(tmp_path / "map.exr")))
+        return out
+
+    def test_same_inputs_same_bytes(self, run_cli, small, tmp_path):
+        for kind in ("env_sh", "splitsum_probe"):
+            folders = [tmp_path / f"{kind}{i}" for i in range(2)]
+            for f in folders:
+                code, _, err = run_cli("export", small[kind], "--to", "webgl", "-o", f)
+                assert code == 0, err
+            names = sorted(os.listdir(folders[0]))
+            assert "index.html" in names and "shbake.json" in names
+            for n in names:
+                assert (folders[0] / n).read_bytes() == (folders[1] / n).read_bytes(), n
+
+    @pytest.mark.parametrize("args, named", [(["--frame", "z-up"], "--frame"),
+                                             (["--rotate", "30"], "--rotate")])  # fmt: skip
+    def test_other_frames_refused(self, run_cli, small, tmp_path, args, named):
+        code, _, err = run_cli("export", small["env_sh"], "--to", "webgl", "-o",
+                               tmp_path / "out", *args)  # fmt: skip
+        assert code == 1 and err.count("shbake: error:") == 1 and named in err, err
+        assert not (tmp_path / "out").exists()
+
+    @pytest.mark.parametrize("which", ["table without --env", "--env without a table"])
+    def test_env_only_with_a_table(self, run_cli, small, tmp_path, which):
+        table, env = small["brdf_table"], small["env_sh"]
+        args = [table] if which.startswith("table") else [env, "--env", env]
+        code, _, err = run_cli("export", *args, "--to", "webgl", "-o", tmp_path / "out")
+        assert code == 1 and err.count("shbake: error:") == 1 and "--env" in err, err
+        assert not (tmp_path / "out").exists()
+
+    def test_asset_name_is_text_in_the_page(self, run_cli, small, tmp_path):
+        from html.parser import HTMLParser
+
+        hostile = tmp_path / "<img src=x onerror=alert(1)>&'\".h5"
+        shutil.copy(small["env_sh"], hostile)
+        code, _, err = run_cli("export", hostile, "--to", "webgl", "-o", tmp_path / "out")
+        assert code == 0, err
+        page = (tmp_path / "out" / "index.html").read_text()
+        tags = []
+
+        class Tags(HTMLParser):
+            def handle_starttag(self, tag, attrs):
+                tags.append(tag)
+
+        Tags().feed(page)
+        assert "img" not in tags and "<img" not in page
+        assert "&lt;img src=x onerror=alert(1)&gt;&amp;" in page
+
+    def test_export_again_replaces_the_folder(self, run_cli, small, tmp_path):
+        """``-o`` naming an earlier export's folder: the new export replaces it whole (a
+        split-sum export over an env_sh one keeps none of the env_sh files), no temporary."""
+        out = tmp_path / "out"
+        for kind in ("env_sh", "splitsum_probe"):
+            code, _, err = run_cli("export", small[kind], "--to", "webgl", "-o", out)
+            assert code == 0, err
+        fresh = tmp_path / "fresh"
+        assert run_cli("export", small["splitsum_probe"], "--to", "webgl", "-o", fresh)[0] == 0
+        assert sorted(os.listdir(out)) == sorted(os.listdir(fresh))
+        for n in os.listdir(fresh):
+            assert (out / n).read_bytes() == (fresh / n).read_bytes(), n
+        assert sorted(os.listdir(tmp_path)) == sorted(["fresh", "map.exr", "out", *map(
+            os.path.basename, small.values())])  # fmt: skip
+
+    @pytest.mark.parametrize("content", ["a user's file", "a subfolder", "a foreign manifest"])
+    def test_other_folder_refused(self, run_cli, small, tmp_path, content):
+        """An existing folder that is not an export is never replaced: one line, exit 1,
+        the folder byte-identical."""
+        from tests.test_faults import snapshot
+
+        out = tmp_path / "out"
+        out.mkdir()
+        if content == "a user's file":
+            (out / "notes.txt").write_text("keep me")
+        elif content == "a subfolder":
+            (out / "uIrradiance.f32").mkdir()
+        else:
+            (out / "shbake.json").write_text('{"format": "other"}')
+        before = snapshot(tmp_path)
+        code, _, err = run_cli("export", small["env_sh"], "--to", "webgl", "-o", out)
+        assert code == 1 and err.count("shbake: error:") == 1 and "not replaced" in err, err
+        assert snapshot(tmp_path) == before
+
+    def test_failed_export_keeps_the_old_folder(self, run_cli, small, tmp_path, monkeypatch):
+        """A failure after the new files are staged (the page's template fails): the
+        earlier export byte-identical, no staged folder or temporary left."""
+        from shbake.errors import OutputError
+        from shbake.format.exports import webgl
+        from tests.test_faults import snapshot
+
+        out = tmp_path / "out"
+        assert run_cli("export", small["env_sh"], "--to", "webgl", "-o", out)[0] == 0
+        before = snapshot(tmp_path)
+
+        def broken(title):
+            raise OutputError("no space left on device")
+
+        monkeypatch.setattr(webgl, "viewer_page", broken)
+        code, _, err = run_cli("export", small["splitsum_probe"], "--to", "webgl", "-o", out)
+        assert code == 1 and err.count("shbake: error:") == 1, err
+        assert snapshot(tmp_path) == before
+
+    def test_stale_staged_folder_removed(self, run_cli, small, tmp_path):
+        """A staged folder left by a killed run (its process gone) goes with the next run."""
+        stale = tmp_path / ".out.shbake-2147483646-1.tmp"
+        stale.mkdir()
+        (stale / "uIrradiance.f32").write_bytes(b"\0" * 16)
+        assert run_cli("export", small["env_sh"], "--to", "webgl", "-o", tmp_path / "out")[0] == 0
+        assert not stale.exists()
