@@ -11,7 +11,7 @@ import os
 
 from shbake.bakers.kautz_report import settings_report
 from shbake.brdf import make_brdf, model_spec
-from shbake.brdf.tabulate import parse_vary, tabulate_axes
+from shbake.brdf.tabulate import parse_vary, quadrant_views, tabulate_axes
 from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
@@ -43,6 +43,7 @@ def bake_brdf_table(
     max_samples: int = 1 << 18,
     vary: tuple[str, ...] = (),
     exr_dir: str | None = None,
+    png: bool = False,
     report: bool = False,
     reproducible: bool = False,
     command_line: str = "",
@@ -52,7 +53,8 @@ def bake_brdf_table(
 
     ``samples``: quadrature points per strategy (ignored with ``tol``, which
     refines each texel until its error estimate is at most ``tol`` or
-    ``max_samples`` is reached).
+    ``max_samples`` is reached). ``exr_dir``: the band EXRs and the Fig. 2 sheet, with
+    ``png`` a PNG beside every EXR.
     """
     lmax = check_lmax(lmax, limit=KAUTZ_LMAX_LIMIT)
     brdf = make_brdf(model, merl_path=merl_path, **(params or {}))
@@ -63,18 +65,13 @@ def bake_brdf_table(
     points = 1
     for _, values in axes:
         points *= len(values)
-    with progress.task("tabulating", total=points, unit="table") as advance:
-        done = [0]
-
-        def step(index, _count, _samples, _error):
-            if index > done[0]:  # table ``index`` started: the ones before it are done
-                advance(index - done[0])
-                done[0] = index
-
+    views = len(quadrant_views(*size)) * points
+    what = "tabulating" + (f" {points} tables" if points > 1 else "")
+    with progress.task(what, total=views, unit="view") as advance:
         tables, convs = tabulate_axes(
             brdf,
             axes,
-            progress=step,
+            advance=advance,
             lmax=lmax,
             resolution=size,
             samples=None if tol is not None else samples,
@@ -119,7 +116,7 @@ def bake_brdf_table(
     if exr_dir is not None:
         makedirs(exr_dir)
         point = table_at(asset)
-        written = write_band_exrs(exr_dir, point.coeffs, lmax, brdf.coloured)
+        written = write_band_exrs(exr_dir, point.coeffs, lmax, brdf.coloured, png=png)
         sheet_path = os.path.join(exr_dir, "sheet.png")
         write_sheet(sheet_path, point.coeffs, lmax)
         summary["images"] = written + [sheet_path]
