@@ -818,13 +818,15 @@ def parse_view(text) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def write_exr_cubes(directory: str, bake: ShrmBake, view) -> list[str]:
+def write_exr_cubes(directory: str, bake: ShrmBake, view, png: bool = False) -> list[str]:
     """``shrm_p{p}.exr`` per ``p`` (channels ``q{q}.R/G/B``; tangent kind: ``R/G/B`` of
-    ``B_p0``) and ``reflection.exr`` (eq. 12 for ``view``), OpenEXR cube strips (float32)."""
+    ``B_p0``) and ``reflection.exr`` (eq. 12 for ``view``), OpenEXR cube strips (float32);
+    with ``png`` a PNG beside each: the ``q`` components (channel mean) side by side, and the
+    reflection tone-mapped."""
     import os
 
     from shbake.format.atomic import makedirs
-    from shbake.format.images import write_exr
+    from shbake.format.images import component_strip, tonemap_to_srgb8, write_exr, write_png
     from shbake.shading.shrm import reflection_cube
 
     makedirs(directory)
@@ -841,11 +843,17 @@ def write_exr_cubes(directory: str, bake: ShrmBake, view) -> list[str]:
         write_exr(path, img.reshape(6 * S, S, -1), half=False, attrs={"envmap": "cube"},
                   channel_names=names)  # fmt: skip
         written.append(path)
+        if png:
+            written.append(os.path.join(directory, f"shrm_p{p}.png"))
+            write_png(written[-1], component_strip(img.reshape(6 * S, S, -1, 3).mean(axis=-1)))
     kind = "tangent" if bake.brdf.kind == "tangent" else "surface"
     refl = reflection_cube(bake.cube, view, kind)
     path = os.path.join(directory, "reflection.exr")
     write_exr(path, refl.reshape(6 * S, S, 3), half=False, attrs={"envmap": "cube"})
     written.append(path)
+    if png:
+        written.append(os.path.join(directory, "reflection.png"))
+        write_png(written[-1], tonemap_to_srgb8(refl.reshape(6 * S, S, 3)))
     return written
 
 
@@ -972,10 +980,10 @@ def shrm_settings(brdf: str = "microfacet", params: dict | None = None,
 
 def bake_to_file(env_path: str, output: str, settings: ShrmSettings, exr_dir: str | None = None,
                  report: bool = False, layout=None, colorspace=None, negative: str = "clamp",
-                 fix_nonfinite=None, quiet: bool = False) -> dict:  # fmt: skip
+                 fix_nonfinite=None, quiet: bool = False, png: bool = False) -> dict:  # fmt: skip
     """The ``shbake shrm`` command: load the map, bake at ``settings`` (checked before, by
-    :func:`shrm_settings`), write the asset (and the EXR cubes), optionally build the report;
-    return the summary dict."""
+    :func:`shrm_settings`), write the asset (and the EXR cubes, with ``png`` PNGs beside them),
+    optionally build the report; return the summary dict."""
     from shbake.envmap import load_environment
     from shbake.format.atomic import check_output_dir, check_writable_dir
     from shbake.format.shrm import build_shrm_asset, write_shrm
@@ -995,7 +1003,7 @@ def bake_to_file(env_path: str, output: str, settings: ShrmSettings, exr_dir: st
         "bytes": int(bake.cube.nbytes), "seconds": bake.timings,
     }  # fmt: skip
     if exr_dir:
-        summary["exr"] = write_exr_cubes(exr_dir, bake, settings.view)
+        summary["exr"] = write_exr_cubes(exr_dir, bake, settings.view, png)
     if report:
         Fs = sorted({max(1, bake.F // 2), max(1, (3 * bake.F) // 4), bake.F,
                      min(F_LIMIT, bake.F + bake.F // 2)})  # fmt: skip
