@@ -14,7 +14,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 
 ENGINES := tests/engines
 
-.PHONY: demo test test-all test-extremes bench bench-speed lint clean engines format-doc
+.PHONY: demo test test-all chromium test-extremes bench bench-speed lint clean engines format-doc
 
 # Two venv states: the runtime packages alone (make demo), then the test extras on top
 # (make test: pytest, mitsuba, drjit, ducc0, hypothesis, ruff, ~1 GB). Either order works;
@@ -49,20 +49,29 @@ demo: $(RUNTIME)
 	$(BIN)/shbake overview $(OUT) -o $(OUT)/index.html --title "shbake demo: the six sample maps"
 	@echo "demo: open $(OUT)/index.html (assets, previews and contact sheets in $(OUT)/)" >&2
 
-# Real engine code for tests/test_exports.py, pinned by tests/engines/package-lock.json.
+# Real engine code for tests/test_exports.py and tests/test_engine_render.py, pinned by
+# tests/engines/package-lock.json (npm ci runs no install script: puppeteer-core downloads no browser).
 engines: $(ENGINES)/node_modules/.package-lock.json
 $(ENGINES)/node_modules/.package-lock.json: $(ENGINES)/package.json $(ENGINES)/package-lock.json
-	@if command -v npm >/dev/null 2>&1; then npm ci --prefix $(ENGINES) --no-audit --no-fund; \
+	@if command -v npm >/dev/null 2>&1; then npm ci --prefix $(ENGINES) --no-audit --no-fund --ignore-scripts; \
 	else echo "npm not found: tests/test_exports.py will skip the engine checks" >&2; fi
 
-test: $(TESTENV) engines
-	$(BIN)/python -m pytest -q -n 2
+# Debian's chromium for the rendered engine tests (tests/test_engine_render.py): installed when
+# missing and run as root (CI); otherwise one line says what to install (those tests then skip).
+chromium:
+	@if [ -x /usr/bin/chromium ]; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	  apt-get update -q && apt-get install -y -q --no-install-recommends chromium; \
+	else echo "chromium not found: run 'apt-get install chromium' (as root) for the rendered engine tests" >&2; fi
+
+test: $(TESTENV) engines chromium
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 test-extremes: $(TESTENV)
 	$(BIN)/python -m pytest -q -n 2 -m extremes tests/test_extremes.py
 
-test-all: $(TESTENV) engines
-	$(BIN)/python -m pytest -q -n 2 -m ''
+test-all: $(TESTENV) engines chromium
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup -m ''
 
 bench: $(TESTENV)
 	$(BIN)/python bench/run_all.py

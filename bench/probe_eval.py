@@ -32,10 +32,10 @@ RESULTS = ROOT / "bench" / "results"
 
 def one_map(args):
     path, size, samples, roughness, eps, face_size = args
-    import numba
-
-    numba.set_num_threads(1)
     from shbake.batch.probe_eval import evaluate_maps
+    from shbake.jit import use_one_thread
+
+    use_one_thread()
 
     return evaluate_maps([path], size, samples, cache_dir=os.environ.get("SHBAKE_TRUTH_CACHE"),
                          roughness=roughness, shrm_eps=eps, shrm_face_size=face_size)

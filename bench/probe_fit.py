@@ -7,7 +7,7 @@ line its own output file); ``shbake probe-fit --list … --jobs N`` fits them
 all, and the wall time includes starting the workers and building each
 worker's plan. The peer in the same run is the split-sum bake of
 ``shbake split-sum`` (the prefiltered mip chain engines use today: read,
-prefilter, write), run in this process on the same maps with numba on
+prefilter, write), run in this process on the same maps with its kernels on
 ``--jobs`` threads, after one warm-up bake. Output: a Markdown table and the ratio.
 ``--dask`` also fits the list on a ``--jobs``-worker Dask LocalCluster
 (loopback) with ``--scheduler`` and compares every file byte for byte with
@@ -16,6 +16,7 @@ the local run's.
 
 import argparse
 import filecmp
+import os
 import subprocess
 import sys
 import tempfile
@@ -39,15 +40,13 @@ def timed(args: list[str]) -> float:
 
 def split_sum_seconds(n: int, threads: int, tmp: Path) -> float:
     """Wall time of ``n`` split-sum bakes (read, prefilter, write) in this process."""
-    import numba
-
     from shbake.bakers.dfg import dfg_table
     from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
     from shbake.envmap import load_environment
     from shbake.format.asset import write_asset
     from shbake.format.splitsum import build_splitsum_asset
 
-    numba.set_num_threads(threads)
+    os.environ["SHBAKE_THREADS"] = str(threads)  # every kernel: shbake.jit.run_blocks
     config, dfg = SplitSumConfig(), dfg_table()
 
     def bake(i):

@@ -45,11 +45,10 @@ def jobs_for(n: int, folder: Path):
 def cpu_per_probe(folder: Path, probes: int = 48) -> float:
     """CPU milliseconds per probe of :func:`run_probe_batch` in this process (numba on one
     thread), after one warm-up batch."""
-    import numba
-
     from shbake.batch.probe_jobs import GATHER_BATCH, run_probe_batch
+    from shbake.jit import use_one_thread
 
-    numba.set_num_threads(1)
+    use_one_thread()
     jobs = jobs_for(probes + GATHER_BATCH, folder)
     run_probe_batch(jobs[:GATHER_BATCH])
     t0 = time.process_time()

@@ -51,9 +51,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(RESULTS / "probe_variants"))
     args = ap.parse_args()
-    import numba
+    from shbake.jit import use_one_thread
 
-    numba.set_num_threads(1)
+    use_one_thread()
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
     from shbake.envmap import load_environment
     from shbake.evaluation.probes import ALPHAS, MATERIALS, VIEW_YAWS, case_truth, shade_probe

@@ -214,6 +214,7 @@ def section_speed(lines):
 def section_energy(lines, roughness=(0.25, 0.4, 0.5, 0.8)):
     """Why ε = 0.01 is out of reach for GGX within F ≤ 64, P ≤ 16 (issue 13, item 7)."""
     from shbake.bakers.shrm import P_LIMIT, _rho_grid, default_quadrature
+    from shbake.jit import run_blocks
 
     Fs, Ps = (8, 16, 24, 32, 48, 64, 96, 128), (0, 2, 4, 8, 12, 16, 24, 32)
     quad = default_quadrature("surface", 640, 128, 128)
@@ -235,8 +236,8 @@ def section_energy(lines, roughness=(0.25, 0.4, 0.5, 0.8)):
             cap = brdf_coefficients(rb, 128, 32, quad).captured()
             default = brdf_coefficients(rb, F_LIMIT, P_LIMIT).captured()[F_LIMIT, P_LIMIT]
             g = np.zeros(quad.shape + (3,))
-            _rho_grid(rb.kind_id, rb.model_id, rb.prm.astype(float), rb.data, quad.xi, quad.xo,
-                      quad.phi, g)  # fmt: skip
+            run_blocks(_rho_grid, quad.xi.size, 1e12, rb.kind_id, rb.model_id,
+                       rb.prm.astype(float), rb.data, quad.xi, quad.xo, quad.phi, g)  # fmt: skip
             per_o = 2 * np.pi * np.tensordot(quad.wi, np.tensordot(g[..., 0] ** 2, quad.wphi, 1), 1)
             per_o = per_o * quad.wo
             mu = np.sqrt((1 + quad.xo) / 2)

@@ -28,7 +28,8 @@ from shbake.format.exports.source import FRAMES
     "--to", "target", required=True, type=click.Choice(sorted(TARGETS)), help="Engine / format."
 )
 @output_opt(
-    "Output for one asset: FILE.gltf, FILE.json, FILE.ktx2, STEM_sh.txt or FILE.unity.json",
+    "Output for one asset: FILE.gltf, FILE.env (babylon), FILE.json, FILE.ktx2 (ktx2, "
+    "threejs-pmrem), STEM_sh.txt or FILE.unity.json",
     required=False,
 )
 @click.option(
@@ -64,23 +65,24 @@ from shbake.format.exports.source import FRAMES
     type=int,
     default=None,
     help=f"Texels per side of the first cube mip, a power of two up to {CUBE_SIZE_LIMIT} "
-    "[gltf 64, ktx2/filament 128].",
+    "[ktx2 128, others 256].",
 )
 @click.option(
     "--floor",
     type=int,
     default=None,
     help="Texels per side of the last cube mip, a power of two up to --size "
-    "[gltf 8, ktx2/filament 1].",
+    "[ktx2 1, gltf/babylon 8, filament/threejs-pmrem 4].",
 )
 @click.option(
     "--lod-mapping",
     "mapping",
-    type=click.Choice(["gltf-ibl-sampler", "filament"]),
+    type=click.Choice(["babylon", "gltf-ibl-sampler", "filament"]),
     default=None,
-    help="Roughness of each mip level [gltf-ibl-sampler; filament for --to filament].",
+    help="Roughness of each mip level [gltf/babylon: babylon; ktx2: gltf-ibl-sampler; "
+    "fixed for filament, threejs-pmrem].",
 )
-@samples_opt(None, "per cube texel, GGX with filtered importance sampling [gltf 256, others 512]")
+@samples_opt(None, "per cube texel, GGX with filtered importance sampling [512]")
 @click.option(
     "--sun-radius",
     "sun_radius_deg",
@@ -102,7 +104,8 @@ from shbake.format.exports.source import FRAMES
 def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_json, quiet, **cube):
     """Export ASSETS (env_sh; split-sum probes for ktx2) to an engine format.
 
-    Beside the main file: gltf/babylon FILE_specular_<mip>_<face>.png; ktx2
+    Beside the main file: gltf/babylon FILE_specular_<mip>_<face>.png (babylon
+    FILE.env: STEM_lights.gltf with a sun); ktx2
     FILE_dfg.ktx2 and FILE_dfg.exr; filament STEM_ibl.ktx, STEM_skybox.ktx (and
     STEM_sun.json). See docs/EXPORTS.md for each target's conventions.
     """

@@ -1,29 +1,48 @@
-"""The one numba decorator every kernel uses, and the few intrinsics kernels call.
-
-Intrinsics (no-ops or plain Python when interpreted): :func:`wide_vectors` (512-bit
-vectors), :func:`inline_into_callers` (LLVM inlining of a helper), :func:`stream_store`
-/ :func:`stream_fence` (non-temporal stores), :func:`prefetch`, :func:`clock_ticks` (a
-tick counter for timing inside kernels), and explicit vectors of :data:`LANES` doubles —
-:func:`vload`, :func:`vstore`, :func:`vsplat`, :func:`vsum`, :func:`vload_channels`
-(split interleaved float32/float64 pixels into per-channel vectors, optionally in
-reversed pixel order) and ``+ - *`` on them — for kernels whose state must stay in
-registers across loops LLVM would not vectorise (runtime trip counts inside the
-per-direction work) or whose shuffles it would not find. They are registered with numba
-when it is first loaded. :func:`aligned_empty` gives 64-byte-aligned scratch.
+"""The one numba decorator every kernel uses, and the threads kernels run on.
 
 Kernels are check-free: they assume the caller (a public Python function)
 validated shapes, dtypes and ranges, and say so in their docstrings.
 ``cache=True`` keeps compiled machine code in ``__pycache__`` so a second
 process (a ``make -j`` pipeline, a test worker) does not compile again.
+``nogil=True`` lets the signal watcher (:mod:`shbake.signals`) and the other
+threads of :func:`run_blocks` run while a kernel does. The explicit SIMD and
+memory intrinsics kernels call (vectors, streaming stores, prefetch, tick
+counter) are in :mod:`shbake.simd`.
 
-Threads (SPEC §6). The machines have 2 cores shared with other work; numba's ``prange`` splits
-a loop into equal static parts, so one descheduled worker stalls the whole
-call, and a second busy-waiting pool (BLAS, OpenMP) can make 2 threads slower
-than 1. The kernels here instead run as serial, ``nogil`` numba functions over
-a range of *blocks*; :func:`run_blocks` hands blocks out one at a time from a
-shared counter to at most :func:`thread_count` Python threads (the caller is
-one of them). A worker that loses its core simply takes fewer blocks. Small
-jobs run on the calling thread alone: starting a thread costs ~50 µs.
+Threads (SPEC §6): one model, :func:`run_blocks`. A kernel is a serial ``nogil`` numba
+function over a range of *blocks* (``kernel(*args, b0, b1)``); :func:`run_blocks` hands
+blocks out a few at a time from a shared counter to at most :func:`thread_count` Python
+threads, the caller being one of them. Why not numba's ``prange`` (``parallel=True``),
+which 19 kernels used until issue 28:
+
+- the machines have 2 cores shared with other work; ``prange`` splits a loop into equal
+  static parts, so one descheduled worker stalls the whole call, while here a worker that
+  loses its core simply takes fewer blocks;
+- a second thread pool (numba's, beside OpenBLAS's and OpenImageIO's) competes for the
+  same 2 cores; these threads exist only while a kernel runs;
+- one thread budget (below) covers every kernel: ``numba.set_num_threads`` reached only
+  the ``prange`` kernels, so a pool worker's other kernels still took 2 threads
+  (:func:`use_one_thread` now limits them all);
+- small jobs run on the calling thread alone (starting a thread costs ~50 µs), where
+  ``prange`` woke every worker for any size;
+- ``parallel=True`` compiles slower: the first calls of the 18 converted public functions
+  took 88 s against 48 s from an empty cache (same process, load average 7–12).
+
+Converting them changed no output: each kernel's results are ``np.array_equal`` to the
+``prange`` version's (18 representative calls), and so are the brdf-table, split-sum,
+shrm, probe-fit and glTF-export outputs. Speed on this 2-core VM, under a load average of
+4–13 from other work (A/B in one process, alternating): whole processes split-sum 0.76×,
+shrm 0.73×, probe-fit 0.79×, export 0.97×, brdf-table ``--samples`` 1.00×, preview
+``tangent`` pass 0.83× the ``prange`` time; single-thread CPU time per kernel 0.92–1.03×.
+Two loops needed care: the probe gather allocated its accumulator per target (``prange``
+hoists such allocations; now once per call), and :meth:`~shbake.brdf.model.BRDF.evaluate`
+passed a view ``out[i]`` per point (its reference counting cost ~5 ns a point; now a
+scratch array). ``BRDF.evaluate`` stays ~7 % slower per point single-threaded (AS:
+32.5 → 34.7 ms for 500 000 points): numba's ``parallel`` pipeline compiles that loop
+into faster code for a reason not found (not the error model, aliasing or the view); it
+serves only brdf-table's ``--report`` and tests, so it follows the one model too.
+``prange`` compiled its loop bodies with ``error_model="numpy"`` (a float division by zero
+gives ``inf``/``nan``); the converted bodies divide only by guarded or non-zero values.
 
 The thread budget is ``SHBAKE_THREADS``, else ``NUMBA_NUM_THREADS``, else the
 CPUs this process may run on.
@@ -33,12 +52,6 @@ import os
 import sys
 import threading
 from functools import update_wrapper
-
-import numpy as np
-
-prange = range
-"""Use ``from shbake.jit import prange`` in :data:`pjit` kernels: it becomes ``numba.prange``
-when the kernel is compiled and stays ``range`` for the interpreted ``py_func``."""
 
 
 class LazyKernel:
@@ -91,372 +104,18 @@ def _lookup(module: str, qualname: str):
     return obj
 
 
-def wide_vectors() -> None:
-    """Let the calling kernel's loops use 512-bit vectors where the CPU has them.
-
-    LLVM's tuning for the Intel cores with AVX-512 prefers 256-bit vectors;
-    the FMA-bound SH evaluation runs ~15 % faster with 512 (docs/BENCHMARKS.md).
-    Sets the ``"prefer-vector-width"="512"`` attribute on the kernel; a no-op
-    in Python, ignored on CPUs without AVX-512.
-    """
-
-
-def inline_into_callers() -> None:
-    """Have LLVM inline the calling kernel into every kernel that calls it (the
-    ``alwaysinline`` attribute); a no-op in Python.
-
-    Numba's own ``inline="always"`` copies the callee's numba IR into each call site
-    before typing, which for a large helper called several times costs seconds of
-    compile time per copy; LLVM inlines the compiled function instead, after which
-    its constant arguments fold as before. The projection's row kernels (4096×2048 RGB
-    row sums bit-identical, same speed) compiled in 7.8 s instead of 23.2 s per signature
-    once their helpers and the vector operations (:func:`vload` …) were inlined by LLVM.
-    """
-
-
-def stream_store(arr, index, value) -> None:
-    """``arr.flat[index] = value`` as a non-temporal (streaming) store in kernels.
-
-    For outputs written once and not read back soon: the line is not read
-    from memory first and not kept in the caches. A kernel that streams must
-    call :func:`stream_fence` before it returns. Check-free (no bounds check).
-    """
-    arr.flat[index] = value
-
-
-def prefetch(arr, index) -> None:
-    """Hint that ``arr.flat[index]`` will be read soon (``llvm.prefetch`` in kernels; a no-op
-    in Python). Check-free: the address is not dereferenced, any index is harmless.
-
-    Locality 2 (``prefetcht1`` on x86): into the L2 cache, not L1. The projection requests
-    a whole row ahead (48 KiB for 4096 RGB float32), more than the 32 KiB L1 holds: into L1
-    it evicted the block's table columns and folded values. 4096×2048 RGB row sums,
-    streamed, AMD EPYC (Zen 4): lmax 8 15.5–16.5 → 13.6–14.1 ms, lmax 2 10.5 → 10.0;
-    locality 1 (L2 as well on that CPU) gave 14.1–14.5 at lmax 8."""
-
-
-def clock_ticks() -> int:
-    """A monotonic tick count for timing parts of a kernel (``llvm.readcyclecounter``: the
-    constant-rate time-stamp counter on x86; ``time.perf_counter_ns`` in Python). Only
-    differences and ratios of ticks mean anything; ticks are not seconds."""
-    import time
-
-    return time.perf_counter_ns()
-
-
-def stream_fence() -> None:
-    """Order the calling kernel's streaming stores before its later stores (``sfence``)."""
-
-
-def _host_has_avx512() -> bool:
-    """Whether this CPU runs AVX-512 (numpy's run-time feature table; ``False`` if absent)."""
-    try:
-        from numpy._core._multiarray_umath import __cpu_features__
-    except ImportError:  # pragma: no cover - another numpy layout
-        return False
-    return bool(__cpu_features__.get("AVX512F", False))
-
-
-LANES = 16 if _host_has_avx512() else 4
-"""Doubles in one explicit vector (:func:`vload`), chosen for this CPU's register file so
-that the projection's 3 × 4 register tile (12 accumulators and 4 operands, 16 vectors) just
-fits it: with AVX-512, 16 — two of its 32 zmm registers, so each vector operation is two
-independent instructions and a recurrence keeps both FMA units busy (the fused SH
-evaluation at lmax 8 / 30 ran 1.32× / 1.10× faster than with 8); otherwise (AVX2: 16 ymm
-registers) 4, one register. On an AVX2-only AMD EPYC, 4096×2048 RGB lmax 8 row sums took
-16.0 ms with 4 lanes against 20.5 with 8 and 39 with 16 (spilled tiles); ``evaluate`` at
-lmax 8 took 50.0 / 46.8 / 64.1 ms (docs/BENCHMARKS.md). Results differ between widths only
-in summation order (~1e-16 relative). A numba target other than the host
-(``NUMBA_CPU_NAME``) still gets this CPU's width: correct, perhaps slower."""
-
-
-def vload(arr, index):
-    """``arr.flat[index : index + LANES]`` as one vector (a copy).
-
-    In kernels: a ``<LANES x double>`` SSA value (a register), whose ``+``,
-    ``-`` and ``*`` — with another vector or a scalar, broadcast — are single
-    vector instructions, and ``a * b + c`` contracts into an FMA. Interpreted:
-    a float64 numpy array of ``LANES`` values (numpy's operators, no FMA:
-    results can differ in the last bit). ``arr`` must be a C-contiguous
-    float64 array; check-free (no bounds check).
-    """
-    return np.array(arr.reshape(-1)[index : index + LANES], dtype=np.float64)
-
-
-def vstore(arr, index, vector) -> None:
-    """``arr.flat[index : index + LANES] = vector`` (see :func:`vload`). Check-free."""
-    arr.reshape(-1)[index : index + LANES] = vector
-
-
-def vsplat(x):
-    """A vector with every lane ``x`` (see :func:`vload`)."""
-    return np.full(LANES, x, dtype=np.float64)
-
-
-def vsum(vector) -> float:
-    """The sum of a vector's lanes (any order: a reduction tree in kernels)."""
-    return float(np.sum(vector))
-
-
-def vload_channels(arr, index, channels, reverse):
-    """The ``channels`` interleaved channels of ``LANES`` pixels as a tuple of vectors.
-
-    Reads ``arr.flat[index : index + channels × LANES]`` — pixels of
-    ``channels`` values each — once; lane ``L`` of vector ``c`` is channel
-    ``c`` of pixel ``L``, or of pixel ``LANES-1-L`` when ``reverse``
-    (a run read backwards). float32 values are widened to float64.
-    ``channels`` and ``reverse`` must be constants in kernels (the lane
-    permutation is built at compile time); ``arr`` is C-contiguous float32 or
-    float64. Check-free.
-    """
-    px = np.asarray(arr).reshape(-1)[index : index + channels * LANES].reshape(LANES, channels)
-    if reverse:
-        px = px[::-1]
-    return tuple(px[:, c].astype(np.float64) for c in range(channels))
-
-
-def _register_vectors():
-    """The numba side of :func:`vload`: a type, its LLVM model and its operators."""
-    import operator
-
-    from llvmlite import ir
-    from numba.core import cgutils, types
-    from numba.extending import intrinsic, models, overload, register_model
-
-    class DoubleVector(types.Type):
-        def __init__(self):
-            super().__init__(name=f"f64x{LANES}")
-
-    vec = DoubleVector()
-    llvm_vec = ir.VectorType(ir.DoubleType(), LANES)
-
-    @register_model(DoubleVector)
-    class _DoubleVectorModel(models.PrimitiveModel):
-        def __init__(self, dmm, fe_type):
-            super().__init__(dmm, fe_type, llvm_vec)
-
-    def element_pointer(context, builder, aryty, ary, index):
-        data = context.make_array(aryty)(context, builder, ary).data
-        return builder.bitcast(builder.gep(data, [index]), llvm_vec.as_pointer())
-
-    def splat(context, builder, ty, x):
-        x = context.cast(builder, x, ty, types.float64)
-        one = builder.insert_element(ir.Constant(llvm_vec, ir.Undefined), x, ir.IntType(32)(0))
-        zeros = ir.Constant(ir.VectorType(ir.IntType(32), LANES), [0] * LANES)
-        return builder.shuffle_vector(one, ir.Constant(llvm_vec, ir.Undefined), zeros)
-
-    def is_f64_array(t):  # flat offsets from .data hold for C-contiguous arrays only
-        return isinstance(t, types.Array) and t.dtype == types.float64 and t.layout == "C"
-
-    @intrinsic
-    def _vload(typingctx, arr, index):
-        if not is_f64_array(arr):
-            return None
-
-        def codegen(context, builder, sig, args):
-            return builder.load(element_pointer(context, builder, sig.args[0], *args), align=8)
-
-        return vec(arr, index), codegen
-
-    @intrinsic
-    def _vstore(typingctx, arr, index, vector):
-        if not is_f64_array(arr) or vector != vec:
-            return None
-
-        def codegen(context, builder, sig, args):
-            ptr = element_pointer(context, builder, sig.args[0], args[0], args[1])
-            builder.store(args[2], ptr, align=8)
-            return context.get_dummy_value()
-
-        return types.void(arr, index, vector), codegen
-
-    @intrinsic
-    def _vsplat(typingctx, x):
-        if not isinstance(x, (types.Float, types.Integer)):
-            return None
-
-        def codegen(context, builder, sig, args):
-            return splat(context, builder, sig.args[0], args[0])
-
-        return vec(x), codegen
-
-    def binary(instruction):
-        @intrinsic
-        def op(typingctx, a, b):
-            def codegen(context, builder, sig, args):
-                x, y = (
-                    v if t == vec else splat(context, builder, t, v)
-                    for t, v in zip(sig.args, args, strict=True)
-                )
-                return getattr(builder, instruction)(x, y, flags=("contract",))
-
-            return vec(a, b), codegen
-
-        def typer(a, b):
-            scalar = (types.Float, types.Integer)
-            if (a == vec and (b == vec or isinstance(b, scalar))) or (
-                b == vec and isinstance(a, scalar)
-            ):
-                return lambda a, b: op(a, b)
-
-        return typer
-
-    for pyop, instruction in (
-        (operator.add, "fadd"),
-        (operator.sub, "fsub"),
-        (operator.mul, "fmul"),
-    ):
-        overload(pyop)(binary(instruction))
-    overload(vload)(lambda arr, index: lambda arr, index: _vload(arr, index))
-    overload(vstore)(
-        lambda arr, index, vector: lambda arr, index, vector: _vstore(arr, index, vector)
-    )
-    overload(vsplat)(lambda x: lambda x: _vsplat(x))
-
-    @intrinsic
-    def _vsum(typingctx, vector):
-        if vector != vec:
-            return None
-
-        def codegen(context, builder, sig, args):
-            fnty = ir.FunctionType(ir.DoubleType(), [ir.DoubleType(), llvm_vec])
-            name = f"llvm.vector.reduce.fadd.v{LANES}f64"
-            fn = cgutils.get_or_insert_function(builder.module, fnty, name)
-            return builder.call(fn, [ir.DoubleType()(0.0), args[0]], fastmath=("reassoc",))
-
-        return types.float64(vector), codegen
-
-    overload(vsum)(lambda vector: lambda vector: _vsum(vector))
-
-    def channels_loader(n, reverse):
-        @intrinsic
-        def load(typingctx, arr, index):
-            if not (
-                isinstance(arr, types.Array)
-                and arr.layout == "C"
-                and arr.dtype in (types.float32, types.float64)
-            ):
-                return None
-
-            def codegen(context, builder, sig, args):
-                aryty = sig.args[0]
-                elt = context.get_data_type(aryty.dtype)
-                block_ty = ir.VectorType(elt, n * LANES)
-                data = context.make_array(aryty)(context, builder, args[0]).data
-                ptr = builder.bitcast(builder.gep(data, [args[1]]), block_ty.as_pointer())
-                block = builder.load(ptr, align=aryty.dtype.bitwidth // 8)
-                out = []
-                for c in range(n):
-                    pixels = range(LANES - 1, -1, -1) if reverse else range(LANES)
-                    lanes = [n * p + c for p in pixels]
-                    mask = ir.Constant(ir.VectorType(ir.IntType(32), LANES), lanes)
-                    v = builder.shuffle_vector(block, ir.Constant(block_ty, ir.Undefined), mask)
-                    if aryty.dtype == types.float32:
-                        v = builder.fpext(v, llvm_vec)
-                    out.append(v)
-                return context.make_tuple(builder, sig.return_type, out)
-
-            return types.UniTuple(vec, n)(arr, index), codegen
-
-        return load
-
-    loaders = {}
-
-    @overload(vload_channels, prefer_literal=True)
-    def _vload_channels(arr, index, channels, reverse):
-        if not isinstance(channels, types.IntegerLiteral) or not isinstance(
-            reverse, types.BooleanLiteral
-        ):
-            return None
-        key = (channels.literal_value, reverse.literal_value)
-        if key not in loaders:
-            loaders[key] = channels_loader(*key)
-        load = loaders[key]
-        return lambda arr, index, channels, reverse: load(arr, index)
-
-
-def _register_intrinsics():
-    import platform
-
-    from llvmlite import ir
-    from numba.core import cgutils, types
-    from numba.extending import intrinsic, overload
-
-    @intrinsic
-    def _wide(typingctx):
-        def codegen(context, builder, signature, args):
-            # a string attribute: llvmlite's FunctionAttributes.add accepts only enum ones
-            set.add(builder.function.attributes, '"prefer-vector-width"="512"')
-            return context.get_dummy_value()
-
-        return types.void(), codegen
-
-    @intrinsic
-    def _always_inline(typingctx):
-        def codegen(context, builder, signature, args):
-            builder.function.attributes.add("alwaysinline")
-            return context.get_dummy_value()
-
-        return types.void(), codegen
-
-    @intrinsic
-    def _store(typingctx, arr, index, value):
-        def codegen(context, builder, signature, args):
-            aryty = signature.args[0]
-            array = context.make_array(aryty)(context, builder, args[0])
-            v = context.cast(builder, args[2], signature.args[2], aryty.dtype)
-            st = builder.store(v, builder.gep(array.data, [args[1]]))
-            st.set_metadata("nontemporal", builder.module.add_metadata([ir.IntType(32)(1)]))
-            return context.get_dummy_value()
-
-        return types.void(arr, index, value), codegen
-
-    @intrinsic
-    def _fence(typingctx):
-        def codegen(context, builder, signature, args):
-            if platform.machine() in ("x86_64", "AMD64"):
-                fnty = ir.FunctionType(ir.VoidType(), [])
-                sfence = cgutils.get_or_insert_function(builder.module, fnty, "llvm.x86.sse.sfence")
-                builder.call(sfence, [])
-            else:
-                builder.fence("seq_cst")
-            return context.get_dummy_value()
-
-        return types.void(), codegen
-
-    @intrinsic
-    def _prefetch(typingctx, arr, index):
-        def codegen(context, builder, signature, args):
-            array = context.make_array(signature.args[0])(context, builder, args[0])
-            ptr = builder.bitcast(builder.gep(array.data, [args[1]]), ir.IntType(8).as_pointer())
-            i32 = ir.IntType(32)
-            fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
-            fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch")
-            builder.call(fn, [ptr, i32(0), i32(2), i32(1)])
-            return context.get_dummy_value()
-
-        return types.void(arr, index), codegen
-
-    @intrinsic
-    def _ticks(typingctx):
-        def codegen(context, builder, signature, args):
-            fnty = ir.FunctionType(ir.IntType(64), [])
-            fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.readcyclecounter")
-            return builder.call(fn, [])
-
-        return types.int64(), codegen
-
-    overload(clock_ticks, inline="always")(lambda: lambda: _ticks())
-    overload(prefetch, inline="always")(lambda arr, index: lambda arr, index: _prefetch(arr, index))
-    overload(wide_vectors, inline="always")(lambda: lambda: _wide())
-    overload(inline_into_callers, inline="always")(lambda: lambda: _always_inline())
-    overload(stream_store, inline="always")(
-        lambda arr, index, value: lambda arr, index, value: _store(arr, index, value)
-    )
-    overload(stream_fence, inline="always")(lambda: lambda: _fence())
-
-
 _registered = False
+_hooks = []
+
+
+def on_numba_load(register) -> None:
+    """Call ``register()`` once numba is loaded: now if it is, else just before the first
+    kernel compiles. How :mod:`shbake.simd` defines its ``@intrinsic``/``@overload``
+    functions without importing numba (~200 ms) in every process that imports a kernel."""
+    if _registered:
+        register()
+    else:
+        _hooks.append(register)
 
 
 def _register_with_numba():
@@ -470,18 +129,16 @@ def _register_with_numba():
     def _typeof_lazy(val, c):
         return types.Dispatcher(val.dispatcher)
 
-    _register_intrinsics()
-    _register_vectors()
     _registered = True
+    for register in _hooks:
+        register()
+    _hooks.clear()
 
 
 def _compile(py_func, options: dict):
     import numba
 
     _register_with_numba()
-    g = py_func.__globals__
-    if g.get("prange") is range and "prange" in py_func.__code__.co_names:
-        g["prange"] = numba.prange  # the module's kernels are compiled from now on
     return numba.njit(**options)(py_func)
 
 
@@ -496,19 +153,8 @@ def _decorator(defaults: dict):
 
 
 jit = _decorator(dict(cache=True, fastmath=False, nogil=True))
-"""``numba.njit`` with ``cache=True``, lazily compiled; serial kernels."""
-
-pjit = _decorator(dict(cache=True, fastmath=False, nogil=True, parallel=True))
-"""``numba.njit`` with ``cache=True`` and ``parallel=True``, lazily compiled; ``prange`` kernels."""
-
-
-@jit
-def aligned_empty(n):
-    """``np.empty(n)`` of float64 starting on a 64-byte boundary (whole cache lines, whole
-    AVX-512 loads); a view of a slightly larger array."""
-    raw = np.empty(n + 8)
-    off = ((-raw.ctypes.data) % 64) // 8
-    return raw[off : off + n]
+"""``numba.njit`` with ``cache=True`` and ``nogil=True``, lazily compiled: every kernel
+(serial; :func:`run_blocks` runs the parallel ones)."""
 
 
 if "numba" in sys.modules:  # numba already loaded: kernels may meet LazyKernels at once
@@ -532,6 +178,13 @@ def thread_budget() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def use_one_thread() -> None:
+    """Run every kernel of this process on its calling thread: for a pool worker, whose
+    siblings already keep the other cores busy. Sets ``SHBAKE_THREADS=1`` (inherited by
+    any process it starts)."""
+    os.environ["SHBAKE_THREADS"] = "1"
 
 
 def thread_count(work: float, blocks: int) -> int:

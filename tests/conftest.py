@@ -29,6 +29,23 @@ def run_cli(capfd):
     return run
 
 
+@pytest.fixture(scope="session")
+def engine_browser(tmp_path_factory):
+    """One headless Chromium for the session's rendered engine tests (``engine_browser.py``),
+    serving files under the session's temporary folder. Without Chromium the tests skip with
+    the reason, except as root or in CI, where ``make test`` installs it: there they fail."""
+    from engine_browser import EngineBrowser, chromium_or_reason
+
+    reason = chromium_or_reason()
+    if reason is not None:
+        if os.geteuid() == 0 or os.environ.get("CI"):
+            pytest.fail(f"rendered engine tests cannot run: {reason}")
+        pytest.skip(reason)
+    browser = EngineBrowser(str(tmp_path_factory.getbasetemp()))
+    yield browser
+    browser.close()
+
+
 @pytest.fixture
 def random_coeffs():
     def make(lmax, channels=3, seed=0):

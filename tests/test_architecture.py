@@ -34,7 +34,7 @@ ALLOWED = {
         "bakers",
     },  # fmt: skip
 }
-BASE = {"conventions", "errors", "jit", "messages", "progress", "resources", "signals"}
+BASE = {"conventions", "errors", "jit", "messages", "progress", "resources", "signals", "simd"}
 """Modules of the package root every stage may import."""
 
 

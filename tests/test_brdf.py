@@ -21,6 +21,7 @@ from shbake.brdf.tabulate import (
     tabulate,
 )
 from shbake.errors import InputError, ParameterError
+from shbake.jit import run_blocks
 from shbake.sh.basis import real_sh, recurrence_tables
 from shbake.sh.kernels import lambert_kernel
 from shbake.sh.point_sets import gauss_legendre_unit
@@ -146,8 +147,8 @@ def fine_gl_projection(brdf, views, lmax, n_r=384, n_a=1536):
     qmm, a, b = recurrence_tables(lmax)
     gx, gw = gauss_legendre_unit(n_r)
     out = np.empty((len(views), (lmax + 1) ** 2, 3))
-    _integrate(brdf.spec.model_id, brdf.packed, brdf.data, True, np.ascontiguousarray(views),
-               lmax, qmm, a, b, gx, gw, n_a, out)  # fmt: skip
+    run_blocks(_integrate, len(views), 1e12, brdf.spec.model_id, brdf.packed, brdf.data, True,
+               np.ascontiguousarray(views), lmax, qmm, a, b, gx, gw, n_a, out)  # fmt: skip
     return out
 
 

@@ -273,7 +273,7 @@ class TestRegistry:
     """target_module: every target name resolves; unknown names are refused."""
 
     def test_targets(self):
-        assert target_module("babylon") is target_module("gltf")
+        assert target_module("babylon").CUBES is target_module("gltf").CUBES
         with pytest.raises(Exception, match="unknown export target"):
             target_module("unreal")
 
@@ -447,17 +447,19 @@ class TestFilament:
         assert any(f.endswith("_sun.json") for f in files)
 
     def test_ktx1_metadata_and_levels(self, sky_asset):
-        """A KTX 1.1 reader written from the spec (§2) reads back the sh and the mirror level."""
+        """A KTX 1.1 reader written from the spec (§2) and GL's packed-float rule reads back
+        the sh, cmgen's R11F_G11F_B10F header and the mirror level in Filament's orientation
+        (mirrored in x: Filament samples world d at GL d)."""
         import struct
 
-        from shbake.bakers.cube_prefilter import cube_pyramid, mirror_cube
+        from shbake.bakers.cube_prefilter import cube_directions, cube_pyramid, mirror_cube
 
         out = str(sky_asset["dir"] / "k_sh.txt")
         export_assets([sky_asset["h5"]], "filament", out, size=8, floor=1, samples=16)
         data = open(str(sky_asset["dir"] / "k_skybox.ktx"), "rb").read()
         assert data[:12] == bytes.fromhex("ab4b5458203131bb0d0a1a0a")
         h = struct.unpack_from("<13I", data, 12)
-        assert h[0] == 0x04030201 and (h[1], h[3], h[4]) == (0x140B, 0x1908, 0x881A)
+        assert h[0] == 0x04030201 and (h[1], h[3], h[4], h[5]) == (0x8C3A, 0x1907, 0x8C3A, 0x1907)
         assert (h[6], h[10], h[11]) == (8, 6, 1)
         pos, kv = 64, {}
         while pos < 64 + h[12]:
@@ -468,10 +470,30 @@ class TestFilament:
         sh_meta = np.array([[float(v) for v in ln.split()] for ln in kv["sh"].strip().split("\n")])
         np.testing.assert_allclose(sh_meta, self._parse_sh_txt(out), rtol=1e-8, atol=1e-12)
         (size,) = struct.unpack_from("<I", data, pos)
-        faces = np.frombuffer(data[pos + 4 : pos + 4 + 6 * size], "<f2").reshape(6, 8, 8, 4)
+        assert size == 8 * 8 * 4
+        packed = np.frombuffer(data[pos + 4 : pos + 4 + 6 * size], "<u4").reshape(6, 8, 8)
+
+        def unpack(bits, mbits):  # unsigned float, 5-bit exponent (GL ES 3.0 §2.1.3)
+            e, m = bits >> mbits, (bits & ((1 << mbits) - 1)) / 2.0**mbits
+            return np.where(e == 0, m * 2.0**-14, (1 + m) * 2.0 ** (e.astype(float) - 15))
+
+        faces = np.stack([unpack(packed & 0x7FF, 6), unpack((packed >> 11) & 0x7FF, 6),
+                          unpack(packed >> 22, 5)], -1)  # fmt: skip
+        # Filament's texel at GL direction g shows world g: shbake's mirror cube (texel at GL g
+        # shows world (-g_x, g_y, g_z)) looked up at GL (-g_x, g_y, g_z)
         residual = load_source(sky_asset["h5"]).environment()
-        want = cube_pyramid(mirror_cube(residual, 16))[1]
-        np.testing.assert_allclose(faces[..., :3], want, rtol=1e-3, atol=1e-6)
+        shbake_cube = cube_pyramid(mirror_cube(residual, 16))[1]
+        d = cube_directions(8)[0]  # world directions of shbake's texels
+        gl_of_filament_texel = d * [-1, 1, 1]  # Filament's texel (k, i, j) shows world = its GL g
+        want = np.empty_like(shbake_cube)
+        for k in range(6):  # the shbake texel whose world direction is that g
+            for i in range(8):
+                for j in range(8):
+                    g = gl_of_filament_texel[k, i, j]
+                    match = np.argmax(d.reshape(-1, 3) @ g)
+                    want[k, i, j] = shbake_cube.reshape(-1, 3)[match]
+        np.testing.assert_allclose(faces, want, rtol=2**-5, atol=1e-6)  # 5-bit mantissa (B)
+        assert np.abs(faces - shbake_cube).max() > 0.1 * shbake_cube.max()  # really mirrored
 
 
 class TestUnity:
@@ -510,7 +532,9 @@ class TestExportCommand:
     def test_every_target_writes_and_is_deterministic(self, run_cli, sky_asset, tmp_path):
         outs = {
             "gltf": "a.gltf",
+            "babylon": "a.env",
             "threejs": "a.json",
+            "threejs-pmrem": "a_pmrem.ktx2",
             "ktx2": "a.ktx2",
             "filament": "a_sh.txt",
             "unity": "a.unity.json",
@@ -539,6 +563,7 @@ class TestExportCommand:
             ("unity", ["--env", "x.exr", "--samples", "16"], "--env, --samples"),
             ("threejs", ["--sun-radius", "5"], "--sun-radius"),
             ("filament", ["--lod-mapping", "gltf-ibl-sampler"], "--lod-mapping"),
+            ("threejs-pmrem", ["--lod-mapping", "filament"], "--lod-mapping"),
             ("ktx2", ["--babylon-scene", "right-handed"], "--babylon-scene"),
         ],
     )
@@ -557,7 +582,7 @@ class TestExportCommand:
 
         cube = {"env_path", "size", "floor", "samples", "sun_radius_deg"}
         assert options_of_target("threejs") == options_of_target("unity") == frozenset()
-        assert options_of_target("filament") == cube
+        assert options_of_target("filament") == options_of_target("threejs-pmrem") == cube
         assert options_of_target("ktx2") == cube | {"mapping"}
         assert options_of_target("gltf") == options_of_target("babylon") == set(TARGET_OPTIONS)
         assert all(options_of_target(t) <= set(TARGET_OPTIONS) for t in TARGETS)
@@ -578,6 +603,24 @@ class TestExportCommand:
         assert code == 1 and err.startswith("shbake: error:")
         code, _, err = run_cli("export", sky_asset["h5"], "--to", "gltf", "-o", tmp_path / "x.glb")
         assert code == 1 and ".gltf" in err
+
+    @pytest.mark.parametrize(
+        ("args", "named"),
+        [
+            (["--lod-mapping", "filament"], "--lod-mapping babylon"),
+            (["--babylon-scene", "right-handed"], "--rotate 180"),
+            (["--floor", "1", "--size", "1"], "--size"),
+        ],
+    )
+    def test_babylon_env_refusals(self, run_cli, sky_asset, tmp_path, args, named):
+        """What a .env cannot hold is refused with one line, nothing written."""
+        out = tmp_path / "x.env"
+        small = ["--size", "8", "--floor", "2", "--samples", "16"]
+        code, _, err = run_cli("export", sky_asset["h5"], "--to", "babylon", "-o", out, *small,
+                               *args)  # fmt: skip
+        lines = [x for x in err.splitlines() if x.startswith("shbake: error:")]
+        assert code == 1 and len(lines) == 1 and named in lines[0], err
+        assert os.listdir(tmp_path) == []
 
     def test_splitsum_probe_to_ktx2(self, run_cli, tmp_path):
         """A split-sum probe exports its map's cube chain (--env, SHA-256 checked); not SH."""
@@ -633,3 +676,50 @@ class TestExportCommand:
         )
         assert code == 0, err
         assert (tmp_path / "u" / "s.unity.json").exists()
+
+
+class TestBabylonEnv:
+    """babylon.write_env: Babylon's .env layout (``environmentTextureTools``), read here as
+    ``GetEnvInfo``/``CreateRadianceImageDataArrayBufferViews`` read it; the rendering is
+    checked in Babylon itself by ``tests/test_engine_render.py``."""
+
+    @staticmethod
+    def _read(path: str) -> tuple[dict, bytes]:
+        data = open(path, "rb").read()
+        assert data[:8] == bytes([0x86, 0x16, 0x87, 0x96, 0xF6, 0xD6, 0x96, 0x36])
+        end = data.index(b"\0", 8)
+        return json.loads(data[8:end].decode("ascii")), data[end + 1 :]
+
+    def test_layout_and_the_sun_beside_it(self, sky_asset, tmp_path):
+        out = str(tmp_path / "s.env")
+        written = export_assets([sky_asset["h5"]], "babylon", out, size=16, floor=4, samples=8)
+        assert written == [out, str(tmp_path / "s_lights.gltf")]  # the asset has a sun
+        info, payload = self._read(out)
+        assert info["version"] == 2 and info["width"] == 16 and info["imageType"] == "image/png"
+        mips = info["specular"]["mipmaps"]
+        assert len(mips) == 6 * (4 + 1)  # 16² … 1², as Babylon requires
+        assert [m["position"] for m in mips] == list(
+            np.cumsum([0] + [m["length"] for m in mips])[:-1]
+        )
+        assert sum(m["length"] for m in mips) == len(payload)
+        assert all(payload[m["position"] : m["position"] + 8] == b"\x89PNG\r\n\x1a\n" for m in mips)
+        # alpha = 1 at 4² (level 2): lod = s log2(16 alpha) reaches 2 at alpha = 1
+        assert info["specular"]["lodGenerationScale"] == pytest.approx(2 / 4)
+        assert info["shbake"]["roughness_lod_mapping"] == "babylon"
+        assert info["shbake"]["specular_roughness"][2:] == [1.0, 1.0, 1.0]
+        assert set(info["irradiance"]) == {"x", "y", "z", "xx", "yy", "zz", "yz", "zx", "xy"}
+        lights = json.load(open(tmp_path / "s_lights.gltf"))
+        assert lights["extensions"]["KHR_lights_punctual"]["lights"][0]["type"] == "directional"
+
+    def test_rgbd_range_is_clamped_with_one_warning(self, sky_asset, tmp_path, capfd):
+        from shbake.format.exports.babylon import write_env
+
+        src = load_source(sky_asset["h5"])
+        levels = [np.full((6, n, n, 3), 0.5) for n in (4, 2, 1)]
+        levels[0][0, 0, 0] = 1000.0
+        out = str(tmp_path / "c.env")
+        write_env(src, out, levels, [0.0, 1.0, 1.0], "babylon", "left-handed")
+        err = capfd.readouterr().err
+        assert err.count("shbake: warning:") == 1 and "RGBD (.env) maximum 255" in err
+        info, _ = self._read(out)
+        assert info["specular"]["lodGenerationScale"] == pytest.approx(1 / 2)

@@ -893,7 +893,7 @@ import sys, numba
 from shbake_cli.guard import run
 from shbake.format import atomic
 
-@numba.njit(nogil=True)  # as shbake.jit.jit / pjit compile every kernel
+@numba.njit(nogil=True)  # as shbake.jit.jit compiles every kernel
 def spin(n):  # holds the main thread in native code: no Python signal handler can run
     s = 0.0
     for i in range(n):
@@ -987,9 +987,8 @@ sys.exit(run(call, []))
         direct = [str(p) for p in root.rglob("*.py")
                   if p.name != "jit.py" and any(t in p.read_text() for t in tokens)]  # fmt: skip
         assert not direct, direct
-        for deco in (jit.jit, jit.pjit):
-            kernel = deco(lambda x: x + 1)
-            assert kernel(1) == 2 and kernel.dispatcher.targetoptions.get("nogil") is True
+        kernel = jit.jit(lambda x: x + 1)
+        assert kernel(1) == 2 and kernel.dispatcher.targetoptions.get("nogil") is True
 
     def test_stale_temporary_removed_live_kept(self, run_cli, box):
         dead = box / f".out.h5.shbake-{dead_pid()}-1.tmp.h5"

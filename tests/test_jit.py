@@ -1,203 +1,262 @@
-"""The kernel intrinsics of ``shbake/jit.py``, compiled and interpreted."""
+"""``shbake/jit.py``: the kernel decorator, the numba registration hook and the one threading
+model (:func:`~shbake.jit.run_blocks`), including every kernel that ran on numba's ``prange``
+before issue 28: its results must not depend on how many threads shared its blocks."""
+
+import ast
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from shbake.jit import (
-    LANES,
-    aligned_empty,
-    clock_ticks,
-    jit,
-    prefetch,
-    stream_fence,
-    stream_store,
-    vload,
-    vload_channels,
-    vsplat,
-    vstore,
-    vsum,
-    wide_vectors,
-)
+from shbake import jit
+
+PACKAGE = Path(jit.__file__).parent
 
 
-@jit
-def _store_all(out, values):
-    wide_vectors()
-    for i in range(values.size):
-        stream_store(out, i, values[i])
-    stream_fence()
+def two_threads(monkeypatch, threads: int = 2):
+    """Let :func:`run_blocks` split even the tests' small jobs over ``threads`` threads."""
+    monkeypatch.setenv("SHBAKE_THREADS", str(threads))
+    monkeypatch.setattr(jit, "MIN_WORK_PER_THREAD", 1)
 
 
-@jit
-def _ticks(n, spin):
-    t = np.empty(n, np.int64)
-    x = 0.0
-    for i in range(n):
-        for _ in range(spin):
-            x = x * 0.5 + 1.0
-        t[i] = clock_ticks()
-    return t, x
+class TestRunBlocks:
+    @pytest.mark.parametrize("threads", [1, 2, 3])
+    @pytest.mark.parametrize("n_blocks", [0, 1, 7, 100])
+    def test_every_block_exactly_once(self, monkeypatch, threads, n_blocks):
+        two_threads(monkeypatch, threads)
+        seen = []
+        lock = threading.Lock()
+
+        def kernel(tag, b0, b1):
+            assert tag == "args first" and 0 <= b0 <= b1 <= n_blocks
+            with lock:
+                seen.extend(range(b0, b1))
+
+        jit.run_blocks(kernel, n_blocks, 1e9, "args first")
+        assert sorted(seen) == list(range(n_blocks))
+
+    def test_small_jobs_run_once_on_the_calling_thread(self, monkeypatch):
+        monkeypatch.setenv("SHBAKE_THREADS", "2")
+        calls = []
+        jit.run_blocks(lambda b0, b1: calls.append((b0, b1, threading.get_ident())), 50, 10.0)
+        assert calls == [(0, 50, threading.get_ident())]
+
+    def test_an_error_in_any_thread_is_raised(self, monkeypatch):
+        two_threads(monkeypatch)
+
+        def kernel(b0, b1):
+            if b0 <= 37 < b1:
+                raise ValueError("block 37")
+
+        with pytest.raises(ValueError, match="block 37"):
+            jit.run_blocks(kernel, 64, 1e9)
+
+    def test_thread_budget_order(self, monkeypatch):
+        monkeypatch.setenv("NUMBA_NUM_THREADS", "3")
+        monkeypatch.setenv("SHBAKE_THREADS", "5")
+        assert jit.thread_budget() == 5
+        monkeypatch.delenv("SHBAKE_THREADS")
+        assert jit.thread_budget() == 3
+        monkeypatch.delenv("NUMBA_NUM_THREADS")
+        assert jit.thread_budget() == len(os.sched_getaffinity(0))
+
+    def test_use_one_thread_limits_every_kernel(self, monkeypatch):
+        monkeypatch.setenv("SHBAKE_THREADS", "4")
+        jit.use_one_thread()
+        assert jit.thread_budget() == 1 and jit.thread_count(1e12, 1000) == 1
 
 
-@jit
-def _prefetch_anywhere(a):
-    s = 0.0
-    for i in range(a.size):
-        prefetch(a, i + 1_000_000)  # far beyond the end: a hint, never a read
-        prefetch(a, i - 1_000_000)
-        s += a[i]
-    return s
+class TestOneThreadingModel:
+    def test_no_kernel_uses_numba_parallel(self):
+        """``prange``/``parallel=True`` would bring back numba's static split and thread pool
+        (the module docstring of ``shbake/jit.py`` says why run_blocks replaced them)."""
+        bad = []
+        for path in sorted(PACKAGE.rglob("*.py")):
+            tree = ast.parse(path.read_text(encoding="utf-8"))
+            for node in ast.walk(tree):
+                name = getattr(node, "attr", None) or getattr(node, "id", None)
+                if name in ("prange", "pjit"):
+                    bad.append(f"{path.relative_to(PACKAGE)}:{node.lineno} {name}")
+                if isinstance(node, ast.keyword) and node.arg == "parallel":
+                    bad.append(f"{path.relative_to(PACKAGE)}:{node.lineno} parallel=")
+        assert not bad, bad
 
 
-@jit
-def _horner_vectors(x, coeffs, out):
-    """``out = Σ_k coeffs[k] x^k`` by Horner, ``LANES`` values per vector; a runtime-length
-    loop inside the vector loop (what the explicit vectors are for)."""
-    n = coeffs.size
-    for i in range(0, x.size, LANES):
-        v = vload(x, i)
-        acc = vsplat(coeffs[n - 1])
-        for k in range(n - 2, -1, -1):
-            acc = acc * v + coeffs[k]
-        vstore(out, i, acc)
+def _unit(rng, n, upper=False):
+    v = rng.normal(size=(n, 3))
+    if upper:
+        v[:, 2] = np.abs(v[:, 2]) + 0.05
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-@jit
-def _mixed_operators(a, b, out):
-    u = vload(a, 0)
-    w = vload(b, 0)
-    vstore(out, 0, u + w)
-    vstore(out, LANES, u - w)
-    vstore(out, 2 * LANES, u * w)
-    vstore(out, 3 * LANES, 2.0 * u - w * 3 + vsplat(1))
-    vstore(out, 4 * LANES, 1.5 - u)
+def _latlong(rng, h=16):
+    img = rng.uniform(0.0, 1.0, (h, 2 * h, 3)).astype(np.float32)
+    img[3, 5] = 500.0  # a sun: the probe targets' point lights
+    return img
 
 
-@jit
-def _split_rgb(img, index, out):
-    """The three channels of ``LANES`` pixels from flat ``index``, forwards and reversed,
-    into ``out[0:3]`` / ``out[3:6]``; returns the lane sums of the forward red and the
-    reversed blue."""
-    r, g, b = vload_channels(img, index, 3, False)
-    x, y, z = vload_channels(img, index, 3, True)
-    for k, v in enumerate((r, g, b, x, y, z)):
-        vstore(out, k * LANES, v)
-    return vsum(r), vsum(z)
+def _env_sh_matrix(rng):
+    from shbake.shading.env_sh import tangent_irradiance_matrix
+
+    asset = {"/tangent_irradiance/matrix": rng.normal(size=(3, 4, 4)),
+             "/sun/direction": np.array([0.0, 0.6, 0.8]), "/sun/radiance": np.ones(3),
+             "/sun/solid_angle": 1e-3}  # fmt: skip
+    return tangent_irradiance_matrix(asset, _unit(rng, 300))
 
 
-@jit
-def _split_one(img, index, out):
-    (v,) = vload_channels(img, index, 1, True)
-    vstore(out, 0, v)
+def _ggx_integrals(rng):
+    from shbake.reference.ggx import ggx_integrals
+
+    v = _unit(rng, 40, upper=True)
+    return np.stack(ggx_integrals(_latlong(rng), v, np.tile([0.0, 0.0, 1.0], (40, 1)), 0.3, 64))
 
 
-@jit
-def _channels_from_a_variable(img, n, out):
-    (v,) = vload_channels(img, 0, n, False)
-    vstore(out, 0, v)
+def _texels(rng):
+    from shbake.envmap.environment import Environment
+
+    return Environment(_latlong(rng), "latlong").samples()
 
 
-class TestVectors:
-    def test_horner_matches_numpy_polyval(self):
-        rng = np.random.default_rng(3)
-        x = rng.uniform(-1.0, 1.0, 4 * LANES)
-        coeffs = rng.normal(size=9)
-        ref = np.polynomial.polynomial.polyval(x, coeffs)
-        for fn in (_horner_vectors, _horner_vectors.py_func):
-            out = np.zeros_like(x)
-            fn(x, coeffs, out)
-            np.testing.assert_allclose(out, ref, rtol=0, atol=1e-14)
+def _brute_irradiance(rng):
+    from shbake.reference.irradiance import brute_force_irradiance
 
-    def test_operators_with_vectors_and_scalars(self):
-        rng = np.random.default_rng(4)
-        a, b = rng.normal(size=LANES), rng.normal(size=LANES)
-        ref = np.concatenate([a + b, a - b, a * b, 2.0 * a - b * 3 + 1, 1.5 - a])
-        for fn in (_mixed_operators, _mixed_operators.py_func):
-            out = np.zeros(5 * LANES)
-            fn(a, b, out)
-            np.testing.assert_allclose(out, ref, rtol=1e-15, atol=1e-15)
-
-    def test_offsets_into_a_2d_array_are_flat(self):
-        x = np.arange(3.0 * LANES).reshape(3, LANES)
-        out = np.zeros((3, LANES))
-        _horner_vectors(x.reshape(-1)[LANES:], np.array([0.0, 1.0]), out.reshape(-1)[LANES:])
-        np.testing.assert_array_equal(out[1:], x[1:])
-        assert not out[0].any()
-
-    def test_float32_and_strided_arrays_are_refused_when_compiled(self):
-        from numba.core.errors import TypingError
-
-        with pytest.raises(TypingError):
-            _horner_vectors(np.zeros(LANES, np.float32), np.ones(2), np.zeros(LANES))
-        with pytest.raises(TypingError):
-            _horner_vectors(np.zeros(2 * LANES)[::2], np.ones(2), np.zeros(LANES))
+    d, w, r = _texels(rng)
+    q = _unit(rng, 60)
+    return np.stack([brute_force_irradiance(d, w, r, q, tangent=t) for t in (False, True)])
 
 
-class TestVloadChannels:
-    @pytest.mark.parametrize("dtype", [np.float32, np.float64])
-    def test_channels_split_and_reversed_like_numpy(self, dtype):
-        img = np.random.default_rng(5).normal(size=(5 * LANES, 3)).astype(dtype)
-        flat = img.reshape(-1)
-        start = 7  # pixels 7 … 7+LANES-1
-        px = img[start : start + LANES].astype(np.float64)
-        ref = np.concatenate([px.T.reshape(-1), px[::-1].T.reshape(-1)])
-        for fn in (_split_rgb, _split_rgb.py_func):
-            out = np.zeros(6 * LANES)
-            sums = fn(flat, 3 * start, out)
-            np.testing.assert_array_equal(out, ref)
-            np.testing.assert_allclose(sums, (px[:, 0].sum(), px[:, 2].sum()), rtol=1e-14)
+def _brute_shading(rng):
+    from shbake.brdf import make_brdf
+    from shbake.reference.brdf_shading import brute_force_shading
 
-    def test_one_channel_reversed(self):
-        a = np.arange(2.0 * LANES, dtype=np.float32)
-        out = np.zeros(LANES)
-        _split_one(a, 3, out)
-        np.testing.assert_array_equal(out, np.arange(3.0, 3.0 + LANES)[::-1])
-
-    def test_channel_count_must_be_a_constant_when_compiled(self):
-        from numba.core.errors import TypingError
-
-        with pytest.raises(TypingError):
-            _channels_from_a_variable(np.zeros(LANES), 1, np.zeros(LANES))
+    d, w, r = _texels(rng)
+    frames = np.stack([np.eye(3)] * 50)
+    return brute_force_shading(d, w, r, frames, _unit(rng, 50, upper=True),
+                               make_brdf("ggx", alpha=0.4))  # fmt: skip
 
 
-class TestAlignedEmpty:
-    @pytest.mark.parametrize("n", [1, 17, 1000])
-    def test_starts_on_a_cache_line(self, n):
-        for _ in range(5):
-            a = aligned_empty(n)
-            assert a.shape == (n,) and a.dtype == np.float64
-            assert a.ctypes.data % 64 == 0
+def _brdf_evaluate(rng):
+    from shbake.brdf import make_brdf
+
+    s, v = _unit(rng, 500), _unit(rng, 500, upper=True)  # s below the horizon: zeros
+    return make_brdf("ashikhmin-shirley", nu=40, nv=10).evaluate(s, v)
 
 
-class TestStreamStore:
-    def test_same_values_as_ordinary_stores(self):
-        values = np.random.default_rng(0).normal(size=1000)
-        for dtype in (np.float64, np.float32):
-            out = np.zeros(1000, dtype)
-            _store_all(out, values)
-            np.testing.assert_array_equal(out, values.astype(dtype))
-            interpreted = np.zeros(1000, dtype)
-            _store_all.py_func(interpreted, values)
-            np.testing.assert_array_equal(interpreted, out)
+def _project_views(rng):
+    from shbake.brdf import make_brdf
+    from shbake.brdf.tabulate import project_views
 
-    def test_into_a_2d_array_flat(self):
-        out = np.zeros((10, 3))
-        _store_all(out.reshape(30), np.arange(30.0))
-        np.testing.assert_array_equal(out, np.arange(30.0).reshape(10, 3))
+    return project_views(make_brdf("phong"), _unit(rng, 20, upper=True), 2, samples=64)[0]
 
 
-class TestClockTicks:
-    def test_monotonic_and_advancing_in_a_kernel(self):
-        t, _ = _ticks(200, 2000)
-        assert np.all(np.diff(t) >= 0) and t[-1] > t[0]
+def _parabolic_fetch(rng):
+    from shbake.texture.parabolic import fetch
 
-    def test_interpreted(self):
-        a = clock_ticks()
-        assert clock_ticks() >= a
+    return fetch(rng.normal(size=(8, 8, 4, 3)), _unit(rng, 200, upper=True))
 
 
-class TestPrefetch:
-    def test_any_index_is_harmless(self):
-        a = np.arange(100.0)
-        assert _prefetch_anywhere(a) == a.sum()
-        assert _prefetch_anywhere.py_func(a) == a.sum()
+def _sh_targets(rng):
+    from shbake.bakers.shexp_sh_targets import ShTargets
+
+    n = np.repeat(_unit(rng, 4, upper=True), 10, axis=0)
+    v = np.repeat(np.array([[0.0, 0.0, 1.0]]), 40, axis=0)
+    v = (v + n) / np.linalg.norm(v + n, axis=1, keepdims=True)
+    return ShTargets(v, n, np.repeat([0.2, 0.6], 20), lmax=2, samples=64).e0(_latlong(rng))
+
+
+def _splitsum_prefilter(rng):
+    from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
+
+    img = _latlong(rng)
+    levels = [prefilter_chain(img, SplitSumConfig(top=16, min_size=8, alphas=(0.1, 0.5),
+                                                  samples=32, prefilter=p))
+              for p in ("filtered", "plain")]  # fmt: skip
+    return np.concatenate([lv.ravel() for chain in levels for lv in chain])
+
+
+def _shrm(rng):
+    from shbake.bakers.shrm import brdf_coefficients, make_reflection_brdf, shrm_from_directions
+
+    co = brdf_coefficients(make_reflection_brdf("ggx", {"alpha": 0.3}), 4, 2)
+    L = rng.normal(size=(25, 3))
+    dirs = _unit(rng, 300)
+    return np.concatenate([co.rho.ravel()] + [shrm_from_directions(dirs, L, co, local=loc).ravel()
+                                              for loc in (False, True)])  # fmt: skip
+
+
+def _shrm_angular(rng):
+    from shbake.bakers.shrm import make_reflection_brdf
+    from shbake.bakers.shrm_angular import angular_reflection_maps
+
+    rb = make_reflection_brdf("phong-lobe", {"s": 16})
+    return angular_reflection_maps(_latlong(rng), rb, _unit(rng, 30), _unit(rng, 2, upper=True))
+
+
+def _quadrature_plan(rng):
+    from shbake.bakers.shexp_targets import QuadraturePlan
+
+    n = _unit(rng, 40, upper=True)
+    plan = QuadraturePlan.build(n, n, rng.uniform(0.1, 0.8, 40), 64, (16, 32))
+    img = _latlong(rng)
+    return np.concatenate([plan.index.astype(float), plan.weight,
+                           np.ravel(plan.e0_many([img, 0.5 * img]))])  # fmt: skip
+
+
+def _cube_prefilter(rng):
+    from shbake.bakers.cube_prefilter import (
+        cube_pyramid,
+        mirror_cube,
+        prefilter_level,
+        reference_level,
+    )
+    from shbake.envmap.environment import Environment
+
+    env = Environment(_latlong(rng), "latlong")
+    cube = mirror_cube(env, 4)
+    level = prefilter_level(cube_pyramid(cube), 4, 0.3, 32)
+    return np.concatenate([cube.ravel(), level.ravel(), reference_level(env, 2, 0.3).ravel()])
+
+
+FORMER_PRANGE = {f.__name__[1:]: f for f in (
+    _env_sh_matrix, _ggx_integrals, _brute_irradiance, _brute_shading, _brdf_evaluate,
+    _project_views, _parabolic_fetch, _sh_targets, _splitsum_prefilter, _shrm, _shrm_angular,
+    _quadrature_plan, _cube_prefilter,
+)}  # fmt: skip
+"""Public calls covering the 19 kernels that ran on ``prange`` before issue 28."""
+
+
+@pytest.mark.parametrize("case", sorted(FORMER_PRANGE))
+def test_former_prange_kernels_do_not_depend_on_the_thread_count(monkeypatch, case):
+    """Each block range is computed alone, so 1, 2 or 3 threads give the same bits (the
+    conversion itself was checked against the ``prange`` kernels: see the commit)."""
+    results = []
+    for threads in (1, 2, 3):
+        two_threads(monkeypatch, threads)
+        results.append(np.asarray(FORMER_PRANGE[case](np.random.default_rng(7))))
+    assert np.all(np.isfinite(results[0]))
+    for r in results[1:]:
+        np.testing.assert_array_equal(r, results[0])
+
+
+def test_registration_hooks_wait_for_numba():
+    """:func:`shbake.jit.on_numba_load`: a hook runs when the first kernel compiles (not at
+    import: numba stays unloaded), and at once when numba is already registered."""
+    code = (
+        "import sys\n"
+        "from shbake import jit\n"
+        "calls = []\n"
+        "jit.on_numba_load(lambda: calls.append('first'))\n"
+        "import shbake.simd\n"
+        "assert 'numba' not in sys.modules and calls == [], calls\n"
+        "k = jit.jit(cache=False)(lambda x: x + 1)\n"
+        "assert k(1) == 2 and calls == ['first'], calls\n"
+        "jit.on_numba_load(lambda: calls.append('later'))\n"
+        "assert calls == ['first', 'later'], calls\n"
+        "print('ok')\n"
+    )
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.stdout.strip() == "ok", p.stderr

@@ -17,7 +17,6 @@ negative; the fit's floor catches them). ``docs/BENCHMARKS.md`` reports the
 error against the quadrature ground truth.
 """
 
-import numba
 import numpy as np
 
 from shbake.brdf import make_brdf
@@ -25,7 +24,7 @@ from shbake.brdf.sampling import tangent_frame
 from shbake.brdf.tabulate import tabulate
 from shbake.conventions import SH_TARGETS_LMAX_LIMIT
 from shbake.errors import ParameterError
-from shbake.jit import pjit
+from shbake.jit import jit, run_blocks
 from shbake.sh.projection import project_latlong
 from shbake.sh.rotation import rotate
 from shbake.texture.parabolic import fetch_into
@@ -33,10 +32,10 @@ from shbake.texture.parabolic import fetch_into
 TABLE_RESOLUTION = (32, 32)
 
 
-@pjit
-def _dot_targets(tables, table_of, normal_of, local_views, lighting, out):
+@jit
+def _dot_targets(tables, table_of, normal_of, local_views, lighting, out, b0, b1):
     n = tables.shape[3]
-    for t in numba.prange(out.shape[0]):
+    for t in range(b0, b1):
         c = np.empty((n, 1))
         fetch_into(tables[table_of[t]], local_views[t, 0], local_views[t, 1], local_views[t, 2], c)
         for ch in range(3):
@@ -82,6 +81,7 @@ class ShTargets:
         coeffs = project_latlong(pixels, self.lmax)
         lighting = np.stack([rotate(coeffs, frame) for frame in self.frames])
         out = np.empty((self.local_views.shape[0], 3))
-        _dot_targets(self.tables, self.table_of, self.normal_of, self.local_views,
-                     np.ascontiguousarray(lighting), out)  # fmt: skip
+        run_blocks(_dot_targets, out.shape[0], out.shape[0] * lighting.shape[1] * 12.0,
+                   self.tables, self.table_of, self.normal_of, self.local_views,
+                   np.ascontiguousarray(lighting), out)  # fmt: skip
         return out

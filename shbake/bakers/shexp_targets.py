@@ -16,7 +16,6 @@ pyramid and added exactly as point lights at their centres.
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from shbake.brdf.ggx import check_geometry, ggx_d, sample_light, smith_lambda
@@ -31,7 +30,7 @@ from shbake.envmap.importance import (
 )
 from shbake.envmap.layouts import latlong_texel, row_solid_angle
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
+from shbake.jit import jit, run_blocks
 from shbake.reference.ggx import check_alpha
 from shbake.sh.point_sets import fibonacci_square
 
@@ -39,15 +38,15 @@ LOD_BIAS = 1.0
 """Pyramid levels one coarser than the sample footprint (Křivánek & Colbert 2008)."""
 
 
-@pjit
-def _add_point_lights(views, normals, alphas, dirs, energy, out):
+@jit
+def _add_point_lights(views, normals, alphas, dirs, energy, out, b0, b1):
     """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k = Σ_k G1(v) D(h) G1(l) / (4 n·v) E_k``.
 
     Isotropic GGX needs only ``n·h`` and ``n·l``, so no tangent frame is built: ``D`` and
     ``Λ`` (:mod:`shbake.brdf.ggx`) get the equivalent local vectors ``(sin θ, 0, cos θ)``,
     and ``G1(v)/(4 n·v)`` is hoisted out of the light loop.
     """
-    for t in numba.prange(views.shape[0]):
+    for t in range(b0, b1):
         vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
         a = alphas[t]
@@ -84,14 +83,15 @@ def filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets, log2_omeg
     return offsets[k] + (row >> k) * (width >> k) + (col >> k)
 
 
-@pjit
-def _plan_rows(views, normals, alphas, square, height, width, offsets, index, weight, count):
+@jit
+def _plan_rows(views, normals, alphas, square, height, width, offsets, index, weight, count,
+               b0, b1):  # fmt: skip
     n = square.shape[0]
     levels = offsets.shape[0] - 1
     log2_omega = np.empty(height)
     for row in range(height):
         log2_omega[row] = np.log2(row_solid_angle(row, height, width))
-    for t in numba.prange(views.shape[0]):
+    for t in range(b0, b1):
         prm = np.zeros(6)
         prm[3] = prm[4] = alphas[t]
         nrm = (normals[t, 0], normals[t, 1], normals[t, 2])
@@ -124,24 +124,25 @@ def _plan_rows(views, normals, alphas, square, height, width, offsets, index, we
         count[t] = m
 
 
-@pjit
-def _compact(index, weight, offsets, flat_index, flat_weight):
-    for t in numba.prange(index.shape[0]):
+@jit
+def _compact(index, weight, offsets, flat_index, flat_weight, b0, b1):
+    for t in range(b0, b1):
         a = offsets[t]
         for k in range(offsets[t + 1] - a):
             flat_index[a + k] = index[t, k]
             flat_weight[a + k] = weight[t, k]
 
 
-@pjit
-def _gather_many(offsets, index, weight, stacked, out):
+@jit
+def _gather_many(offsets, index, weight, stacked, out, b0, b1):
     """``out[b, t] = Σ_k weight_k stacked[index_k, b]`` over target ``t``'s entries, for ``B``
     maps at once: ``stacked`` ``(texels, B, 3)``, ``out``
     ``(B, T, 3)``; each entry read once for all maps, sums per map in entry order,
     so a map's result does not depend on which maps share its pass."""
     n_maps = stacked.shape[1]
-    for t in numba.prange(offsets.shape[0] - 1):
-        acc = np.zeros((n_maps, 3))
+    acc = np.empty((n_maps, 3))  # once per call, not per target (as prange hoisted it)
+    for t in range(b0, b1):
+        acc[:] = 0.0
         for k in range(offsets[t], offsets[t + 1]):
             j = index[k]
             w = weight[k]
@@ -183,11 +184,13 @@ class QuadraturePlan:
         count = np.empty(v.shape[0], dtype=np.int64)
         square = fibonacci_square(samples)
         starts = level_offsets(shape, levels)
-        _plan_rows(v, n, a, square, shape[0], shape[1], starts, index, weight, count)
+        run_blocks(_plan_rows, v.shape[0], v.shape[0] * samples * 300.0,
+                   v, n, a, square, shape[0], shape[1], starts, index, weight, count)  # fmt: skip
         offsets = np.concatenate([[0], np.cumsum(count)]).astype(np.int64)
         flat_index = np.empty(offsets[-1], dtype=np.int32)
         flat_weight = np.empty(offsets[-1], dtype=np.float32)
-        _compact(index, weight, offsets, flat_index, flat_weight)
+        run_blocks(_compact, v.shape[0], offsets[-1] * 16.0,
+                   index, weight, offsets, flat_index, flat_weight)  # fmt: skip
         return cls(tuple(shape), levels, offsets, flat_index, flat_weight, v, n, a)
 
     def _prepare(self, pixels):
@@ -211,8 +214,11 @@ class QuadraturePlan:
         prepared = [self._prepare(m) for m in maps]
         stacked = np.stack([p[0] for p in prepared], axis=1)  # (texels, B, 3)
         out = np.empty((len(prepared), self.offsets.shape[0] - 1, 3))
-        _gather_many(self.offsets, self.index, self.weight, stacked, out)
+        n_targets = self.offsets.shape[0] - 1
+        run_blocks(_gather_many, n_targets, self.index.shape[0] * len(prepared) * 20.0,
+                   self.offsets, self.index, self.weight, stacked, out)  # fmt: skip
         for b, (_, dirs, energy) in enumerate(prepared):
             if dirs.shape[0]:
-                _add_point_lights(self.views, self.normals, self.alphas, dirs, energy, out[b])
+                run_blocks(_add_point_lights, n_targets, n_targets * dirs.shape[0] * 60.0,
+                           self.views, self.normals, self.alphas, dirs, energy, out[b])  # fmt: skip
         return list(out)

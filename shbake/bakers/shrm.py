@@ -59,7 +59,6 @@ import time
 from dataclasses import dataclass, field
 from functools import lru_cache
 
-import numba
 import numpy as np
 
 from shbake.brdf import kajiya_kay
@@ -68,7 +67,7 @@ from shbake.brdf.model import NO_DATA, make_brdf
 from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
+from shbake.jit import jit, run_blocks
 from shbake.resources import check_memory
 from shbake.sh.basis import real_sh_numba
 from shbake.sh.rotation import SHRotation
@@ -215,9 +214,9 @@ def rho_hat(kind, model, prm, data, ci, si, co, so, cphi, sphi, f, out):
         out[c] = f[c] * lz
 
 
-@pjit
-def _rho_grid(kind, model, prm, data, xi, xo, phi, out):
-    for i in numba.prange(xi.shape[0]):
+@jit
+def _rho_grid(kind, model, prm, data, xi, xo, phi, out, b0, b1):
+    for i in range(b0, b1):
         f = np.empty(3)
         v = np.empty(3)
         ci = xi[i]
@@ -367,8 +366,9 @@ def brdf_coefficients(rb: ReflectionBRDF, F: int, P: int, quad: Quadrature | Non
             int(np.clip(4 * P + 16, 24, 64)),
         )  # fmt: skip
     grid = np.zeros(quad.shape + (3,))
-    _rho_grid(rb.kind_id, rb.model_id, np.ascontiguousarray(rb.prm, dtype=float), rb.data,
-              quad.xi, quad.xo, quad.phi, grid)  # fmt: skip
+    run_blocks(_rho_grid, quad.xi.size, grid.size * 40.0, rb.kind_id, rb.model_id,
+               np.ascontiguousarray(rb.prm, dtype=float), rb.data, quad.xi, quad.xo, quad.phi,
+               grid)  # fmt: skip
     q = np.arange(P_q + 1)
     cosq = np.cos(q[:, None] * quad.phi[None, :]) * quad.wphi[None, :]
     step1 = 2.0 * np.pi * np.tensordot(grid, cosq, axes=([2], [1])).transpose(3, 0, 1, 2)
@@ -581,8 +581,13 @@ def _ysign(flip, l, k, q):
     return s if k >= 0 else -s
 
 
-@pjit
-def _shrm_texels(aidx, flip, cb, sb, Y, L, rho, F, P, Q, mode, out):
+TEXEL_BLOCK = 64
+"""Texels per block of :func:`_shrm_texels`: they share its scratch arrays; the unit
+:func:`~shbake.jit.run_blocks` hands to a thread."""
+
+
+@jit
+def _shrm_texels(aidx, flip, cb, sb, Y, L, rho, F, P, Q, mode, out, b0, b1):
     """Per texel: rotate the lighting by β, contract with the ``R_y α`` columns, sum over ``l``
     with ``ρ̂`` (local SHRM), then rotate the view index (global SHRM, ``mode = 0``),
     keep it local (``mode = 1``) or keep ``q = 0`` only (tangent, ``mode = 2``).
@@ -590,16 +595,17 @@ def _shrm_texels(aidx, flip, cb, sb, Y, L, rho, F, P, Q, mode, out):
     ``M(R_y α)`` keeps the parity of the real basis (``cos`` ↔ ``cos``, ``sin`` ↔ ``sin``):
     ``Y[a, q, k] = 0`` when ``k`` and ``q`` differ in sign, so half the sums are skipped.
     Texels with ``flip[t]`` read the columns of ``π − α`` and apply :func:`_ysign`.
-    Texels are processed in blocks that share their scratch arrays.
+    Texels are processed in blocks of :data:`TEXEL_BLOCK` that share their scratch arrays;
+    this call does blocks ``b0 … b1 − 1``.
     """
     n = aidx.shape[0]
-    block = 64
-    for b0 in numba.prange((n + block - 1) // block):
+    block = TEXEL_BLOCK
+    for blk in range(b0, b1):
         ck = np.empty(F + 1)
         sk = np.empty(F + 1)
         G = np.empty((F + 1, 2 * Q + 1, 3))
         B = np.zeros((P + 1, 2 * P + 1, 3))
-        for t in range(b0 * block, min(n, (b0 + 1) * block)):
+        for t in range(blk * block, min(n, (blk + 1) * block)):
             _texel(t, aidx[t], flip[t], cb[t], sb[t], Y, L, rho, F, P, Q, mode, ck, sk, G, B,
                    out)  # fmt: skip
 
@@ -716,9 +722,10 @@ def shrm_from_directions(
         if sel.size == 0:
             continue
         res = np.zeros((sel.size, n_out, 3))
-        _shrm_texels(np.ascontiguousarray(inv[sel] - c0), np.ascontiguousarray(flip[sel]),
-                     np.ascontiguousarray(cb[sel]),
-                     np.ascontiguousarray(sb[sel]), Y, Lc, rho, F, P, Q, mode, res)  # fmt: skip
+        run_blocks(_shrm_texels, -(-sel.size // TEXEL_BLOCK), sel.size * res[0].size * F * 8.0,
+                   np.ascontiguousarray(inv[sel] - c0), np.ascontiguousarray(flip[sel]),
+                   np.ascontiguousarray(cb[sel]),
+                   np.ascontiguousarray(sb[sel]), Y, Lc, rho, F, P, Q, mode, res)  # fmt: skip
         out[sel] = res
     return out
 

@@ -19,7 +19,6 @@ larger of the two neighbouring entries). ``ε → 0`` gives the full hemisphere
 (the exact texel sum).
 """
 
-import numba
 import numpy as np
 
 from shbake.bakers.shrm import ReflectionBRDF, _gauss_legendre, _rho_grid, check_eps
@@ -27,7 +26,7 @@ from shbake.brdf.dispatch import brdf_eval
 from shbake.brdf.sampling import tangent_frame
 from shbake.envmap.layouts import latlong_solid_angles
 from shbake.errors import ParameterError
-from shbake.jit import pjit
+from shbake.jit import jit, run_blocks
 
 N_TSTAR = 129
 """Entries of the ``θ*(cos θ_o)`` table (uniform in ``cos θ_o``)."""
@@ -64,11 +63,11 @@ def truncation_angles(rb: ReflectionBRDF, eps: float, n_theta_i: int = 512) -> n
     return out
 
 
-@pjit
-def _angular(kind, model, prm, data, R, V, ct_table, pixels, row_omega, sphi, cphi, out):
+@jit
+def _angular(kind, model, prm, data, R, V, ct_table, pixels, row_omega, sphi, cphi, out, b0, b1):
     H, W = pixels.shape[0], pixels.shape[1]
     nt = ct_table.shape[0]
-    for t in numba.prange(R.shape[0]):
+    for t in range(b0, b1):
         f = np.empty(3)
         rx, ry, rz = R[t, 0], R[t, 1], R[t, 2]
         th_r = np.arccos(min(1.0, max(-1.0, ry)))
@@ -160,6 +159,7 @@ def angular_reflection_maps(pixels, rb: ReflectionBRDF, R, views, eps: float = 0
     V = V / np.linalg.norm(V, axis=1, keepdims=True)
     ct = truncation_angles(rb, eps)
     out = np.zeros((V.shape[0], R.shape[0], 3))
-    _angular(1 if rb.kind == "lobe" else 0, rb.model_id, np.ascontiguousarray(rb.prm, float),
-             rb.data, R, V, ct, px, row_omega, np.sin(phi), np.cos(phi), out)  # fmt: skip
+    run_blocks(_angular, R.shape[0], R.shape[0] * V.shape[0] * H * W * 1.0,
+               1 if rb.kind == "lobe" else 0, rb.model_id, np.ascontiguousarray(rb.prm, float),
+               rb.data, R, V, ct, px, row_omega, np.sin(phi), np.cos(phi), out)  # fmt: skip
     return out

@@ -25,7 +25,6 @@ Shaded by :mod:`shbake.shading.splitsum`.
 
 from dataclasses import asdict, dataclass
 
-import numba
 import numpy as np
 
 from shbake.bakers.shexp_targets import filtered_texel
@@ -34,7 +33,7 @@ from shbake.conventions import check_samples
 from shbake.envmap.importance import latlong_flat, latlong_pyramid, level_offsets, pyramid_levels
 from shbake.envmap.layouts import latlong_texel, row_solid_angle
 from shbake.errors import ParameterError
-from shbake.jit import pjit
+from shbake.jit import jit, run_blocks
 from shbake.reference.ggx import check_alpha
 from shbake.resources import check_memory
 from shbake.sh.point_sets import fibonacci_square
@@ -88,15 +87,15 @@ class SplitSumConfig:
         return asdict(self) | {"alphas": list(self.alphas)}
 
 
-@pjit
-def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, out):
+@jit
+def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, out, b0, b1):
     n = square.shape[0]
     a2 = alpha * alpha
     levels = offsets.shape[0] - 1
     log2_omega = np.empty(height)
     for row in range(height):
         log2_omega[row] = np.log2(row_solid_angle(row, height, width))
-    for row in numba.prange(size):
+    for row in range(b0, b1):
         for col in range(size):
             nx, ny, nz = oct_decode((col + 0.5) / size, (row + 0.5) / size)
             (tx, ty, tz), (bx, by, bz) = tangent_frame(nx, ny, nz)
@@ -163,7 +162,7 @@ def prefilter_chain(pixels, config: SplitSumConfig) -> list[np.ndarray]:
     out_levels = []
     for size, a in zip(config.sizes, config.alphas, strict=True):
         out = np.empty((size, size, 3))
-        _prefilter(size, float(a), square, flat, h, w, config.prefilter == "filtered", offsets,
-                   out)  # fmt: skip
+        run_blocks(_prefilter, size, size * size * square.shape[0] * 60.0, size, float(a),
+                   square, flat, h, w, config.prefilter == "filtered", offsets, out)  # fmt: skip
         out_levels.append(out.astype(np.float32))
     return out_levels

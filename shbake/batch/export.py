@@ -8,7 +8,7 @@ DFG table (:mod:`shbake.bakers.dfg`) for ``ktx2``.
 
 import os
 
-from shbake.bakers.cube_prefilter import check_chain, prefilter_chain
+from shbake.bakers.cube_prefilter import check_chain, extend_chain, prefilter_chain
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
@@ -25,16 +25,20 @@ TARGET_OPTIONS = {
     "babylon_scene": "--babylon-scene",
 }
 """Settings that only some targets read, and the option that sets each."""
+FIXED_LOD_MAPPING = ("filament", "threejs-pmrem")
+"""Targets whose engine shader fixes the roughness of each mip level (their ``CUBES`` mapping)."""
+FIXED_LOD_MAPPING = ("filament", "threejs-pmrem")
+"""Targets whose engine shader fixes the roughness of each mip level (their ``CUBES`` mapping)."""
 
 
 def options_of_target(target: str) -> frozenset:
     """The :data:`TARGET_OPTIONS` that ``target`` reads: the cube-chain settings where it
-    writes cube maps (``CUBES``; not ``mapping`` for ``filament``, which always uses
-    Filament's), ``babylon_scene`` for ``gltf``/``babylon``."""
+    writes cube maps (``CUBES``; not ``mapping`` for :data:`FIXED_LOD_MAPPING`),
+    ``babylon_scene`` for ``gltf``/``babylon``."""
     reads = set()
     if target_module(target).CUBES is not None:
         reads |= {"env_path", "size", "floor", "samples", "sun_radius_deg"}
-        if target != "filament":
+        if target not in FIXED_LOD_MAPPING:
             reads.add("mapping")
     if target in ("gltf", "babylon"):
         reads.add("babylon_scene")
@@ -43,14 +47,14 @@ def options_of_target(target: str) -> frozenset:
 
 def cube_settings(target: str, size=None, floor=None, samples=None, mapping=None) -> dict | None:
     """The cube-chain settings of ``target`` (its ``CUBES`` with the given ones replacing them;
-    ``filament`` always takes Filament's mapping), checked (:func:`check_chain`: a
-    :class:`~shbake.errors.ParameterError` before any input is read); ``None`` for a target
-    without cube maps."""
+    :data:`FIXED_LOD_MAPPING` targets always take their engine's mapping), checked
+    (:func:`check_chain`: a :class:`~shbake.errors.ParameterError` before any input is read);
+    ``None`` for a target without cube maps."""
     cubes = target_module(target).CUBES
     if cubes is None:
         return None
     given = {"size": size, "floor": floor, "samples": samples}
-    if target != "filament":
+    if target not in FIXED_LOD_MAPPING:
         given["mapping"] = mapping
     cfg = dict(cubes) | {k: v for k, v in given.items() if v is not None}
     check_chain(cfg["size"], cfg["floor"], cfg["samples"])
@@ -89,7 +93,7 @@ def export_assets(
         Radius the asset's sun was extracted with (to rebuild its residual map).
     size, floor, samples, mapping
         Cube chain settings; ``None`` takes the target's ``CUBES`` defaults
-        (``filament`` always uses Filament's mapping).
+        (:data:`FIXED_LOD_MAPPING` targets always use their engine's).
     explicit
         Names of the settings the caller set on purpose (the command line's); one
         of :data:`TARGET_OPTIONS` that ``target`` does not read raises
@@ -131,6 +135,10 @@ def export_assets(
                 samples=cfg["samples"],
                 rotation=src.cube_rotation,
             )
+            if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
+                levels, rough = extend_chain(levels, rough)
+            if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
+                levels, rough = extend_chain(levels, rough)
             extra.update(levels=levels, roughness=rough, mapping=cfg["mapping"])
             if target == "ktx2":
                 extra["dfg_table"] = dfg_table()
@@ -138,4 +146,10 @@ def export_assets(
     return written
 
 
-__all__ = ["TARGET_OPTIONS", "cube_settings", "export_assets", "options_of_target"]
+__all__ = [
+    "FIXED_LOD_MAPPING",
+    "TARGET_OPTIONS",
+    "cube_settings",
+    "export_assets",
+    "options_of_target",
+]

@@ -17,8 +17,6 @@ import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
-import numba
-
 from shbake import signals
 from shbake.bakers.shexp import FitConfig, FitPlan
 from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
@@ -29,6 +27,7 @@ from shbake.format.asset import write_asset
 from shbake.format.atomic import collected, detached, refuse_same_file
 from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
+from shbake.jit import use_one_thread
 from shbake.resources import check_memory
 
 JOBS_LIMIT = (os.cpu_count() or 1) * 4
@@ -138,7 +137,7 @@ def _warm_plan_cache(jobs: list[ProbeJob], n_jobs: int = 1) -> None:
 
 def _single_thread():
     signals.worker_init()
-    numba.set_num_threads(1)
+    use_one_thread()
 
 
 STOP_SECONDS = 5.0

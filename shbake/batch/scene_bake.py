@@ -50,6 +50,7 @@ from shbake.format.atomic import (
     transaction,
     write_text,
 )
+from shbake.jit import use_one_thread
 
 ASSET_ID = rf"[a-z_]+(?:/{NAME_PATTERN})+"
 """An asset id: its kind, then the names it is baked for (``shrm/satin/dusk``)."""
@@ -287,9 +288,7 @@ def _dask_bake(asset: dict, sources: dict[str, bytes]) -> tuple[dict, dict[str, 
     relative to the asset's folder, for the client to write (the worker writes nothing
     where outputs go, :mod:`shbake.batch.scheduler`). ``sources``: the bytes of inputs that
     this run baked earlier (the env_sh asset of an export), not yet committed."""
-    import numba
-
-    numba.set_num_threads(1)
+    use_one_thread()
     with collected() as outputs:
         for path, data in sources.items():
             outputs.adopt(path, data)

@@ -53,7 +53,6 @@ import itertools
 import time
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
 from shbake.brdf.dispatch import brdf_eval, brdf_eval_pdf, lobe_line, lobe_sample_on_line
@@ -61,10 +60,11 @@ from shbake.brdf.model import BRDF
 from shbake.brdf.sampling import cosine_pdf
 from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, check_lmax, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import clock_ticks, jit, pjit, run_blocks
+from shbake.jit import jit, run_blocks
 from shbake.resources import check_memory
 from shbake.sh.basis import recurrence_tables, sh_eval_into
 from shbake.sh.point_sets import gauss_legendre_unit
+from shbake.simd import clock_ticks
 from shbake.texture.parabolic import check_resolution, texel_views
 
 MAX_SAMPLES_LIMIT = 1 << 22
@@ -188,11 +188,11 @@ def _azimuth_rule(model, prm, vx, vy, vz, n_a):
     return nodes, weights
 
 
-@pjit
-def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, out):
+@jit
+def _integrate(model, prm, data, has_lobe, views, lmax, qmm, a, b, gx, gw, n_a, out, b0, b1):
     """``out[v] = c(v)`` by the two product rules; ``gx, gw`` GL nodes/weights on [0, 1]."""
     n = (lmax + 1) * (lmax + 1)
-    for iv in numba.prange(views.shape[0]):
+    for iv in range(b0, b1):
         y = np.empty(n)
         f = np.empty(3)
         acc = np.zeros((n, 3))
@@ -434,7 +434,7 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
 
     Returns ``(steps, error estimate, samples)``; ``out`` gets the coefficients,
     ``hist[k] = (hemisphere points, lobe points, estimate, ticks)`` per step, ``ticks``
-    the :func:`~shbake.jit.clock_ticks` spent on this view up to the step's estimate.
+    the :func:`~shbake.simd.clock_ticks` spent on this view up to the step's estimate.
     """
     start = clock_ticks()
     n = (lmax + 1) * (lmax + 1)
@@ -682,15 +682,16 @@ def project_views(
     rules = []  # the half rule (for the error estimate), then the full one
     for n_samples in (n_half, 2 * n_half):
         nr = radial_nodes(n_samples)
-        rules.append((*gauss_legendre_unit(nr), 2 * nr))
+        rules.append((*gauss_legendre_unit(nr), nr))
     prev, coeffs = (np.empty((v.shape[0], n_coeffs(lmax), 3)) for _ in rules)
     cuts = np.unique(np.linspace(0, v.shape[0], (ADVANCE_STEPS if advance else 1) + 1,
                                  dtype=int))  # fmt: skip
     for i0, i1 in zip(cuts[:-1], cuts[1:], strict=True):
         sub = np.ascontiguousarray(v[i0:i1])
-        for (gx, gw, n_azimuth), out in zip(rules, (prev, coeffs), strict=True):
-            _integrate(model, prm, data, brdf.spec.has_lobe, sub, lmax, qmm, a, b, gx, gw,
-                       n_azimuth, out[i0:i1])  # fmt: skip
+        for (gx, gw, nr), out in zip(rules, (prev, coeffs), strict=True):
+            run_blocks(_integrate, i1 - i0, (i1 - i0) * out[0].size * nr * nr * 16.0, model,
+                       prm, data, brdf.spec.has_lobe, sub, lmax, qmm, a, b, gx, gw, 2 * nr,
+                       out[i0:i1])  # fmt: skip
         if advance is not None:
             advance(int(i1 - i0))
     errors = SQRT_4PI * np.max(np.abs(coeffs - prev), axis=(1, 2))

@@ -13,7 +13,9 @@ from shbake.messages import warn
 HALF_MAX = 65504.0
 
 
-def clamp_to_half(levels: list, path: str) -> list:
+def clamp_to_half(
+    levels: list, path: str, limit: float = HALF_MAX, kind: str = "half-float"
+) -> list:
     """Engine texture levels for a half-float file ``path``: values beyond ±65504 (the largest
     half float) clamped, with ONE warning line on stderr (how many, the peak, what to do).
 
@@ -23,22 +25,23 @@ def clamp_to_half(levels: list, path: str) -> list:
     better sent as a light (``--extract-sun``, the scene planner does when it finds one).
     Non-finite values are refused (:class:`OutputError`): they are a bug, not a bright map.
     Levels that need no clamp are returned as they are (same bytes as before).
+    ``limit``/``kind``: another format's largest value and name (Babylon's RGBD, 255).
     """
     out, count, peak = [], 0, 0.0
     for lv in levels:
         a = np.asarray(lv, dtype=np.float64)
         if not np.all(np.isfinite(a)):
             raise OutputError(f"{path}: refusing to write non-finite values")
-        over = np.abs(a) > HALF_MAX
+        over = np.abs(a) > limit
         if np.any(over):
             count += int(np.count_nonzero(over))
             peak = max(peak, float(np.abs(a).max()))
-            a = np.clip(a, -HALF_MAX, HALF_MAX)
+            a = np.clip(a, -limit, limit)
         out.append(a)
     if count:
         warn(
-            f"{path}: {count} values above the half-float maximum 65504 (peak {peak:.6g}) "
-            "clamped to 65504; send a sun as a light (--extract-sun) to keep its energy"
+            f"{path}: {count} values above the {kind} maximum {limit:g} (peak {peak:.6g}) "
+            f"clamped to {limit:g}; send a sun as a light (--extract-sun) to keep its energy"
         )
     return out
 

@@ -5,17 +5,16 @@ texel of the original map (exact cell solid angles, SPEC §3), with ``R_p``
 the world → local frame of pixel ``p``. Independent of the SH machinery.
 """
 
-import numba
 import numpy as np
 
 from shbake.brdf.dispatch import brdf_eval
 from shbake.brdf.model import BRDF
-from shbake.jit import pjit
+from shbake.jit import jit, run_blocks
 
 
-@pjit
-def _shade(dirs, omega, radiance, frames, views, model, prm, data, out):
-    for p in numba.prange(frames.shape[0]):
+@jit
+def _shade(dirs, omega, radiance, frames, views, model, prm, data, out, b0, b1):
+    for p in range(b0, b1):
         f = np.empty(3)
         R = frames[p]
         vx, vy, vz = views[p, 0], views[p, 1], views[p, 2]
@@ -45,7 +44,10 @@ def brute_force_shading(dirs, omega, radiance, frames, views_local, brdf: BRDF) 
     views_local : (P, 3) unit view directions in the local frames, ``z > 0``.
     """
     out = np.zeros((len(frames), 3))
-    _shade(
+    run_blocks(
+        _shade,
+        len(frames),
+        len(frames) * len(dirs) * 60.0,
         np.ascontiguousarray(dirs, dtype=float),
         np.ascontiguousarray(omega, dtype=float),
         np.ascontiguousarray(radiance, dtype=float),

@@ -25,7 +25,6 @@ of the piecewise-constant map — the brute-force texel sum of
 :mod:`shbake.reference.brdf_shading`.
 """
 
-import numba
 import numpy as np
 
 from shbake.brdf.ggx import check_geometry, sample_light, vndf_terms
@@ -34,7 +33,7 @@ from shbake.conventions import ROUGHNESS_MIN, check_samples
 from shbake.envmap.importance import latlong_flat, light_distribution
 from shbake.envmap.layouts import latlong_texel, latlong_texel_point
 from shbake.errors import ParameterError
-from shbake.jit import pjit
+from shbake.jit import jit, run_blocks
 from shbake.sh.point_sets import fibonacci_square
 
 ALPHA_MIN = ROUGHNESS_MIN**2
@@ -54,13 +53,13 @@ def check_alpha(alpha, count: int | None = None, name: str = "alpha") -> np.ndar
     return a
 
 
-@pjit
+@jit
 def _integrate_mis(views, normals, alphas, square, pixels, height, width, cdf, density,
-                   out0, out1):  # fmt: skip
+                   out0, out1, b0, b1):  # fmt: skip
     """Balance-heuristic MIS of ``N`` visible-normal and ``N`` map samples (module docstring)."""
     n = square.shape[0]
     texels = cdf.shape[0]
-    for t in numba.prange(views.shape[0]):
+    for t in range(b0, b1):
         prm = np.zeros(6)
         prm[3] = prm[4] = alphas[t]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
@@ -124,5 +123,6 @@ def ggx_integrals(pixels, views, normals, alpha, samples: int = 4096):
     e0 = np.empty((v.shape[0], 3))
     e1 = np.empty((v.shape[0], 3))
     cdf, density = light_distribution(flat, h, w)
-    _integrate_mis(v, n, a, fibonacci_square(samples), flat, h, w, cdf, density, e0, e1)
+    run_blocks(_integrate_mis, v.shape[0], v.shape[0] * samples * 400.0,
+               v, n, a, fibonacci_square(samples), flat, h, w, cdf, density, e0, e1)  # fmt: skip
     return e0, e1

@@ -9,16 +9,16 @@ in the texel size (shown in ``tests/test_reference.py``).
 
 import numpy as np
 
-from shbake.jit import pjit, prange
+from shbake.jit import jit, run_blocks
 
 INV_PI2 = 1.0 / (np.pi * np.pi)
 
 
-@pjit
-def _brute_force(dirs, lw, queries, tangent, out):
+@jit
+def _brute_force(dirs, lw, queries, tangent, out, b0, b1):
     """Check-free kernel: ``lw`` is radiance × solid angle ``(N, 3)``, queries unit ``(M, 3)``."""
     n = dirs.shape[0]
-    for q in prange(queries.shape[0]):
+    for q in range(b0, b1):
         qx, qy, qz = queries[q, 0], queries[q, 1], queries[q, 2]
         r = 0.0
         g = 0.0
@@ -67,5 +67,6 @@ def brute_force_irradiance(dirs, solid_angles, radiance, normals, tangent: bool 
     q = np.asarray(normals, dtype=np.float64)
     flat = np.ascontiguousarray(q.reshape(-1, 3))
     out = np.empty((flat.shape[0], 3))
-    _brute_force(d, lw, flat, tangent, out)
+    run_blocks(_brute_force, flat.shape[0], flat.shape[0] * d.shape[0] * 10.0,
+               d, lw, flat, tangent, out)  # fmt: skip
     return out.reshape(q.shape[:-1] + (3,))

@@ -49,12 +49,11 @@ import numpy as np
 
 from shbake.conventions import check_lmax, lmax_of, n_coeffs, unit_vectors
 from shbake.errors import ParameterError
-from shbake.jit import (
+from shbake.jit import jit, run_blocks
+from shbake.simd import (
     LANES,
     aligned_empty,
     inline_into_callers,
-    jit,
-    run_blocks,
     stream_fence,
     stream_store,
     vload,
@@ -337,8 +336,8 @@ def _sum_block(s, nv, wg, lmax):
     group of :func:`_evaluate_weights`) at the ``nv`` unit directions in rows ``X, Y, Z``
     (``nv`` a multiple of ``LANES``). Check-free.
 
-    The directions are taken :data:`~shbake.jit.LANES` at a time as explicit
-    vectors (:func:`~shbake.jit.vload`) that stay in registers for the whole
+    The directions are taken :data:`~shbake.simd.LANES` at a time as explicit
+    vectors (:func:`~shbake.simd.vload`) that stay in registers for the whole
     sum: per order ``m``, the rescaled recurrence ``R_l = z R_{l-1} - β_lm
     R_{l-2}`` runs down the column ``l = m … lmax`` and each ``R_l`` is added
     into the partial sums ``P±_c += w±_c R_l`` (``P-`` only for ``m > 0``),

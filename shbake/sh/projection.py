@@ -29,13 +29,14 @@ import numpy as np
 
 from shbake.conventions import band_of_index, check_lmax, n_coeffs
 from shbake.errors import ParameterError
-from shbake.jit import (
+from shbake.jit import jit, run_blocks
+from shbake.sh.basis import legendre_next, real_sh, real_sh_numba, recurrence_tables
+from shbake.sh.rotation import SHRotation
+from shbake.simd import (
     LANES,
     aligned_empty,
     inline_into_callers,
-    jit,
     prefetch,
-    run_blocks,
     vload,
     vload_channels,
     vsplat,
@@ -43,8 +44,6 @@ from shbake.jit import (
     vsum,
     wide_vectors,
 )
-from shbake.sh.basis import legendre_next, real_sh, real_sh_numba, recurrence_tables
-from shbake.sh.rotation import SHRotation
 
 IMAGE_FRAME = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """Rotation taking world directions to the lat-long image frame: ``d' = IMAGE_FRAME @ d``,
@@ -86,7 +85,7 @@ def azimuth_tables(width: int, lmax: int) -> tuple[np.ndarray, np.ndarray]:
     """``cos(mφ'_j)``, ``sin(mφ'_j)`` as ``(lmax+1, n)`` rows; ``φ'_j = -2π(j+½)/W``.
 
     ``n = W/4`` when ``W % 4 == 0`` (the quarter-fold kernel), else ``⌈W/2⌉``,
-    each row zero-padded to a multiple of :data:`~shbake.jit.LANES` and the
+    each row zero-padded to a multiple of :data:`~shbake.simd.LANES` and the
     arrays 64-byte aligned (whole vector loads). Column ``W-1-j`` has ``φ' =
     -φ'_j`` (same cos, opposite sin); for ``W % 4 == 0`` column ``W/2-1-j``
     has ``φ' = -π-φ'_j`` (cos × ``(-1)^m``, sin × ``-(-1)^m``). Read-only.
@@ -320,7 +319,7 @@ def _row_sums_quarter(img, cos_t, sin_t, out, b0, b1):
 
     The fold reads four runs per block: columns ``j`` and ``W/2+j`` forwards,
     ``W-1-j`` and ``W/2-1-j`` backwards. RGB is folded ``LANES`` columns at a
-    time on explicit vectors (:func:`~shbake.jit.vload_channels`: one load of
+    time on explicit vectors (:func:`~shbake.simd.vload_channels`: one load of
     the interleaved pixels, channels split and, for the backward runs,
     reversed in registers, widened to float64); other channel counts and the
     last columns of a block one value at a time (unsigned indices: no

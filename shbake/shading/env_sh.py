@@ -17,7 +17,7 @@ Kernels are check-free: directions unit, arrays from a validated asset.
 
 import numpy as np
 
-from shbake.jit import jit, pjit, prange
+from shbake.jit import jit, run_blocks
 from shbake.sh.basis import evaluate
 
 INV_PI2 = 1.0 / (np.pi * np.pi)
@@ -36,9 +36,9 @@ def sun_tangent(c):
     return np.sqrt(np.maximum(0.0, 1.0 - c * c)) * INV_PI2
 
 
-@pjit
-def _matrix_with_lights(tangents, M, light_dirs, light_energy, out):
-    for p in prange(tangents.shape[0]):
+@jit
+def _matrix_with_lights(tangents, M, light_dirs, light_energy, out, b0, b1):
+    for p in range(b0, b1):
         t = (tangents[p, 0], tangents[p, 1], tangents[p, 2], 1.0)
         for ch in range(3):
             e = 0.0
@@ -98,5 +98,6 @@ def tangent_irradiance_matrix(asset, tangents) -> np.ndarray:
     d, flat = _flat(tangents)
     out = np.empty((flat.shape[0], 3))
     dirs, energy = lights_of(asset)
-    _matrix_with_lights(flat, M, np.ascontiguousarray(dirs), np.ascontiguousarray(energy), out)
+    run_blocks(_matrix_with_lights, flat.shape[0], flat.shape[0] * (110.0 + 20.0 * len(dirs)),
+               flat, M, np.ascontiguousarray(dirs), np.ascontiguousarray(energy), out)  # fmt: skip
     return out.reshape(d.shape[:-1] + (3,))

@@ -8,11 +8,10 @@ lies outside the disc hold the value of the horizon direction ``(p/|p|, 0)``,
 so bilinear filtering at the rim blends only valid values.
 """
 
-import numba
 import numpy as np
 
 from shbake.errors import ParameterError
-from shbake.jit import jit, pjit
+from shbake.jit import jit, run_blocks
 from shbake.texture.bilinear import axis, blend
 
 VIEW_Z_MIN = 1e-4
@@ -86,9 +85,9 @@ def fetch_into(table, vx, vy, vz, out):
             )  # fmt: skip
 
 
-@pjit
-def _fetch_many(table, views, out):
-    for k in numba.prange(views.shape[0]):
+@jit
+def _fetch_many(table, views, out, b0, b1):
+    for k in range(b0, b1):
         fetch_into(table, views[k, 0], views[k, 1], views[k, 2], out[k])
 
 
@@ -101,5 +100,5 @@ def fetch(table: np.ndarray, views) -> np.ndarray:
     flat = np.ascontiguousarray(v.reshape(-1, 3))
     t = np.ascontiguousarray(table, dtype=np.float64)
     out = np.empty((flat.shape[0],) + t.shape[2:])
-    _fetch_many(t, flat, out)
+    run_blocks(_fetch_many, flat.shape[0], out.size * 8.0, t, flat, out)
     return out.reshape(v.shape[:-1] + t.shape[2:])

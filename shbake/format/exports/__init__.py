@@ -15,13 +15,15 @@ from shbake.errors import ParameterError
 
 TARGETS = {
     "gltf": "shbake.format.exports.gltf",
-    "babylon": "shbake.format.exports.gltf",
+    "babylon": "shbake.format.exports.babylon",
     "threejs": "shbake.format.exports.threejs",
+    "threejs-pmrem": "shbake.format.exports.three_pmrem",
     "ktx2": "shbake.format.exports.ktx2",
     "filament": "shbake.format.exports.filament",
     "unity": "shbake.format.exports.unity",
 }
-"""Target name → module (``babylon`` = the glTF export: Babylon implements the extension)."""
+"""Target name → module (``babylon``: the glTF export, Babylon implements the extension, or
+Babylon's ``.env``)."""
 
 
 def target_module(name: str):

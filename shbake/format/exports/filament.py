@@ -1,7 +1,7 @@
 """Filament export: cmgen's ``sh.txt``, KTX1 IBL and skybox cube maps with the SH in their metadata.
 
-Derived from Filament's own source (``docs/EXPORTS.md``); Filament itself is
-not run by the tests (no node build of its renderer evaluates IBL on the CPU):
+Derived from Filament's own source (``docs/EXPORTS.md``) and rendered by Filament 1.53.4 in
+a browser by ``tests/test_engine_render.py``:
 
 * ``IndirectLight::Builder::irradiance(3, sh)`` and the shader's
   ``irradianceSH(n) = sh0 + sh1 y + sh2 z + sh3 x + sh4 yx + sh5 yz + sh6 (3z²−1)
@@ -22,12 +22,22 @@ not run by the tests (no node build of its renderer evaluates IBL on the CPU):
   fixed, 15 decimals, width 18. KTX1 metadata ``sh``: nine ``"r g b\\n"`` lines
   (``iblRoughnessPrefilter``: ``container.setMetadata("sh", …)``), read by
   ``Ktx1Bundle::getSphericalHarmonics``.
-* Cube maps: KTX 1.1, ``GL_RGBA16F``/``GL_HALF_FLOAT``, faces +X, −X, +Y, −Y,
-  +Z, −Z in GL orientation, texel at GL direction ``g`` showing world
-  ``(−g_x, g_y, g_z)`` (:mod:`shbake.bakers.cube_prefilter`); ``_ibl.ktx`` holds
-  the GGX chain with Filament's roughness↔LOD mapping (``lod = r(2 − r)``),
-  ``_skybox.ktx`` the mirror level. The cube orientation is not verified in
-  Filament.
+* Cube maps: KTX 1.1 as cmgen writes them (``tools/cmgen/src/cmgen.cpp``
+  ``iblRoughnessPrefilter``/``exportKtxFaces``): ``R11F_G11F_B10F`` texels
+  (``GL_UNSIGNED_INT_10F_11F_11F_REV`` packing, :func:`pack_r11g11b10`; ``glType`` and
+  ``glInternalFormat`` ``0x8C3A``, ``glFormat`` RGB, read by ``libs/ktxreader``
+  ``Ktx1Reader.cpp`` ``toPixelDataType``/``toPixelDataFormat``), one of the formats
+  Filament's web ``createIblFromKtx1`` expects (``web/filament-js/utilities.js``; it warns
+  for any other). Faces +X, −X, +Y, −Y, +Z, −Z, each a GL face **mirrored in x**
+  (:func:`filament_faces`): Filament samples world ``d`` at GL ``d`` itself, where
+  shbake's cubes (three.js's convention) hold world ``(−g_x, g_y, g_z)`` at GL ``g``.
+  ``_ibl.ktx`` holds the GGX chain with Filament's roughness↔LOD mapping
+  (``lod = (levels − 1) r(2 − r)``), 256² to 16² faces as cmgen's defaults
+  (``IBL_DEFAULT_SIZE``, ``IBL_DEFAULT_MIN_LOD_SIZE``); ``_skybox.ktx`` the mirror level.
+* SH: ``createIblFromKtx1`` reads the ``sh`` metadata into ``ibl.shfloats`` and never
+  gives it to the light (Filament 1.53.4 ``filament.js`` ``_createIblFromKtx1``), so the
+  light's diffuse would come from the reflections' roughest level: ``docs/EXPORTS.md``'s
+  snippet builds the light with ``irradianceSh(3, sh)``.
 * Sun: ``<stem>_sun.json`` for a ``LightManager::Type::SUN``: ``direction`` is
   where the light travels (−toward-sun), ``intensity`` in lux = the largest
   channel of the sun's irradiance, ``color`` = irradiance / intensity.
@@ -48,7 +58,9 @@ from shbake.sh.basis import real_sh
 
 EXTENSION = "_sh.txt"
 KTX1_IDENTIFIER = bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x31, 0x31, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A])
-GL_HALF_FLOAT, GL_RGBA, GL_RGBA16F = 0x140B, 0x1908, 0x881A
+GL_RGB, GL_R11F_G11F_B10F = 0x1907, 0x8C3A
+R11G11B10_MAX = 64512.0
+"""The largest value all three channels hold (a 10-bit float: exponent 30, mantissa 31/32)."""
 _NAMES = ["L00", "L1-1", "L10", "L11", "L2-2", "L2-1", "L20", "L21", "L22"]
 
 
@@ -80,8 +92,29 @@ def sh_metadata(sh: np.ndarray) -> str:
     return "".join(f"{r:.9g} {g:.9g} {b:.9g}\n" for r, g, b in sh)
 
 
+def pack_r11g11b10(rgb: np.ndarray) -> np.ndarray:
+    """Non-negative ``(…, 3)`` floats ≤ :data:`R11G11B10_MAX` as ``uint32`` texels of
+    ``GL_UNSIGNED_INT_10F_11F_11F_REV``: R in bits 0–10 and G in 11–21 (5-bit exponent,
+    6-bit mantissa), B in 22–31 (5-bit mantissa), bias 15 — a half float with its mantissa
+    rounded to 6 (5) bits (GL ES 3.0 §2.1.3–2.1.4)."""
+    h = np.clip(np.asarray(rgb, dtype=np.float64), 0.0, None).astype(np.float16)
+    bits = h.view(np.uint16).astype(np.uint32)
+    r = (bits[..., 0] + 0x8) >> 4
+    g = (bits[..., 1] + 0x8) >> 4
+    b = (bits[..., 2] + 0x10) >> 5
+    return (r | (g << 11) | (b << 22)).astype("<u4")
+
+
+def filament_faces(level: np.ndarray) -> np.ndarray:
+    """A cube level ``(6, n, n, 3)`` in shbake's convention as Filament samples it: mirrored
+    in x (±X faces swapped, every face's columns reversed: GL ``(s, t)`` on +X is
+    ``(−s, t)`` on −X, and ``s`` runs along ±x or z on the others)."""
+    return np.asarray(level)[[1, 0, 2, 3, 4, 5], :, ::-1]
+
+
 def encode_ktx1(levels: list[np.ndarray], kv: dict) -> bytes:
-    """KTX 1.1 bytes of an RGBA16F cube map; ``levels[i]`` is ``(6, n, n, 4)``."""
+    """KTX 1.1 bytes of an ``R11F_G11F_B10F`` cube map (cmgen's header); ``levels[i]`` is
+    ``(6, n, n, 3)``, Filament's face orientation, values within :data:`R11G11B10_MAX`."""
     n0 = levels[0].shape[1]
     kvd = b""
     for k in sorted(kv):
@@ -90,11 +123,11 @@ def encode_ktx1(levels: list[np.ndarray], kv: dict) -> bytes:
     out = KTX1_IDENTIFIER + struct.pack(
         "<13I",
         0x04030201,
-        GL_HALF_FLOAT,
-        2,
-        GL_RGBA,
-        GL_RGBA16F,
-        GL_RGBA,
+        GL_R11F_G11F_B10F,  # glType: Filament's Ktx1Reader reads this value, as cmgen writes
+        1,
+        GL_RGB,
+        GL_R11F_G11F_B10F,
+        GL_RGB,
         n0,
         n0,
         0,
@@ -106,21 +139,17 @@ def encode_ktx1(levels: list[np.ndarray], kv: dict) -> bytes:
     out += kvd
     for lv in levels:
         a = np.asarray(lv, dtype=np.float64)
-        if not np.all(np.isfinite(a)) or np.abs(a).max() > 65504.0:
-            raise OutputError("KTX level has values that half floats cannot hold")
-        faces = [a[f].astype("<f2").tobytes() for f in range(6)]
+        if not np.all(np.isfinite(a)) or a.max() > R11G11B10_MAX:
+            raise OutputError("KTX level has values that R11F_G11F_B10F cannot hold")
+        faces = [pack_r11g11b10(a[f]).tobytes() for f in range(6)]
         out += struct.pack("<I", len(faces[0]))  # imageSize: one face (non-array cube map)
-        for data in faces:
-            out += data + b"\0" * (-len(data) % 4)
+        out += b"".join(faces)  # 4-byte texels: no face or mip padding
     return out
 
 
-def _rgba(level: np.ndarray) -> np.ndarray:
-    return np.concatenate([level, np.ones(level.shape[:-1] + (1,))], axis=-1)
-
-
-CUBES = {"size": 128, "floor": 1, "samples": 512, "mapping": "filament"}
-"""The cube chain this target wants: Filament's roughness↔LOD mapping (always)."""
+CUBES = {"size": 256, "floor": 4, "samples": 512, "mapping": "filament"}
+"""The cube chain this target wants: cmgen's sizes (256² to 16²), Filament's roughness↔LOD
+mapping (always)."""
 
 
 def write(
@@ -144,8 +173,8 @@ def write(
         rough = roughness
         kv = {"sh": sh_metadata(sh), "shbake.roughness": json.dumps([round(r, 9) for r in rough])}
         for path, lv in ((stem + "_ibl.ktx", levels), (stem + "_skybox.ktx", levels[:1])):
-            lv = clamp_to_half(lv, path)
-            payload = encode_ktx1([_rgba(x) for x in lv], kv)
+            lv = clamp_to_half(lv, path, limit=R11G11B10_MAX, kind="R11F_G11F_B10F")
+            payload = encode_ktx1([filament_faces(x) for x in lv], kv)
             with atomic_path(path) as tmp, open(tmp, "wb") as f:
                 f.write(payload)
             written.append(path)
@@ -178,4 +207,13 @@ def _light_entry(kind: str, direction, irradiance) -> dict:
     }
 
 
-__all__ = ["basis_constants", "encode_ktx1", "filament_sh", "sh_metadata", "sh_text", "write"]
+__all__ = [
+    "basis_constants",
+    "encode_ktx1",
+    "filament_faces",
+    "filament_sh",
+    "pack_r11g11b10",
+    "sh_metadata",
+    "sh_text",
+    "write",
+]

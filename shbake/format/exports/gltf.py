@@ -18,11 +18,20 @@ each step checked in Babylon's own code by ``tests/test_exports.py``):
   the albedo: a Lambert surface shows ``ρ E / π``, so the coefficients are
   irradiance ``E`` (radiance × sr, "lux").
 * ``specularImages``: shbake's GGX prefiltered cube mip chain
-  (:mod:`shbake.bakers.cube_prefilter`), RGBD PNGs (the extension's HDR
-  packing: ``rgb = (c·D)^(1/2.2)``, ``a = D``, ``D = floor(max(255/max(c), 1))/255``,
-  Babylon's ``toRGBD``), faces +X, −X, +Y, −Y, +Z, −Z in GL orientation.
+  (:mod:`shbake.bakers.cube_prefilter`), levels at the roughness Babylon's shader
+  reads each one for (``mapping = "babylon"``: ``lod = s · log2(N0 (r² + 0.0005))``,
+  the loader's ``lodGenerationScale s = (levels − 1)/log2(N0)``), RGBD PNGs (the
+  extension's HDR packing: ``rgb = (c·D)^(1/2.2)``, ``a = D``,
+  ``D = floor(max(255/max(c), 1))/255``, Babylon's ``toRGBD``), faces +X, −X, +Y,
+  −Y, +Z, −Z, **each stored bottom row first** (:func:`babylon_faces`): Babylon
+  uploads an image's top row at the face's ``t = 1`` edge, GL's last row. Babylon's
+  left-handed world is shbake's with ``x`` mirrored (the loader's root node), so it
+  samples world ``d`` at GL ``(−d_x, d_y, d_z)``, shbake's cube convention.
   ``intensity`` is the power of two that brings the brightest texel within
   RGBD's range 255 (1 when it already is); images store ``radiance / intensity``.
+  The loader leaves the texture's ``gammaSpace = true`` (a ``RawCubeTexture``), so
+  the shader would gamma-decode the already linear radiance once more
+  (``GAMMAREFLECTION``): the snippet of ``docs/EXPORTS.md`` sets it to ``false``.
 * With an extracted sun: a ``KHR_lights_punctual`` directional light whose
   node's +Z points at the sun (glTF lights shine along −Z), ``intensity``
   = the largest channel of its irradiance (lux) and ``color`` = irradiance /
@@ -33,19 +42,25 @@ each step checked in Babylon's own code by ``tests/test_exports.py``):
 import json
 import math
 import os
+import struct
 
 import numpy as np
 
 from shbake.errors import ParameterError
-from shbake.format.atomic import write_text
+from shbake.format.atomic import atomic_path, write_text
 from shbake.format.exports.source import ExportSource, require_sh
-from shbake.format.images import write_png
 
 EXTENSION = ".gltf"
 BABYLON_SIGNS = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1], dtype=np.float64)
 """Per-coefficient sign from shbake's basis to Babylon's reading (indices 1, 4, 5 flip)."""
 RGBD_MAX = 255.0
 GAMMA = 2.2
+
+
+def rgbd_intensity(levels: list[np.ndarray]) -> float:
+    """The power of two (≥ 1) that brings the chain's brightest texel within RGBD's 255."""
+    peak = max(float(np.max(lv)) for lv in levels)
+    return 1.0 if peak <= RGBD_MAX else float(2.0 ** math.ceil(math.log2(peak / RGBD_MAX)))
 
 
 def babylon_coefficients(irradiance9: np.ndarray, intensity: float = 1.0) -> np.ndarray:
@@ -61,6 +76,36 @@ def rgbd_encode(img: np.ndarray) -> np.ndarray:
     rgb = np.clip((c * D[..., None]) ** (1.0 / GAMMA), 0.0, 1.0)
     out = np.concatenate([rgb, D[..., None]], axis=-1)
     return np.round(out * 255.0).astype(np.uint8)
+
+
+def babylon_faces(level: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """One cube level ``(6, n, n, 3)`` (shbake's GL face orientation, radiance ``× scale``)
+    as the RGBD images Babylon.js uploads: ``uint8 (6, n, n, 4)``, rows bottom first."""
+    return rgbd_encode(np.asarray(level, dtype=np.float64)[:, ::-1] * scale)
+
+
+def png_rgba8(px: np.ndarray) -> bytes:
+    """An 8-bit RGBA image ``(h, w, 4)`` as PNG bytes (PNG 1.2: no colour chunk, filter 0,
+    zlib level 9; the same pixels give the same bytes)."""
+    import zlib
+
+    px = np.ascontiguousarray(px, dtype=np.uint8)
+    h, w, _ = px.shape
+    rows = np.concatenate([np.zeros((h, 1), np.uint8), px.reshape(h, 4 * w)], axis=1)
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    header = struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+            + chunk(b"IDAT", zlib.compress(rows.tobytes(), 9)) + chunk(b"IEND", b""))  # fmt: skip
+
+
+def write_bytes(path: str, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (:func:`shbake.format.atomic.atomic_path`)."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        f.write(data)
 
 
 def rgbd_decode(px: np.ndarray) -> np.ndarray:
@@ -99,8 +144,12 @@ def punctual_lights(src: ExportSource) -> list[tuple[dict, dict]]:
     return out
 
 
-CUBES = {"size": 64, "floor": 8, "samples": 256, "mapping": "gltf-ibl-sampler"}
-"""Default specular chain (the extension spaces its levels evenly in roughness 0…1)."""
+CUBES = {"size": 256, "floor": 8, "samples": 512, "mapping": "babylon"}
+"""Default specular chain: 256² to 8² faces at Babylon's roughness per level (``α = 1`` at
+8²: Babylon blends two bilinear levels, and 4² or 2² faces are too coarse for the rough
+lobes: forest r 0.6, 4.5 % median with the chain down to 1², 0.8 % down to 8²).
+``--lod-mapping gltf-ibl-sampler`` spaces the levels evenly in roughness 0…1, the
+extension's text, for other viewers."""
 
 
 def write(
@@ -108,7 +157,7 @@ def write(
     out: str,
     levels: list[np.ndarray],
     roughness: list[float],
-    mapping: str = "gltf-ibl-sampler",
+    mapping: str = "babylon",
     babylon_scene: str = "left-handed",
     **_ignored,
 ) -> list[str]:
@@ -133,17 +182,16 @@ def write(
         )
     rough = roughness
     size = int(levels[0].shape[1])
-    peak = max(float(lv.max()) for lv in levels)
-    intensity = 1.0 if peak <= RGBD_MAX else float(2.0 ** math.ceil(math.log2(peak / RGBD_MAX)))
+    intensity = rgbd_intensity(levels)
     stem = os.path.splitext(os.path.basename(out))[0]
     directory = os.path.dirname(os.path.abspath(out))
     images, spec, written = [], [], []
     for m, lv in enumerate(levels):
-        faces = []
+        faces, faces_rgbd = [], babylon_faces(lv, 1.0 / intensity)
         for f in range(6):
             name = f"{stem}_specular_{m}_{f}.png"
             path = os.path.join(directory, name)
-            write_png(path, rgbd_encode(lv[f] / intensity))
+            write_bytes(path, png_rgba8(faces_rgbd[f]))
             written.append(path)
             faces.append(len(images))
             images.append({"uri": name, "mimeType": "image/png"})
@@ -170,10 +218,9 @@ def write(
             }
         },
     }
-    used = ["EXT_lights_image_based"]
     doc = {
         "asset": {"version": "2.0", "generator": "shbake export"},
-        "extensionsUsed": used,
+        "extensionsUsed": ["EXT_lights_image_based"],
         "extensions": {"EXT_lights_image_based": {"lights": [ibl]}},
         "images": images,
         "nodes": [{"name": f"{src.name} environment"}],
@@ -182,12 +229,38 @@ def write(
             {"name": src.name, "nodes": [0], "extensions": {"EXT_lights_image_based": {"light": 0}}}
         ],
     }
-    lights = punctual_lights(src)
-    if lights:
-        used.append("KHR_lights_punctual")
-        doc["extensions"]["KHR_lights_punctual"] = {"lights": [light for light, _ in lights]}
-        for _, node in lights:
-            doc["scenes"][0]["nodes"].append(len(doc["nodes"]))
-            doc["nodes"].append(node)
+    add_lights(doc, src)
     write_text(out, json.dumps(doc, indent=1, sort_keys=True) + "\n")
     return [out, *written]
+
+
+def add_lights(doc: dict, src: ExportSource) -> bool:
+    """Add the source's lights (``KHR_lights_punctual``) to glTF ``doc``'s scene 0; False
+    when it has none."""
+    lights = punctual_lights(src)
+    if not lights:
+        return False
+    doc["extensionsUsed"].append("KHR_lights_punctual")
+    doc.setdefault("extensions", {})["KHR_lights_punctual"] = {
+        "lights": [light for light, _ in lights]
+    }
+    for _, node in lights:
+        doc["scenes"][0]["nodes"].append(len(doc["nodes"]))
+        doc["nodes"].append(node)
+    return True
+
+
+def write_lights(src: ExportSource, out: str) -> bool:
+    """A glTF holding only the source's lights (beside a Babylon ``.env``); False, and
+    nothing written, when it has none."""
+    doc = {
+        "asset": {"version": "2.0", "generator": "shbake export"},
+        "extensionsUsed": [],
+        "nodes": [],
+        "scene": 0,
+        "scenes": [{"name": src.name, "nodes": []}],
+    }
+    if not add_lights(doc, src):
+        return False
+    write_text(out, json.dumps(doc, indent=1, sort_keys=True) + "\n")
+    return True

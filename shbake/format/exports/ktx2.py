@@ -151,6 +151,22 @@ CUBE_LOOKUP = (
 )
 
 
+def write_cube_chain(
+    path: str, src: ExportSource, levels: list[np.ndarray], roughness: list[float], mapping: str
+) -> None:
+    """The prefiltered cube chain as an RGBA16F KTX2 cube (half-float overflow clamped),
+    each level's roughness and the LOD mapping in the key/value data."""
+    kv = {
+        "shbake.roughness": json.dumps([round(r, 9) for r in roughness]),
+        "shbake.lodMapping": mapping,
+        "shbake.cubeLookup": CUBE_LOOKUP,
+        "shbake.frame": src.frame,
+        "shbake.content": "GGX split-sum prefiltered radiance, level 0 = mirror (alpha 0), "
+        "filtered importance sampling",
+    }
+    write_ktx2(path, [_rgba(lv) for lv in clamp_to_half(levels, path)], cube=True, kv=kv)
+
+
 def write(
     src: ExportSource,
     out: str,
@@ -167,16 +183,7 @@ def write(
     """
     if not out.endswith(".ktx2"):
         raise ParameterError(f"{out}: the ktx2 export writes a .ktx2 file")
-    rough = roughness
-    kv = {
-        "shbake.roughness": json.dumps([round(r, 9) for r in rough]),
-        "shbake.lodMapping": mapping,
-        "shbake.cubeLookup": CUBE_LOOKUP,
-        "shbake.frame": src.frame,
-        "shbake.content": "GGX split-sum prefiltered radiance, level 0 = mirror (alpha 0), "
-        "filtered importance sampling",
-    }
-    write_ktx2(out, [_rgba(lv) for lv in clamp_to_half(levels, out)], cube=True, kv=kv)
+    write_cube_chain(out, src, levels, roughness, mapping)
     written = [out]
     if dfg_table is not None:
         written += write_dfg(os.path.splitext(out)[0] + "_dfg", dfg_table)
@@ -207,4 +214,11 @@ def write_dfg(stem: str, table: np.ndarray) -> list[str]:
     return [stem + ".ktx2", stem + ".exr"]
 
 
-__all__ = ["encode_ktx2", "read_ktx2_header", "write", "write_dfg", "write_ktx2"]
+__all__ = [
+    "encode_ktx2",
+    "read_ktx2_header",
+    "write",
+    "write_cube_chain",
+    "write_dfg",
+    "write_ktx2",
+]

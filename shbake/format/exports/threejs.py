@@ -25,6 +25,8 @@ with three's own ``ObjectLoader``, ``SphericalHarmonics3.getIrradianceAt``):
 * The probe's position (``probe_position`` of a scene probe, target frame) is the
   ``LightProbe``'s translation (``matrix`` elements 12–14, column-major); the sun
   lights are the scene's children, not the probe's, so they do not move with it.
+
+Glossy lighting for three is the ``threejs-pmrem`` target (:mod:`.three_pmrem`).
 """
 
 import json
