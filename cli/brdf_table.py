@@ -139,8 +139,20 @@ def brdf_table(ctx, model, output, params, as_json, quiet, **settings):
         emit_json(summary)
     else:
         info(
-            f"wrote {output}: {model} {tuple(summary['shape'])}, error estimate "
-            f"{summary['error_estimate']:.2e}, {summary['seconds']:.1f} s"
-            + also_wrote(summary.get("images", [])),
+            f"wrote {output}: {model} {tuple(summary['shape'])}, error {summary['error']:.2e}, "
+            f"{summary['seconds']:.1f} s" + also_wrote(summary.get("images", [])),
             quiet,
         )
+        info(error_parts(summary), quiet)
+
+
+def error_parts(summary: dict) -> str:
+    """What the headline ``error`` is, and its parts (:func:`shbake.bakers.kautz_report.
+    table_error`), on one line."""
+    p = summary["error_parts"]
+    return (
+        f"  error: f* rebuilt from the table's look-up vs f* itself, relative L2 over the "
+        f"sphere, mean of {p['views']} views; parts: truncation at lmax {summary['lmax']} "
+        f"{p['truncation']:.2e}, coefficients (quadrature + bilinear look-up) "
+        f"{p['coefficients']:.2e}; quadrature error estimate {p['quadrature_estimate']:.2e}"
+    )

@@ -60,6 +60,34 @@ def product_energy(brdf: BRDF, views: np.ndarray, n_theta: int = 1024) -> np.nda
     return np.array(out)
 
 
+TABLE_ERROR_VIEWS = (32, 23)
+"""Count and seed of the :func:`probe_views` a written table's error is measured at (none of
+them a texel centre)."""
+ENERGY_NODES = 256
+"""Gauss–Legendre nodes in θ of :func:`product_energy` for :func:`table_error`."""
+
+
+def table_error(brdf: BRDF, table: np.ndarray, lmax: int, reference_samples: int) -> dict:
+    """The error of what a consumer of ``table`` (``(H, W, n, C)``) evaluates: ``f*(·, v)``
+    rebuilt from the bilinear look-up ``c(v)`` against ``f*`` itself, relative L2 over the
+    sphere, mean over the :data:`TABLE_ERROR_VIEWS` views (``error``); parts, each the
+    same mean: ``truncation`` (Parseval: ``∫ f*² − Σ c_ref²``, ``c_ref`` projected at
+    ``reference_samples`` points per strategy) and ``coefficients`` (``|c(v) − c_ref(v)|``:
+    the table's quadrature noise and its bilinear look-up). ``error² = truncation² +
+    coefficients²`` per view."""
+    views = probe_views(*TABLE_ERROR_VIEWS)
+    energy = product_energy(brdf, views, ENERGY_NODES).sum(axis=1)
+    ref, _ = project_views(brdf, views, lmax, samples=reference_samples)
+    got = fetch(np.asarray(table), views)
+    scale = np.maximum(energy, 1e-300)
+    trunc2 = np.clip(energy - np.sum(ref * ref, axis=(1, 2)), 0, None) / scale
+    coeff2 = np.sum((got - ref) ** 2, axis=(1, 2)) / scale
+    return {"error": float(np.mean(np.sqrt(trunc2 + coeff2))),
+            "truncation": float(np.mean(np.sqrt(trunc2))),
+            "coefficients": float(np.mean(np.sqrt(coeff2))),
+            "views": len(views)}  # fmt: skip
+
+
 def settings_report(
     brdf: BRDF, lmax: int, resolution: tuple[int, int], samples: int, history: list
 ) -> dict:

@@ -9,7 +9,7 @@ lmax, resolution and samples (:mod:`shbake.bakers.kautz_report`).
 
 import os
 
-from shbake.bakers.kautz_report import settings_report
+from shbake.bakers.kautz_report import settings_report, table_error
 from shbake.brdf import make_brdf, model_spec
 from shbake.brdf.tabulate import parse_vary, quadrant_views, tabulate_axes
 from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
@@ -94,9 +94,22 @@ def bake_brdf_table(
             f"measured albedo up to {max(tattrs['max_albedo']):.4f} > 1: these parameters do "
             "not conserve energy (flagged in the asset)"
         )
+    from shbake.batch.plan import REFERENCE_SAMPLES  # the scene bake's reference (start-up)
+
+    # the headline: what a consumer evaluates, at the first point of every --vary axis
+    # (table_at's default)
+    first = brdf.with_values(**{name: values[0] for name, values in axes})
+    headline = table_error(first, table_at(asset).coeffs, lmax, REFERENCE_SAMPLES)
     summary = {
         "output": output,
         "model": model,
+        "error": headline["error"],
+        "error_parts": {
+            "truncation": headline["truncation"],
+            "coefficients": headline["coefficients"],
+            "quadrature_estimate": err,
+            "views": headline["views"],
+        },
         "parameters": brdf.describe()["parameters"],
         "lmax": lmax,
         "size": list(size),

@@ -128,28 +128,15 @@ def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
     if not measure:
         return {"outputs": [a["output"]], "bake_seconds": seconds}, {}
     brdf = make_brdf(s["model"], merl_path=s["merl"], **_param_strings(s["params"]))
-    from shbake.bakers.kautz_report import probe_views
+    from shbake.bakers.kautz_report import table_error
+    from shbake.batch.plan import REFERENCE_SAMPLES
     from shbake.format.asset import read_asset
     from shbake.format.kautz_table import table_at
 
     # measured on views the plan did not use, against the table actually written
-    errs = _table_file_error(brdf, table_at(read_asset(a["output"])).coeffs, s["lmax"],
-                             probe_views(32, seed=23))  # fmt: skip
+    table = table_at(read_asset(a["output"])).coeffs
+    errs = table_error(brdf, table, s["lmax"], REFERENCE_SAMPLES)["error"]
     return {"outputs": [a["output"]], "bake_seconds": seconds}, {"brdf_table": errs}
-
-
-def _table_file_error(brdf, table, lmax, views) -> float:
-    from shbake.bakers.kautz_report import product_energy
-    from shbake.batch.plan import REFERENCE_SAMPLES
-    from shbake.brdf.tabulate import project_views
-    from shbake.texture.parabolic import fetch
-
-    energy = product_energy(brdf, views, 256).sum(axis=1)
-    ref, _ = project_views(brdf, views, lmax, samples=REFERENCE_SAMPLES)
-    got = fetch(np.asarray(table), views)
-    trunc2 = np.clip(energy - np.sum(ref * ref, axis=(1, 2)), 0, None)
-    err2 = np.sum((got - ref) ** 2, axis=(1, 2)) + trunc2
-    return float(np.mean(np.sqrt(err2 / np.maximum(energy, 1e-300))))
 
 
 def _posed_env(a: dict, turn_pixels: bool):
