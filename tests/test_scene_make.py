@@ -192,7 +192,9 @@ class Layout:
                                                  self.fragment)]  # fmt: skip
         words = shlex.split(self.shbake)
         bad_words = _control(self.shbake) or any("\\" in w for w in words)
-        return not all(map(NAME.fullmatch, names)) or not all(map(makeable, paths)) or bad_words
+        stdin = self.fragment.name == "-"  # make reads a makefile named "-" from stdin
+        return (not all(map(NAME.fullmatch, names)) or not all(map(makeable, paths))
+                or bad_words or stdin)  # fmt: skip
 
     def nothing_written(self) -> bool:
         return not (self.fragment.exists() or self.out.exists())

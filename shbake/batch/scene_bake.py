@@ -504,6 +504,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
              and a["settings"]["env_sh"] in ids]  # fmt: skip
     # two waves: exports read the env_sh assets of the first
     waves = [[a for a in todo if a["kind"] != "export"], [a for a in todo if a["kind"] == "export"]]
+    makedirs(scene.out_dir)
+    write_stamps(plan, scene)  # before the assets: make then finds each newer than its stamp
     results = []
     if scheduler is not None:
         results = _bake_on_scheduler(scheduler, waves)
@@ -517,8 +519,6 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
                if a["id"] in previous and a["id"] not in poisoned}  # fmt: skip
     for r in results:
         records[r["id"]] = r
-    makedirs(scene.out_dir)
-    write_stamps(plan, scene)
     keys = {a["plan_key"] for a in plan["assets"]}
     keep = scene.written_absolute
     new_lock = {
@@ -562,6 +562,9 @@ def check_makeable(scene: Scene, fragment: str, shbake: str = "shbake") -> None:
         make_path(fragment_path(fragment, here))
     except MakeNameError as e:
         raise MakeNameError(e.text, e.reason, "--emit-make") from None
+    if os.path.basename(fragment) == "-":  # make -f - and include - read standard input
+        raise MakeNameError(fragment, "make reads a makefile named '-' from standard input",
+                            "--emit-make")  # fmt: skip
     _shbake_words(shbake)
 
 
