@@ -167,6 +167,9 @@ class TestLoadScene:
             ('name = "two-maps"', 'name = "two-maps"\nout_dir = "/tmp/x"', 4, "scene.out_dir"),
             ('name = "two-maps"', 'name = "two-maps"\nout_dir = "../.."', 4, "scene.out_dir"),
             ('name = "two-maps"', 'name = "two-maps"\nout_dir = "a/../.."', 4, "scene.out_dir"),
+            # issue 32: a name given to a glob of several maps was silently ignored
+            ('map = "maps/studio.exr"', 'map = "maps/s*.exr"\nname = "both"', 14,
+             "environments[0].name"),
         ],
     )  # fmt: skip
     def test_malformed_scene_is_one_line_with_file_line_key_exit_2(

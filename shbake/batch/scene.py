@@ -379,6 +379,9 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
             chk.fail(f"{key}.rotation_deg", f"must be a finite number of degrees in "
                      f"[{-MAX_ROTATION_DEG:g}, {MAX_ROTATION_DEG:g}], got {turn!r}")  # fmt: skip
         tol = chk.tolerances(env.get("tolerances", {}), f"{key}.tolerances")
+        if "name" in env and len(found) > 1:  # issue 32: was silently ignored
+            chk.fail(f"{key}.name", f"one name for the {len(found)} maps {env['map']!r} "
+                     "matches; a glob's probes take their files' names")  # fmt: skip
         for m in found:
             map_stem = os.path.splitext(os.path.basename(m))[0]
             name = chk.name(f"{key}.name", env["name"] if len(found) == 1 and "name" in env
