@@ -18,15 +18,15 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))  # the tests package (tests.helpers), as pytest sees it
 
-from helpers import map_path  # noqa: E402
-from kautz_accuracy import LMAXES, MAPS, kautz_errors  # noqa: E402
 from timing import interleaved, machine, med, previous_module, ratio  # noqa: E402
 
 from shbake.bakers.kautz_report import settings_report  # noqa: E402
 from shbake.brdf import make_brdf  # noqa: E402
 from shbake.brdf.tabulate import tabulate  # noqa: E402
+from tests.helpers import map_path  # noqa: E402
+from tests.kautz_accuracy import LMAXES, MAPS, kautz_errors  # noqa: E402
 
 PREVIOUS_TOL = "4de1567"
 """The last tree whose ``--tol`` redid every Gauss–Legendre level (before the nested rules)."""

@@ -20,11 +20,16 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))  # the tests package (tests.helpers), as pytest sees it
 
-from engine_browser import EngineBrowser, chromium_or_reason  # noqa: E402
-from helpers import SHARED_MAPS, map_path  # noqa: E402
-from test_engine_render import (  # noqa: E402
+from shbake.bakers.env_sh import bake_env_sh  # noqa: E402
+from shbake.batch.export import export_assets  # noqa: E402
+from shbake.envmap import load_environment  # noqa: E402
+from shbake.format.asset import write_asset  # noqa: E402
+from shbake.format.exports.source import load_source  # noqa: E402
+from tests.engine_browser import EngineBrowser, chromium_or_reason  # noqa: E402
+from tests.helpers import SHARED_MAPS, map_path  # noqa: E402
+from tests.test_engine_render import (  # noqa: E402
     BABYLON_CUBES,
     FOV_DEG,
     GLOSSY,
@@ -47,12 +52,6 @@ from test_engine_render import (  # noqa: E402
     white_environment,
     white_ktx1,
 )
-
-from shbake.bakers.env_sh import bake_env_sh  # noqa: E402
-from shbake.batch.export import export_assets  # noqa: E402
-from shbake.envmap import load_environment  # noqa: E402
-from shbake.format.asset import write_asset  # noqa: E402
-from shbake.format.exports.source import load_source  # noqa: E402
 
 
 def sizes(files) -> int:

@@ -163,7 +163,7 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
     from shbake.envmap import load_environment
     from shbake.evaluation.env_sh import brute_force_reference
     from shbake.format.asset import read_asset
-    from shbake.shading.env_sh import irradiance
+    from shbake.shading.shader import shader
 
     path = str(HDRI / f"{name}.exr")
     env = load_environment(path, quiet=True)
@@ -187,7 +187,7 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
     for k in range(max_lights + 1):
         exported(f"L2+{k}", lights=k)
     asset, _ = bake_env_sh(env, lmax=4, irradiance_lmax=4)
-    out["lmax4"] = errors(irradiance(asset, dirs) @ REC709_LUMINANCE, ref_lum) | {
+    out["lmax4"] = errors(shader(asset).irradiance(dirs) @ REC709_LUMINANCE, ref_lum) | {
         "lights": 0, "floats": 75}  # fmt: skip
     L9 = env.project(2)
     out["ZH3"] = errors(zh3_irradiance(L9, dirs) @ REC709_LUMINANCE, ref_lum) | {

@@ -4,7 +4,7 @@ Usage: ``SHBAKE_TRUTH_CACHE=DIR python bench/probe_variants.py [--out PREFIX]``
 
 Each variant (a :class:`~shbake.bakers.shexp.FitConfig`) is fitted to the six shared maps
 and written as the probe asset an engine receives (:func:`~shbake.format.shexp.build_shexp_asset`,
-float32), shaded by :func:`shbake.evaluation.probes.shade_probe` on the cases of
+float32), shaded by the registry's shader (:func:`shbake.shading.shader.shader`) on the cases of
 ``bench/probe_eval.py`` (2 materials × the paper's six α × 4 views per map, 32² spheres,
 MIS ground truth at 2048 samples: :func:`~shbake.evaluation.probes.case_truth`, the same
 truths, cached with ``SHBAKE_TRUTH_CACHE``) and compared with the plain split-sum's MSE of
@@ -56,9 +56,11 @@ def main():
     use_one_thread()
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
     from shbake.envmap import load_environment
-    from shbake.evaluation.probes import ALPHAS, MATERIALS, VIEW_YAWS, case_truth, shade_probe
+    from shbake.evaluation.metrics import mean_squared_error
+    from shbake.evaluation.probes import ALPHAS, MATERIALS, VIEW_YAWS, case_truth
     from shbake.format.probe import probe_bytes
     from shbake.format.shexp import build_shexp_asset
+    from shbake.shading.shader import shader
 
     stored = json.loads((RESULTS / "probe_eval.json").read_text())
     dfg = shared_dfg_table()
@@ -80,8 +82,8 @@ def main():
             out[name]["bytes"] = probe_bytes(asset)
             for (a, y), t in truths.items():
                 for material, f0 in MATERIALS.items():
-                    mse = float(np.mean((shade_probe(asset, t.views, t.normals, a, f0)
-                                         - t.radiance(f0)) ** 2))  # fmt: skip
+                    shaded = shader(asset).shade(t.normals, t.views, alpha=a, f0=f0)
+                    mse = mean_squared_error(shaded, t.radiance(f0))
                     ref = base[(material, a, y)]
                     out[name]["cases"].append(
                         {

@@ -39,14 +39,14 @@ from pathlib import Path
 
 import numpy as np
 
-from shbake.bakers.shrm import (
+from shbake.bakers.shrm import bake_shrm
+from shbake.bakers.shrm_angular import angular_reflection_maps
+from shbake.brdf.reflection import (
     F_LIMIT,
-    bake_shrm,
     brdf_coefficients,
     make_reflection_brdf,
     select_orders,
 )
-from shbake.bakers.shrm_angular import angular_reflection_maps
 from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment
 from shbake.preview.sphere import sphere_geometry
@@ -213,8 +213,7 @@ def section_speed(lines):
 
 def section_energy(lines, roughness=(0.25, 0.4, 0.5, 0.8)):
     """Why ε = 0.01 is out of reach for GGX within F ≤ 64, P ≤ 16 (issue 13, item 7)."""
-    from shbake.bakers.shrm import P_LIMIT, _rho_grid, default_quadrature
-    from shbake.jit import run_blocks
+    from shbake.brdf.reflection import P_LIMIT, default_quadrature, rho_grid
 
     Fs, Ps = (8, 16, 24, 32, 48, 64, 96, 128), (0, 2, 4, 8, 12, 16, 24, 32)
     quad = default_quadrature("surface", 640, 128, 128)
@@ -236,8 +235,8 @@ def section_energy(lines, roughness=(0.25, 0.4, 0.5, 0.8)):
             cap = brdf_coefficients(rb, 128, 32, quad).captured()
             default = brdf_coefficients(rb, F_LIMIT, P_LIMIT).captured()[F_LIMIT, P_LIMIT]
             g = np.zeros(quad.shape + (3,))
-            run_blocks(_rho_grid, quad.xi.size, 1e12, rb.kind_id, rb.model_id,
-                       rb.prm.astype(float), rb.data, quad.xi, quad.xo, quad.phi, g)  # fmt: skip
+            rho_grid(rb.kind_id, rb.model_id, rb.prm.astype(float), rb.data, quad.xi, quad.xo,
+                      quad.phi, g)  # fmt: skip
             per_o = 2 * np.pi * np.tensordot(quad.wi, np.tensordot(g[..., 0] ** 2, quad.wphi, 1), 1)
             per_o = per_o * quad.wo
             mu = np.sqrt((1 + quad.xo) / 2)

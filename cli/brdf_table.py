@@ -147,7 +147,7 @@ def brdf_table(ctx, model, output, params, as_json, quiet, **settings):
 
 
 def error_parts(summary: dict) -> str:
-    """What the headline ``error`` is, and its parts (:func:`shbake.bakers.kautz_report.
+    """What the headline ``error`` is, and its parts (:func:`shbake.batch.brdf_table.
     table_error`), on one line."""
     p = summary["error_parts"]
     return (

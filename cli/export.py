@@ -15,10 +15,11 @@ from shbake_cli.options import (
     usage_errors,
 )
 
-from shbake.bakers.cube_prefilter import CUBE_SIZE_LIMIT
+from shbake.bakers.cube_prefilter import CUBE_SIZE_LIMIT, LOD_MAPPINGS
 from shbake.batch.export import cube_settings, export_assets
 from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
 from shbake.format.exports import TARGETS
+from shbake.format.exports.gltf import BABYLON_SCENES
 from shbake.format.exports.source import FRAMES
 
 
@@ -77,7 +78,7 @@ from shbake.format.exports.source import FRAMES
 @click.option(
     "--lod-mapping",
     "mapping",
-    type=click.Choice(["babylon", "gltf-ibl-sampler", "filament"]),
+    type=click.Choice(LOD_MAPPINGS),
     default=None,
     help="Roughness of each mip level [gltf/babylon: babylon; ktx2: gltf-ibl-sampler; "
     "fixed for filament, threejs-pmrem].",
@@ -94,7 +95,7 @@ from shbake.format.exports.source import FRAMES
 )
 @click.option(
     "--babylon-scene",
-    type=click.Choice(["left-handed", "right-handed"]),
+    type=click.Choice(BABYLON_SCENES),
     default="left-handed",
     show_default=True,
     help="gltf/babylon: the handedness of the Babylon scene that loads the file.",

@@ -16,7 +16,9 @@ from contextlib import contextmanager
 import click
 import numpy as np
 
-from shbake.conventions import SAMPLES_LIMIT
+from shbake.conventions import SAMPLES_LIMIT, perceptual_roughness
+from shbake.envmap.layouts import LAYOUTS
+from shbake.envmap.repair import NEGATIVE_POLICIES, NONFINITE_REPAIRS
 from shbake.errors import OutputError, ParameterError
 from shbake.messages import printable, record, run_warnings
 from shbake.progress import Progress
@@ -56,9 +58,6 @@ def usage_errors():
         yield
     except ParameterError as e:
         raise click.UsageError(str(e)) from None
-
-
-LAYOUT_CHOICES = ("latlong", "cube-strip", "cross-h", "cross-v")
 
 
 def output_opt(help_text: str, required: bool = True):
@@ -150,20 +149,20 @@ png_opt = click.option(
 )
 layout_opt = click.option(
     "--layout",
-    type=click.Choice(LAYOUT_CHOICES),
+    type=click.Choice(LAYOUTS),
     default=None,
     help="Input layout; detected from the image shape (and EXR envmap attribute) when omitted.",
 )
 negative_opt = click.option(
     "--negative",
-    type=click.Choice(["clamp", "keep", "error"]),
+    type=click.Choice(NEGATIVE_POLICIES),
     default=None,
     help="Negative pixels: clamp to 0 (recorded in the asset; a warning unless given "
     "explicitly), keep, or refuse [default: clamp].",
 )
 fix_nonfinite_opt = click.option(
     "--fix-nonfinite",
-    type=click.Choice(["black", "box3"]),
+    type=click.Choice(NONFINITE_REPAIRS),
     default=None,
     help="Repair NaN/Inf pixels: black, or the mean of finite 3x3 neighbours "
     "(default: refuse the input).",
@@ -197,7 +196,7 @@ def roughness_opts(default_roughness: float | None, what: str):
             if r is not None and a is not None:
                 raise click.UsageError("give --roughness or --alpha, not both")
             if a is not None:
-                r = float(np.sqrt(a))
+                r = perceptual_roughness(a)
             kwargs["roughness"] = default_roughness if r is None else r
             return f(*args, **kwargs)
 

@@ -18,7 +18,7 @@ from shbake_cli.options import (
     size_opt,
 )
 
-from shbake.preview.render import ALL_PASSES, preview_asset
+from shbake.batch.preview import ALL_PASSES, preview_asset
 
 
 @click.command("preview")
@@ -96,7 +96,7 @@ def preview(asset_path, output, at, as_json, quiet, **settings):
     summary = preview_asset(asset_path, output, at=dict(at), progress=BarProgress(quiet),
                             explicit=explicit, **settings)  # fmt: skip
     for mode, t in summary.get("modes", {}).items():
-        info(f"kautz {mode}: {t['fps']:.1f} frames/s", quiet)
+        info(f"{summary['pass']} {mode}: {t['fps']:.1f} frames/s", quiet)
     if "mse" in summary:
         info(
             f"{summary['pass']} vs brute force: MSE {summary['mse']:.6g}, relative RMS error "

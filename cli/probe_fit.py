@@ -23,10 +23,10 @@ from shbake_cli.options import (
     warn,
 )
 
-from shbake.bakers.shexp import SETS_LIMIT, TARGETS, WEIGHTS, FitConfig
+from shbake.bakers.shexp import FIT_TARGETS, SETS_LIMIT, WEIGHTS, FitConfig
 from shbake.batch.probe_fit import fit_probes
 from shbake.batch.probe_jobs import JOBS_LIMIT
-from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT
+from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT, ggx_alpha
 from shbake.errors import ParameterError
 
 DEFAULT = FitConfig()
@@ -38,7 +38,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
         raise click.UsageError("give --alpha-range or --roughness-range, not both")
     if roughness_text is not None:
         lo, hi = parse_range(roughness_text, "--roughness-range")
-        return lo * lo, hi * hi
+        return ggx_alpha(lo), ggx_alpha(hi)
     return parse_range(alpha_text or "0.2:1", "--alpha-range")
 
 
@@ -80,7 +80,7 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
 @samples_opt(1024, "per E0 fit target (filtered visible-normal samples)")
 @click.option("--floor", type=FINITE, default=1e-4, show_default=True,
               help="E0 floor before the log, × mean E0 per channel.")  # fmt: skip
-@click.option("--targets", type=click.Choice(TARGETS), default="quadrature", show_default=True,
+@click.option("--targets", type=click.Choice(FIT_TARGETS), default="quadrature", show_default=True,
               help="E0 at the fit samples: quadrature (filtered importance sampling) or sh "
               "(SH lighting x GGX tables; noise-free, blurs narrow lobes).")  # fmt: skip
 @click.option("--targets-lmax", type=click.IntRange(1, SH_TARGETS_LMAX_LIMIT), default=8,

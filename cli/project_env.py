@@ -23,7 +23,7 @@ from shbake_cli.options import (
 )
 
 from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, MAX_LIGHTS
-from shbake.batch.project_env import check_settings, project_environment
+from shbake.batch.project_env import EXPORTS, check_settings, project_environment
 from shbake.conventions import LMAX_LIMIT
 from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
 from shbake.sh.windows import WINDOW_METHODS
@@ -96,7 +96,7 @@ from shbake.sh.windows import WINDOW_METHODS
 @click.option(
     "--export",
     "exports",
-    type=click.Choice(["gltf", "babylon", "threejs"]),
+    type=click.Choice(EXPORTS),
     multiple=True,
     help="Engine export beside the asset, as `shbake export --to TARGET` (docs/EXPORTS.md).",
 )

@@ -19,16 +19,9 @@ from shbake_cli.options import (
     usage_errors,
 )
 
-from shbake.bakers.shrm import (
-    F_LIMIT,
-    FACE_AUTO_MAX,
-    FACE_AUTO_MIN,
-    FACE_MAX,
-    FACE_MIN,
-    P_LIMIT,
-    bake_to_file,
-    shrm_settings,
-)
+from shbake.bakers.shrm import FACE_AUTO_MAX, FACE_AUTO_MIN, FACE_MAX, FACE_MIN
+from shbake.batch.shrm import bake_shrm_file, shrm_settings
+from shbake.brdf.reflection import F_LIMIT, P_LIMIT
 
 
 def _params(values) -> dict:
@@ -39,6 +32,17 @@ def _params(values) -> dict:
         k, v = item.split("=", 1)
         out[k.strip()] = v.strip()
     return out
+
+
+def _view(ctx, param, text) -> tuple[float, float, float]:
+    """``--view X,Y,Z``: three numbers (the library checks the vector and normalises it)."""
+    try:
+        v = tuple(float(x) for x in str(text).split(","))
+    except ValueError:
+        v = ()
+    if len(v) != 3:
+        raise click.BadParameter(f"expected X,Y,Z numbers, got {text!r}", ctx, param)
+    return v
 
 
 @click.command("shrm")
@@ -104,6 +108,7 @@ def _params(values) -> dict:
     default="0,0,1",
     show_default=True,
     metavar="X,Y,Z",
+    callback=_view,
     help="World view direction (toward the viewer) of reflection.exr.",
 )
 @png_opt
@@ -118,9 +123,12 @@ def shrm(env, output, brdf, params, merl_path, eps, F, P, face_size, exr_dir, vi
          layout, colorspace, negative, fix_nonfinite, as_json, quiet):  # fmt: skip
     """Bake ENV into a Spherical Harmonic Reflection Map for an isotropic BRDF."""
     with usage_errors():
-        settings = shrm_settings(brdf, _params(params), merl_path, eps, F, P, face_size, view)
-    summary = bake_to_file(env, output, settings, exr_dir, report, layout, colorspace, negative,
-                           fix_nonfinite, png=png)  # fmt: skip
+        settings = shrm_settings(brdf=brdf, params=_params(params), merl_path=merl_path,
+                                 eps=eps, F=F, P=P, face_size=face_size, view=view)  # fmt: skip
+    summary = bake_shrm_file(env_path=env, output=output, settings=settings, exr_dir=exr_dir,
+                             report=report, layout=layout, colorspace=colorspace,
+                             negative=negative, fix_nonfinite=fix_nonfinite,
+                             png=png)  # fmt: skip
     info(
         f"shrm: {output}: {brdf} F={summary['F']} P={summary['P']} face {summary['face_size']} "
         f"BRDF energy left out {summary['eps_brdf']:.4f} (bound {summary['eps_bound']:.2e}), "

@@ -23,6 +23,7 @@ from shbake.bakers.splitsum import (
     SplitSumConfig,
 )
 from shbake.batch.probe_eval import bake_splitsum_file
+from shbake.conventions import ggx_alpha
 from shbake.errors import ParameterError
 
 
@@ -37,7 +38,7 @@ def parse_levels(alphas: str | None, roughness: str | None) -> tuple[float, ...]
         values = tuple(float(x) for x in text.split(","))
     except ValueError:
         raise ParameterError(f"{text!r}: expected comma-separated numbers") from None
-    return values if alphas is not None else tuple(v * v for v in values)
+    return values if alphas is not None else tuple(ggx_alpha(v) for v in values)
 
 
 @click.command("split-sum")

@@ -15,12 +15,12 @@ from shbake_cli.options import (
 )
 
 from shbake.batch.brdf_table import check_parameters
-from shbake.batch.tradeoff import KINDS, tradeoff, write_tradeoff
+from shbake.batch.tradeoff import TRADEOFF_KINDS, tradeoff, write_tradeoff
 from shbake.brdf import MODELS
 
 
 @click.command("tradeoff")
-@click.argument("kind", type=click.Choice(KINDS))
+@click.argument("kind", type=click.Choice(TRADEOFF_KINDS))
 @click.option("--map", "map_path", type=click.Path(dir_okay=False), default=None,
               help="The environment map (env_sh).")
 @click.option("--model", type=click.Choice(list(MODELS)), default=None,

@@ -52,12 +52,20 @@ REC709_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
 def n_coeffs(lmax: int) -> int:
-    """Number of coefficients of a set with highest band ``lmax``: ``(lmax+1)^2``."""
+    """Number of coefficients of a set with highest band ``lmax``: ``(lmax+1)^2``.
+
+    >>> n_coeffs(2)
+    9
+    """
     return (lmax + 1) ** 2
 
 
 def lmax_of(n: int) -> int:
-    """Inverse of :func:`n_coeffs`; raises if ``n`` is not a perfect square."""
+    """Inverse of :func:`n_coeffs`; raises if ``n`` is not a perfect square.
+
+    >>> lmax_of(9)
+    2
+    """
     lmax = int(round(np.sqrt(n))) - 1
     if n_coeffs(lmax) != n:
         raise ParameterError(f"{n} coefficients is not (lmax+1)^2 for any lmax")
@@ -79,8 +87,27 @@ def check_lmax(lmax, name: str = "lmax", limit: int = LMAX_LIMIT) -> int:
 
 
 def ggx_alpha(roughness):
-    """GGX width ``α = r²`` of perceptual roughness ``r`` (Burley 2012; SPEC §1)."""
-    return np.asarray(roughness, dtype=float) ** 2
+    """GGX width ``α = r²`` of perceptual roughness ``r`` (Burley 2012; SPEC §1): a float
+    for a number, an array for an array.
+
+    >>> ggx_alpha(0.5)
+    0.25
+    >>> ggx_alpha([0.1, 1.0]).tolist()
+    [0.010000000000000002, 1.0]
+    """
+    a = np.asarray(roughness, dtype=float) ** 2
+    return float(a) if a.ndim == 0 else a
+
+
+def perceptual_roughness(alpha):
+    """Perceptual roughness ``r = sqrt(α)`` of GGX width ``α``, the inverse of
+    :func:`ggx_alpha` (a float for a number, an array for an array).
+
+    >>> perceptual_roughness(0.25)
+    0.5
+    """
+    r = np.sqrt(np.asarray(alpha, dtype=float))
+    return float(r) if r.ndim == 0 else r
 
 
 SAMPLES_LIMIT = 1 << 20

@@ -35,6 +35,7 @@ _received: list[int] = []
 _grace = GRACE_SECONDS
 _quiet = False  # pool workers: the parent prints the one line
 _finished = threading.Event()
+_cleanups: list = []
 _finishing = threading.Lock()
 _installed = False
 
@@ -94,12 +95,19 @@ def _watch(fd: int) -> None:
         return
     if not _finishing.acquire(blocking=False):
         return  # the main thread is reporting; it exits by itself
-    from shbake.format import atomic
-
-    atomic.abort_active()
+    for cleanup in _cleanups:
+        cleanup()
     if not _quiet:
         finish_message()
     os._exit(exit_code())
+
+
+def on_interrupt(cleanup) -> None:
+    """Have the watcher call ``cleanup()`` before it ends the process (the output layer
+    registers the removal of every open transaction's temporaries,
+    :func:`shbake.format.atomic.abort_active`), so this module imports no other."""
+    if cleanup not in _cleanups:
+        _cleanups.append(cleanup)
 
 
 def finish_message() -> None:

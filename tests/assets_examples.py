@@ -76,7 +76,8 @@ def example(kind: str, map_path) -> "object":
         levels = [rng.random((s, s, 3)) for s in sc.sizes]
         return build_splitsum_asset(levels, sc, _dfg(), env.meta)
     if kind == "shrm":
-        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+        from shbake.bakers.shrm import bake_shrm
+        from shbake.brdf.reflection import make_reflection_brdf
         from shbake.format.shrm import build_shrm_asset
 
         bake = bake_shrm(env, make_reflection_brdf("ggx", {"alpha": 0.3, "F0": 1.0}), F=4, P=1,

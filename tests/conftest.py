@@ -1,12 +1,17 @@
-"""Shared fixtures: the plan cache, the CLI runner, random coefficients (see helpers.py)."""
+"""Shared fixtures: the plan cache, the CLI runner, random coefficients, golden files (see
+helpers.py); the ``--update-golden`` option."""
 
 import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the shbake command does (cli/__init__.py)
 
+from pathlib import Path  # noqa: E402
+
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from shbake_cli.main import main  # noqa: E402
+
+from tests.helpers import GOLDEN  # noqa: E402
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -34,7 +39,7 @@ def engine_browser(tmp_path_factory):
     """One headless Chromium for the session's rendered engine tests (``engine_browser.py``),
     serving files under the session's temporary folder. Without Chromium the tests skip with
     the reason, except as root or in CI, where ``make test`` installs it: there they fail."""
-    from engine_browser import EngineBrowser, chromium_or_reason
+    from tests.engine_browser import EngineBrowser, chromium_or_reason
 
     reason = chromium_or_reason()
     if reason is not None:
@@ -53,3 +58,36 @@ def random_coeffs():
         return rng.normal(size=((lmax + 1) ** 2, channels))
 
     return make
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--update-golden",
+        action="store_true",
+        default=False,
+        help="rewrite the golden files under tests/data/golden/ from this checkout's outputs "
+        "instead of comparing with them (review and commit the difference on purpose)",
+    )
+
+
+@pytest.fixture
+def golden(request):
+    """``check(name, path)``: the bytes of ``path`` must equal ``tests/data/golden/NAME``;
+    with ``pytest --update-golden`` the golden file is written instead (the only way one
+    changes, as Filament's cmgen tests do)."""
+    update = request.config.getoption("--update-golden")
+
+    def check(name: str, path) -> None:
+        want = GOLDEN / name
+        got = Path(path).read_bytes()
+        if update:
+            want.parent.mkdir(parents=True, exist_ok=True)
+            want.write_bytes(got)
+            return
+        assert want.exists(), f"no golden file {want}; make it with pytest --update-golden"
+        assert got == want.read_bytes(), (
+            f"{path} differs from the golden file {want} ({len(got)} vs "
+            f"{want.stat().st_size} bytes); if the change is meant, pytest --update-golden"
+        )
+
+    return check

@@ -1,7 +1,7 @@
 """Helpers shared by the tests and the benchmarks: the shared maps, synthetic maps, EXR writing.
 
-Imported as ``helpers`` (pytest puts ``tests/`` on ``sys.path``; the benchmarks
-insert it). Fixtures live in ``conftest.py``.
+Imported as ``tests.helpers`` everywhere (``pythonpath = ["."]`` in pyproject.toml, so
+``pytest`` and ``python -m pytest`` collect the same set). Fixtures live in ``conftest.py``.
 """
 
 import contextlib
@@ -19,6 +19,9 @@ ROOT = Path(__file__).resolve().parent.parent
 SHARED_HDRI = ROOT.parent / "shared" / "hdri"
 SAMPLES = ROOT / "data_samples"
 SHARED_MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
+GOLDEN = ROOT / "tests" / "data" / "golden"
+"""Golden files: outputs of the release before a change, compared byte for byte
+(``tests/test_golden.py``; rewritten only by ``pytest --update-golden``)."""
 
 
 def map_path(name: str) -> Path:

@@ -1,4 +1,7 @@
-"""The import rules of docs/ARCHITECTURE.md, checked on the source and on a fresh interpreter."""
+"""The import rules of docs/ARCHITECTURE.md, checked on the source and on a fresh interpreter:
+stages import only the stages below them, no two modules import each other (directly or in
+a circle, function-local imports included), no ``_private`` name is used outside its
+module, and the preview and the evaluation reach shaders only through the registry."""
 
 import ast
 import subprocess
@@ -16,7 +19,7 @@ ALLOWED = {
     "envmap": {"sh"},
     "brdf": {"sh", "texture"},
     "reference": {"sh", "envmap", "brdf"},
-    "shading": {"sh", "texture", "brdf"},
+    "shading": {"sh", "texture", "brdf", "format"},
     "format": {"sh", "texture", "brdf", "envmap"},
     "bakers": {"sh", "texture", "envmap", "brdf", "format", "reference", "shading"},
     "preview": {"sh", "texture", "envmap", "brdf", "format", "shading", "reference"},
@@ -88,6 +91,146 @@ class TestImportRules:
         assert not bad, "\n".join(bad)
 
 
+def module_name(path: Path) -> str:
+    rel = path.relative_to(PACKAGE.parent).with_suffix("")
+    parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+    return ".".join(parts)
+
+
+MODULES = {module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+"""Every module of the package by dotted name."""
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module → the shbake modules it imports anywhere in its body (``from pkg import mod``
+    counts as importing ``pkg.mod``)."""
+    graph = {}
+    for name, path in MODULES.items():
+        edges = set()
+        for module, names in imports_of(path):
+            targets = [f"{module}.{n}" for n in names if f"{module}.{n}" in MODULES]
+            edges.update(targets or ([module] if module in MODULES else []))
+        edges.discard(name)
+        graph[name] = edges
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on, out, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+class TestModuleGraph:
+    def test_no_circles_between_modules(self):
+        found = circles(import_graph())
+        assert not found, found
+
+    def test_circle_finder_finds_one(self):
+        assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+    def test_no_private_name_used_outside_its_module(self):
+        bad = []
+        for name, path in MODULES.items():
+            tree = ast.parse(path.read_text(encoding="utf-8"))
+            aliases = set()  # names bound to shbake modules in this file
+            for module, names in imports_of(path):
+                if any(p.startswith("_") and p != "__init__" for p in module.split(".")):
+                    bad.append(f"{name}: imports {module}")
+                if module != name:
+                    bad += [f"{name}: {module}.{n}" for n in names
+                            if n.startswith("_") and not n.startswith("__")]  # fmt: skip
+                aliases.update(n for n in names if f"{module}.{n}" in MODULES)
+            for node in ast.walk(tree):
+                if isinstance(node, ast.Import):
+                    aliases.update(a.asname for a in node.names if a.asname)
+                if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                        and node.value.id in aliases and node.attr.startswith("_")
+                        and not node.attr.startswith("__")):  # fmt: skip
+                    bad.append(f"{name}: {node.value.id}.{node.attr}")
+        assert not bad, "\n".join(bad)
+
+    @pytest.mark.parametrize("place", ["preview", "evaluation", "batch.preview",
+                                       "batch.probe_eval", "batch.scene_bake"])  # fmt: skip
+    def test_shaders_only_through_the_registry(self, place):
+        """The preview, the evaluation, probe-eval and the scene bake's error checks name no
+        shading module but the registry (:mod:`shbake.shading.shader`)."""
+        bad = []
+        for name, path in MODULES.items():
+            if not (name == f"shbake.{place}" or name.startswith(f"shbake.{place}.")):
+                continue
+            for module, names in imports_of(path):
+                targets = [f"{module}.{n}" for n in names] + [module]
+                for t in targets:
+                    if (
+                        t.startswith("shbake.shading.")
+                        and t in MODULES
+                        and t != ("shbake.shading.shader")
+                    ):
+                        bad.append(f"{name} imports {t}")
+                if module.startswith("shbake.shading.") and module != "shbake.shading.shader":
+                    bad.append(f"{name} imports {module}")
+        assert not bad, "\n".join(sorted(set(bad)))
+
+
+CLI = PACKAGE.parent / "cli"
+
+
+def literal_choices(path: Path) -> list[str]:
+    """``click.Choice`` calls in ``path`` whose choices are written out as a literal list or
+    tuple of strings (rather than a library constant, or an expression built from one)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                and node.func.attr == "Choice" and node.args):  # fmt: skip
+            continue
+        arg = node.args[0]
+        if isinstance(arg, ast.List | ast.Tuple) and all(
+            isinstance(e, ast.Constant) and isinstance(e.value, str) for e in arg.elts
+        ):
+            found.append(f"{path.name}:{node.lineno}")
+    return found
+
+
+class TestCliChoices:
+    def test_choices_come_from_library_constants(self):
+        """A command's choices are the library's own tuple (the one its validation reads),
+        never a copy that can drift from it (issue 28 item 7)."""
+        bad = [hit for path in sorted(CLI.glob("*.py")) for hit in literal_choices(path)]
+        assert not bad, bad
+
+    def test_finder_finds_a_literal(self, tmp_path):
+        (tmp_path / "m.py").write_text('import click\nclick.Choice(["a", "b"])\n'
+                                       "click.Choice(NAMES)\n")  # fmt: skip
+        assert literal_choices(tmp_path / "m.py") == ["m.py:2"]
+
+
 def _loaded_after(statement: str) -> set[str]:
     code = (
         "import sys\n" + statement + "\n"
@@ -101,8 +244,8 @@ class TestDownstreamLoadsNoBaker:
     @pytest.mark.parametrize(
         "statement",
         [
-            "import shbake.preview.render",
-            "import shbake.preview.passes, shbake.preview.glossy, shbake.preview.kautz_table",
+            "import shbake.preview.passes, shbake.preview.overview",
+            "import shbake.preview.passes",
             "import shbake.evaluation.env_sh, shbake.evaluation.probes",
             "import shbake.shading.env_sh, shbake.shading.shexp, shbake.shading.splitsum",
         ],

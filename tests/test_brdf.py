@@ -8,7 +8,6 @@ MERL file written from an analytic model.
 
 import numpy as np
 import pytest
-from helpers import write_merl
 
 from shbake.brdf import make_brdf
 from shbake.brdf.merl import half_diff_grid
@@ -25,6 +24,7 @@ from shbake.jit import run_blocks
 from shbake.sh.basis import real_sh, recurrence_tables
 from shbake.sh.kernels import lambert_kernel
 from shbake.sh.point_sets import gauss_legendre_unit
+from tests.helpers import write_merl
 
 RNG = np.random.default_rng(3)
 

@@ -6,7 +6,7 @@ The oracle reads ``/table`` from the file with h5py, looks it up bilinearly as
 docs/CONVENTIONS.md defines the parabolic map (written out here), rebuilds
 ``Σ_i c_i(v) y_i(s)`` on a dense Gauss–Legendre × trapezoid grid of each hemisphere and
 compares it with ``f*(s, v) = f(s, v) max(0, s_z)`` evaluated there: no projection and
-no Parseval identity, unlike :func:`shbake.bakers.kautz_report.table_error`.
+no Parseval identity, unlike :func:`shbake.batch.brdf_table.table_error`.
 """
 
 import json
@@ -15,7 +15,8 @@ import h5py
 import numpy as np
 import pytest
 
-from shbake.bakers.kautz_report import TABLE_ERROR_VIEWS, probe_views
+from shbake.bakers.kautz_report import probe_views
+from shbake.batch.brdf_table import TABLE_ERROR_VIEWS
 from shbake.brdf import make_brdf
 from shbake.sh.basis import real_sh
 

@@ -81,7 +81,7 @@ class TestEveryCommand:
 
 class TestDeprecatedAliases:
     def test_old_spelling_warns_and_works(self, run_cli, tmp_path):
-        from helpers import write_test_exr
+        from tests.helpers import write_test_exr
 
         src = write_test_exr(tmp_path / "sky.exr", [[[1.0, 1.0, 1.0]] * 8] * 4)
         code, _, err = run_cli("project-env", src, "-o", tmp_path / "a.h5",
@@ -115,7 +115,7 @@ class TestDeprecatedAliases:
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):
     """A small map and its env_sh asset (read-only inputs every run may name)."""
-    from helpers import write_test_exr
+    from tests.helpers import write_test_exr
 
     folder = tmp_path_factory.mktemp("inputs")
     map_path = write_test_exr(folder / "sky.exr", np.ones((8, 16, 3)))

@@ -6,9 +6,9 @@ import os
 import h5py
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 
 from shbake.format.asset import read_asset
+from tests.helpers import map_path, write_test_exr
 
 ESPLANADE = map_path("esplanade")
 

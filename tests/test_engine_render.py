@@ -28,16 +28,6 @@ import re
 
 import numpy as np
 import pytest
-from engine_browser import (
-    View,
-    inner_pixels,
-    latlong_bilinear,
-    normal_derivative,
-    reflect,
-    signed_permutations,
-    write_sphere_gltf,
-)
-from helpers import ROOT, SHARED_MAPS, map_path
 
 from shbake.bakers.cube_prefilter import BABYLON_MIN_ALPHA, reference_radiance
 from shbake.bakers.env_sh import bake_env_sh
@@ -50,6 +40,16 @@ from shbake.format.exports.ktx2 import write_ktx2
 from shbake.format.exports.source import load_source, shbake_irradiance
 from shbake.reference.irradiance import brute_force_irradiance
 from shbake.sh.basis import real_sh
+from tests.engine_browser import (
+    View,
+    inner_pixels,
+    latlong_bilinear,
+    normal_derivative,
+    reflect,
+    signed_permutations,
+    write_sphere_gltf,
+)
+from tests.helpers import ROOT, SHARED_MAPS, map_path
 
 pytestmark = pytest.mark.xdist_group("engine-render")
 """One worker runs this module (``make test``: ``--dist loadgroup``), so each map's chains

@@ -13,7 +13,6 @@ import re
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 
 from shbake.bakers.env_sh import bake_env_sh
 from shbake.bakers.shexp import FitConfig, FitPlan
@@ -26,7 +25,8 @@ from shbake.envmap.image_io import read_image
 from shbake.format.asset import write_asset
 from shbake.format.exports import TARGETS
 from shbake.sh.point_sets import fibonacci_sphere
-from shbake.shading.env_sh import irradiance
+from shbake.shading.shader import shader
+from tests.helpers import map_path, write_test_exr
 
 pytestmark = pytest.mark.extremes
 
@@ -80,7 +80,7 @@ class TestEnvShExtremes:
         asset, _ = bake_env_sh(env, lmax=lmax, irradiance_lmax=min(lmax, 2), sun=sun)
         _finite(asset)
         dirs = fibonacci_sphere(256)
-        e = irradiance(asset, dirs)
+        e = shader(asset, "irradiance").irradiance(dirs)
         assert np.all(np.isfinite(e))
         if kind == "black":
             assert np.all(e == 0.0)
@@ -289,7 +289,8 @@ class TestShrmExtremes:
         ("ggx", {"alpha": "1e-4"}, 16, 2), ("ggx", {"alpha": "1"}, 8, 2),
         ("phong-lobe", {"s": "1e4"}, 64, 0)])  # fmt: skip
     def test_finite(self, maps, kind, brdf, params, F, P):
-        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+        from shbake.bakers.shrm import bake_shrm
+        from shbake.brdf.reflection import make_reflection_brdf
 
         env = load_environment(maps[kind], quiet=True)
         rb = make_reflection_brdf(brdf, params)
@@ -300,7 +301,8 @@ class TestShrmExtremes:
 
     def test_constant_map_lobe_is_the_constant(self, maps):
         # the radially symmetric lobe integrates to 1 over the sphere: radiance c everywhere
-        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+        from shbake.bakers.shrm import bake_shrm
+        from shbake.brdf.reflection import make_reflection_brdf
         from shbake.shading.shrm import reflection_cube
 
         env = load_environment(maps["constant"], quiet=True)
@@ -315,7 +317,8 @@ class TestHugeAndTinyMaps:
 
     @pytest.mark.parametrize("kind", ["tiny", "large"])
     def test_splitsum_shrm_and_export(self, maps, tmp_path, kind):
-        from shbake.bakers.shrm import bake_shrm, make_reflection_brdf
+        from shbake.bakers.shrm import bake_shrm
+        from shbake.brdf.reflection import make_reflection_brdf
 
         env = load_environment(maps[kind], quiet=True)
         config = SplitSumConfig(top=16, min_size=8, alphas=(0.01, 1.0), samples=64)

@@ -558,13 +558,13 @@ class TestPreviewMemory:
         assert "GiB" in msg and "--max-memory" in msg
 
     def test_reference_counted(self):
-        from shbake.preview.render import preview_memory
+        from shbake.batch.preview import preview_memory
 
         assert preview_memory(512, reference=True) > preview_memory(512)
         assert preview_memory(512, texels=10**6) - preview_memory(512) == 160 * 10**6
 
     def test_kautz_coefficients_refused(self, run_cli, ws, box):
-        from shbake.preview.render import preview_memory
+        from shbake.batch.preview import preview_memory
 
         need = preview_memory(2048, coeffs=9)  # the example table: lmax 2
         budget = (preview_memory(2048) + need) // 2
@@ -575,7 +575,7 @@ class TestPreviewMemory:
 
     @pytest.mark.parametrize("diff", [False, True])
     def test_estimate_bounds_measured_peak(self, box, diff):
-        from shbake.preview.render import preview_asset, preview_memory
+        from shbake.batch.preview import preview_asset, preview_memory
 
         size = 256
         run = lambda: preview_asset(str(box / "env.h5"), str(box / "p.exr"), size=size,  # noqa: E731

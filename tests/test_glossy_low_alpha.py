@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import map_path
 
 from shbake.bakers.shexp import FitConfig
 from shbake.batch.plan import SHEXP_DIELECTRIC_ALPHA, plan_scene
 from shbake.batch.scene import load_scene
+from tests.helpers import map_path
 
 RESULTS = Path(__file__).resolve().parent.parent / "bench" / "results" / "probe_eval.json"
 

@@ -100,12 +100,12 @@ def _latlong(rng, h=16):
 
 
 def _env_sh_matrix(rng):
-    from shbake.shading.env_sh import tangent_irradiance_matrix
+    from shbake.shading.shader import shader_class
 
     asset = {"/tangent_irradiance/matrix": rng.normal(size=(3, 4, 4)),
              "/sun/direction": np.array([0.0, 0.6, 0.8]), "/sun/radiance": np.ones(3),
              "/sun/solid_angle": 1e-3}  # fmt: skip
-    return tangent_irradiance_matrix(asset, _unit(rng, 300))
+    return shader_class("tangent").from_asset(asset).shade(None, None, tangents=_unit(rng, 300))
 
 
 def _ggx_integrals(rng):
@@ -179,7 +179,8 @@ def _splitsum_prefilter(rng):
 
 
 def _shrm(rng):
-    from shbake.bakers.shrm import brdf_coefficients, make_reflection_brdf, shrm_from_directions
+    from shbake.bakers.shrm import shrm_from_directions
+    from shbake.brdf.reflection import brdf_coefficients, make_reflection_brdf
 
     co = brdf_coefficients(make_reflection_brdf("ggx", {"alpha": 0.3}), 4, 2)
     L = rng.normal(size=(25, 3))
@@ -189,8 +190,8 @@ def _shrm(rng):
 
 
 def _shrm_angular(rng):
-    from shbake.bakers.shrm import make_reflection_brdf
     from shbake.bakers.shrm_angular import angular_reflection_maps
+    from shbake.brdf.reflection import make_reflection_brdf
 
     rb = make_reflection_brdf("phong-lobe", {"s": 16})
     return angular_reflection_maps(_latlong(rng), rb, _unit(rng, 30), _unit(rng, 2, upper=True))

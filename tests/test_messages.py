@@ -13,9 +13,9 @@ import unicodedata
 
 import numpy as np
 import pytest
-from helpers import write_test_exr
 
 from shbake.messages import printable
+from tests.helpers import write_test_exr
 
 HOSTILE = "\x1b]0;pwned\x07|\r|\x08|\x7f|\x9b|\u202e|\u2066"
 """An OSC title sequence, CR, backspace, DEL, C1 CSI, a bidi override and an isolate."""

@@ -4,11 +4,12 @@ import json
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 
 from shbake.format.asset import read_asset
 from shbake.preview.passes import render_pass
 from shbake.preview.sphere import sphere_geometry
+from shbake.shading.shader import shader
+from tests.helpers import map_path, write_test_exr
 
 
 @pytest.fixture
@@ -22,9 +23,9 @@ class TestPasses:
     def test_white_dome_shades_to_albedo(self, dome_asset):
         a = read_asset(str(dome_asset))
         _, _, mask = sphere_geometry(32)
-        img, _ = render_pass(a, "irradiance", 32)
+        img, _ = render_pass(shader(a, "irradiance"), 32)
         np.testing.assert_allclose(img[mask], 1.0, rtol=1e-9)  # Lambert ρ=1 → radiance 1
-        img, _ = render_pass(a, "tangent", 32)
+        img, _ = render_pass(shader(a, "tangent"), 32)
         np.testing.assert_allclose(img[mask], 1.0, rtol=1e-9)
         assert np.all(img[~mask] == 0)
 

@@ -13,7 +13,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 from shbake_cli.main import main
 from test_brdf import albedo_quadrature
 
@@ -35,6 +34,7 @@ from shbake.shading.shexp import evaluate_shexp, hat_weight, hat_weights
 from shbake.shading.splitsum import evaluate_splitsum
 from shbake.texture.octahedral import decode as oct_decode
 from shbake.texture.octahedral import encode as oct_encode
+from tests.helpers import map_path, write_test_exr
 
 SMALL = FitConfig(normals=16, views=16, samples=256)
 

@@ -11,10 +11,10 @@ import json
 from pathlib import Path
 
 import pytest
-from helpers import map_path
 
 from shbake.batch.probe_eval import COMPARISONS, evaluate_maps, win_table
 from shbake.evaluation.probes import ALPHAS
+from tests.helpers import map_path
 
 RESULTS = Path(__file__).resolve().parent.parent / "bench" / "results" / "probe_eval.json"
 

@@ -14,10 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 
-from shbake.bakers.shrm import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
-from shbake.bakers.shrm import default_quadrature as shrm_quadrature
 from shbake.batch.probe_eval import (
     ShrmProbe,
     evaluate_maps,
@@ -31,11 +28,14 @@ from shbake.batch.probe_eval import (
     split_levels,
     win_table,
 )
+from shbake.brdf.reflection import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
+from shbake.brdf.reflection import default_quadrature as shrm_quadrature
 from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment
 from shbake.errors import ParameterError
 from shbake.evaluation.probes import ALPHAS, sphere_views
 from shbake.reference.ggx import ggx_integrals
+from tests.helpers import map_path, write_test_exr
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +69,7 @@ class TestShrmProbe:
             row = []
             for f0 in (1.0, 0.04):
                 truth = f0 * e0 + (1.0 - f0) * e1
-                s = probe.shade(V, n, a, f0)
+                s = probe.shade(n, V, alpha=a, f0=f0)
                 row.append(np.sqrt(np.mean((s - truth) ** 2) / np.mean(truth**2)))
             errs.append(row)
         errs = np.array(errs)
@@ -79,7 +79,7 @@ class TestShrmProbe:
 
     def test_covers_only_its_widths_and_counts_its_bytes(self, forest64):
         probe = ShrmProbe(forest64, [orders_row(0.25, 4, 1)], 8, 0.01)
-        assert probe.covers(0.25) and not probe.covers(0.36)
+        assert probe.covers(alpha=0.25) and not probe.covers(alpha=0.36)
         c0, c1 = probe.cubes(0.25)
         assert c0.shape == (6, 8, 8, 4, 3) and c0.dtype == np.float32
         assert probe.nbytes == c0.nbytes + c1.nbytes == 2 * shrm_cube_bytes(8, 1)

@@ -8,7 +8,6 @@ columns against the SH rotation of its projection (Ivanic–Ruedenberg); a probe
 
 import numpy as np
 import pytest
-from helpers import map_path, write_test_exr
 from scipy.spatial.transform import Rotation
 
 from shbake.batch.scene_bake import bake_asset
@@ -19,6 +18,7 @@ from shbake.envmap.layouts import latlong_directions
 from shbake.envmap.turn import apply_pose, turn_latlong, turn_matrix
 from shbake.format.asset import read_asset
 from shbake.sh.rotation import rotate
+from tests.helpers import map_path, write_test_exr
 
 
 class TestTurnMatrix:

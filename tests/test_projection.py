@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-from helpers import map_path, synth_latlong
 
 from shbake.envmap import Environment, load_environment
 from shbake.envmap.layouts import LAYOUTS, texels
@@ -10,6 +9,7 @@ from shbake.sh.basis import real_sh
 from shbake.sh.kernels import convolve, kajiya_kay_kernel, lambert_kernel
 from shbake.sh.projection import IMAGE_FRAME, fejer_row_weights, project_latlong
 from shbake.sh.rotation import SHRotation
+from tests.helpers import map_path, synth_latlong
 
 ducc0 = pytest.importorskip("ducc0")
 

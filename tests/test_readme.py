@@ -13,8 +13,9 @@ import shutil
 from pathlib import Path
 
 import pytest
-from helpers import ROOT
 from shbake_cli.main import main
+
+from tests.helpers import ROOT
 
 README = ROOT / "README.md"
 PLACEHOLDER_SCHEDULER = "tcp://host:8786"

@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
-from helpers import synth_latlong
 
 from shbake.envmap.layouts import latlong_directions, latlong_solid_angles
 from shbake.reference.irradiance import brute_force_irradiance
 from shbake.sh.basis import real_sh
 from shbake.sh.kernels import convolve, kajiya_kay_kernel, lambert_kernel
 from shbake.sh.tangent_irradiance import eval_matrix_form, matrix_form, six_term
+from tests.helpers import synth_latlong
 
 QUERIES = np.array([[0, 0, 1.0], [0, 1.0, 0], [0.6, -0.48, 0.64], [-1.0, 0, 0]])
 

@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import ROOT, map_path, write_test_exr
 
 from shbake import __version__
 from shbake.batch.plan import irradiance_truncation, plan_scene
@@ -25,6 +24,7 @@ from shbake.batch.scene import SceneError, key_lines, load_scene
 from shbake.batch.scene_bake import bake_scene
 from shbake.envmap.image_io import read_image
 from shbake.sh.kernels import lambert_kernel
+from tests.helpers import ROOT, map_path, write_test_exr
 
 SHBAKE = str(Path(sys.executable).with_name("shbake"))
 TWO_MAPS = ROOT / "tests" / "scenes" / "two-maps.toml"
@@ -206,9 +206,8 @@ class TestLoadScene:
 class TestIrradianceTruncation:
     def test_parseval_against_dense_quadrature(self, random_coeffs):
         # E truncated at L vs E to lmax 8, both evaluated on a dense sphere: RMS matches
-        from helpers import gauss_legendre_sphere
-
         from shbake.sh.basis import real_sh
+        from tests.helpers import gauss_legendre_sphere
 
         c = random_coeffs(8) / (1 + np.arange(81))[:, None]
         err = irradiance_truncation(c, lambert_kernel)
@@ -260,7 +259,7 @@ class TestPlan:
         a = next(x for x in plan["assets"] if x["id"] == "shrm/satin/dusk")
         assert a["settings"]["pose"] == {"position": [1.0, 2.0, 3.0], "rotation_deg": 90.0}
         # the orders are the smallest meeting the tolerance: one band less in F misses it
-        from shbake.bakers.shrm import brdf_coefficients, make_reflection_brdf
+        from shbake.brdf.reflection import brdf_coefficients, make_reflection_brdf
 
         co = brdf_coefficients(make_reflection_brdf("microfacet", {"sigma": "0.3"}), 64, 16)
         missed = 1.0 - co.captured()  # energy fraction left out by orders (F, P)

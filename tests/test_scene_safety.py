@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import write_test_exr
 
 from shbake.batch.scene import load_scene
+from tests.helpers import write_test_exr
 from tests.test_faults import assert_failed, unchanged
 
 DIFFUSE = '[[materials]]\nname = "plaster"\nkind = "diffuse"\n'

@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import local_cluster, write_test_exr
 
 from shbake.batch import scheduler
 from shbake.errors import ParameterError
 from shbake.format import atomic
+from tests.helpers import local_cluster, write_test_exr
 from tests.test_faults import TIMEOUT, assert_failed, shbake, snapshot, unchanged
 
 

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-from helpers import gauss_legendre_sphere
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -17,6 +16,7 @@ from shbake.sh.basis import (
     sum_scratch,
     sum_weights,
 )
+from tests.helpers import gauss_legendre_sphere
 
 
 class TestCheckVectors:

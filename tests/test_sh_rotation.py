@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
-from helpers import gauss_legendre_sphere
 from scipy.spatial.transform import Rotation
 
 from shbake.errors import ParameterError
 from shbake.sh.basis import real_sh
 from shbake.sh.rotation import SHRotation, rotate
+from tests.helpers import gauss_legendre_sphere
 
 LMAX = 30
 

@@ -20,11 +20,11 @@ import json
 from pathlib import Path
 
 import pytest
-from helpers import SHARED_MAPS, map_path
 
 from shbake.bakers.env_sh import bake_env_sh
 from shbake.envmap import load_environment
 from shbake.evaluation.env_sh import brute_force_reference, irradiance_errors
+from tests.helpers import SHARED_MAPS, map_path
 
 EXPECTED = json.loads((Path(__file__).parent / "irradiance_accuracy_expected.json").read_text())
 

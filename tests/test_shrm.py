@@ -12,19 +12,16 @@ import os
 
 import numpy as np
 import pytest
-from helpers import map_path, write_merl, write_test_exr
 from scipy import integrate, special
 
-from shbake.bakers.shrm import (
+from shbake.bakers.shrm import auto_face_size, bake_shrm, shrm_from_directions
+from shbake.brdf import make_brdf
+from shbake.brdf.reflection import (
     F_LIMIT,
-    auto_face_size,
-    bake_shrm,
     brdf_coefficients,
     make_reflection_brdf,
     select_orders,
-    shrm_from_directions,
 )
-from shbake.brdf import make_brdf
 from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import n_coeffs
 from shbake.envmap import load_environment
@@ -36,6 +33,7 @@ from shbake.sh.basis import real_sh
 from shbake.sh.rotation import SHRotation
 from shbake.shading.shrm import evaluate_shrm, reflect, reflection_cube, shade
 from shbake.texture.cube import cube_directions, sample_cube
+from tests.helpers import map_path, write_merl, write_test_exr
 
 
 def small_env(name="city", height=128):
@@ -238,6 +236,23 @@ class TestPhongAgainstBruteForce:
         assert err < 1e-3
 
 
+class TestShrmCheck:
+    """The check the scene bake and ``shrm --report`` measure by (issue 28: its lobe
+    reference was divided by √(4π), so a converged phong-lobe SHRM measured a relative
+    error energy of ~6.6)."""
+
+    @pytest.mark.parametrize("brdf, params", [("phong-lobe", {"s": 8}), ("ggx", {"alpha": 0.5})])
+    def test_converged_bake_measures_small(self, brdf, params):
+        from shbake.evaluation.shrm import ShrmCheck
+        from shbake.format.shrm import build_shrm_asset
+
+        env = small_env("city", 32)
+        rb = make_reflection_brdf(brdf, params)
+        bake = bake_shrm(env, rb, eps=1e-4, face_size=32)
+        check = ShrmCheck(env, rb, sphere=16)
+        assert check.rel_energy(build_shrm_asset(bake, env.meta)) < 0.01
+
+
 class TestMicrofacetAgainstBruteForce:
     """Acceptance: σ = 0.2, error < 3 % at P = 2, falling with P (sphere, cube lookup)."""
 
@@ -407,6 +422,21 @@ class TestAngularBaseline:
             )
             assert rel_rms(fr[keep], full[k][keep]) < 0.01
 
+    def test_truncated_surface_brdf_close_to_the_full_hemisphere(self):
+        """Appendix D's cap for a surface BRDF (``eps > 0``: ``truncation_angles`` from the
+        ρ̂ grid) drops at most about ``eps`` of the reflected light; the full hemisphere
+        (``eps = 0``) is the reference. Failed on main before the merge of issue 28: the
+        ρ̂ grid kernel was called without its block bounds (TypeError)."""
+        from shbake.bakers.shrm_angular import angular_reflection_maps
+
+        env = small_env("city", 64)
+        rb = make_reflection_brdf("microfacet", {"sigma": 0.3})
+        R = cube_directions(8).reshape(-1, 3)
+        views = np.array([[0.0, 0.0, 1.0]])
+        full = angular_reflection_maps(env.pixels, rb, R, views, eps=0.0)[0]
+        cut = angular_reflection_maps(env.pixels, rb, R, views, eps=0.01)[0]
+        assert 0.0 < rel_rms(cut, full) < 0.02
+
 
 class TestMeasuredAndTangent:
     def test_merl_through_the_same_path(self, tmp_path):
@@ -462,7 +492,7 @@ class TestPreviewPass:
                                   "--diff", "--source", src, "--json", "-q")  # fmt: skip
         assert rc == 0, err
         summary = json.loads(stdout)
-        assert summary["pass"] == "shrm" and summary["eq12_fps"] > 0
+        assert summary["pass"] == "shrm" and summary["modes"]["eq12"]["fps"] > 0
         assert summary["relative_rms_error"] < 0.05
 
 

@@ -23,7 +23,8 @@ import time
 
 import numpy as np
 import pytest
-from helpers import local_cluster, write_test_exr
+
+from tests.helpers import local_cluster, write_test_exr
 
 TIMEOUT = 240
 """Seconds a command may take (a hang fails the test instead of the suite)."""

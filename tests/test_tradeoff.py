@@ -5,12 +5,12 @@ import json
 
 import numpy as np
 import pytest
-from helpers import map_path
 
 from shbake.batch.plan import irradiance_truncation
 from shbake.envmap import load_environment
 from shbake.envmap.sun import extract_sun
 from shbake.sh.kernels import lambert_kernel
+from tests.helpers import map_path
 
 
 class TestTradeoffCommand:

@@ -49,13 +49,16 @@ import math
 import numba
 import numpy as np
 
-from shbake.brdf.ggx import ggx_d
+from shbake.brdf.ggx import ggx_d, half_vector_cos2
+from shbake.conventions import ggx_alpha, perceptual_roughness
 from shbake.envmap.environment import Environment
-from shbake.envmap.layouts import cube_face_frames, cube_texels
+from shbake.envmap.layouts import cube_texels
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.resources import check_memory
 from shbake.texture.bilinear import axis, blend
+from shbake.texture.cube import cube_address, face_bilinear, nearest_texels
+from shbake.texture.cube import cube_directions as texel_directions
 
 # GL cube faces: columns (s axis, t axis, face normal) in GL cube space.
 GL_FACES = np.array(
@@ -87,11 +90,7 @@ def world_face_frames() -> np.ndarray:
 
 def cube_directions(size: int) -> tuple[np.ndarray, np.ndarray]:
     """Unit world directions ``(6, size, size, 3)`` and exact solid angles ``(size, size)``."""
-    edges = (2.0 * np.arange(size) + 1.0) / size - 1.0
-    s, t = np.meshgrid(edges, edges)
-    st1 = np.stack([s, t, np.ones_like(s)], -1)
-    d = np.einsum("kij,abj->kabi", world_face_frames(), st1)
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    d = texel_directions(size, world_face_frames())
     # the exact projected-texel solid angles of the cube-strip layout (same grid per face)
     omega = cube_texels("cube-strip", 6 * size, size)[1][:size]
     return d, omega
@@ -115,7 +114,7 @@ def roughness_of_level(
         return f
     if mapping == "filament":
         return 1.0 - math.sqrt(max(0.0, 1.0 - f))
-    return math.sqrt(float(size) ** (f - 1.0))
+    return perceptual_roughness(float(size) ** (f - 1.0))
 
 
 def level_of_roughness(r: float, levels: int, mapping: str = "gltf-ibl-sampler", size: int = 0):
@@ -128,7 +127,7 @@ def level_of_roughness(r: float, levels: int, mapping: str = "gltf-ibl-sampler",
         return r * (2.0 - r) * (levels - 1)
     if levels < 2:
         return 0.0
-    lod = (levels - 1) / math.log2(size) * math.log2(size * (r * r + BABYLON_MIN_ALPHA))
+    lod = (levels - 1) / math.log2(size) * math.log2(size * (ggx_alpha(r) + BABYLON_MIN_ALPHA))
     return min(max(lod, 0.0), levels - 1.0)
 
 
@@ -207,17 +206,10 @@ def mirror_cube(
 
 def _nearest_cube_input(env: Environment, d: np.ndarray) -> np.ndarray:
     """Radiance of a cube-layout environment at directions ``d`` (nearest texel)."""
-    dirs, _, mask = env.texels()
-    frames = cube_face_frames()
-    n = dirs.shape[1] if env.layout == "cube-strip" else None
     if env.layout != "cube-strip":
         raise ParameterError("cube prefilter reads lat-long or cube-strip maps")
-    proj = np.einsum("...i,kij->...kj", d, frames)  # (..., 6, 3): (d·a_s, d·a_t, d·a_n)
-    face = np.argmax(proj[..., 2], axis=-1)
-    p = np.take_along_axis(proj, face[..., None, None], axis=-2)[..., 0, :]
-    s, t = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
-    j = np.clip(((s + 1) * 0.5 * n).astype(int), 0, n - 1)
-    i = np.clip(((t + 1) * 0.5 * n).astype(int), 0, n - 1)
+    n = env.pixels.shape[1]
+    face, i, j = nearest_texels(d, n)
     return env.pixels[face * n + i, j].astype(np.float64)
 
 
@@ -245,27 +237,9 @@ def cube_pyramid(cube: np.ndarray) -> list[np.ndarray]:
 @jit
 def _fetch_level(level, wf, dx, dy, dz, out):
     """Bilinear fetch of one cube level at world direction d (clamp-to-edge within the face)."""
-    n = level.shape[1]
-    best = -1.0
-    face = 0
-    for k in range(6):
-        dn = dx * wf[k, 0, 2] + dy * wf[k, 1, 2] + dz * wf[k, 2, 2]
-        if dn > best:
-            best = dn
-            face = k
-    s = (dx * wf[face, 0, 0] + dy * wf[face, 1, 0] + dz * wf[face, 2, 0]) / best
-    t = (dx * wf[face, 0, 1] + dy * wf[face, 1, 1] + dz * wf[face, 2, 1]) / best
-    r0, r1, fr = axis((t + 1.0) * 0.5 * n - 0.5, n)
-    c0, c1, fc = axis((s + 1.0) * 0.5 * n - 0.5, n)
+    face, x, y = cube_address(wf, dx, dy, dz, level.shape[1])
     for c in range(3):
-        out[c] = blend(
-            level[face, r0, c0, c],
-            level[face, r0, c1, c],
-            level[face, r1, c0, c],
-            level[face, r1, c1, c],
-            fr,
-            fc,
-        )
+        out[c] = face_bilinear(level, face, x, y, c)
 
 
 @jit
@@ -300,7 +274,7 @@ def _prefilter_fis(pyr, wf, dirs, alpha, samples, omega_p, use_fis, out, b0, b1)
         wsum = 0.0
         for q in range(samples):
             u1, u2 = _hammersley(q, samples)
-            cos2 = (1.0 - u1) / (1.0 + (a2 - 1.0) * u1)
+            cos2 = half_vector_cos2(a2, u1)
             ct = math.sqrt(cos2)
             st = math.sqrt(max(0.0, 1.0 - cos2))
             ph = 2.0 * math.pi * u2
@@ -451,7 +425,7 @@ def prefilter_chain(
         if i == 0 or r == 0.0:
             lvl = pyramid[int(round(math.log2(src // n)))]
         else:
-            lvl = prefilter_level(pyramid, n, r * r, level_samples(samples, i), fis)
+            lvl = prefilter_level(pyramid, n, ggx_alpha(r), level_samples(samples, i), fis)
         levels.append(lvl)
         rough.append(r)
     return levels, rough

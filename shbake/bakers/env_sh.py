@@ -18,7 +18,7 @@ from shbake.bakers.env_lights import (
     fit_lights,
     irradiance_target,
 )
-from shbake.conventions import band_of_index, check_lmax
+from shbake.conventions import band_of_index, check_lmax, lmax_of
 from shbake.envmap.environment import Environment
 from shbake.envmap.sun import extract_sun
 from shbake.errors import ParameterError
@@ -37,7 +37,7 @@ REPORT_LMAX = 64
 def band_energy(coeffs) -> np.ndarray:
     """``Σ_m L_lm²`` per band and channel, shape ``(lmax+1, C)`` (RH02 §5.1)."""
     c = np.asarray(coeffs, dtype=np.float64)
-    lmax = int(round(np.sqrt(c.shape[0]))) - 1
+    lmax = lmax_of(c.shape[0])
     return np.stack([np.sum(c[l * l : (l + 1) ** 2] ** 2, axis=0) for l in range(lmax + 1)])
 
 
@@ -216,7 +216,7 @@ def _with_fit(L: np.ndarray, fit, irradiance_lmax: int) -> np.ndarray:
     """The residual's lighting SH with lights: the map's projection less the lights as
     delta lights, then the bands the Lambert kernel sees up to ``irradiance_lmax``
     replaced by the fitted irradiance SH over ``Â_l``."""
-    lmax = int(round(np.sqrt(L.shape[0]))) - 1
+    lmax = lmax_of(L.shape[0])
     out = L - real_sh(fit.directions, lmax).T @ fit.irradiance
     a = lambert_kernel(irradiance_lmax)[band_of_index(irradiance_lmax)]
     seen = np.flatnonzero(a != 0.0)

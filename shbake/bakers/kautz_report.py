@@ -21,6 +21,7 @@ import numpy as np
 
 from shbake.brdf.model import BRDF
 from shbake.brdf.tabulate import SQRT_4PI, project_views, tabulate
+from shbake.sh.point_sets import gauss_legendre
 from shbake.texture.parabolic import fetch
 
 LMAX_STUDY = (2, 4, 6, 8)
@@ -45,7 +46,7 @@ def probe_views(count: int = 16, seed: int = 7) -> np.ndarray:
 
 def product_energy(brdf: BRDF, views: np.ndarray, n_theta: int = 1024) -> np.ndarray:
     """``∫ f*(s, v)² ds`` per view and channel by a dense hemisphere product rule."""
-    x, w = np.polynomial.legendre.leggauss(n_theta)
+    x, w = gauss_legendre(n_theta)
     theta = 0.25 * np.pi * (x + 1.0)
     wt = 0.25 * np.pi * w * np.sin(theta)
     n_phi = 2 * n_theta
@@ -58,34 +59,6 @@ def product_energy(brdf: BRDF, views: np.ndarray, n_theta: int = 1024) -> np.nda
         fs = brdf.evaluate(s, v) * s[:, 2:3]
         out.append(weight @ (fs * fs))
     return np.array(out)
-
-
-TABLE_ERROR_VIEWS = (32, 23)
-"""Count and seed of the :func:`probe_views` a written table's error is measured at (none of
-them a texel centre)."""
-ENERGY_NODES = 256
-"""Gauss–Legendre nodes in θ of :func:`product_energy` for :func:`table_error`."""
-
-
-def table_error(brdf: BRDF, table: np.ndarray, lmax: int, reference_samples: int) -> dict:
-    """The error of what a consumer of ``table`` (``(H, W, n, C)``) evaluates: ``f*(·, v)``
-    rebuilt from the bilinear look-up ``c(v)`` against ``f*`` itself, relative L2 over the
-    sphere, mean over the :data:`TABLE_ERROR_VIEWS` views (``error``); parts, each the
-    same mean: ``truncation`` (Parseval: ``∫ f*² − Σ c_ref²``, ``c_ref`` projected at
-    ``reference_samples`` points per strategy) and ``coefficients`` (``|c(v) − c_ref(v)|``:
-    the table's quadrature noise and its bilinear look-up). ``error² = truncation² +
-    coefficients²`` per view."""
-    views = probe_views(*TABLE_ERROR_VIEWS)
-    energy = product_energy(brdf, views, ENERGY_NODES).sum(axis=1)
-    ref, _ = project_views(brdf, views, lmax, samples=reference_samples)
-    got = fetch(np.asarray(table), views)
-    scale = np.maximum(energy, 1e-300)
-    trunc2 = np.clip(energy - np.sum(ref * ref, axis=(1, 2)), 0, None) / scale
-    coeff2 = np.sum((got - ref) ** 2, axis=(1, 2)) / scale
-    return {"error": float(np.mean(np.sqrt(trunc2 + coeff2))),
-            "truncation": float(np.mean(np.sqrt(trunc2))),
-            "coefficients": float(np.mean(np.sqrt(coeff2))),
-            "views": len(views)}  # fmt: skip
 
 
 def settings_report(

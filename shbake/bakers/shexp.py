@@ -59,7 +59,7 @@ SAMPLE_BYTES = 512
 ``α``, weights, ``E0`` targets and their log, fitted values (tracemalloc:
 ``tests/test_faults.py::TestProbeFitMemory``)."""
 WEIGHTINGS = WEIGHTS  # the name cli/probe_fit.py imports until its grammar pass
-TARGETS = ("quadrature", "sh")
+FIT_TARGETS = ("quadrature", "sh")
 SETS_LIMIT = 8
 STEP_HALVINGS = 8
 ABSOLUTE_FLOOR = 1e-30
@@ -112,7 +112,7 @@ class FitConfig:
             (self.weights in WEIGHTS, f"weights must be one of {', '.join(WEIGHTS)}"),
             (0 <= self.polish <= 8, "polish must be in [0, 8] Gauss–Newton steps"),
             (np.isfinite(self.floor) and 0 < self.floor < 1, "floor must be in (0, 1)"),
-            (self.targets in TARGETS, f"targets must be one of {', '.join(TARGETS)}"),
+            (self.targets in FIT_TARGETS, f"targets must be one of {', '.join(FIT_TARGETS)}"),
             (
                 1 <= self.targets_lmax <= SH_TARGETS_LMAX_LIMIT,
                 f"targets_lmax must be in [1, {SH_TARGETS_LMAX_LIMIT}]",

@@ -21,12 +21,13 @@ larger of the two neighbouring entries). ``ε → 0`` gives the full hemisphere
 
 import numpy as np
 
-from shbake.bakers.shrm import ReflectionBRDF, _gauss_legendre, _rho_grid, check_eps
 from shbake.brdf.dispatch import brdf_eval
+from shbake.brdf.reflection import ReflectionBRDF, check_eps, rho_grid
 from shbake.brdf.sampling import tangent_frame
 from shbake.envmap.layouts import latlong_solid_angles
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
+from shbake.sh.point_sets import gauss_legendre
 
 N_TSTAR = 129
 """Entries of the ``θ*(cos θ_o)`` table (uniform in ``cos θ_o``)."""
@@ -40,13 +41,13 @@ def truncation_angles(rb: ReflectionBRDF, eps: float, n_theta_i: int = 512) -> n
         return np.full(N_TSTAR, eps ** (1.0 / (s + 1.0)) if eps > 0 else -1.0)
     if eps == 0.0:
         return np.full(N_TSTAR, -1.0)
-    xi, wi = _gauss_legendre(n_theta_i)
+    xi, wi = gauss_legendre(n_theta_i)
     xo = np.linspace(-1.0 + 1e-6, 1.0 - 1e-6, N_TSTAR)
     phi = np.linspace(0.0, np.pi, 65)
     wphi = np.full(phi.size, np.pi / 64)
     wphi[[0, -1]] *= 0.5
     grid = np.zeros((xi.size, xo.size, phi.size, 3))
-    _rho_grid(rb.kind_id, rb.model_id, np.ascontiguousarray(rb.prm, float), rb.data, xi, xo, phi,
+    rho_grid(rb.kind_id, rb.model_id, np.ascontiguousarray(rb.prm, float), rb.data, xi, xo, phi,
               grid)  # fmt: skip
     lum = np.einsum("iokc,k->io", grid, wphi) * wi[:, None]  # ∫ ρ̂ dφ dcosθ_i, all channels
     order = np.argsort(-xi)  # from θ_i = 0 outward

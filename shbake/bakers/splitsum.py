@@ -28,6 +28,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from shbake.bakers.shexp_targets import filtered_texel
+from shbake.brdf.ggx import ggx_d_iso, half_vector_cos2
 from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import check_samples
 from shbake.envmap.importance import latlong_flat, latlong_pyramid, level_offsets, pyramid_levels
@@ -104,7 +105,7 @@ def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, ou
             for k in range(n):
                 phi = 2.0 * np.pi * square[k, 1]
                 u = square[k, 0]
-                ct = np.sqrt((1.0 - u) / (1.0 + (a2 - 1.0) * u))
+                ct = np.sqrt(half_vector_cos2(a2, u))
                 st = np.sqrt(max(0.0, 1.0 - ct * ct))
                 hx_, hy_ = st * np.cos(phi), st * np.sin(phi)
                 hx = hx_ * tx + hy_ * bx + ct * nx
@@ -116,8 +117,7 @@ def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, ou
                 if nl <= 0.0:
                     continue
                 if filtered:
-                    q = (ct * ct) * (a2 - 1.0) + 1.0
-                    pdf = a2 / (np.pi * q * q) / 4.0  # D(h) (n·h) / (4 v·h), n = v
+                    pdf = ggx_d_iso(a2, ct) / 4.0  # D(h) (n·h) / (4 v·h), n = v
                     j = filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets,
                                        log2_omega)  # fmt: skip
                 else:

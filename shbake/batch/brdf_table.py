@@ -9,9 +9,11 @@ lmax, resolution and samples (:mod:`shbake.bakers.kautz_report`).
 
 import os
 
-from shbake.bakers.kautz_report import settings_report, table_error
+import numpy as np
+
+from shbake.bakers.kautz_report import probe_views, product_energy, settings_report
 from shbake.brdf import make_brdf, model_spec
-from shbake.brdf.tabulate import parse_vary, quadrant_views, tabulate_axes
+from shbake.brdf.tabulate import parse_vary, project_views, quadrant_views, tabulate_axes
 from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
@@ -29,6 +31,38 @@ def check_parameters(model: str, params: dict, vary: tuple[str, ...] = ()) -> No
     for name, values in map(parse_vary, vary):
         for value in values:
             spec.resolve(params | {name: value})
+
+
+TABLE_ERROR_VIEWS = (32, 23)
+"""Count and seed of the :func:`~shbake.bakers.kautz_report.probe_views` a written table's
+error is measured at (none of them a texel centre)."""
+ENERGY_NODES = 256
+"""Gauss–Legendre nodes in θ of :func:`~shbake.bakers.kautz_report.product_energy` for
+:func:`table_error`."""
+
+
+def table_error(brdf, table: np.ndarray, lmax: int, reference_samples: int) -> dict:
+    """The error of what a consumer of ``table`` (``(H, W, n, C)``) evaluates: ``f*(·, v)``
+    rebuilt from the bilinear look-up ``c(v)`` against ``f*`` itself, relative L2 over the
+    sphere, mean over the :data:`TABLE_ERROR_VIEWS` views (``error``,
+    :func:`~shbake.evaluation.metrics.mean_relative_norm`); parts, each the same mean:
+    ``truncation`` (Parseval: ``∫ f*² − Σ c_ref²``, ``c_ref`` projected at
+    ``reference_samples`` points per strategy) and ``coefficients`` (``|c(v) − c_ref(v)|``:
+    the table's quadrature noise and its bilinear look-up); per view ``error² =
+    truncation² + coefficients²``."""
+    from shbake.evaluation.metrics import mean_relative_norm
+    from shbake.texture.parabolic import fetch
+
+    views = probe_views(*TABLE_ERROR_VIEWS)
+    energy = product_energy(brdf, views, ENERGY_NODES).sum(axis=1)
+    ref, _ = project_views(brdf, views, lmax, samples=reference_samples)
+    got = fetch(np.asarray(table), views)
+    trunc2 = np.clip(energy - np.sum(ref * ref, axis=(1, 2)), 0, None)
+    coeff2 = np.sum((got - ref) ** 2, axis=(1, 2))
+    return {"error": mean_relative_norm(trunc2 + coeff2, energy),
+            "truncation": mean_relative_norm(trunc2, energy),
+            "coefficients": mean_relative_norm(coeff2, energy),
+            "views": len(views)}  # fmt: skip
 
 
 def bake_brdf_table(

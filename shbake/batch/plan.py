@@ -43,7 +43,7 @@ Error models (cheap, each measured, never assumed):
 * split-sum: no error model in shbake (its approximation error is not a
   quadrature error); the plan says so instead of predicting one.
 * SHRM: the BRDF energy the orders ``F``, ``P`` leave out (RH02 §5.1,
-  :func:`shbake.bakers.shrm.select_orders`).
+  :func:`shbake.brdf.reflection.select_orders`).
 
 Predicted times are CPU seconds of each asset's make recipe: the recipe's
 fixed part (:func:`shbake.batch.plan_costs.recipe_overheads`, once per
@@ -53,7 +53,6 @@ machine) plus the map load and the baker's work, CPU time measured here
 
 import hashlib
 import json
-import os
 from dataclasses import asdict
 
 import numpy as np
@@ -62,16 +61,17 @@ from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, choose_lights, irradiance_
 from shbake.bakers.env_sh import band_energy
 from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
-from shbake.bakers.shrm import F_LIMIT, P_LIMIT
 from shbake.bakers.splitsum import SplitSumConfig
-from shbake.batch.plan_costs import cpu_timed, recipe_overheads
-from shbake.batch.scene import Scene, _param_strings
+from shbake.batch.plan_costs import WARMED, cpu_timed, recipe_overheads, warm_seconds
+from shbake.batch.scene import Scene, asset_output, param_strings
 from shbake.brdf import make_brdf
+from shbake.brdf.reflection import F_LIMIT, P_LIMIT
 from shbake.brdf.tabulate import project_views, tabulate
-from shbake.conventions import n_coeffs
+from shbake.conventions import ggx_alpha, n_coeffs
 from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment as EnvMap
 from shbake.envmap.sun import extract_sun
+from shbake.evaluation.metrics import mean_relative_norm
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 from shbake.texture.parabolic import fetch
 
@@ -105,14 +105,6 @@ def file_hash(path: str, own_output: bool = False) -> str:
     return resources.sha256_of(path, own_output)
 
 
-def asset_output(out_dir: str, aid: str) -> str:
-    """Where asset ``aid`` is written: ``OUT/ID.h5``; an export's listing of its files
-    ``OUT/export/TARGET/MAP/files.json``."""
-    if aid.startswith("export/"):
-        return os.path.join(out_dir, aid, "files.json")
-    return os.path.join(out_dir, aid + ".h5")
-
-
 def _digest(obj) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -129,23 +121,6 @@ def irradiance_truncation(coeffs: np.ndarray, kernel) -> np.ndarray:
     tail = np.cumsum(k2[::-1], axis=0)[::-1]  # tail[l] = Σ_{l' ≥ l}
     lost = np.vstack([tail[1:], np.zeros((1, e.shape[1]))]) / total
     return np.sqrt(np.clip(lost, 0.0, None)).max(axis=1)
-
-
-_WARM: set[str] = set()
-"""Kinds already called once in this process (numba cache loads, lazy imports done)."""
-
-
-def _cold(kind: str, fn, *a, **k) -> float:
-    """Warm CPU seconds of ``fn(*a, **k)``: the first call per kind and process is not timed
-    (its numba cache loads and imports are the recipe's fixed part,
-    :func:`shbake.batch.plan_costs.recipe_overheads`); short calls: the best of three."""
-    if kind not in _WARM:
-        fn(*a, **k)
-        _WARM.add(kind)
-    best = _timed(fn, *a, **k)[1]
-    for _ in range(2 if best < 0.05 else 0):  # short calls: the best of three (timer noise)
-        best = min(best, _timed(fn, *a, **k)[1])
-    return best
 
 
 _timed = cpu_timed
@@ -178,7 +153,7 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
                  if all(e[L] <= t for e, t in errs.values())), None)  # fmt: skip
     if lmax is None:
         return {"impossible": {k: float(e[MAX_IRRADIANCE_LMAX]) for k, (e, _) in errs.items()}}
-    t_l = _cold("env_sh", residual.project, lmax)
+    t_l = warm_seconds("env_sh", residual.project, lmax)
     settings = {
         "lmax": lmax,
         "irradiance": irr_tol is not None,
@@ -234,24 +209,23 @@ class TableErrors:
         self.brdf, self.lmax, self.sample_count = brdf, lmax, samples
         self.views = probe_views() if views is None else views
         energy = product_energy(brdf, self.views, 256) if energy is None else energy
-        self.norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
+        self.energy = energy.sum(axis=1)
         if reference is None:
             reference, _ = project_views(brdf, self.views, lmax, samples=REFERENCE_SAMPLES)
         ref = reference[:, : n_coeffs(lmax)]
         if projected is None:
             projected, _ = project_views(brdf, self.views, lmax, samples=samples)
         self.projected = projected
-        kept = np.sum(ref * ref, axis=(1, 2))
-        lost = np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None))
-        self.truncation = float(np.mean(lost / self.norm))
-        noise = np.sqrt(np.sum((self.projected - ref) ** 2, axis=(1, 2)))
-        self.samples = float(np.mean(noise / self.norm))
+        lost = np.clip(self.energy - np.sum(ref * ref, axis=(1, 2)), 0, None)
+        self.truncation = mean_relative_norm(lost, self.energy)
+        self.samples = mean_relative_norm(np.sum((self.projected - ref) ** 2, axis=(1, 2)),
+                                          self.energy)  # fmt: skip
 
     def at(self, size: int) -> dict:
         """``truncation``, ``samples``, ``lookup`` and their ``total`` for a ``size²`` table."""
         table, _ = tabulate(self.brdf, self.lmax, (size, size), samples=self.sample_count)
         diff = fetch(table, self.views) - self.projected
-        look = float(np.mean(np.sqrt(np.sum(diff**2, axis=(1, 2))) / self.norm))
+        look = mean_relative_norm(np.sum(diff**2, axis=(1, 2)), self.energy)
         total = float(np.sqrt(self.truncation**2 + self.samples**2 + look**2))
         return {"truncation": self.truncation, "samples": self.samples, "lookup": look,
                 "total": total}  # fmt: skip
@@ -260,23 +234,23 @@ class TableErrors:
 def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> dict:
     """Cheapest ``(lmax, size, samples)`` whose predicted error meets ``tol`` (greedy: lmax for
     60 % of it, then samples, then the smallest size meeting the whole)."""
-    brdf, t_make = _timed(make_brdf, model, merl_path=merl, **_param_strings(params))
+    brdf, t_make = _timed(make_brdf, model, merl_path=merl, **param_strings(params))
     views = probe_views()
     energy = product_energy(brdf, views, 256)
-    norm = np.sqrt(np.maximum(energy.sum(axis=1), 1e-300))
+    total = energy.sum(axis=1)
     ref, _ = project_views(brdf, views, max(TABLE_LMAX), samples=REFERENCE_SAMPLES)
     lmax = TABLE_LMAX[-1]
     for L in TABLE_LMAX:
         kept = np.sum(ref[:, : n_coeffs(L)] ** 2, axis=(1, 2))
-        if np.mean(np.sqrt(np.clip(energy.sum(axis=1) - kept, 0, None)) / norm) <= 0.6 * tol:
+        if mean_relative_norm(np.clip(total - kept, 0, None), total) <= 0.6 * tol:
             lmax = L
             break
     for samples in TABLE_SAMPLES:  # the last one if none meets 40 % of tol
         got, _ = project_views(brdf, views, lmax, samples=samples)
-        diff = np.sqrt(np.sum((got - ref[:, : n_coeffs(lmax)]) ** 2, axis=(1, 2)))
-        if np.mean(diff / norm) <= 0.4 * tol:
+        noise = np.sum((got - ref[:, : n_coeffs(lmax)]) ** 2, axis=(1, 2))
+        if mean_relative_norm(noise, total) <= 0.4 * tol:
             break
-    t8 = _cold("brdf_table", tabulate, brdf, lmax, (8, 8), samples=samples)
+    t8 = warm_seconds("brdf_table", tabulate, brdf, lmax, (8, 8), samples=samples)
     errors = TableErrors(brdf, lmax, samples, views, energy, ref, projected=got)
     sizes = TABLE_SIZES
     if np.hypot(errors.truncation, errors.samples) > tol:
@@ -307,14 +281,14 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
     from shbake.bakers.shexp import FitPlan
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
 
-    a_lo, a_hi = lo * lo, hi * hi
+    a_lo, a_hi = ggx_alpha(lo), ggx_alpha(hi)
     config = FitConfig.paper(alpha_min=a_lo, alpha_max=a_hi,
                              alpha_count=4 if a_hi > a_lo else 1, samples=256)  # fmt: skip
     small = _downsample(env.pixels, FIT_PREDICT_HEIGHT)
     probe = FitPlan(config, small.shape[:2]).fit(small)
     full = fit_plan(config, env.shape)  # the bake's plan, now in the plan cache
     shared_dfg_table()
-    t_fit = _cold("shexp", full.fit, env.pixels)
+    t_fit = warm_seconds("shexp", full.fit, env.pixels)
     return {
         "settings": {"fit": config.as_dict()},
         "predicted_error": {"glossy_probe": float(probe.stats["log_rms"])},
@@ -327,7 +301,7 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
 def plan_shrm(env: EnvMap, model: str, params: dict, tol: float) -> dict:
     """An SHRM (Ramamoorthi & Hanrahan 2002) of an isotropic BRDF: the smallest ``F``, ``P``
     whose truncation leaves at most ``tol`` of the BRDF's energy out
-    (:func:`shbake.bakers.shrm.search_orders`: ``select_orders`` on coefficients to
+    (:func:`shbake.brdf.reflection.search_orders`: ``select_orders`` on coefficients to
     ``F_LIMIT``, ``P_LIMIT``, RH02 §5.1 and appendix C), the face size from ``F``
     (:func:`~shbake.bakers.shrm.auto_face_size`).
 
@@ -335,25 +309,20 @@ def plan_shrm(env: EnvMap, model: str, params: dict, tol: float) -> dict:
     Time: the BRDF coefficients at ``(F, P)`` and the lighting projection as the bake computes
     them, the cube at half the face size scaled by texel count.
     """
-    from shbake.bakers.shrm import (
-        auto_face_size,
-        brdf_coefficients,
-        make_reflection_brdf,
-        search_orders,
-        shrm_cube,
-    )
+    from shbake.bakers.shrm import auto_face_size, shrm_cube
+    from shbake.brdf.reflection import brdf_coefficients, make_reflection_brdf, search_orders
 
-    rb = make_reflection_brdf(model, _param_strings(params))
+    rb = make_reflection_brdf(model, param_strings(params))
     orders, _ = search_orders(rb, tol)
     if not orders.reached:
         return {"impossible": {"shrm": orders.eps_brdf}}
     F, P = orders.F, orders.P
     size = auto_face_size(F)
-    t_coeffs = _cold("shrm_coeffs", brdf_coefficients, rb, F, P)
+    t_coeffs = warm_seconds("shrm_coeffs", brdf_coefficients, rb, F, P)
     co = brdf_coefficients(rb, F, P)
     L, t_light = _timed(env.project, F)
     half = max(4, size // 2)
-    t_cube = _cold("shrm_cube", shrm_cube, L, co, half, rb.kind)
+    t_cube = warm_seconds("shrm_cube", shrm_cube, L, co, half, rb.kind)
     terms = P + 1 if rb.kind == "tangent" else (P + 1) ** 2
     return {
         "settings": {"brdf": model, "params": params, "merl": None, "eps": tol, "F": F,
@@ -375,12 +344,12 @@ def plan_splitsum(env: EnvMap, lo: float, hi: float) -> dict:
     from shbake.batch.probe_jobs import shared_dfg_table
 
     shared_dfg_table()  # the bake's DFG table, now in the plan cache
-    a_lo = max(lo * lo, 1e-3)
-    a_hi = max(hi * hi, a_lo + 0.01)
+    a_lo = max(ggx_alpha(lo), 1e-3)
+    a_hi = max(ggx_alpha(hi), a_lo + 0.01)
     alphas = tuple(float(a) for a in np.linspace(a_lo, min(a_hi, 1.0), 4))
     config = SplitSumConfig(top=64, min_size=16, alphas=alphas, samples=256)
     small = SplitSumConfig(**(config.as_dict() | {"top": 32, "min_size": 8}))
-    t = _cold("splitsum", prefilter_chain, env.pixels, small)
+    t = warm_seconds("splitsum", prefilter_chain, env.pixels, small)
     texels = sum(s * s for s in config.sizes)
     return {
         "settings": {"splitsum": config.as_dict()},
@@ -437,8 +406,8 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
             nonlocal env_map, load_s
             if env_map is None:
                 env_map, load_s = _timed(load_environment, path, quiet=True)
-                if "load" not in _WARM:  # the first load also pays imports: time it again
-                    _WARM.add("load")
+                if "load" not in WARMED:  # the first load also pays imports: time it again
+                    WARMED.add("load")
                     env_map, load_s = _timed(load_environment, path, quiet=True)
             return (env_map, load_s) if with_load else env_map
 
@@ -485,12 +454,12 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 })  # fmt: skip
         if glossy:
             tol, tkey = scene.tolerance("glossy_probe", env)
-            tail_bound = [m for m in glossy if m.roughness[0] ** 2 >= SHEXP_MIN_ALPHA
-                          and m.roughness[0] ** 2 < SHEXP_DIELECTRIC_ALPHA
+            tail_bound = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA
+                          and ggx_alpha(m.roughness[0]) < SHEXP_DIELECTRIC_ALPHA
                           and float(m.params.get("F0", 1.0)) < SHEXP_DIELECTRIC_F0]  # fmt: skip
-            high = [m for m in glossy if m.roughness[0] ** 2 >= SHEXP_MIN_ALPHA
+            high = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA
                     and m not in tail_bound]  # fmt: skip
-            low = [m for m in glossy if m.roughness[0] ** 2 < SHEXP_MIN_ALPHA] + tail_bound
+            low = [m for m in glossy if ggx_alpha(m.roughness[0]) < SHEXP_MIN_ALPHA] + tail_bound
             if high:
                 lo = min(m.roughness[0] for m in high)
                 hi = max(m.roughness[1] for m in high)
@@ -511,7 +480,7 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
             # material's F0 (the SHRM bakes the whole BRDF, Schlick Fresnel included; the
             # probes leave F0 to shading) when its orders meet `shrm`
             for m in [m for m in low if m.roughness[0] == m.roughness[1]]:
-                alpha = max(m.roughness[0] ** 2, 1e-4)
+                alpha = max(ggx_alpha(m.roughness[0]), 1e-4)
                 terms = [("", {"alpha": alpha, **m.params})]
                 aids = _plan_shrm_asset(scene, env, m, "ggx", terms, digest, get_env, cache,
                                         assets, add, optional=True)  # fmt: skip
@@ -612,12 +581,6 @@ def _asset(aid, kind, scene, p, inputs, hashes, key, tolerances, env=None) -> di
     }
 
 
-def settings_text(asset: dict) -> str:
-    """What decides an asset's bytes (kind, settings, inputs' hashes): its stamp file's text."""
-    keep = {k: asset[k] for k in ("id", "kind", "output", "inputs", "input_hashes", "settings")}
-    return json.dumps(keep, sort_keys=True, indent=1) + "\n"
-
-
 def format_plan(plan: dict) -> str:
     """The plan as a text table: asset, settings, predicted error (tolerance), time, bytes."""
     rows = [("asset", "settings", "pred. error (tol)", "pred. s", "bytes")]
@@ -649,4 +612,4 @@ def format_plan(plan: dict) -> str:
     return "\n".join(line.rstrip() for line in lines)
 
 
-__all__ = ["plan_scene", "format_plan", "settings_text", "file_hash", "asset_output", "asdict"]
+__all__ = ["plan_scene", "format_plan", "file_hash", "asdict"]

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from shbake.bakers.splitsum import SplitSumConfig, prefilter_chain
+from shbake.conventions import ggx_alpha, perceptual_roughness
 from shbake.errors import ParameterError
 from shbake.evaluation.probes import ALPHAS, MATERIALS, VIEW_YAWS, evaluate_cases
 from shbake.format.probe import probe_bytes
@@ -35,23 +36,23 @@ SHRM_FACE_SIZE = 64
 def ggx_shrm_coefficients(alpha: float, f0: float):
     """``ρ̂_lpq`` of GGX (``α``, Schlick ``F0``; separable Smith G, SPEC §4) to the baker's caps
     ``F ≤ 64``, ``P ≤ 16``, once per process (they do not depend on the map)."""
-    from shbake.bakers.shrm import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
+    from shbake.brdf.reflection import F_LIMIT, P_LIMIT, brdf_coefficients, make_reflection_brdf
 
     rb = make_reflection_brdf("ggx", {"alpha": float(alpha), "F0": float(f0)})
     return rb, brdf_coefficients(rb, F_LIMIT, P_LIMIT)
 
 
 def shrm_orders(alphas, eps: float) -> list[dict]:
-    """The orders the baker's rule (:func:`shbake.bakers.shrm.select_orders`) picks for the
+    """The orders the baker's rule (:func:`shbake.brdf.reflection.select_orders`) picks for the
     ``E0`` (``F0 = 1``) and ``E1`` (``F0 = 0``) SHRM of every ``α``: per ``α`` a dict with
     ``alpha``, ``roughness`` and, for ``E0``/``E1``, ``F``, ``P``, ``captured`` (the BRDF
     energy fraction kept) and ``reached`` (False: ``1 − ε`` is not reachable within
     ``F ≤ 64``, ``P ≤ 16``; the capped orders are used and reported)."""
-    from shbake.bakers.shrm import select_orders
+    from shbake.brdf.reflection import select_orders
 
     out = []
     for a in alphas:
-        row = {"alpha": float(a), "roughness": float(np.sqrt(a))}
+        row = {"alpha": float(a), "roughness": perceptual_roughness(float(a))}
         for term, f0 in (("E0", 1.0), ("E1", 0.0)):
             o = select_orders(ggx_shrm_coefficients(float(a), f0)[1], eps)
             row[term] = {"F": o.F, "P": o.P, "captured": 1.0 - o.eps_brdf, "reached": o.reached}
@@ -85,7 +86,7 @@ class ShrmProbe:
                 return row
         return None
 
-    def covers(self, alpha: float) -> bool:
+    def covers(self, alpha=None, **material) -> bool:
         return self._level(float(alpha)) is not None
 
     @property
@@ -111,11 +112,15 @@ class ShrmProbe:
             self._held = (row["alpha"], tuple(cubes))
         return self._held[1]
 
-    def shade(self, views, normals, alpha, f0):
-        from shbake.shading.shrm import evaluate_ggx_shrm
+    def shade(self, normals, views, alpha=None, f0=1.0):
+        """The shader protocol's ``shade``: the registry's ``ggx-shrm`` shader
+        (:class:`~shbake.shading.shrm.GgxShrmShader`) of this ``α``'s cubes (baked on
+        first use)."""
+        from shbake.shading.shader import shader_class
 
         c0, c1 = self.cubes(alpha)
-        return evaluate_ggx_shrm([(float(alpha), c0, c1)], views, normals, alpha, f0)
+        ggx = shader_class("ggx-shrm")([(float(alpha), c0, c1)])
+        return ggx.shade(normals, views, alpha, f0)
 
 
 def split_levels(alphas) -> tuple:
@@ -176,7 +181,7 @@ def evaluation_alphas(roughness=None) -> tuple:
         if not (np.isfinite(r) and ROUGHNESS_MIN <= r <= 1.0):
             raise ParameterError(f"roughness {r:g} is outside [{ROUGHNESS_MIN:g}, 1] "
                                  "(perceptual, α = r²)")  # fmt: skip
-        out.add(round(r * r, 6))
+        out.add(round(ggx_alpha(r), 6))
     return tuple(sorted(out))
 
 
@@ -186,7 +191,8 @@ def check_evaluation(
     """The settings of :func:`evaluate_maps` checked before any map is read (a
     :class:`~shbake.errors.ParameterError` names the first bad one): the cases' ``α``
     (:func:`evaluation_alphas`) and the GGX SHRM's settings (``None``: no SHRM)."""
-    from shbake.bakers.shrm import F_LIMIT, P_LIMIT, check_eps, check_face_size
+    from shbake.bakers.shrm import check_face_size
+    from shbake.brdf.reflection import F_LIMIT, P_LIMIT, check_eps
 
     alphas = evaluation_alphas(roughness)
     if shrm_eps is None:

@@ -25,8 +25,10 @@ from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_pn
 from shbake.progress import NO_PROGRESS
 from shbake.resources import check_memory
 from shbake.sh.point_sets import fibonacci_sphere
-from shbake.shading.env_sh import irradiance
+from shbake.shading.shader import shader
 
+EXPORTS = ("gltf", "babylon", "threejs")
+"""The engines ``--export`` writes beside the asset, as ``shbake export --to TARGET`` would."""
 TRUNCATION_WARNING = 0.10
 """Relative irradiance error (max vs brute force) above which ``--report`` warns."""
 MINIMUM_DIRECTIONS = 4096
@@ -70,7 +72,7 @@ def quality_warnings(asset, summary: dict) -> list[str]:
             f"{lights['mean_error']:.2%}, max {lights['max_error']:.2%})"
         )
     if "/irradiance/sh" in asset:
-        e = irradiance(asset, fibonacci_sphere(MINIMUM_DIRECTIONS))
+        e = shader(asset, "irradiance").irradiance(fibonacci_sphere(MINIMUM_DIRECTIONS))
         lowest = float(e.min())
         if lowest < 0.0:
             hint = f"; try {' or '.join(fixes)}" if fixes else ""
@@ -192,9 +194,9 @@ def project_environment(
     if exr_dir is not None:
         dirs = latlong_directions(map_size, 2 * map_size)
         if irradiance_sh:
-            maps["irradiance.exr"] = irradiance(asset, dirs)
+            maps["irradiance.exr"] = shader(asset, "irradiance").irradiance(dirs)
         if tangent_irradiance:
-            maps["tangent_irradiance.exr"] = irradiance(asset, dirs, tangent=True)
+            maps["tangent_irradiance.exr"] = shader(asset, "tangent-sh").irradiance(dirs)
         for name, img in maps.items():
             peak = float(np.abs(img).max())
             if not float_exr and peak > HALF_MAX:

@@ -34,6 +34,7 @@ before :mod:`tomllib`, which recurses per level).
 """
 
 import glob
+import json
 import math
 import os
 import re
@@ -433,16 +434,16 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
                      "params.F0 (Schlick F0, used by an SHRM; the probes apply F0 at shading)")
         if kind == "glossy" and model in (None, "ggx") and params:
             try:
-                from shbake.bakers.shrm import make_reflection_brdf
+                from shbake.brdf.reflection import make_reflection_brdf
 
-                make_reflection_brdf("ggx", {"alpha": "0.5", **_param_strings(params)})
+                make_reflection_brdf("ggx", {"alpha": "0.5", **param_strings(params)})
             except ParameterError as e:
                 chk.fail(f"{key}.params", str(e))
         if model is not None and kind != "glossy":
             try:  # brdf-table's own validation of the parameters
                 from shbake.brdf import make_brdf
 
-                make_brdf(model, merl_path=merl, **_param_strings(params))
+                make_brdf(model, merl_path=merl, **param_strings(params))
             except ParameterError as e:
                 chk.fail(f"{key}.params", str(e))
         rough = None
@@ -469,8 +470,8 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
 
 def _check_reflection_model(chk: _Checker, key: str, mat: dict) -> None:
     """A glossy material with a model other than GGX gets an SHRM: the model must be one the
-    SHRM takes (isotropic; :func:`shbake.bakers.shrm.make_reflection_brdf` says)."""
-    from shbake.bakers.shrm import LOBE_MODELS, TANGENT_MODELS, make_reflection_brdf
+    SHRM takes (isotropic; :func:`shbake.brdf.reflection.make_reflection_brdf` says)."""
+    from shbake.brdf.reflection import LOBE_MODELS, TANGENT_MODELS, make_reflection_brdf
 
     model = mat["model"]
     if "roughness" in mat:
@@ -483,11 +484,39 @@ def _check_reflection_model(chk: _Checker, key: str, mat: dict) -> None:
         chk.fail(f"{key}.model", f"a glossy material's model must be an isotropic surface "
                  f"BRDF (allowed: {', '.join(allowed)})")  # fmt: skip
     try:
-        make_reflection_brdf(model, _param_strings(mat.get("params", {})))
+        make_reflection_brdf(model, param_strings(mat.get("params", {})))
     except ParameterError as e:
         chk.fail(f"{key}.params", str(e))
 
 
-def _param_strings(params: dict) -> dict:
+def param_strings(params: dict) -> dict:
     """Scene parameter values as brdf-table's ``-p NAME=VALUE`` strings (arrays → ``r,g,b``)."""
     return {k: ",".join(map(str, v)) if isinstance(v, list) else str(v) for k, v in params.items()}
+
+
+# ---------------------------------------------------------------------------------------------
+# Where a scene's outputs go
+
+
+def asset_output(out_dir: str, aid: str) -> str:
+    """Where asset ``aid`` is written: ``OUT/ID.h5``; an export's listing of its files
+    ``OUT/export/TARGET/MAP/files.json``."""
+    if aid.startswith("export/"):
+        return os.path.join(out_dir, aid, "files.json")
+    return os.path.join(out_dir, aid + ".h5")
+
+
+def lock_path(scene: Scene) -> str:
+    return os.path.join(scene.out_dir, LOCK_NAME)
+
+
+def stamp_path(out_dir: str, aid: str) -> str:
+    """The settings stamp of asset ``aid`` (what make depends on): ``OUT/.stamps/ID.json``,
+    one folder per part of the id (names hold no ``/``, so no two ids share a stamp)."""
+    return os.path.join(out_dir, STAMP_DIR, *aid.split("/")) + ".json"
+
+
+def settings_text(asset: dict) -> str:
+    """What decides an asset's bytes (kind, settings, inputs' hashes): its stamp file's text."""
+    keep = {k: asset[k] for k in ("id", "kind", "output", "inputs", "input_hashes", "settings")}
+    return json.dumps(keep, sort_keys=True, indent=1) + "\n"

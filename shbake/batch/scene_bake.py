@@ -19,8 +19,6 @@ import stat
 import time
 from contextlib import contextmanager
 
-import numpy as np
-
 from shbake import __version__, resources
 from shbake.batch.makefile import (
     MakeNameError,
@@ -29,15 +27,18 @@ from shbake.batch.makefile import (
     variable_name,
     variable_value,
 )
-from shbake.batch.plan import asset_output, file_hash, plan_scene, settings_text
+from shbake.batch.plan import file_hash, plan_scene
 from shbake.batch.probe_jobs import worker_pool
 from shbake.batch.scene import (
-    LOCK_NAME,
     NAME_PATTERN,
     STAMP_DIR,
     Scene,
-    _param_strings,
+    asset_output,
     is_inside,
+    lock_path,
+    param_strings,
+    settings_text,
+    stamp_path,
 )
 from shbake.batch.scene_paths import resolved, scene_folder, stored, stored_asset
 from shbake.errors import OutputError, ParameterError
@@ -57,16 +58,6 @@ ASSET_ID = rf"[a-z_]+(?:/{NAME_PATTERN})+"
 """An asset id: its kind, then the names it is baked for (``shrm/satin/dusk``)."""
 
 
-def lock_path(scene: Scene) -> str:
-    return os.path.join(scene.out_dir, LOCK_NAME)
-
-
-def stamp_path(out_dir: str, aid: str) -> str:
-    """The settings stamp of asset ``aid`` (what make depends on): ``OUT/.stamps/ID.json``,
-    one folder per part of the id (names hold no ``/``, so no two ids share a stamp)."""
-    return os.path.join(out_dir, STAMP_DIR, *aid.split("/")) + ".json"
-
-
 @contextmanager
 def _committed():
     """Each asset's files commit on their own when its baker returns (outside the command's
@@ -76,18 +67,12 @@ def _committed():
         yield
 
 
-def _rel_rms(got, ref) -> float:
-    return float(np.sqrt(np.mean((got - ref) ** 2) / max(np.mean(ref**2), 1e-300)))
-
-
 def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.batch.project_env import project_environment
-    from shbake.conventions import REC709_LUMINANCE
-    from shbake.envmap import load_environment
     from shbake.envmap.turn import turn_matrix
-    from shbake.evaluation.env_sh import brute_force_reference
+    from shbake.evaluation.env_sh import brute_force_reference, irradiance_errors
     from shbake.format.asset import read_asset
-    from shbake.shading.env_sh import irradiance
+    from shbake.format.provenance import reload_source
 
     s = a["settings"]
     t0 = time.perf_counter()
@@ -102,15 +87,12 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     outputs = summary["outputs"]
     if not measure:
         return {"outputs": outputs, "bake_seconds": seconds}, {}
-    env = load_environment(a["inputs"][0], quiet=True)
-    ref = brute_force_reference(env, n_dirs=1024)  # of the map as it is, unturned
     asset = read_asset(a["output"])
+    env = reload_source(asset, a["output"], a["inputs"][0])  # the map as baked, unturned
+    ref = brute_force_reference(env, n_dirs=1024)
     turn = turn_matrix(s.get("pose", {}).get("rotation_deg", 0.0))
-    errors = {}
-    for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
-        if f"/{name}/sh" in asset:  # the turned probe at R d sees the map's d
-            got = irradiance(asset, ref["dirs"] @ turn.T, tangent=tangent) @ REC709_LUMINANCE
-            errors[name] = _rel_rms(got, ref[name])
+    measured = irradiance_errors(asset, env, ref, rotation=turn)  # the scene's tolerances
+    errors = {name: e["relative_rms"] for name, e in measured.items()}
     return {"outputs": outputs, "bake_seconds": seconds}, errors
 
 
@@ -121,14 +103,14 @@ def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
     s = a["settings"]
     t0 = time.perf_counter()
     with _committed():
-        bake_brdf_table(s["model"], a["output"], params=_param_strings(s["params"]),
+        bake_brdf_table(s["model"], a["output"], params=param_strings(s["params"]),
                         merl_path=s["merl"], lmax=s["lmax"], size=(s["size"], s["size"]),
                         samples=s["samples"], reproducible=True)  # fmt: skip
     seconds = time.perf_counter() - t0
     if not measure:
         return {"outputs": [a["output"]], "bake_seconds": seconds}, {}
-    brdf = make_brdf(s["model"], merl_path=s["merl"], **_param_strings(s["params"]))
-    from shbake.bakers.kautz_report import table_error
+    brdf = make_brdf(s["model"], merl_path=s["merl"], **param_strings(s["params"]))
+    from shbake.batch.brdf_table import table_error
     from shbake.batch.plan import REFERENCE_SAMPLES
     from shbake.format.asset import read_asset
     from shbake.format.kautz_table import table_at
@@ -189,22 +171,25 @@ def _bake_splitsum(a: dict, measure: bool = True) -> tuple[dict, dict]:
 def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
     """An SHRM at the planned ``F``, ``P`` and face size; measured: the relative energy of
     the shading error on a sphere against brute force under the (turned) map
-    (:class:`shbake.bakers.shrm.ShadingCheck`), comparable with the BRDF energy left out."""
-    from shbake.bakers.shrm import ShadingCheck, bake_shrm, make_reflection_brdf
+    (:class:`shbake.evaluation.shrm.ShrmCheck`), comparable with the BRDF energy left out."""
+    from shbake.bakers.shrm import bake_shrm
+    from shbake.brdf.reflection import make_reflection_brdf
+    from shbake.evaluation.shrm import ShrmCheck
     from shbake.format.shrm import build_shrm_asset, write_shrm
 
     s = a["settings"]
     t0 = time.perf_counter()
     env, rotation = _posed_env(a, turn_pixels=False)
-    rb = make_reflection_brdf(s["brdf"], _param_strings(s["params"]), s["merl"])
+    rb = make_reflection_brdf(s["brdf"], param_strings(s["params"]), s["merl"])
     bake = bake_shrm(env, rb, s["eps"], s["F"], s["P"], s["face_size"], rotation=rotation)
+    asset = build_shrm_asset(bake, env.meta)
     with _committed():
-        write_shrm(a["output"], build_shrm_asset(bake, env.meta))
+        write_shrm(a["output"], asset)
     info = {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0}
     if not measure:
         return info, {}
-    check = ShadingCheck(env, rb, rotation=rotation)
-    return info, ({"shrm": check.rel_energy(bake.cube)} if check.ref is not None else {})
+    check = ShrmCheck(env, rb, rotation=rotation)
+    return info, ({"shrm": check.rel_energy(asset)} if check.ref is not None else {})
 
 
 def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:

@@ -23,10 +23,10 @@ from shbake.batch.plan import (
     TABLE_LMAX,
     TABLE_SIZES,
     TableErrors,
-    _cold,
     irradiance_truncation,
 )
-from shbake.batch.scene import _param_strings
+from shbake.batch.plan_costs import warm_seconds
+from shbake.batch.scene import param_strings
 from shbake.brdf import make_brdf
 from shbake.brdf.tabulate import project_views, tabulate
 from shbake.conventions import n_coeffs
@@ -36,7 +36,7 @@ from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, write_text
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 
-KINDS = ("env_sh", "brdf_table")
+TRADEOFF_KINDS = ("env_sh", "brdf_table")
 
 
 def env_sh_tradeoff(map_path: str, tol: float, sun: bool = True) -> dict:
@@ -50,14 +50,14 @@ def env_sh_tradeoff(map_path: str, tol: float, sun: bool = True) -> dict:
     for L in range(MAX_IRRADIANCE_LMAX + 1):
         rows.append({"setting": f"lmax {L}", "lmax": L, "error": float(max(e_irr[L], e_tan[L])),
                      "irradiance_error": float(e_irr[L]), "tangent_error": float(e_tan[L]),
-                     "seconds": _cold("env_sh", residual.project, L),
+                     "seconds": warm_seconds("env_sh", residual.project, L),
                      "bytes": 3 * n_coeffs(L) * 3 * 8})  # fmt: skip
     return _finish("env_sh", rows, tol, "relative RMS irradiance error (Parseval)", map_path)
 
 
 def brdf_table_tradeoff(model: str, params: dict, tol: float, samples: int = 256) -> dict:
     """Rows ``(lmax, size)`` over TABLE_LMAX × TABLE_SIZES[:3] at ``samples``."""
-    brdf = make_brdf(model, **_param_strings(params))
+    brdf = make_brdf(model, **param_strings(params))
     views = probe_views()
     energy = product_energy(brdf, views, 256)
     ref, _ = project_views(brdf, views, max(TABLE_LMAX), samples=REFERENCE_SAMPLES)
@@ -70,7 +70,7 @@ def brdf_table_tradeoff(model: str, params: dict, tol: float, samples: int = 256
             rows.append({"setting": f"lmax {L} size {size}", "lmax": L, "size": size,
                          "samples": samples, "error": errs["total"], **{
                              f"{k}_error": v for k, v in errs.items() if k != "total"},
-                         "seconds": _cold("brdf_table", tabulate, brdf, L, (size, size),
+                         "seconds": warm_seconds("brdf_table", tabulate, brdf, L, (size, size),
                                           samples=samples),
                          "bytes": size * size * n_coeffs(L) * 3 * 8})  # fmt: skip
     return _finish("brdf_table", rows, tol, "relative L2 error of f*", model)
@@ -129,7 +129,7 @@ def write_tradeoff(result: dict, output: str, csv_path: str | None, json_path: s
 
 def tradeoff(kind: str, tol: float, map_path: str | None = None, model: str | None = None,
              params: dict | None = None, samples: int = 256) -> dict:  # fmt: skip
-    """Dispatch on ``kind`` (one of :data:`KINDS`), validating what it needs."""
+    """Dispatch on ``kind`` (one of :data:`TRADEOFF_KINDS`), validating what it needs."""
     if not 0.0 < tol < 1.0:
         raise ParameterError(f"--tol must be in (0, 1), got {tol}")
     if kind == "env_sh":

@@ -49,6 +49,31 @@ def ggx_d(ax, ay, hx, hy, hz):
 
 
 @jit
+def ggx_d_iso(a2, cos_h):
+    """Isotropic GGX ``D`` (1/sr) of width ``α`` (``a2 = α²``) at ``cos θ_h = n·h > 0``:
+    ``α² / (π ((α² − 1) cos²θ_h + 1)²)`` — :func:`ggx_d` with ``α_x = α_y`` written in
+    ``cos θ_h`` (Walter et al. 2007 eq. 33, ``tan²θ = 1/cos²θ − 1``).
+
+    >>> round(ggx_d_iso(0.25, 1.0) * 0.25 * np.pi, 12)  # D(n) = 1/(π α²)
+    1.0
+    """
+    q = (cos_h * cos_h) * (a2 - 1.0) + 1.0
+    return a2 / (np.pi * q * q)
+
+
+@jit
+def half_vector_cos2(a2, u):
+    """``cos²θ_h`` of the GGX half vector drawn with density ``D(h) cos θ_h`` from
+    ``u ∈ [0, 1)`` (width ``α``, ``a2 = α²``): the inverted CDF of Walter et al. 2007
+    eq. 35, ``tan²θ_h = α² u / (1 − u)``.
+
+    >>> half_vector_cos2(0.25, 0.0), half_vector_cos2(0.25, 0.8)
+    (1.0, 0.5)
+    """
+    return (1.0 - u) / (1.0 + (a2 - 1.0) * u)
+
+
+@jit
 def smith_lambda(ax, ay, wx, wy, wz):
     """Smith ``Λ(w)`` for GGX, ``w_z > 0``."""
     a2 = (ax * ax * wx * wx + ay * ay * wy * wy) / (wz * wz)

@@ -1,4 +1,4 @@
-"""Helpers shared by the sampling strategies of the BRDF models.
+"""Helpers shared by the sampling strategies of the BRDF models, and local shading frames.
 
 Lobe samplers map ``(u_r, u_a) ∈ [0, 1)²`` — a radial and an azimuthal
 coordinate — to a direction; :mod:`shbake.brdf.tabulate` integrates over that
@@ -16,7 +16,9 @@ TWO_PI = 2.0 * np.pi
 
 @jit
 def cosine_pdf(sz):
-    """Solid-angle density of :func:`cosine_sample` at a direction with ``z = sz``."""
+    """Solid-angle density ``cos θ / π`` of cosine-weighted hemisphere directions at
+    ``z = sz`` (0 below the surface): the weight of the hemisphere rule against a lobe's
+    own density in :mod:`shbake.brdf.tabulate`'s multiple importance sampling."""
     return sz * INV_PI if sz > 0.0 else 0.0
 
 
@@ -66,3 +68,16 @@ def safe_pow(c, n):
     if c <= 0.0:
         return 0.0
     return np.exp(n * np.log(c))
+
+
+def fibre_frames(normals, tangents) -> np.ndarray:
+    """World → local rotations ``(N, 3, 3)`` whose rows are the unit ``tangents`` (local +X),
+    ``normals × tangents`` (+Y) and the unit ``normals`` (+Z): the local shading frame
+    (SPEC §3) brushed along a given tangent (the Kautz pass's, anisotropic lobes along it).
+
+    >>> fibre_frames([[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])[0].tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    """
+    n = np.asarray(normals, dtype=np.float64)
+    t = np.asarray(tangents, dtype=np.float64)
+    return np.ascontiguousarray(np.stack([t, np.cross(n, t), n], axis=1))

@@ -4,11 +4,12 @@ import numpy as np
 
 from shbake.conventions import REC709_LUMINANCE
 from shbake.envmap.environment import Environment
+from shbake.evaluation.metrics import max_relative_error, mean_relative_error, relative_rms_error
 from shbake.format.asset import Asset
 from shbake.progress import NO_PROGRESS
 from shbake.reference.irradiance import brute_force_irradiance
 from shbake.sh.point_sets import fibonacci_sphere
-from shbake.shading.env_sh import irradiance
+from shbake.shading.shader import shader
 
 QUERY_CHUNK = 128
 """Query directions per brute-force call (one progress step)."""
@@ -37,21 +38,30 @@ def brute_force_reference(env: Environment, n_dirs: int = 2048, progress=NO_PROG
 
 
 def irradiance_errors(
-    asset: Asset, env: Environment, reference: dict | None = None, progress=NO_PROGRESS
-) -> dict:
-    """Luminance relative error of the asset's irradiance vs brute force of ``env``.
+    asset: Asset, env: Environment, reference: dict | None = None, progress=NO_PROGRESS,
+    rotation=None,
+) -> dict:  # fmt: skip
+    """Luminance errors of the asset's irradiance vs brute force of ``env``.
 
     ``env`` is the original map (before sun extraction); ``reference`` a
-    :func:`brute_force_reference` of it, computed here when omitted. Returns,
-    for ``irradiance`` and ``tangent_irradiance`` when present,
-    ``{"mean": …, "max": …}`` of ``|Y(E) - Y(E_ref)| / Y(E_ref)``.
+    :func:`brute_force_reference` of it, computed here when omitted; ``rotation``: the
+    asset's SH were turned by ``R`` from the map's (a scene probe's pose), so the asset at
+    ``R d`` is compared with the map at ``d``. Returns, for ``irradiance`` and
+    ``tangent_irradiance`` when present (shaders ``irradiance`` and ``tangent-sh`` of the
+    registry), ``{"mean": …, "max": …, "relative_rms": …}``: the mean and the largest
+    pointwise relative error ``|Y(E) − Y(E_ref)| / Y(E_ref)`` and the relative RMS error
+    (:mod:`shbake.evaluation.metrics`; the scene's tolerances are relative RMS).
     """
     ref = reference if reference is not None else brute_force_reference(env, progress=progress)
+    dirs = ref["dirs"] if rotation is None else ref["dirs"] @ np.asarray(rotation).T
     out = {}
-    for name, tangent in (("irradiance", False), ("tangent_irradiance", True)):
+    for name, technique in (("irradiance", "irradiance"), ("tangent_irradiance", "tangent-sh")):
         if f"/{name}/sh" not in asset:
             continue
-        got = irradiance(asset, ref["dirs"], tangent=tangent) @ REC709_LUMINANCE
-        rel = np.abs(got - ref[name]) / np.maximum(ref[name], 1e-30)
-        out[name] = {"mean": float(rel.mean()), "max": float(rel.max())}
+        got = shader(asset, technique).irradiance(dirs) @ REC709_LUMINANCE
+        out[name] = {
+            "mean": mean_relative_error(got, ref[name]),
+            "max": max_relative_error(got, ref[name]),
+            "relative_rms": relative_rms_error(got, ref[name]),
+        }
     return out

@@ -22,16 +22,16 @@ from pathlib import Path
 
 import numpy as np
 
-from shbake.errors import ParameterError
-from shbake.format.probe import check_probe_alpha
+from shbake.conventions import ggx_alpha
+from shbake.evaluation.metrics import mean_squared_error
+from shbake.format.asset import Asset
 from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.sphere import sphere_geometry
 from shbake.reference.ggx import ggx_integrals
-from shbake.shading.shexp import evaluate_shexp
-from shbake.shading.splitsum import evaluate_splitsum
+from shbake.shading.shader import shader
 
 MATERIALS = {"chrome": 1.0, "dielectric": 0.04}
-ALPHAS = tuple(round(r * r, 6) for r in (0.5, 0.6, 0.7, 0.8, 0.9, 1.0))
+ALPHAS = tuple(round(ggx_alpha(r), 6) for r in (0.5, 0.6, 0.7, 0.8, 0.9, 1.0))
 VIEW_YAWS = (0.0, 90.0, 180.0, 270.0)
 
 
@@ -49,35 +49,12 @@ def sphere_views(size: int, yaw_deg: float):
     return normals[keep], view, mask2
 
 
-def covers(asset, alpha) -> bool:
-    """Whether a probe under test shades at ``α``: an asset's ``alpha_range``, or the
-    ``covers`` method of a shading object (one with ``shade(views, normals, α, F0)``)."""
-    if hasattr(asset, "shade"):
-        return bool(asset.covers(alpha))
-    try:
-        check_probe_alpha(asset, alpha)
-    except ParameterError:
-        return False
-    return True
-
-
-def shade_probe(asset, views, normals, alpha, f0) -> np.ndarray:
-    """Radiance ``(T, 3)`` of a ``shexp_probe`` or ``splitsum_probe`` asset at ``(v, n, α)``
-    for Schlick ``F0`` (scalar), refusing ``α`` outside the probe's range; any other object
-    with a ``shade(views, normals, α, F0)`` method (the GGX SHRM probe of ``probe-eval``) is
-    shaded by it."""
-    if hasattr(asset, "shade"):
-        return asset.shade(views, normals, alpha, f0)
-    check_probe_alpha(asset, alpha)
-    f0s = (float(f0),) * 3
-    if asset.kind == "shexp_probe":
-        return evaluate_shexp(asset["/p"], asset["/q"], asset["/dfg"], views, normals, alpha,
-                              f0s, asset["/knots"])  # fmt: skip
-    if asset.kind == "splitsum_probe":
-        levels = [asset[f"/levels/{k}"] for k in range(int(asset.attrs["levels"]))]
-        return evaluate_splitsum(levels, asset["/level_alpha"], asset["/dfg"], views, normals,
-                                 alpha, f0s)  # fmt: skip
-    raise ParameterError(f"not a probe asset: {asset.kind}")
+def probe_shaders(probes: dict) -> dict:
+    """Name → shader of each probe under test: an asset (``shexp_probe``,
+    ``splitsum_probe``) through the registry (:func:`shbake.shading.shader.shader`), any
+    other object as it is (one with the shader protocol's ``covers`` and ``shade``, such as
+    the GGX SHRM probe of ``probe-eval``)."""
+    return {name: shader(p) if isinstance(p, Asset) else p for name, p in probes.items()}
 
 
 @dataclass
@@ -146,21 +123,22 @@ def evaluate_cases(pixels, assets: dict, size: int = 32, truth_samples: int = 40
                    alphas=ALPHAS, yaws=VIEW_YAWS, materials=MATERIALS,
                    cache_dir=None, sheet_dir=None, label: str = "map") -> list[dict]:  # fmt: skip
     """Rows ``{material, alpha, yaw, mse: {name: MSE}, mse_truth_estimate}`` for every case
-    of one map; ``assets``: name → probe asset (or shading object, :func:`shade_probe`);
-    a probe that does not cover ``α`` (:func:`covers`) gets MSE ``None``; ``cache_dir``:
-    :func:`case_truth`; ``sheet_dir``: also write one contact sheet per case
-    (:func:`write_case_sheet`)."""
+    of one map (:func:`~shbake.evaluation.metrics.mean_squared_error` over the sphere's
+    pixels and channels); ``assets``: name → probe asset or shader (:func:`probe_shaders`);
+    a probe that does not cover ``α`` gets MSE ``None``; ``cache_dir``: :func:`case_truth`;
+    ``sheet_dir``: also write one contact sheet per case (:func:`write_case_sheet`)."""
+    shaders = probe_shaders(assets)
     rows = []
     for a in alphas:
         for yaw in yaws:
             truth = case_truth(pixels, a, yaw, size, truth_samples, cache_dir)
             for material, f0 in materials.items():
                 ref = truth.radiance(f0)
-                shaded = {name: shade_probe(asset, truth.views, truth.normals, a, f0)
-                          for name, asset in assets.items() if covers(asset, a)}  # fmt: skip
-                mse = {name: None for name in assets}
-                mse.update({name: float(np.mean((s - ref) ** 2)) for name, s in shaded.items()})
-                err = float(np.mean((truth.radiance(f0, coarse=True) - ref) ** 2)) / 5.0
+                shaded = {name: sh.shade(truth.normals, truth.views, alpha=a, f0=f0)
+                          for name, sh in shaders.items() if sh.covers(alpha=a)}  # fmt: skip
+                mse = {name: None for name in shaders}
+                mse.update({name: mean_squared_error(s, ref) for name, s in shaded.items()})
+                err = mean_squared_error(truth.radiance(f0, coarse=True), ref) / 5.0
                 rows.append({"material": material, "alpha": float(a), "yaw": float(yaw),
                              "mse": mse, "mse_truth_estimate": err})  # fmt: skip
                 if sheet_dir is not None:

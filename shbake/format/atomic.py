@@ -31,6 +31,7 @@ import stat
 import threading
 from contextlib import contextmanager
 
+from shbake import signals
 from shbake.errors import OutputError
 
 TAG = ".shbake-"
@@ -251,8 +252,6 @@ class Transaction:
 
     def commit(self) -> list[str]:
         """Move every temporary onto its target; return the targets."""
-        from shbake import signals
-
         with _lock:
             signals.raise_if_interrupted()
             done = []
@@ -371,10 +370,14 @@ def active() -> Transaction | None:
 
 
 def abort_active() -> None:
-    """Abort every open transaction of this process (the signal watcher calls this)."""
+    """Abort every open transaction of this process (the signal watcher calls this,
+    :func:`shbake.signals.on_interrupt`)."""
     with _lock:
         for t in list(_open):
             t.abort()
+
+
+signals.on_interrupt(abort_active)
 
 
 @contextmanager

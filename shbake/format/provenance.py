@@ -2,7 +2,8 @@
 
 ``source_path`` is recorded relative to the asset's folder where possible, so a
 folder of maps and assets can move as a whole and a probe baked on any runner
-has the same bytes; :func:`resolve_source` finds the file again from the asset.
+has the same bytes; :func:`resolve_source` finds the file again from the asset and
+:func:`reload_source` reads it as the bake did (every recorded input policy).
 """
 
 import os
@@ -75,9 +76,10 @@ def relativise(attrs: dict, asset_path: str) -> dict:
     return out
 
 
-def resolve_source(attrs: dict, asset_path: str, given: str | None = None) -> str:
-    """The input file of an asset: ``given`` (``--source``) if any, else ``source_path``
-    relative to the asset's folder; its SHA-256 must match ``source_sha256``.
+def resolve_source(attrs: dict, asset_path: str, given: str | None = None,
+                   option: str = "--source") -> str:  # fmt: skip
+    """The input file of an asset: ``given`` (the command's ``option``) if any, else
+    ``source_path`` relative to the asset's folder; its SHA-256 must match ``source_sha256``.
 
     The hash is bounded by the file size; FIFOs, devices and folders are refused
     before opening. Raises :class:`ImageReadError` (not found) or
@@ -90,15 +92,15 @@ def resolve_source(attrs: dict, asset_path: str, given: str | None = None) -> st
         folder = os.path.dirname(os.path.abspath(asset_path))
         path = os.path.join(folder, recorded)
     else:
-        raise ImageReadError("the asset records no source map; give it with --source")
+        raise ImageReadError(f"the asset records no source map; give it with {option}")
     if not os.path.exists(path):
         if given:
-            raise ImageReadError(f"{given}: no such file (--source)")
+            raise ImageReadError(f"{given}: no such file ({option})")
         raise ImageReadError(
             f"source map {recorded!r} (recorded relative to the asset) not found at {path}; "
-            "give it with --source"
+            f"give it with {option}"
         )
-    resources.check_regular_file(path, "--source" if given else "recorded source map")
+    resources.check_regular_file(path, option if given else "recorded source map")
     digest = resources.sha256_of(path)
     want = attrs.get("source_sha256", "")
     if digest != want:
@@ -107,3 +109,26 @@ def resolve_source(attrs: dict, asset_path: str, given: str | None = None) -> st
             f"({str(want)[:12]}…); not the map this asset was baked from"
         )
     return path
+
+
+def reload_source(asset, asset_path: str, given: str | None = None, option: str = "--source"):
+    """The map ``asset`` was baked from, read as the bake read it: the file of
+    :func:`resolve_source` (``given``, else the recorded path; SHA-256 checked) with every
+    input policy the provenance block records — layout, input colourspace, non-finite
+    repair and negative policy (``source_*`` attributes, FORMAT.md §3) — so its pixels are
+    the ones the asset was computed from. ``option`` names the command's option in messages.
+    """
+    from shbake.envmap import load_environment
+
+    a = asset.attrs
+    path = resolve_source(a, asset_path, given, option)
+    cs_in = a.get("source_colorspace_in")
+    nonfinite = a.get("source_nonfinite_policy")
+    return load_environment(
+        path,
+        a.get("source_layout"),
+        None if cs_in in (None, a.get("source_colorspace")) else cs_in,
+        a.get("source_negative_policy") or "clamp",
+        None if nonfinite in (None, "", "error") else nonfinite,
+        quiet=True,
+    )

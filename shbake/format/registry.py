@@ -509,11 +509,6 @@ def _also_reads(kind: Kind) -> str:
     return f" (readers also accept version {', '.join(map(str, kind.reads))})"
 
 
-def versions() -> dict[str, int]:
-    """``kind → format version``."""
-    return {k: v.version for k, v in kinds().items()}
-
-
 def render_doc(text: str) -> str:
     """``docs/FORMAT.md`` text with every generated block replaced by the registry's.
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shbake.conventions import LMAX_LIMIT
+from shbake.conventions import LMAX_LIMIT, lmax_of
 from shbake.errors import FormatError
 from shbake.format.asset import Asset, read_asset, write_asset
 from shbake.format.provenance import map_source
@@ -157,3 +157,42 @@ def shrm_from_asset(asset: Asset) -> SHRM:
 def read_shrm(path: str) -> SHRM:
     """Read an ``shrm`` asset file."""
     return shrm_from_asset(read_asset(path, kinds=(KIND,)))
+
+
+def write_exr_cubes(directory: str, cube: np.ndarray, tangent: bool,
+                    reflection: np.ndarray, png: bool = False) -> list[str]:  # fmt: skip
+    """``shrm_p{p}.exr`` per ``p`` of the SHRM ``cube (6, S, S, n, 3)`` (channels
+    ``q{q}.R/G/B``; ``tangent`` kind: ``R/G/B`` of ``B_p0``) and ``reflection.exr`` (the
+    eq. 12 cube ``(6, S, S, 3)`` the caller shaded for one view), OpenEXR cube strips
+    (float32); with ``png`` a PNG beside each: the ``q`` components (channel mean) side by
+    side, and the reflection tone-mapped. The paths written."""
+    import os
+
+    from shbake.format.atomic import makedirs
+    from shbake.format.images import component_strip, tonemap_to_srgb8, write_exr, write_png
+
+    makedirs(directory)
+    S = cube.shape[1]
+    P = cube.shape[3] - 1 if tangent else lmax_of(cube.shape[3])
+    written = []
+    for p in range(P + 1):
+        if tangent:
+            img = cube[:, :, :, p, :]
+            names = ("R", "G", "B")
+        else:
+            img = cube[:, :, :, p * p : (p + 1) ** 2, :].reshape(6, S, S, -1)
+            names = tuple(f"q{q}.{c}" for q in range(-p, p + 1) for c in "RGB")
+        path = os.path.join(directory, f"shrm_p{p}.exr")
+        write_exr(path, img.reshape(6 * S, S, -1), half=False, attrs={"envmap": "cube"},
+                  channel_names=names)  # fmt: skip
+        written.append(path)
+        if png:
+            written.append(os.path.join(directory, f"shrm_p{p}.png"))
+            write_png(written[-1], component_strip(img.reshape(6 * S, S, -1, 3).mean(axis=-1)))
+    path = os.path.join(directory, "reflection.exr")
+    write_exr(path, reflection.reshape(6 * S, S, 3), half=False, attrs={"envmap": "cube"})
+    written.append(path)
+    if png:
+        written.append(os.path.join(directory, "reflection.png"))
+        write_png(written[-1], tonemap_to_srgb8(reflection.reshape(6 * S, S, 3)))
+    return written

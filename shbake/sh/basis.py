@@ -149,6 +149,14 @@ def real_sh(dirs, lmax: int) -> np.ndarray:
     Returns
     -------
     ndarray, shape (..., (lmax+1)^2), float64
+
+    Examples
+    --------
+    At the pole ``+Z`` only the ``m = 0`` functions are non-zero: ``y_00 = 1/sqrt(4π)``,
+    ``y_10 = sqrt(3/(4π))`` (index ``l(l+1)+m``, SPEC §2):
+
+    >>> real_sh([0.0, 0.0, 1.0], 1).round(6).tolist()
+    [0.282095, 0.0, 0.488603, 0.0]
     """
     lmax = check_lmax(lmax)
     d = unit_vectors(dirs)

@@ -18,7 +18,7 @@ block for a random rotation: 2e-14 at l = 30, 9e-12 at 64, 7e-9 at 96,
 
 import numpy as np
 
-from shbake.conventions import check_lmax, n_coeffs
+from shbake.conventions import check_lmax, lmax_of, n_coeffs
 from shbake.errors import ParameterError
 from shbake.jit import jit
 
@@ -228,8 +228,8 @@ class SHRotation:
         """
         c = np.asarray(coeffs, dtype=np.float64)
         n = c.shape[0]
-        lmax_c = int(round(np.sqrt(n))) - 1
-        if (lmax_c + 1) ** 2 != n or lmax_c > self.lmax:
+        lmax_c = lmax_of(n)
+        if lmax_c > self.lmax:
             raise ParameterError(
                 f"cannot rotate {n} coefficients with an lmax {self.lmax} rotation"
             )
@@ -246,5 +246,4 @@ class SHRotation:
 def rotate(coeffs, R) -> np.ndarray:
     """Coefficients of ``g(d) = f(Rᵀ d)`` given those of ``f``: ``M(R) @ coeffs``."""
     c = np.asarray(coeffs, dtype=np.float64)
-    lmax = int(round(np.sqrt(c.shape[0]))) - 1
-    return SHRotation(R, lmax).apply(c)
+    return SHRotation(R, lmax_of(c.shape[0])).apply(c)

@@ -1,5 +1,9 @@
 """What an engine's shader does with an ``env_sh`` asset: SH irradiance plus its lights.
 
+Shaders (:mod:`shbake.shading.shader`): ``irradiance`` (:class:`IrradianceShader`),
+``tangent`` (:class:`TangentShader`, the matrix form) and ``tangent-sh``
+(:class:`TangentSHShader`).
+
 Lambert (``/irradiance/sh``, ``Â_l`` folded in, SPEC §4)::
 
     E(n) = Σ_i c_i y_i(n) + Σ_k max(0, n·s_k) E_k
@@ -17,9 +21,12 @@ Kernels are check-free: directions unit, arrays from a validated asset.
 
 import numpy as np
 
+from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.sh.basis import evaluate
+from shbake.shading.shader import Shader, Texture, Uniform
 
+INV_PI = 1.0 / np.pi
 INV_PI2 = 1.0 / (np.pi * np.pi)
 
 
@@ -74,30 +81,124 @@ def _flat(dirs):
     return d, np.ascontiguousarray(d.reshape(-1, 3))
 
 
-def irradiance(asset, dirs, tangent: bool = False) -> np.ndarray:
-    """Irradiance ``(..., 3)`` of an ``env_sh`` asset at unit ``dirs (..., 3)``, sun included.
+LIGHT_INPUTS = (
+    Uniform("light_directions", "unit vectors toward the lights (K, 3), world frame",
+            "/sun/direction + /lights/direction",
+            "the extracted sun or the fitted lights (K = 0: neither)"),
+    Uniform("light_irradiance", "radiance × sr, RGB (K, 3)",
+            "/sun/radiance × /sun/solid_angle + /lights/irradiance",
+            "each light's irradiance at normal incidence E_k"),
+)  # fmt: skip
+"""The directional lights every ``env_sh`` shader adds (:func:`lights_of`)."""
 
-    ``tangent``: Kajiya–Kay tangent irradiance from ``/tangent_irradiance/sh`` at unit
-    tangents instead of Lambert irradiance at normals.
+
+class IrradianceShader(Shader):
+    """A Lambert surface of albedo ``ρ`` under an ``env_sh`` asset: ``ρ E(n) / π`` with
+    ``E(n) = Σ_i E_i y_i(n) + Σ_k max(0, n·s_k) E_k`` (module docstring); view-independent.
+
+    >>> from shbake.format.asset import Asset
+    >>> sky = Asset("env_sh", {}, {"/irradiance/sh": np.zeros((9, 3)),
+    ...                            "/lights/direction": np.array([[0.0, 1.0, 0.0]]),
+    ...                            "/lights/irradiance": np.array([[np.pi, np.pi, 0.0]])})
+    >>> IrradianceShader.from_asset(sky).shade([[0.0, 1.0, 0.0]], None).tolist()  # lit head-on
+    [[1.0, 1.0, 0.0]]
     """
-    coeffs = np.ascontiguousarray(
-        asset["/tangent_irradiance/sh" if tangent else "/irradiance/sh"], dtype=np.float64
-    )
-    d, flat = _flat(dirs)
-    out = evaluate(coeffs, flat)  # fused and blocked (numpy for small jobs): sh.basis
-    factor = (sun_tangent if tangent else sun_lambert).py_func
-    for direction, energy in zip(*lights_of(asset), strict=True):
-        if energy.any():
-            out += factor(flat @ direction)[:, None] * energy
-    return out.reshape(d.shape[:-1] + (3,))
+
+    name = "irradiance"
+    kinds = ("env_sh",)
+    inputs = (
+        Texture("irradiance_sh", "sh-vector", ("(lmax_irr+1)**2", 3), "/irradiance/sh",
+                "Lambert irradiance SH E_i (Â_l folded in), radiance × sr"),
+        *LIGHT_INPUTS,
+        Uniform("albedo", "Lambert albedo ρ, RGB in [0, 1]", "material", "the surface's colour"),
+    )  # fmt: skip
+    material = {"albedo": ("Lambert albedo ρ, scalar or RGB in [0, 1]", 1.0)}
+    truth = "irradiance"
+    dataset = "/irradiance/sh"
+
+    def __init__(self, coeffs, light_directions, light_irradiance):
+        self.coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
+        self.light_directions = np.ascontiguousarray(light_directions, dtype=np.float64)
+        self.light_irradiance = np.ascontiguousarray(light_irradiance, dtype=np.float64)
+
+    @classmethod
+    def from_asset(cls, asset, **companions):
+        if cls.dataset not in asset:
+            raise ParameterError(f"the env_sh asset has no {cls.dataset} ({cls.name} shading)")
+        return cls(asset[cls.dataset], *lights_of(asset))
+
+    def irradiance(self, dirs) -> np.ndarray:
+        """``E (..., 3)`` at unit ``dirs (..., 3)`` (radiance × sr), lights included."""
+        d, flat = _flat(dirs)
+        out = evaluate(self.coeffs, flat)  # fused and blocked (numpy for small jobs): sh.basis
+        factor = self.light_factor.py_func
+        for direction, energy in zip(self.light_directions, self.light_irradiance, strict=True):
+            if energy.any():
+                out += factor(flat @ direction)[:, None] * energy
+        return out.reshape(d.shape[:-1] + (3,))
+
+    light_factor = staticmethod(sun_lambert)
+    """A light's factor ``max(0, n·s)``."""
+
+    def shade(self, normals, views, albedo=1.0):
+        return self.irradiance(normals) * (np.asarray(albedo, dtype=np.float64) * INV_PI)
 
 
-def tangent_irradiance_matrix(asset, tangents) -> np.ndarray:
-    """Tangent irradiance ``(..., 3)`` by the matrix form (Mehta eq. 23) plus the lights."""
-    M = np.ascontiguousarray(asset["/tangent_irradiance/matrix"], dtype=np.float64)
-    d, flat = _flat(tangents)
-    out = np.empty((flat.shape[0], 3))
-    dirs, energy = lights_of(asset)
-    run_blocks(_matrix_with_lights, flat.shape[0], flat.shape[0] * (110.0 + 20.0 * len(dirs)),
-               flat, M, np.ascontiguousarray(dirs), np.ascontiguousarray(energy), out)  # fmt: skip
-    return out.reshape(d.shape[:-1] + (3,))
+class TangentSHShader(IrradianceShader):
+    """A Kajiya–Kay diffuse fibre (Mehta et al. 2012) of colour ``k_d`` under an ``env_sh``
+    asset, from the tangent-irradiance SH: ``k_d E(t)``, ``E(t) = Σ_i c_i y_i(t) +
+    Σ_k sqrt(1 − (t·s_k)²)/π² E_k`` at unit fibre ``tangents``; view-independent."""
+
+    name = "tangent-sh"
+    inputs = (
+        Texture("tangent_irradiance_sh", "sh-vector", ("(lmax_irr+1)**2", 3),
+                "/tangent_irradiance/sh", "tangent irradiance SH (A_l and 1/π² folded in)"),
+        *LIGHT_INPUTS,
+        Uniform("kd", "Kajiya–Kay diffuse colour k_d, RGB in [0, 1]", "material", ""),
+    )  # fmt: skip
+    material = {"kd": ("Kajiya–Kay diffuse colour k_d, scalar or RGB in [0, 1]", 1.0)}
+    truth = "tangent"
+    tangents = True
+    dataset = "/tangent_irradiance/sh"
+    light_factor = staticmethod(sun_tangent)
+
+    def shade(self, normals, views, tangents=None, kd=1.0):
+        return self.irradiance(tangents) * np.asarray(kd, dtype=np.float64)
+
+
+class TangentShader(Shader):
+    """The Kajiya–Kay diffuse fibre of :class:`TangentSHShader` by the 4×4 matrix of
+    Mehta et al. 2012 eq. 23–24, ``E(t) = t̃ᵀ M t̃`` per channel (``t̃ = (t, 1)``): what the
+    preview's ``tangent`` pass draws."""
+
+    name = "tangent"
+    kinds = ("env_sh",)
+    inputs = (
+        Texture("tangent_irradiance_matrix", "sh-matrix", (3, 4, 4),
+                "/tangent_irradiance/matrix", "Mehta et al. 2012 eq. 24, one matrix per channel"),
+        *LIGHT_INPUTS,
+        Uniform("kd", "Kajiya–Kay diffuse colour k_d, RGB in [0, 1]", "material", ""),
+    )  # fmt: skip
+    material = TangentSHShader.material
+    truth = "tangent"
+    tangents = True
+
+    def __init__(self, matrix, light_directions, light_irradiance):
+        self.matrix = np.ascontiguousarray(matrix, dtype=np.float64)
+        self.light_directions = np.ascontiguousarray(light_directions, dtype=np.float64)
+        self.light_irradiance = np.ascontiguousarray(light_irradiance, dtype=np.float64)
+
+    @classmethod
+    def from_asset(cls, asset, **companions):
+        if "/tangent_irradiance/matrix" not in asset:
+            raise ParameterError("the env_sh asset has no /tangent_irradiance/matrix "
+                                 "(tangent shading)")  # fmt: skip
+        return cls(asset["/tangent_irradiance/matrix"], *lights_of(asset))
+
+    def shade(self, normals, views, tangents=None, kd=1.0):
+        d, flat = _flat(tangents)
+        out = np.empty((flat.shape[0], 3))
+        work = flat.shape[0] * (110.0 + 20.0 * len(self.light_directions))
+        run_blocks(_matrix_with_lights, flat.shape[0], work, flat, self.matrix,
+                   self.light_directions, self.light_irradiance, out)  # fmt: skip
+        return out.reshape(d.shape[:-1] + (3,)) * np.asarray(kd, dtype=np.float64)

@@ -20,46 +20,25 @@ band-limited like the rest.
 
 import numpy as np
 
+from shbake.brdf.sampling import fibre_frames
+from shbake.conventions import lmax_of
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.sh.basis import real_sh
 from shbake.sh.rotation import (
+    block_offsets,
     p_rows,
     rotation_blocks_many,
-    rotation_blocks_with,
     rotation_coefficients,
 )
 from shbake.shading.env_sh import lights_of
+from shbake.shading.shader import Shader, Texture
 from shbake.texture.parabolic import fetch_flat_into, fetch_into
 
 PIXEL_BLOCK = 64
 """Pixels per block of the per-pixel rotations: their blocks of ``M(R_p)`` are built
 together, vectorised across the block (:func:`~shbake.sh.rotation.rotation_blocks_many`),
 in scratch allocated once per range of blocks."""
-
-
-@jit
-def frame_blocks_into(R, lmax, offsets, uvw, r1, flat):
-    """Flat per-band blocks of ``M(R)`` into the preallocated ``flat`` (every entry written).
-
-    ``uvw`` from :func:`~shbake.sh.rotation.rotation_coefficients` (once per
-    call, not per pixel); ``r1`` (3×3) is scratch for the ``l = 1`` block
-    (``R`` permuted, see rotation.py).
-    """
-    for i in range(3):
-        for j in range(3):
-            r1[i, j] = R[(i + 1) % 3, (j + 1) % 3]
-    rotation_blocks_with(r1, lmax, offsets, uvw, flat)
-
-
-@jit
-def frame_blocks(R, lmax, offsets):
-    """Flat per-band blocks of ``M(R)`` (a new array; see :func:`frame_blocks_into`)."""
-    flat = np.zeros(offsets[-1])
-    uvw = np.empty(3 * offsets[-1])
-    rotation_coefficients(lmax, offsets, uvw)
-    frame_blocks_into(R, lmax, offsets, uvw, np.empty((3, 3)), flat)
-    return flat
 
 
 @jit
@@ -276,7 +255,7 @@ def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
     L = np.asarray(env_asset["/lighting/sh"], dtype=float)
     n = (lmax + 1) ** 2
     if L.shape[0] < n:
-        have = int(round(np.sqrt(L.shape[0]))) - 1
+        have = lmax_of(L.shape[0])
         raise ParameterError(
             f"the environment asset has lighting to lmax {have}; the table needs {lmax}"
         )
@@ -285,3 +264,79 @@ def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
     if len(dirs):
         L += real_sh(dirs, lmax).T @ energy
     return np.ascontiguousarray(L)
+
+
+class KautzShader(Shader):
+    """A BRDF table (Kautz et al. 2002) under an ``env_sh`` asset's lighting, lights folded in
+    (:func:`lighting_with_sun`): per point the local frame of :func:`~shbake.brdf.sampling.
+    fibre_frames` (normal, brushing ``tangents``), the view in it (``z`` clamped to 0),
+    steps 1–4 of the module docstring. ``from_asset(env_asset, table=BRDFTable)``
+    (:func:`shbake.format.kautz_table.table_at`)."""
+
+    name = "kautz"
+    kinds = ("env_sh", "brdf_table")
+    inputs = (
+        Texture("lighting_sh", "sh-vector", ("(lmax+1)**2", 3),
+                "/lighting/sh + /sun/direction + /sun/radiance × /sun/solid_angle + "
+                "/lights/direction + /lights/irradiance",
+                "radiance SH L_lm of the env_sh asset to the table's lmax, each light (the sun "
+                "or the fitted ones) added as E_k y_i(s_k)"),
+        Texture("brdf_table", "parabolic", ("*lead", "H", "W", "(lmax+1)**2"),
+                "brdf_table: /table", "c_i(v) = ∫ y_i(s) f(s, v) max(0, s_z) ds over the view "
+                "hemisphere; lead: RGB channels and varied parameters (one point is shaded)"),
+    )  # fmt: skip
+    truth = "brdf"
+    tangents = True
+
+    def __init__(self, lighting, table):
+        self.table = table
+        self.lmax = table.lmax
+        self.lighting = lighting
+        self.coeffs = np.ascontiguousarray(table.coeffs)
+        self.offsets = block_offsets(self.lmax)
+        self.point_coeffs = self.coeffs.shape[-2]  # the rotated lighting and table of modes()
+
+    @classmethod
+    def from_asset(cls, asset, table=None, **companions):
+        if table is None:
+            raise ParameterError("kautz shading needs a BRDF table (--table TABLE.h5)")
+        return cls(lighting_with_sun(asset, table.lmax), table)
+
+    def frames(self, normals, views, tangents):
+        """World → local frames ``(N, 3, 3)`` and local views ``(N, 3)`` (``z ≥ 0``)."""
+        frames = fibre_frames(normals, tangents)
+        local = np.einsum("pij,pj->pi", frames, np.broadcast_to(views, frames.shape[:2]))
+        local[:, 2] = np.maximum(local[:, 2], 0.0)
+        return frames, np.ascontiguousarray(local)
+
+    def shade(self, normals, views, tangents=None):
+        frames, local = self.frames(normals, views, tangents)
+        out = np.empty((len(frames), 3))
+        shade_full(frames, local, self.coeffs, self.lighting, self.lmax, self.offsets, out)
+        return out
+
+    def modes(self, normals, views, tangents=None):
+        """``full`` (light and view change: :meth:`shade`), ``fixed_light`` (the rotated
+        lighting precomputed) and ``fixed_view`` (the table rotated to the world
+        precomputed); the precomputations are not part of a frame."""
+        frames, local = self.frames(normals, views, tangents)
+        n_pix, n = len(frames), self.lighting.shape[0]
+        lit, world = np.empty((n_pix, n, 3)), np.empty((n_pix, n, 3))
+        rotate_lighting(frames, self.lighting, self.lmax, self.offsets, lit)
+        rotate_coeffs_to_world(frames, local, self.coeffs, self.lmax, self.offsets, world)
+
+        def fixed_light():
+            out = np.empty((n_pix, 3))
+            lookup_dot(local, self.coeffs, lit, out)
+            return out
+
+        def fixed_view():
+            out = np.empty((n_pix, 3))
+            dot_world(world, self.lighting, out)
+            return out
+
+        full = {"full": lambda: self.shade(normals, views, tangents)}
+        return full | {"fixed_light": fixed_light, "fixed_view": fixed_view}
+
+    def label(self) -> str:
+        return f"table {self.table.model} lmax {self.lmax}"

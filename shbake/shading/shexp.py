@@ -17,6 +17,7 @@ Fitted by :mod:`shbake.bakers.shexp`.
 
 import numpy as np
 
+from shbake.conventions import DFG_SIZE, lmax_of
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.sh.basis import (
@@ -28,6 +29,7 @@ from shbake.sh.basis import (
     sum_weights,
 )
 from shbake.shading.dfg import dfg_at
+from shbake.shading.shader import Shader, Texture, Uniform
 
 
 def vmf_factors(lmax: int, alpha) -> np.ndarray:
@@ -220,8 +222,8 @@ def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots
     if p.ndim == 2:
         p, q = p[None], q[None]
     knots = np.zeros(1) if knots is None else np.asarray(knots, float).reshape(-1)
-    lmax_p = int(round(np.sqrt(p.shape[1]))) - 1
-    lmax_q = int(round(np.sqrt(q.shape[1] + 1))) - 1
+    lmax_p = lmax_of(p.shape[1])
+    lmax_q = lmax_of(q.shape[1] + 1)  # q has no DC row
     v = np.ascontiguousarray(np.asarray(views, float).reshape(-1, 3))
     n = np.ascontiguousarray(np.asarray(normals, float).reshape(-1, 3))
     out = np.empty((v.shape[0], 3))
@@ -247,3 +249,63 @@ def evaluate_shexp(p, q, table, views, normals, alpha, f0=(1.0, 1.0, 1.0), knots
         qmm, a, b, table, out,
     )  # fmt: skip
     return out
+
+
+PROBE_MATERIAL = {
+    "alpha": ("GGX width α (SPEC §1), within the probe's alpha_range", None),
+    "f0": ("Schlick F0, scalar or RGB in [0, 1] (1: chrome)", 1.0),
+}
+"""What a glossy probe's :meth:`~shbake.shading.shader.Shader.shade` takes."""
+DFG_INPUT = Texture("dfg", "dfg-lut", (DFG_SIZE, DFG_SIZE, 2), "/dfg",
+                    "(A0, A1) over (n·v, sqrt(α)): E = F0 A0 + (1 − F0) A1 terms")  # fmt: skip
+
+
+class ProbeShader(Shader):
+    """What the glossy probes share: a GGX sphere of width ``alpha`` and Schlick ``f0``,
+    refused outside the probe's fitted range (:func:`shbake.format.probe.check_probe_alpha`:
+    probes do not extrapolate)."""
+
+    material = PROBE_MATERIAL
+    truth = "ggx"
+    min_nv = 1e-3
+    """Points with ``n·v`` at or below this are not shaded (grazing: no half vector)."""
+
+    def __init__(self, asset):
+        self.asset = asset
+
+    @classmethod
+    def from_asset(cls, asset, **companions):
+        from shbake.format.probe import check_probe_asset
+
+        check_probe_asset(asset)
+        return cls(asset)
+
+    def check(self, alpha=None, f0=1.0) -> dict:
+        from shbake.format.probe import check_probe_alpha
+
+        if not np.all((0.0 <= np.asarray(f0, dtype=float)) & (np.asarray(f0, dtype=float) <= 1.0)):
+            raise ParameterError(f"F0 must lie in [0, 1], got {f0}")
+        return {"alpha": check_probe_alpha(self.asset, alpha), "f0": f0}
+
+
+class ShexpShader(ProbeShader):
+    """An ``shexp_probe``: ``E = F0 E0 + (1 − F0) E0 A1/A0``, ``E0 = P Q`` (module
+    docstring; :func:`evaluate_shexp`)."""
+
+    name = "shexp"
+    kinds = ("shexp_probe",)
+    inputs = (
+        Texture("p", "sh-vector", ("K", "(lmax_p+1)**2", 3), "/p",
+                "coefficients of log P at the mirror direction, one set per knot"),
+        Texture("q", "sh-vector", ("K", "(lmax_q+1)**2-1", 3), "/q",
+                "coefficients of log Q at the half-reflection vector, no DC row"),
+        Uniform("knots", "GGX width α of each set", "/knots", "the hat functions' knots"),
+        DFG_INPUT,
+        Uniform("alpha", "GGX width α", "material", ""),
+        Uniform("f0", "Schlick F0, RGB", "material", ""),
+    )  # fmt: skip
+
+    def shade(self, normals, views, alpha=None, f0=1.0):
+        a, m = self.asset, self.check(alpha, f0)
+        return evaluate_shexp(a["/p"], a["/q"], a["/dfg"], views, normals, m["alpha"], m["f0"],
+                              a["/knots"])  # fmt: skip

@@ -20,12 +20,15 @@ arrays.
 
 import numpy as np
 
-from shbake.conventions import check_vectors, unit_vectors
+from shbake.brdf.reflection import REPARAMETERISATIONS
+from shbake.conventions import check_vectors, lmax_of, unit_vectors
 from shbake.errors import ParameterError
 from shbake.sh.basis import real_sh
+from shbake.shading.shader import Shader, Texture, Uniform
 from shbake.texture.cube import cube_directions, sample_cube
 
-SHRM_KINDS = ("surface", "lobe", "tangent")
+SHRM_KINDS = REPARAMETERISATIONS
+"""The kinds of SHRM (one per reparameterisation of the BRDF)."""
 
 
 def _terms(shrm, kind: str) -> int:
@@ -35,10 +38,12 @@ def _terms(shrm, kind: str) -> int:
     if len(s) != 5 or s[0] != 6 or s[1] != s[2] or s[4] != 3:
         raise ParameterError(f"an SHRM has shape (6, S, S, n, 3), got {s}")
     n = s[3]
-    P = n - 1 if kind == "tangent" else int(round(np.sqrt(n))) - 1
-    if kind != "tangent" and (P + 1) ** 2 != n:
-        raise ParameterError(f"{n} coefficients per texel is not (P+1)² for any P")
-    return P
+    if kind == "tangent":
+        return n - 1
+    try:
+        return lmax_of(n)
+    except ParameterError:
+        raise ParameterError(f"{n} coefficients per texel is not (P+1)² for any P") from None
 
 
 def reflection_cube(shrm, view, kind: str = "surface") -> np.ndarray:
@@ -136,3 +141,99 @@ def evaluate_ggx_shrm(levels, views, normals, alpha, f0) -> np.ndarray:
         e1 = evaluate_shrm(s1, views, normals)
         out = out + w * (f0 * e0 + (1.0 - f0) * e1)
     return out
+
+
+class ShrmShader(Shader):
+    """An ``shrm`` asset as an engine shades it. A distant viewer (one view for every
+    point) takes what a frame does: eq. 12 builds the reflection cube for that view
+    (:func:`reflection_cube`), every point reads it at ``R = 2(n·v)n − v`` (tangent kind:
+    at its fibre ``tangents``) by the seam-correct cube fetch; different views per point
+    take eq. 7 per point (:func:`evaluate_shrm`)."""
+
+    name = "shrm"
+    kinds = ("shrm",)
+    inputs = (
+        Texture("shrm", "cube-faces", (6, "S", "S", "n", 3), "/shrm",
+                "B̃_ps (surface, lobe: n = (P+1)², index p(p+1)+s) or B_p0 (tangent: n = P+1)"),
+        Uniform("view", "unit vector toward the viewer, world frame", "material",
+                "the distant viewer V of eq. 12 (one per frame)"),
+    )  # fmt: skip
+    truth = "reflection"
+
+    def __init__(self, cube, kind: str, attrs: dict | None = None):
+        self.kind = kind
+        self.shading_kind = "tangent" if kind == "tangent" else "surface"
+        self.P = _terms(cube, self.shading_kind)
+        self.cube = cube
+        self.attrs = attrs or {}
+        self.tangents = kind == "tangent"
+
+    @classmethod
+    def from_asset(cls, asset, **companions):
+        from shbake.format.shrm import shrm_from_asset
+
+        typed = shrm_from_asset(asset)
+        return cls(typed.cube, typed.kind, typed.attrs)
+
+    def brdf(self) -> tuple[str, dict, str]:
+        """``(model, parameters, MERL source)`` of the baked BRDF (the asset's record)."""
+        import json
+
+        params = self.attrs["brdf_parameters"]
+        params = params if isinstance(params, dict) else json.loads(params)
+        return self.attrs["brdf_model"], params, self.attrs.get("brdf_source") or ""
+
+    def update(self, view) -> np.ndarray:
+        """Eq. 12: the reflection cube ``(6, S, S, 3)`` for the distant viewer ``view``."""
+        return reflection_cube(self.cube, view, self.shading_kind)
+
+    def shade(self, normals, views, tangents=None):
+        v = np.asarray(views, dtype=np.float64)
+        if v.ndim == 1 or np.all(v == v.reshape(-1, 3)[0]):
+            view = v.reshape(-1, 3)[0]
+            return shade(self.update(view), normals, view, tangents if self.tangents else None)
+        return evaluate_shrm(self.cube, v, normals, self.shading_kind, tangents)
+
+    def modes(self, normals, views, tangents=None):
+        """``frame`` (eq. 12 and the lookup) and ``eq12`` (the reflection-cube update alone,
+        what a view change costs; its result is the cube, not radiance)."""
+        view = np.asarray(views, dtype=np.float64).reshape(-1, 3)[0]
+        return {"frame": lambda: self.shade(normals, views, tangents),
+                "eq12": lambda: self.update(view)}  # fmt: skip
+
+    def label(self) -> str:
+        model, F = self.attrs.get("brdf_model", "?"), self.attrs.get("F", "?")
+        return f"{model} F {F} P {self.P}, face {self.cube.shape[1]}"
+
+
+class GgxShrmShader(Shader):
+    """GGX from ``E0``/``E1`` SHRMs at several widths (:func:`evaluate_ggx_shrm`, per-point
+    eq. 7): ``levels`` of ``(α_k, shrm_E0, shrm_E1)``; shades ``α`` within the levels'
+    range. Made from baked cubes (``probe-eval``), not from an asset."""
+
+    name = "ggx-shrm"
+    kinds = ()
+    inputs = (
+        Texture("shrm_e0", "cube-faces", (6, "S", "S", "(P+1)**2", 3), "baked",
+                "the E0 SHRM (Schlick F0 = 1) of each level"),
+        Texture("shrm_e1", "cube-faces", (6, "S", "S", "(P+1)**2", 3), "baked",
+                "the E1 SHRM (F0 = 0) of each level"),
+        Uniform("level_alpha", "GGX width α (SPEC §1)", "baked", "the levels' widths"),
+    )  # fmt: skip
+    material = {"alpha": ("GGX width α within the levels", None), "f0": ("Schlick F0", 1.0)}
+    truth = "ggx"
+    min_nv = 1e-3
+
+    def __init__(self, levels):
+        self.levels = levels
+        self.alphas = np.array([lv[0] for lv in levels], dtype=float)
+
+    def check(self, alpha=None, f0=1.0) -> dict:
+        a = float(alpha)
+        if not self.alphas[0] - 1e-9 <= a <= self.alphas[-1] + 1e-9:
+            raise ParameterError(f"alpha {a:g} is not within the SHRM levels "
+                                 f"[{self.alphas[0]:g}, {self.alphas[-1]:g}]")  # fmt: skip
+        return {"alpha": a, "f0": f0}
+
+    def shade(self, normals, views, alpha=None, f0=1.0):
+        return evaluate_ggx_shrm(self.levels, views, normals, alpha, f0)

@@ -11,6 +11,8 @@ import numpy as np
 
 from shbake.jit import jit, run_blocks
 from shbake.shading.dfg import dfg_at
+from shbake.shading.shader import Texture, Uniform
+from shbake.shading.shexp import DFG_INPUT, ProbeShader
 from shbake.texture.octahedral import fetch as oct_fetch
 
 PIXEL_BLOCK = 1024
@@ -72,3 +74,25 @@ def evaluate_splitsum(levels, level_alpha, table, views, normals, alpha, f0=(1.0
         np.asarray(table, float), out,
     )  # fmt: skip
     return out
+
+
+class SplitsumShader(ProbeShader):
+    """A ``splitsum_probe``: prefiltered radiance at the mirror direction times
+    ``F0 A0 + (1 − F0) A1`` (module docstring; :func:`evaluate_splitsum`)."""
+
+    name = "splitsum"
+    kinds = ("splitsum_probe",)
+    inputs = (
+        Texture("levels", "octahedral", ("S", "S", 3), "/levels/{k}",
+                "prefiltered radiance, one octahedral image per level k (S halves per level)"),
+        Uniform("level_alpha", "GGX width α of each level", "/level_alpha", "increasing"),
+        DFG_INPUT,
+        Uniform("alpha", "GGX width α", "material", ""),
+        Uniform("f0", "Schlick F0, RGB", "material", ""),
+    )  # fmt: skip
+
+    def shade(self, normals, views, alpha=None, f0=1.0):
+        a, m = self.asset, self.check(alpha, f0)
+        levels = [a[f"/levels/{k}"] for k in range(int(a.attrs["levels"]))]
+        return evaluate_splitsum(levels, a["/level_alpha"], a["/dfg"], views, normals,
+                                 m["alpha"], m["f0"])  # fmt: skip

@@ -6,10 +6,12 @@ column ``j`` of a face at ``t = 2(i+½)/S − 1`` (top → bottom) and
 ``s = 2(j+½)/S − 1`` (left → right), direction ``∝ A_face @ (s, t, 1)``.
 Texels are cells (GPU rule), the same geometry as the cube-strip input layout.
 
-Addressing a direction ``d``: the face of the largest ``|d_k|`` (ties: the
-first in strip order), ``(s, t, 1) = A_faceᵀ d / (A_faceᵀ d)_z`` (``A`` is a
-signed permutation, so ``A⁻¹ = Aᵀ``), and continuous texel coordinates
-``x = (s+1)S/2 − ½`` (column), ``y = (t+1)S/2 − ½`` (row).
+Addressing a direction ``d``: the face whose normal (third column of ``A``) has the
+largest ``d · n_face`` — the largest ``|d_k|`` (ties: the first face in order) —,
+``(s, t, 1) = A_faceᵀ d / (A_faceᵀ d)_z`` (``A`` is a signed permutation, so
+``A⁻¹ = Aᵀ``), and continuous texel coordinates ``x = (s+1)S/2 − ½`` (column),
+``y = (t+1)S/2 − ½`` (row). The same addressing serves any six faces given as
+matrices, in any order (the GL/KTX faces of :mod:`shbake.bakers.cube_prefilter`).
 
 Seam-correct bilinear fetch: the four taps around ``(x, y)`` are texel
 centres of the face, extended past its border when ``(x, y)`` lies within
@@ -33,38 +35,67 @@ FACE_AXES = np.array([a for _, a in CUBE_FACES], dtype=np.float64)
 FACE_AXES.flags.writeable = False
 
 
-def cube_directions(size: int) -> np.ndarray:
-    """Unit texel-centre directions ``(6, S, S, 3)`` (the cube-strip layout's, face by face)."""
+def cube_directions(size: int, axes: np.ndarray = FACE_AXES) -> np.ndarray:
+    """Unit texel-centre directions ``(6, S, S, 3)`` of the faces ``axes`` (default: the
+    cube-strip layout's, face by face).
+
+    >>> cube_directions(1)[:, 0, 0].tolist()[0]  # the +X face's one texel
+    [1.0, 0.0, 0.0]
+    """
     if not isinstance(size, int | np.integer) or size < 1:
         raise ParameterError(f"cube face size must be a positive integer, got {size!r}")
     c = 2.0 * (np.arange(size) + 0.5) / size - 1.0
     s, t = np.meshgrid(c, c)  # s along columns, t along rows
     st1 = np.stack([s, t, np.ones_like(s)], axis=-1)
-    d = np.einsum("fij,abj->fabi", FACE_AXES, st1)
+    d = np.einsum("fij,abj->fabi", axes, st1)
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
 @jit
 def cube_address(axes, dx, dy, dz, size):
-    """Face and continuous texel coordinates ``(face, x, y)`` of a non-zero direction."""
-    ax, ay, az = abs(dx), abs(dy), abs(dz)
-    if ax >= ay and ax >= az:
-        face = 0 if dx > 0.0 else 1
-    elif ay >= az:
-        face = 2 if dy > 0.0 else 3
-    else:
-        face = 4 if dz > 0.0 else 5
+    """Face and continuous texel coordinates ``(face, x, y)`` of a non-zero direction
+    (faces ``axes``, ``(6, 3, 3)``; module docstring)."""
+    best = -1.0
+    face = 0
+    for f in range(6):
+        dn = dx * axes[f, 0, 2] + dy * axes[f, 1, 2] + dz * axes[f, 2, 2]
+        if dn > best:
+            best = dn
+            face = f
     A = axes[face]
     u = A[0, 0] * dx + A[1, 0] * dy + A[2, 0] * dz
     w = A[0, 1] * dx + A[1, 1] * dy + A[2, 1] * dz
-    k = A[0, 2] * dx + A[1, 2] * dy + A[2, 2] * dz
-    s, t = u / k, w / k
+    s, t = u / best, w / best
     return face, 0.5 * (s + 1.0) * size - 0.5, 0.5 * (t + 1.0) * size - 0.5
 
 
 @jit
-def _clamped_bilinear(cube, face, x, y, c):
-    """Bilinear fetch inside one face, coordinates clamped to its texel centres."""
+def _nearest_many(axes, dirs, size, face, row, col):
+    for k in range(dirs.shape[0]):
+        f, x, y = cube_address(axes, dirs[k, 0], dirs[k, 1], dirs[k, 2], size)
+        face[k] = f
+        col[k] = min(max(int(np.floor(x + 0.5)), 0), size - 1)
+        row[k] = min(max(int(np.floor(y + 0.5)), 0), size - 1)
+
+
+def nearest_texels(dirs, size: int, axes: np.ndarray = FACE_AXES):
+    """``(face, row, column)`` int arrays of the texel holding each non-zero direction of
+    ``dirs (..., 3)`` on faces of ``size`` texels (:func:`cube_address`, nearest centre).
+
+    >>> [int(a[0]) for a in nearest_texels([[0.0, 0.0, -1.0]], 4)]  # −Z face, centre
+    [5, 2, 2]
+    """
+    d = np.asarray(dirs, dtype=np.float64)
+    flat = np.ascontiguousarray(d.reshape(-1, 3))
+    out = [np.empty(flat.shape[0], dtype=np.int64) for _ in range(3)]
+    _nearest_many(np.ascontiguousarray(axes, dtype=np.float64), flat, int(size), *out)
+    return tuple(a.reshape(d.shape[:-1]) for a in out)
+
+
+@jit
+def face_bilinear(cube, face, x, y, c):
+    """Bilinear fetch of channel ``c`` inside one face at continuous texel coordinates
+    ``(x, y)`` (:func:`cube_address`), clamped to its texel centres (clamp-to-edge)."""
     size = cube.shape[1]
     i0, i1, fy = axis(y, size)
     j0, j1, fx = axis(x, size)
@@ -109,7 +140,7 @@ def cube_bilinear(cube, axes, dx, dy, dz, out):
             ez = A[2, 0] * s + A[2, 1] * t + A[2, 2]
             f2, x2, y2 = cube_address(axes, ex, ey, ez, size)
             for c in range(out.shape[0]):
-                out[c] += w * _clamped_bilinear(cube, f2, x2, y2, c)
+                out[c] += w * face_bilinear(cube, f2, x2, y2, c)
 
 
 LOOKUP_BLOCK = 1024

@@ -51,6 +51,8 @@ from shbake.format.atomic import atomic_path, write_text
 from shbake.format.exports.source import ExportSource, require_sh
 
 EXTENSION = ".gltf"
+BABYLON_SCENES = ("left-handed", "right-handed")
+"""Handedness of the Babylon.js scene that loads the file (``--babylon-scene``)."""
 BABYLON_SIGNS = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1], dtype=np.float64)
 """Per-coefficient sign from shbake's basis to Babylon's reading (indices 1, 4, 5 flip)."""
 RGBD_MAX = 255.0
@@ -106,12 +108,6 @@ def write_bytes(path: str, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically (:func:`shbake.format.atomic.atomic_path`)."""
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         f.write(data)
-
-
-def rgbd_decode(px: np.ndarray) -> np.ndarray:
-    """RGBD ``uint8 (…, 4)`` → linear RGB, as Babylon's ``fromRGBD``."""
-    p = np.asarray(px, dtype=np.float64) / 255.0
-    return p[..., :3] ** GAMMA / np.maximum(p[..., 3:], 1.0 / 255.0)
 
 
 def _quat_z_to(d: np.ndarray) -> list[float]:
@@ -176,7 +172,7 @@ def write(
     require_sh(src, "gltf")
     if not out.endswith(".gltf"):
         raise ParameterError(f"{out}: the glTF export writes a .gltf file")
-    if babylon_scene not in ("left-handed", "right-handed"):
+    if babylon_scene not in BABYLON_SCENES:
         raise ParameterError(
             f"babylon scene must be left-handed or right-handed, got {babylon_scene!r}"
         )

@@ -78,7 +78,10 @@ class ExportSource:
     light_directions: np.ndarray | None = None
     light_irradiance: np.ndarray | None = None
     env_path: str | None = None
-    meta: dict = field(default_factory=dict)
+    """The source map given (``--env``); ``None``: the one the asset records."""
+    attrs: dict = field(default_factory=dict)
+    """The asset's root attributes (its provenance block, :meth:`environment`)."""
+    asset_path: str = ""
     position: np.ndarray | None = None
     map_rotation: np.ndarray | None = None
     """Target ← map rotation of the cube maps: ``rotation`` times the probe's turn
@@ -104,29 +107,14 @@ class ExportSource:
         """The map the SH came from, world frame (its sun removed if the asset's was; with
         fitted lights, their energy taken from the map around each, :func:`remove_lights`).
 
-        Read from the asset's recorded input path (checked by SHA-256) or the
-        ``env_path`` given to :func:`load_source`.
+        Read as the bake read it (:func:`shbake.format.provenance.reload_source`): the
+        asset's recorded input path or ``env_path`` (``--env``), checked by SHA-256, with
+        every input policy the asset records.
         """
-        from shbake.envmap import load_environment
         from shbake.envmap.sun import extract_sun
+        from shbake.format.provenance import reload_source
 
-        path = self.env_path
-        if path is None or not os.path.exists(path) or os.path.isdir(path):
-            raise InputError(
-                f"{self.name}: the source map {path!r} is not readable; pass --env PATH"
-            )
-        from shbake.envmap.colorspace import WORKING_SPACE
-
-        cs = self.meta.get("colorspace_in")
-        env = load_environment(
-            path,
-            colorspace=None if cs in (None, WORKING_SPACE) else cs,
-            negative=self.meta.get("negative_policy", "clamp"),
-            quiet=True,
-        )
-        want = self.meta.get("sha256")
-        if want and env.meta["sha256"] != want:
-            raise InputError(f"{path}: SHA-256 differs from the one recorded in the asset")
+        env = reload_source(self, self.asset_path, self.env_path, "--env")
         if self.light_directions is not None:
             from shbake.envmap.sun import remove_lights
 
@@ -159,22 +147,16 @@ def load_source(
 
     A ``splitsum_probe`` asset is read too, for the cube-map targets only: it
     holds no SH, and its cube chain is prefiltered anew from its source map
-    (``--env``; SHA-256 checked against ``source_sha256``).
+    (:meth:`ExportSource.environment`).
     """
     from shbake.format.asset import read_asset
 
     R = frame_matrix(frame, rotate_deg)
     asset = read_asset(path, kinds=("env_sh", "splitsum_probe"))
     turned = R @ turn_matrix(float(asset.attrs.get("probe_rotation_deg", 0.0)))
-    meta = {k[len("source_") :]: v for k, v in asset.attrs.items() if k.startswith("source_")}
     position = (
         _FRAME_MATRICES[frame] @ np.asarray(asset.attrs["probe_position"], dtype=np.float64)
         if "probe_position" in asset.attrs
-        else None
-    )
-    recorded = (  # the provenance block's source_path is relative to the asset (FORMAT §2)
-        os.path.join(os.path.dirname(os.path.abspath(path)), meta["path"])
-        if meta.get("path")
         else None
     )
     if asset.kind == "splitsum_probe":
@@ -184,13 +166,11 @@ def load_source(
             lighting9=None,
             rotation=R,
             frame=frame,
-            env_path=env_path or recorded,
+            env_path=env_path,
+            attrs=asset.attrs,
+            asset_path=path,
             position=position,
             map_rotation=turned,
-            meta={
-                "sha256": meta.get("sha256"),
-                "negative_policy": meta.get("negative_policy", "clamp"),
-            },
         )
     if "/irradiance/sh" not in asset or asset["/irradiance/sh"].shape[0] < 9:
         raise InputError(f"{path}: exports need /irradiance/sh with irradiance lmax >= 2")
@@ -202,8 +182,9 @@ def load_source(
         lighting9=L,
         rotation=R,
         frame=frame,
-        env_path=env_path or recorded,
-        meta=meta,
+        env_path=env_path,
+        attrs=asset.attrs,
+        asset_path=path,
         position=position,
         map_rotation=turned,
     )
