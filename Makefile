@@ -4,7 +4,8 @@
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV   := .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed
+RUNTIME := $(VENV)/.installed-runtime
+TESTENV := $(VENV)/.installed-test
 SHARED ?= ../shared
 OUT    ?= out
 # Two cores: numba gets both, BLAS/OpenMP pools one each so they never fight (SPEC §6).
@@ -15,13 +16,20 @@ ENGINES := tests/engines
 
 .PHONY: demo test test-all chromium test-extremes bench bench-speed lint clean engines format-doc
 
-$(STAMP): setup.cfg pyproject.toml requirements.lock
+# Two venv states: the runtime packages alone (make demo), then the test extras on top
+# (make test: pytest, mitsuba, drjit, ducc0, hypothesis, ruff, ~1 GB). Either order works;
+# a changed setup.cfg or lock reinstalls both.
+$(RUNTIME): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip==24.3.1
-	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
-	touch $(STAMP)
+	$(BIN)/python -m pip install -q -c requirements.lock -e .
+	touch $(RUNTIME)
 
-demo: $(STAMP)
+$(TESTENV): $(RUNTIME)
+	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
+	touch $(TESTENV)
+
+demo: $(RUNTIME)
 	@mkdir -p $(OUT)
 	$(BIN)/shbake probe-fit data_samples/*.exr --out-dir $(OUT)/probes --jobs 2
 	@for m in data_samples/*.exr; do \
@@ -56,28 +64,28 @@ chromium:
 	  apt-get update -q && apt-get install -y -q --no-install-recommends chromium; \
 	else echo "chromium not found: run 'apt-get install chromium' (as root) for the rendered engine tests" >&2; fi
 
-test: $(STAMP) engines chromium
+test: $(TESTENV) engines chromium
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
-test-extremes: $(STAMP)
+test-extremes: $(TESTENV)
 	$(BIN)/python -m pytest -q -n 2 -m extremes tests/test_extremes.py
 
-test-all: $(STAMP) engines chromium
+test-all: $(TESTENV) engines chromium
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup -m ''
 
-bench: $(STAMP)
+bench: $(TESTENV)
 	$(BIN)/python bench/run_all.py
 
 # The speed tables of docs/BENCHMARKS.md alone (issue 15), rewritten in place.
-bench-speed: $(STAMP)
+bench-speed: $(TESTENV)
 	$(BIN)/python bench/speed_tables.py
 
-lint: $(STAMP)
+lint: $(TESTENV)
 	$(BIN)/ruff check shbake cli tests bench
 
 clean:
 	rm -rf $(VENV) $(OUT) build *.egg-info
 
 # docs/FORMAT.md: regenerate the per-kind tables from the registry (tests/test_registry.py checks)
-format-doc: $(STAMP)
+format-doc: $(RUNTIME)
 	$(BIN)/python -m shbake.format.registry docs/FORMAT.md

@@ -6,6 +6,7 @@ from shbake_cli.options import (
     BarProgress,
     NameValue,
     SizeHW,
+    also_wrote,
     command_line,
     deprecated,
     emit_json,
@@ -14,6 +15,7 @@ from shbake_cli.options import (
     info_lines,
     json_opt,
     output_opt,
+    png_opt,
     quiet_opt,
     report_opt,
     samples_opt,
@@ -29,25 +31,26 @@ from shbake.conventions import KAUTZ_LMAX_LIMIT
 
 
 def list_params(ctx, _param, value):
-    """``--list-params``: print MODEL's parameters (name, default, range, meaning) and exit."""
+    """``--list-params``: print MODEL's parameters (name, default, range, meaning) and exit.
+
+    MODEL is an eager argument: click processes it before this option wherever it stands on
+    the command line (arguments come last in click's invocation order)."""
     if not value or ctx.resilient_parsing:
         return
-    model = ctx.params.get("model")
-    names = [model] if model else list(MODELS)
-    for name in names:
-        spec = model_spec(name)
-        click.echo(f"{name}: {spec.summary}")
-        for p in spec.params:
-            colour = " (v or r,g,b)" if p.colour else ""
-            default = ",".join(f"{v:g}" for v in np.atleast_1d(p.default))  # per-channel defaults
-            click.echo(f"  {p.name}={default}  [{p.lo:g}, {p.hi:g}]{colour}  {p.doc}")
-        for alias, targets in spec.aliases.items():
-            click.echo(f"  {alias}: sets {', '.join(targets)}")
+    model = ctx.params["model"]
+    spec = model_spec(model)
+    click.echo(f"{model}: {spec.summary}")
+    for p in spec.params:
+        colour = " (v or r,g,b)" if p.colour else ""
+        default = ",".join(f"{v:g}" for v in np.atleast_1d(p.default))  # per-channel defaults
+        click.echo(f"  {p.name}={default}  [{p.lo:g}, {p.hi:g}]{colour}  {p.doc}")
+    for alias, targets in spec.aliases.items():
+        click.echo(f"  {alias}: sets {', '.join(targets)}")
     ctx.exit(0)
 
 
 @click.command("brdf-table")
-@click.argument("model", type=click.Choice(list(MODELS)))
+@click.argument("model", type=click.Choice(list(MODELS)), is_eager=True)
 @output_opt("The brdf_table asset (.h5)")
 @click.option(
     "-p",
@@ -104,6 +107,7 @@ def list_params(ctx, _param, value):
     help="Add a parameter axis (spatially varying BRDFs; repeatable).",
 )
 @exr_dir_opt("band{l}.exr coefficient textures and the Fig. 2 sheet.png")
+@png_opt
 @report_opt
 @click.option(
     "--reproducible",
@@ -135,7 +139,20 @@ def brdf_table(ctx, model, output, params, as_json, quiet, **settings):
         emit_json(summary)
     else:
         info(
-            f"wrote {output}: {model} {tuple(summary['shape'])}, error estimate "
-            f"{summary['error_estimate']:.2e}, {summary['seconds']:.1f} s",
+            f"wrote {output}: {model} {tuple(summary['shape'])}, error {summary['error']:.2e}, "
+            f"{summary['seconds']:.1f} s" + also_wrote(summary.get("images", [])),
             quiet,
         )
+        info(error_parts(summary), quiet)
+
+
+def error_parts(summary: dict) -> str:
+    """What the headline ``error`` is, and its parts (:func:`shbake.batch.brdf_table.
+    table_error`), on one line."""
+    p = summary["error_parts"]
+    return (
+        f"  error: f* rebuilt from the table's look-up vs f* itself, relative L2 over the "
+        f"sphere, mean of {p['views']} views; parts: truncation at lmax {summary['lmax']} "
+        f"{p['truncation']:.2e}, coefficients (quadrature + bilinear look-up) "
+        f"{p['coefficients']:.2e}; quadrature error estimate {p['quadrature_estimate']:.2e}"
+    )

@@ -5,6 +5,7 @@ from click.core import ParameterSource
 from shbake_cli.options import (
     FINITE,
     FiniteRange,
+    also_wrote,
     emit_json,
     info,
     json_opt,
@@ -136,4 +137,4 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
     if as_json:
         emit_json({"target": target, "written": written})
     else:
-        info(f"wrote {len(written)} file(s) for {target}: {written[0]}", quiet)
+        info(f"wrote {written[0]} ({target})" + also_wrote(written[1:]), quiet)

@@ -24,7 +24,7 @@ import warnings
 
 import click
 
-from shbake import resources, signals
+from shbake import messages, resources, signals
 from shbake.errors import ShbakeError
 from shbake.format import atomic
 from shbake.messages import printable
@@ -114,6 +114,7 @@ def run(call, argv) -> int:
     """Run ``call()`` (the click group's ``main``); return the exit status."""
     signals.install()
     quiet = "-q" in argv or "--quiet" in argv
+    messages.start_run(quiet)
     code = 0
     with warnings.catch_warnings(record=True) as records:
         warnings.simplefilter("always")

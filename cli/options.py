@@ -8,6 +8,7 @@ size, a sample count and a tolerance, ``--roughness`` is perceptual and
 """
 
 import functools
+import os
 import shlex
 import sys
 from contextlib import contextmanager
@@ -19,7 +20,7 @@ from shbake.conventions import SAMPLES_LIMIT, perceptual_roughness
 from shbake.envmap.layouts import LAYOUTS
 from shbake.envmap.repair import NEGATIVE_POLICIES, NONFINITE_REPAIRS
 from shbake.errors import OutputError, ParameterError
-from shbake.messages import printable
+from shbake.messages import printable, record, run_warnings
 from shbake.progress import Progress
 
 
@@ -156,9 +157,9 @@ layout_opt = click.option(
 negative_opt = click.option(
     "--negative",
     type=click.Choice(NEGATIVE_POLICIES),
-    default="clamp",
-    show_default=True,
-    help="Negative pixels: clamp to 0 (warn, recorded in the asset), keep, or refuse.",
+    default=None,
+    help="Negative pixels: clamp to 0 (recorded in the asset; a warning unless given "
+    "explicitly), keep, or refuse [default: clamp].",
 )
 fix_nonfinite_opt = click.option(
     "--fix-nonfinite",
@@ -311,6 +312,26 @@ def info(msg: str, quiet: bool = False) -> None:
         click.echo(printable(msg), err=True)
 
 
+LISTED_PER_FOLDER = 3
+"""A ``wrote`` line names up to this many files of one folder, else the folder and a count."""
+
+
+def also_wrote(paths) -> str:
+    """The ``; also …`` tail of a ``wrote MAIN …`` line: every other file the run wrote, by
+    name where a folder holds at most :data:`LISTED_PER_FOLDER` of them, else as ``N files in
+    FOLDER/``; empty when there is none."""
+    folders: dict[str, list[str]] = {}
+    for path in paths:
+        folders.setdefault(os.path.dirname(path), []).append(path)
+    parts = []
+    for folder, files in folders.items():
+        if len(files) <= LISTED_PER_FOLDER:
+            parts += files
+        else:
+            parts.append(f"{len(files)} files in {os.path.join(folder or '.', '')}")
+    return "; also " + ", ".join(parts) if parts else ""
+
+
 def info_lines(text: str, quiet: bool = False) -> None:
     """A multi-line report (tables): :func:`info` per line."""
     for line in text.splitlines():
@@ -318,7 +339,8 @@ def info_lines(text: str, quiet: bool = False) -> None:
 
 
 def warn(msg: str, quiet: bool = False) -> None:
-    """``shbake: warning: …`` on stderr."""
+    """``shbake: warning: …`` on stderr (not with ``quiet``), and in the run's ``--json``."""
+    record(msg)
     info(f"shbake: warning: {msg}", quiet)
 
 
@@ -353,9 +375,13 @@ def _default(o):
 
 
 def emit_json(summary: dict) -> None:
-    """The ``--json`` summary: one JSON document on stdout."""
+    """The ``--json`` summary: one JSON document on stdout. Its ``warnings`` list holds every
+    warning of the run, printed or silenced by ``-q``, then any the summary had."""
     import json  # only --json needs it (start-up)
 
+    given = run_warnings()
+    summary = summary | {"warnings": given + [w for w in summary.get("warnings", [])
+                                              if w not in given]}  # fmt: skip
     try:
         sys.stdout.write(json.dumps(summary, sort_keys=True, default=_default) + "\n")
         sys.stdout.flush()

@@ -6,6 +6,7 @@ from shbake_cli.options import (
     BarProgress,
     FiniteRange,
     NameValue,
+    also_wrote,
     emit_json,
     info,
     json_opt,
@@ -105,4 +106,5 @@ def preview(asset_path, output, at, as_json, quiet, **settings):
     if as_json:
         emit_json(summary)
     else:
-        info(f"wrote {output} ({summary['pass']}, {summary['fps']:.1f} frames/s)", quiet)
+        info(f"wrote {output} ({summary['pass']}, {summary['fps']:.1f} frames/s)"
+             + also_wrote(summary["outputs"][1:]), quiet)  # fmt: skip

@@ -20,6 +20,7 @@ from shbake_cli.options import (
     scheduler_opt,
     tol_opt,
     usage_errors,
+    warn,
 )
 
 from shbake.bakers.shexp import FIT_TARGETS, SETS_LIMIT, WEIGHTS, FitConfig
@@ -128,7 +129,7 @@ def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, a
     summary = fit_probes(maps, probe_list, output, out_dir, config, progress=progress,
                          notes=lambda text: info_lines(text, quiet), **run)  # fmt: skip
     for w in summary["warnings"]:
-        info(f"shbake: warning: {w}", quiet)
+        warn(w, quiet)
     info(f"probe-fit: {len(summary['probes'])} probes in {summary['seconds']:.2f} s "
          f"({summary['probes_per_second']:.1f} probes/s)", quiet)  # fmt: skip
     if as_json:

@@ -4,6 +4,7 @@ import click
 from shbake_cli.options import (
     BarProgress,
     FiniteRange,
+    also_wrote,
     command_line,
     deprecated,
     emit_json,
@@ -128,7 +129,6 @@ def project_env(ctx, env, output, exr_dir, size, as_json, quiet, **settings):
         map_size=size,
         irradiance_sh=settings.pop("irradiance"),
         command_line=command_line(ctx),
-        quiet=quiet,
         progress=BarProgress(quiet),
         **settings,
     )
@@ -139,7 +139,8 @@ def project_env(ctx, env, output, exr_dir, size, as_json, quiet, **settings):
     if as_json:
         emit_json(summary)
     else:
-        info(f"wrote {output} (lmax {settings['lmax']}, {summary['layout']})", quiet)
+        info(f"wrote {output} (lmax {settings['lmax']}, {summary['layout']})"
+             + also_wrote(summary["outputs"][1:]), quiet)  # fmt: skip
 
 
 def print_report(summary: dict, quiet: bool) -> None:
@@ -169,6 +170,7 @@ def print_report(summary: dict, quiet: bool) -> None:
             "into the light (R, G, B): " + ", ".join(f"{v:.3f}" for v in sun["energy_fraction"]),
             quiet,
         )
+        info(light_line(sun), quiet)
     elif sun:
         info(f"sun: none extracted (peak/background contrast {sun['contrast']:.1f})", quiet)
     lights = summary.get("lights")
@@ -176,3 +178,15 @@ def print_report(summary: dict, quiet: bool) -> None:
         for f in lights["tried"]:
             info(f"lights: {f['count']} fitted, irradiance vs brute force (fit normals) mean "
                  f"{f['mean_error']:.4%}, max {f['max_error']:.4%}", quiet)  # fmt: skip
+        for light in lights.get("lights", []):
+            info(light_line(light), quiet)
+
+
+def light_line(light: dict) -> str:
+    """One directional light (:func:`shbake.format.env_sh.asset_lights`) on one line."""
+    d = ", ".join(f"{v:.3f}" for v in light["direction"])
+    colour = ", ".join(f"{v:.3f}" for v in light["colour"])
+    return (f"{light['name']}: direction ({d}), elevation {light['elevation_deg']:.1f}°, "
+            f"azimuth {light['azimuth_deg']:.1f}° (lat-long u × 360°); colour ({colour}) "
+            f"(R, G, B, luminance 1); intensity {light['intensity']:.4g} (luminance of the "
+            "irradiance at normal incidence, the map's radiance unit × sr)")  # fmt: skip

@@ -3,6 +3,7 @@
 import click
 from shbake_cli.options import (
     FiniteRange,
+    also_wrote,
     colorspace_opt,
     emit_json,
     exr_dir_opt,
@@ -12,6 +13,7 @@ from shbake_cli.options import (
     layout_opt,
     negative_opt,
     output_opt,
+    png_opt,
     quiet_opt,
     report_opt,
     usage_errors,
@@ -109,6 +111,7 @@ def _view(ctx, param, text) -> tuple[float, float, float]:
     callback=_view,
     help="World view direction (toward the viewer) of reflection.exr.",
 )
+@png_opt
 @report_opt
 @layout_opt
 @colorspace_opt
@@ -116,7 +119,7 @@ def _view(ctx, param, text) -> tuple[float, float, float]:
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
-def shrm(env, output, brdf, params, merl_path, eps, F, P, face_size, exr_dir, view, report,
+def shrm(env, output, brdf, params, merl_path, eps, F, P, face_size, exr_dir, view, png, report,
          layout, colorspace, negative, fix_nonfinite, as_json, quiet):  # fmt: skip
     """Bake ENV into a Spherical Harmonic Reflection Map for an isotropic BRDF."""
     with usage_errors():
@@ -125,11 +128,12 @@ def shrm(env, output, brdf, params, merl_path, eps, F, P, face_size, exr_dir, vi
     summary = bake_shrm_file(env_path=env, output=output, settings=settings, exr_dir=exr_dir,
                              report=report, layout=layout, colorspace=colorspace,
                              negative=negative, fix_nonfinite=fix_nonfinite,
-                             quiet=quiet)  # fmt: skip
+                             png=png)  # fmt: skip
     info(
         f"shrm: {output}: {brdf} F={summary['F']} P={summary['P']} face {summary['face_size']} "
         f"BRDF energy left out {summary['eps_brdf']:.4f} (bound {summary['eps_bound']:.2e}), "
-        f"{summary['bytes']} bytes, {summary['seconds']['total']:.3f} s",
+        f"{summary['bytes']} bytes, {summary['seconds']['total']:.3f} s"
+        + also_wrote(summary.get("exr", [])),
         quiet,
     )
     if report and not as_json:

@@ -4,6 +4,7 @@ import click
 from shbake_cli.options import (
     FiniteRange,
     NameValue,
+    also_wrote,
     emit_json,
     info,
     json_opt,
@@ -51,4 +52,5 @@ def tradeoff_cmd(kind, map_path, model, params, tol, samples, output, csv_path, 
         emit_json(result)
     else:
         info(f"tradeoff: {output}: {len(result['rows'])} settings, chosen "
-             f"{result['chosen'] or 'none (tolerance not met)'}", quiet)  # fmt: skip
+             f"{result['chosen'] or 'none (tolerance not met)'}"
+             + also_wrote([p for p in (csv_path, json_path) if p]), quiet)  # fmt: skip

@@ -192,15 +192,17 @@ def thread_count(work: float, blocks: int) -> int:
     return int(max(1, min(thread_budget(), blocks, work // MIN_WORK_PER_THREAD)))
 
 
-def run_blocks(kernel, n_blocks: int, work: float, *args) -> None:
+def run_blocks(kernel, n_blocks: int, work: float, *args, advance=None) -> None:
     """Call ``kernel(*args, b0, b1)`` over consecutive block ranges covering ``[0, n_blocks)``.
 
     ``kernel`` must release the GIL (numba ``nogil=True``) and write disjoint
     outputs for disjoint block ranges. Blocks go out in groups of
     ``max(1, n_blocks // (8 × threads))`` to whichever thread is free.
+    ``advance(n)``: called (one call at a time) with the number of blocks of each group
+    finished — a progress bar's step; with it, one thread also runs in groups.
     """
     threads = thread_count(work, n_blocks)
-    if threads == 1:
+    if threads == 1 and advance is None:
         kernel(*args, 0, n_blocks)
         return
     step = max(1, n_blocks // (8 * threads))
@@ -216,7 +218,11 @@ def run_blocks(kernel, n_blocks: int, work: float, *args) -> None:
                     state[0] = b0 + step
                 if b0 >= n_blocks:
                     return
-                kernel(*args, b0, min(n_blocks, b0 + step))
+                b1 = min(n_blocks, b0 + step)
+                kernel(*args, b0, b1)
+                if advance is not None:
+                    with lock:
+                        advance(b1 - b0)
         except BaseException as e:  # pragma: no cover - re-raised below
             errors.append(e)
 

@@ -34,8 +34,35 @@ def printable(text) -> str:
     return str(text).translate(_ESCAPES)
 
 
+_run = {"quiet": False, "warnings": []}
+"""The command run in progress: whether ``-q`` silences stderr, the warnings it gave so far."""
+
+
+def start_run(quiet: bool = False) -> None:
+    """A command run begins: no warning recorded yet; with ``quiet`` (``-q``) warnings are
+    recorded (for ``--json``) but not printed."""
+    _run["quiet"] = quiet
+    _run["warnings"] = []
+
+
+def record(message: str) -> None:
+    """Remember a warning of this run (printed or not) for its ``--json`` summary."""
+    if message not in _run["warnings"]:
+        _run["warnings"].append(message)
+
+
+def run_warnings() -> list[str]:
+    """Every warning this run gave, in order (``--json`` keeps them under ``-q``)."""
+    return list(_run["warnings"])
+
+
 def warn(message: str, quiet: bool = False) -> None:
     """``shbake: warning: MESSAGE`` on stderr, one line: the library's warnings about an input
-    (what was repaired or clamped), printed as they happen."""
-    if not quiet:
+    (what was repaired or clamped), printed as they happen and recorded for the run's
+    ``--json``; not printed under ``-q`` (:func:`start_run`). ``quiet``: an input the run
+    reads again (already reported): neither printed nor recorded."""
+    if quiet:
+        return
+    record(message)
+    if not _run["quiet"]:
         print(f"shbake: warning: {printable(message)}", file=sys.stderr)

@@ -97,6 +97,21 @@ class TestDeprecatedAliases:
         assert code == 0, err
         assert "alpha_x=" in out and "F0=" in out
 
+    @pytest.mark.parametrize("order", ["model first", "option first"])
+    def test_list_params_lists_the_model_alone(self, run_cli, order):
+        """Issue 32: ``brdf-table ggx --list-params`` printed all ten models."""
+        from shbake.brdf import MODELS, model_spec
+
+        args = ["ggx", "--list-params"] if order == "model first" else ["--list-params", "ggx"]
+        code, out, err = run_cli("brdf-table", *args)
+        assert code == 0, err
+        headers = [line.split(":")[0] for line in out.splitlines() if not line.startswith(" ")]
+        assert headers == ["ggx"], out
+        assert len(out.splitlines()) == 1 + len(model_spec("ggx").params) + len(
+            model_spec("ggx").aliases
+        )
+        assert len(MODELS) > 1
+
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):

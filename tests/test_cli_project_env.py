@@ -42,7 +42,7 @@ class TestProjectEnv:
         assert a.attrs["source_sha256"] and "project-env" in a.attrs["command_line"]
         assert a.attrs["source_negative_count"] > 0
         assert (tmp_path / "maps" / "irradiance.exr").exists()
-        gltf = json.loads((tmp_path / "sky.gltf").read_text())  # shbake export --to gltf
+        gltf = json.loads((tmp_path / "sky-gltf" / "sky.gltf").read_text())  # export --to gltf
         light = gltf["extensions"]["EXT_lights_image_based"]["lights"][0]
         signs = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1])[:, None]  # Babylon (docs/EXPORTS.md)
         np.testing.assert_allclose(

@@ -77,3 +77,18 @@ def test_examples_run_in_order(workdir, scheduler, monkeypatch, capfd):
         err = capfd.readouterr().err
         assert code == 0, f"{command}\n{err}"
         assert "Traceback" not in err, f"{command}\n{err}"
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="GNU make not installed")
+def test_demo_venv_holds_no_test_extras():
+    """Issue 32: ``make demo`` installs the runtime packages only; ``make test`` adds the
+    test extras. Read from ``make -n -B`` (prints every recipe line, runs none)."""
+    import subprocess
+
+    def dry(goal: str) -> str:
+        return subprocess.run(["make", "-n", "-B", goal], cwd=ROOT, capture_output=True,
+                              text=True, check=True).stdout  # fmt: skip
+
+    demo = dry("demo")
+    assert "pip install -q -c requirements.lock -e .\n" in demo and "[test]" not in demo
+    assert "-e '.[test]'" in dry("test")

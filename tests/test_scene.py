@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from shbake import __version__
 from shbake.batch.plan import irradiance_truncation, plan_scene
 from shbake.batch.scene import SceneError, key_lines, load_scene
 from shbake.batch.scene_bake import bake_scene
@@ -166,6 +167,9 @@ class TestLoadScene:
             ('name = "two-maps"', 'name = "two-maps"\nout_dir = "/tmp/x"', 4, "scene.out_dir"),
             ('name = "two-maps"', 'name = "two-maps"\nout_dir = "../.."', 4, "scene.out_dir"),
             ('name = "two-maps"', 'name = "two-maps"\nout_dir = "a/../.."', 4, "scene.out_dir"),
+            # issue 32: a name given to a glob of several maps was silently ignored
+            ('map = "maps/studio.exr"', 'map = "maps/s*.exr"\nname = "both"', 14,
+             "environments[0].name"),
         ],
     )  # fmt: skip
     def test_malformed_scene_is_one_line_with_file_line_key_exit_2(
@@ -311,7 +315,7 @@ class TestPipelines:
         frag = folder / "scene.mk"
         subprocess.run([SHBAKE, "plan", str(path), "--emit-make", str(frag), "--quiet",
                         "--shbake", SHBAKE], check=True)  # fmt: skip
-        (folder / "Makefile").write_text(f"include {frag}\n")
+        (folder / "Makefile").write_text("include scene.mk\n")  # as docs/SCENES.md says
         subprocess.run(["make", "-j2", "scene-assets"], cwd=folder, check=True,
                        capture_output=True)  # fmt: skip
         assert hashes(out) == by_jobs
@@ -325,11 +329,13 @@ class TestPipelines:
         rebuilt = sorted(line.split("--asset ")[1].split()[0] for line in dry.splitlines()
                          if "--asset" in line)  # fmt: skip
         assert rebuilt == sorted(a for a in lock["assets"] if a.endswith("/dusk"))
-        # a changed tolerance rebuilds only what it affects (irradiance: env_sh assets)
+        # a changed tolerance re-plans (the fragment remakes itself, --shbake kept) and
+        # rebuilds only what it affects (irradiance: env_sh assets)
         subprocess.run(["make", "scene-assets"], cwd=folder, check=True, capture_output=True)
         path.write_text(path.read_text().replace("irradiance = 0.05", "irradiance = 0.01"))
         dry = subprocess.run(["make", "-n", "scene-assets"], cwd=folder, capture_output=True,
                              text=True, check=True).stdout  # fmt: skip
+        assert dry.split()[:2] == [SHBAKE, "plan"] and f"SHBAKE ?= {SHBAKE}\n" in frag.read_text()
         rebuilt = [line.split("--asset ")[1].split()[0] for line in dry.splitlines()
                    if "--asset" in line]  # fmt: skip
         # (their exports depend on them)
@@ -356,6 +362,50 @@ class TestPipelines:
         write_test_exr(m, px * 2.0)
         second = bake_scene(load_scene(str(path)))
         assert sorted(second["baked"]) == sorted(a for a in first["baked"] if a.endswith("/studio"))
+
+
+class TestPortableState:
+    """Issue 32: the lock, the settings stamps and the fragment name paths relative to the
+    scene's folder (docs/SCENES.md), so a scene folder moves with its outputs."""
+
+    def test_copied_folder_bakes_nothing(self, baked, tmp_path):
+        folder, path, scene, _ = baked
+        assert bake_scene(load_scene(str(path)))["baked"] == []  # up to date where it is
+        subprocess.run([SHBAKE, "plan", "scene.toml", "--emit-make", "scene.mk", "--quiet",
+                        "--shbake", SHBAKE], cwd=folder, check=True)  # fmt: skip
+        (folder / "Makefile").write_text("include scene.mk\n")
+        copy = tmp_path / "another" / "checkout"
+        shutil.copytree(folder, copy)  # times kept, as cp -a, rsync -a or tar
+        out = copy / Path(scene.out_dir).name
+        for state in [out / "scene.lock.json", copy / "scene.mk", *(out / ".stamps").rglob("*")]:
+            assert state.is_dir() or str(folder) not in state.read_text(), state
+        assert subprocess.run(["make", "-q", "scene-assets"], cwd=copy).returncode == 0
+        assert bake_scene(load_scene(str(copy / "scene.toml")))["baked"] == []
+
+    def test_include_replans_when_the_scene_or_shbake_changes(self, tmp_path):
+        path = make_scene(tmp_path)
+        frag = tmp_path / "scene.mk"
+        subprocess.run([SHBAKE, "plan", "scene.toml", "--emit-make", "scene.mk", "--quiet",
+                        "--shbake", SHBAKE], cwd=tmp_path, check=True)  # fmt: skip
+        (tmp_path / "Makefile").write_text("include scene.mk\n")
+
+        def first_command() -> list[str]:
+            dry = subprocess.run(["make", "-n", "scene-assets"], cwd=tmp_path, text=True,
+                                 capture_output=True, check=True).stdout  # fmt: skip
+            return dry.split()[:2]
+
+        assert first_command() == [SHBAKE, "bake"]  # the fragment is current
+        later = os.stat(frag).st_mtime + 10
+        path.write_text(path.read_text().replace("brdf_table = 0.25", "brdf_table = 0.2"))
+        os.utime(path, (later, later))
+        assert first_command() == [SHBAKE, "plan"]
+        assert f"SHBAKE ?= {SHBAKE}\n" in frag.read_text()
+        # a fragment another version of shbake wrote: planned again by this one
+        mark = f"--version 2>/dev/null)),{__version__})"
+        assert mark in frag.read_text()
+        frag.write_text(frag.read_text().replace(mark, mark.replace(__version__, "0.0.0")))
+        os.utime(frag, (later + 10, later + 10))
+        assert first_command() == [SHBAKE, "plan"] and mark in frag.read_text()
 
 
 class TestRecipeOverheads:

@@ -11,7 +11,9 @@ make and ``/bin/sh`` themselves:
   set, is refused in one line and nothing is written;
 * otherwise every command ``make -n`` prints is exactly the expected argv (read with the
   POSIX grammar of bare words and single quotes only: anything else ``sh`` would
-  interpret fails the test), for every asset rule and the fragment's self-remake rule;
+  interpret fails the test), for every asset rule and the fragment's self-remake rule,
+  each path relative to the fragment's folder where make runs (issue 32), and the one
+  query of ``$(SHBAKE) --version`` each reading of the fragment makes;
   make finds each target and prerequisite as the very file it names (``make -q`` after
   the outputs exist; touching the map rebuilds exactly its assets);
 * ``make`` itself, run with ``SHELL`` a logging wrapper and the command a recorder of its
@@ -34,6 +36,7 @@ from hypothesis import HealthCheck, Phase, event, given, settings
 from hypothesis import strategies as st
 from shbake_cli.guard import message_of
 
+from shbake import __version__
 from shbake.batch.scene import load_scene
 from shbake.batch.scene_bake import emit_make
 from shbake.errors import ParameterError
@@ -93,6 +96,13 @@ def _control(text: str) -> bool:
 def makeable(path: str) -> bool:
     """What docs/SCENES.md promises a fragment can name."""
     return not (_control(path) or set(path) & MAKE_UNSAFE or path.endswith(" "))
+
+
+def named(path: Path, folder: Path) -> str:
+    """``path`` as docs/SCENES.md says the fragment names it: relative to the fragment's
+    folder ``folder``, ``./`` before a name starting with ``-`` or ``~``."""
+    rel = os.path.relpath(path, folder)
+    return "./" + rel if rel[0] in "-~" else rel
 
 
 def toml_string(text: str) -> str:
@@ -178,10 +188,13 @@ class Layout:
 
     def refusal_expected(self) -> bool:
         names = [self.env, *self.materials]
-        paths = [str(self.scene), str(self.map), str(self.out / ".stamps"), str(self.fragment)]
+        paths = [named(p, self.folder) for p in (self.scene, self.map, self.out / ".stamps",
+                                                 self.fragment)]  # fmt: skip
         words = shlex.split(self.shbake)
         bad_words = _control(self.shbake) or any("\\" in w for w in words)
-        return not all(map(NAME.fullmatch, names)) or not all(map(makeable, paths)) or bad_words
+        stdin = self.fragment.name == "-"  # make reads a makefile named "-" from stdin
+        return (not all(map(NAME.fullmatch, names)) or not all(map(makeable, paths))
+                or bad_words or stdin)  # fmt: skip
 
     def nothing_written(self) -> bool:
         return not (self.fragment.exists() or self.out.exists())
@@ -203,7 +216,7 @@ def layouts(shbake_words=None):
 
 def make(layout: Layout, *args, shell=None, env=None) -> subprocess.CompletedProcess:
     """GNU make on the fragment alone (``-f``), in the scene's folder, C locale."""
-    cmd = ["make", "--no-print-directory", "-f", str(layout.fragment), *args]
+    cmd = ["make", "--no-print-directory", "-f", named(layout.fragment, layout.folder), *args]
     if shell is not None:
         cmd.append(f"SHELL={shell}")
     full_env = {"PATH": os.environ["PATH"], "LC_ALL": "C", **(env or {})}
@@ -231,14 +244,27 @@ def emitted(d) -> Layout | None:
 
 
 def expected_bake(layout: Layout, words: list[str]) -> list[list[str]]:
-    return sorted([*words, "bake", str(layout.scene), "--asset", a, "--quiet"]
+    return sorted([*words, "bake", named(layout.scene, layout.folder), "--asset", a, "--quiet"]
                   for a in layout.outputs())  # fmt: skip
 
 
-SHELL_RECORDER = """#!/bin/sh
-# make's SHELL: records each command line it is given (NUL-terminated), runs nothing
+VERSION_QUERY = " --version 2>/dev/null"
+"""How the fragment's command line asking ``$(SHBAKE)`` its version ends."""
+SHELL_RECORDER = f"""#!/bin/sh
+# make's SHELL: records each command line it is given (NUL-terminated), runs nothing but
+# answers the fragment's version query as shbake {__version__} would
 printf '%s\\0' "$2" >> "$0.log"
+case "$2" in *'{VERSION_QUERY}') echo "shbake, version {__version__}";; esac
 """
+
+
+def version_queries(shells: list[str], words: list[str]) -> list[str]:
+    """``shells`` less the fragment's version queries, each checked to be exactly
+    ``$(SHBAKE) --version`` (at least one: make read the fragment)."""
+    queries = [line for line in shells if line.endswith(VERSION_QUERY)]
+    assert queries and all(sh_words(q.removesuffix(VERSION_QUERY)) == words
+                           for q in queries), queries  # fmt: skip
+    return [line for line in shells if not line.endswith(VERSION_QUERY)]
 
 
 SETTINGS = dict(
@@ -259,11 +285,12 @@ def check_dry_runs(layout: Layout) -> None:
     log = layout.root / "sh-record.log"
     # the scene, newer ("what if"): make runs the fragment's self-remake recipe (even with
     # -n: a makefile is remade before it is read), then prints every asset's
-    dry = make(layout, "-n", "-W", str(layout.scene), "scene-assets", shell=shell)
+    scene = named(layout.scene, layout.folder)
+    dry = make(layout, "-n", "-W", scene, "scene-assets", shell=shell)
     assert dry.returncode == 0, dry.stderr
-    remake = [*words, "plan", str(layout.scene), "--emit-make", str(layout.fragment),
+    remake = [*words, "plan", scene, "--emit-make", named(layout.fragment, layout.folder),
               "--shbake", layout.shbake, "--quiet"]  # fmt: skip
-    shells = log.read_text().split("\0")[:-1]
+    shells = version_queries(log.read_text().split("\0")[:-1], words)
     assert [sh_words(line) for line in shells] == [remake]
     lines = [sh_words(line) for line in dry.stdout.split("\n") if line]
     assert sorted(lines) == sorted(expected_bake(layout, words) + [remake])
@@ -280,7 +307,8 @@ def check_dry_runs(layout: Layout) -> None:
     again = make(layout, "-n", "scene-assets", shell=shell)
     got = sorted(w[w.index("--asset") + 1] for w in map(sh_words, again.stdout.split("\n")) if w)
     assert got == sorted(a for a in layout.outputs() if not a.startswith("brdf_table/"))
-    assert len(log.read_text().split("\0")[:-1]) == 1, "make started another shell"
+    shells = version_queries(log.read_text().split("\0")[:-1], words)
+    assert len(shells) == 1, "make started another shell"
 
 
 @pytest.mark.parametrize("examples", [2000, pytest.param(10000, marks=pytest.mark.slow)])
@@ -301,9 +329,11 @@ def test_make_dry_run_argv_exact(examples):
     check()
 
 
-RECORDER = """#!/bin/sh
-# records its argv: $0, then each argument, NUL-terminated, one record per call
-{ printf '%s\\0' "$0"; for a in "$@"; do printf '%s\\0' "$a"; done; printf '\\1\\0'; } >> "$0.log"
+RECORDER = f"""#!/bin/sh
+# records its argv: $0, then each argument, NUL-terminated, one record per call; answers
+# --version as shbake {__version__} would
+{{ printf '%s\\0' "$0"; for a in "$@"; do printf '%s\\0' "$a"; done; printf '\\1\\0'; }} >> "$0.log"
+case "$*" in *--version) echo "shbake, version {__version__}";; esac
 """
 SHELL_LOGGER = """#!/bin/sh
 # make's SHELL: records each command line it is given, then runs it with /bin/sh
@@ -339,8 +369,9 @@ def test_make_runs_exactly_the_expected_commands(examples):
             before = sorted(layout.root.rglob("*"))
             done = make(layout, "scene-assets", shell=logger)
             assert done.returncode == 0, done.stderr
-            shells = logs[1].read_bytes().split(b"\0")[:-1]
-            assert len(shells) == len(layout.outputs())
+            words = shlex.split(layout.shbake)
+            shells = logs[1].read_bytes().decode().split("\0")[:-1]
+            assert len(version_queries(shells, words)) == len(layout.outputs())
             calls, call = [], []
             for x in logs[0].read_bytes().decode().split("\0")[:-1]:
                 if x == "\1":
@@ -348,7 +379,9 @@ def test_make_runs_exactly_the_expected_commands(examples):
                     call = []
                 else:
                     call.append(x)
-            assert sorted(calls) == expected_bake(layout, shlex.split(layout.shbake))
+            asked = [*words, "--version"]
+            assert asked in calls
+            assert sorted(c for c in calls if c != asked) == expected_bake(layout, words)
             assert sorted(layout.root.rglob("*")) == before  # nothing else ran
         finally:
             shutil.rmtree(layout.root)
@@ -373,6 +406,6 @@ def test_outside_out_dir_recipes_carry_the_flag(tmp_path):
     shell = tmp_path / "sh-record"
     shell.write_text(SHELL_RECORDER)
     shell.chmod(0o755)
-    dry = make(layout, "-n", "-W", str(layout.scene), "scene-assets", shell=shell)
+    dry = make(layout, "-n", "-W", named(layout.scene, layout.folder), "scene-assets", shell=shell)
     lines = [sh_words(line) for line in dry.stdout.split("\n") if line]
     assert len(lines) == 4 and all(w[-2:] == ["--allow-outside", "--quiet"] for w in lines)

@@ -39,7 +39,7 @@ FAMILIES = {  # arguments, exit status, its own lines, its last line
                     r"band .*|\s+\d+\s.*|fraction of .*|\S+ vs brute force, relative: .*|wrote .*",
                     r"wrote \S+/e\.h5 \(lmax \d+, latlong\)"),
     "brdf-table": (["brdf-table", "phong", "-o", "{tmp}/t.h5", "--size", "8", "--lmax", "2",
-                    "--samples", "64"], 0, r"wrote .*", r"wrote \S+/t\.h5: phong .*"),
+                    "--samples", "64"], 0, r"wrote .*|  error: .*", r"  error: f\* rebuilt .*"),
     "probe-fit --jobs 2": (["probe-fit", "{m0}", "{m1}", "--out-dir", "{tmp}/pf", "--jobs", "2",
                             "--normals", "16", "--views", "8"], 0, r"probe-fit: .*",
                            r"probe-fit: 2 probes in .*"),

@@ -9,9 +9,11 @@ lmax, resolution and samples (:mod:`shbake.bakers.kautz_report`).
 
 import os
 
-from shbake.bakers.kautz_report import settings_report
+import numpy as np
+
+from shbake.bakers.kautz_report import probe_views, product_energy, settings_report
 from shbake.brdf import make_brdf, model_spec
-from shbake.brdf.tabulate import parse_vary, tabulate_axes
+from shbake.brdf.tabulate import parse_vary, project_views, quadrant_views, tabulate_axes
 from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
@@ -31,6 +33,38 @@ def check_parameters(model: str, params: dict, vary: tuple[str, ...] = ()) -> No
             spec.resolve(params | {name: value})
 
 
+TABLE_ERROR_VIEWS = (32, 23)
+"""Count and seed of the :func:`~shbake.bakers.kautz_report.probe_views` a written table's
+error is measured at (none of them a texel centre)."""
+ENERGY_NODES = 256
+"""Gauss–Legendre nodes in θ of :func:`~shbake.bakers.kautz_report.product_energy` for
+:func:`table_error`."""
+
+
+def table_error(brdf, table: np.ndarray, lmax: int, reference_samples: int) -> dict:
+    """The error of what a consumer of ``table`` (``(H, W, n, C)``) evaluates: ``f*(·, v)``
+    rebuilt from the bilinear look-up ``c(v)`` against ``f*`` itself, relative L2 over the
+    sphere, mean over the :data:`TABLE_ERROR_VIEWS` views (``error``,
+    :func:`~shbake.evaluation.metrics.mean_relative_norm`); parts, each the same mean:
+    ``truncation`` (Parseval: ``∫ f*² − Σ c_ref²``, ``c_ref`` projected at
+    ``reference_samples`` points per strategy) and ``coefficients`` (``|c(v) − c_ref(v)|``:
+    the table's quadrature noise and its bilinear look-up); per view ``error² =
+    truncation² + coefficients²``."""
+    from shbake.evaluation.metrics import mean_relative_norm
+    from shbake.texture.parabolic import fetch
+
+    views = probe_views(*TABLE_ERROR_VIEWS)
+    energy = product_energy(brdf, views, ENERGY_NODES).sum(axis=1)
+    ref, _ = project_views(brdf, views, lmax, samples=reference_samples)
+    got = fetch(np.asarray(table), views)
+    trunc2 = np.clip(energy - np.sum(ref * ref, axis=(1, 2)), 0, None)
+    coeff2 = np.sum((got - ref) ** 2, axis=(1, 2))
+    return {"error": mean_relative_norm(trunc2 + coeff2, energy),
+            "truncation": mean_relative_norm(trunc2, energy),
+            "coefficients": mean_relative_norm(coeff2, energy),
+            "views": len(views)}  # fmt: skip
+
+
 def bake_brdf_table(
     model: str,
     output: str,
@@ -43,6 +77,7 @@ def bake_brdf_table(
     max_samples: int = 1 << 18,
     vary: tuple[str, ...] = (),
     exr_dir: str | None = None,
+    png: bool = False,
     report: bool = False,
     reproducible: bool = False,
     command_line: str = "",
@@ -52,7 +87,8 @@ def bake_brdf_table(
 
     ``samples``: quadrature points per strategy (ignored with ``tol``, which
     refines each texel until its error estimate is at most ``tol`` or
-    ``max_samples`` is reached).
+    ``max_samples`` is reached). ``exr_dir``: the band EXRs and the Fig. 2 sheet, with
+    ``png`` a PNG beside every EXR.
     """
     lmax = check_lmax(lmax, limit=KAUTZ_LMAX_LIMIT)
     brdf = make_brdf(model, merl_path=merl_path, **(params or {}))
@@ -63,18 +99,13 @@ def bake_brdf_table(
     points = 1
     for _, values in axes:
         points *= len(values)
-    with progress.task("tabulating", total=points, unit="table") as advance:
-        done = [0]
-
-        def step(index, _count, _samples, _error):
-            if index > done[0]:  # table ``index`` started: the ones before it are done
-                advance(index - done[0])
-                done[0] = index
-
+    views = len(quadrant_views(*size)) * points
+    what = "tabulating" + (f" {points} tables" if points > 1 else "")
+    with progress.task(what, total=views, unit="view") as advance:
         tables, convs = tabulate_axes(
             brdf,
             axes,
-            progress=step,
+            advance=advance,
             lmax=lmax,
             resolution=size,
             samples=None if tol is not None else samples,
@@ -97,9 +128,22 @@ def bake_brdf_table(
             f"measured albedo up to {max(tattrs['max_albedo']):.4f} > 1: these parameters do "
             "not conserve energy (flagged in the asset)"
         )
+    from shbake.batch.plan import REFERENCE_SAMPLES  # the scene bake's reference (start-up)
+
+    # the headline: what a consumer evaluates, at the first point of every --vary axis
+    # (table_at's default)
+    first = brdf.with_values(**{name: values[0] for name, values in axes})
+    headline = table_error(first, table_at(asset).coeffs, lmax, REFERENCE_SAMPLES)
     summary = {
         "output": output,
         "model": model,
+        "error": headline["error"],
+        "error_parts": {
+            "truncation": headline["truncation"],
+            "coefficients": headline["coefficients"],
+            "quadrature_estimate": err,
+            "views": headline["views"],
+        },
         "parameters": brdf.describe()["parameters"],
         "lmax": lmax,
         "size": list(size),
@@ -119,7 +163,7 @@ def bake_brdf_table(
     if exr_dir is not None:
         makedirs(exr_dir)
         point = table_at(asset)
-        written = write_band_exrs(exr_dir, point.coeffs, lmax, brdf.coloured)
+        written = write_band_exrs(exr_dir, point.coeffs, lmax, brdf.coloured, png=png)
         sheet_path = os.path.join(exr_dir, "sheet.png")
         write_sheet(sheet_path, point.coeffs, lmax)
         summary["images"] = written + [sheet_path]

@@ -20,6 +20,7 @@ from shbake.envmap.layouts import latlong_directions
 from shbake.errors import OutputError, ParameterError
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
+from shbake.format.env_sh import asset_lights
 from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_png
 from shbake.progress import NO_PROGRESS
 from shbake.resources import check_memory
@@ -90,6 +91,12 @@ def quality_warnings(asset, summary: dict) -> list[str]:
     return out
 
 
+def export_folder(output: str, target: str) -> str:
+    """The folder of ``--export TARGET``'s files beside the asset ``output``: ``sky.h5`` →
+    ``sky-gltf/`` (``sky.gltf`` and its 24 specular PNGs), ``sky-threejs/`` (``sky.json``)."""
+    return f"{os.path.splitext(output)[0]}-{target}"
+
+
 def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh: bool = True,
                    exports: tuple[str, ...] = (), lights: int | str | None = None,
                    light_tol: float = 0.01, extract_sun: bool = False,
@@ -125,7 +132,7 @@ def project_environment(
     exports: tuple[str, ...] = (),
     report: bool = False,
     layout: str | None = None,
-    negative: str = "clamp",
+    negative: str | None = None,
     fix_nonfinite: str | None = None,
     colorspace: str | None = None,
     command_line: str = "",
@@ -141,7 +148,8 @@ def project_environment(
 
     ``exr_dir``: lat-long irradiance / tangent-irradiance EXRs of ``map_size``
     rows (``2 × map_size`` columns), half floats unless ``float_exr``, PNGs
-    beside them with ``png``. ``exports``: engine exports beside the asset.
+    beside them with ``png``. ``exports``: engine exports, each in its
+    folder beside the asset (:func:`export_folder`).
     ``report``: per-band energy, truncation and the error against brute force.
     ``lights``/``light_tol``: directional lights fitted with the SH to the irradiance
     (:func:`shbake.bakers.env_sh.bake_env_sh`).
@@ -151,6 +159,8 @@ def project_environment(
     check_output_path(output)
     if exr_dir is not None:
         check_output_dir(exr_dir, "--exr-dir")
+    for target in exports:
+        check_output_dir(export_folder(output, target), "--export")
     map_rows = map_size if exr_dir is not None else None
     what = "--exr-dir maps" + (" and --report" if report else "")
     check_memory(project_memory(0, map_rows, False), f"{map_size}x{2 * map_size} {what}")
@@ -214,8 +224,10 @@ def project_environment(
                 write_png(png_path, tonemap_to_srgb8(img))
                 written.append(png_path)
     for target in exports:  # issue 14: the library call of `shbake export`
-        ext = ".json" if target == "threejs" else ".gltf"
-        out = os.path.splitext(output)[0] + ("" if target == "gltf" else "." + target) + ext
+        folder = export_folder(output, target)
+        makedirs(folder)
+        out = os.path.join(folder, os.path.basename(os.path.splitext(output)[0]) + (
+            ".json" if target == "threejs" else ".gltf"))  # fmt: skip
         from shbake.batch.export import export_assets  # the exporters load numba: only here
 
         files = export_assets([output], target, out, env_path=env_path, sun_radius_deg=sun_radius)
@@ -229,5 +241,10 @@ def project_environment(
         negative_count=environment.meta["negative_count"],
         lighting_L00=asset["/lighting/sh"][0].tolist(),
     )
+    lights_found = asset_lights(asset)
+    if summary.get("sun", {}).get("extracted"):
+        summary["sun"].update(lights_found[0])
+    elif summary.get("lights"):
+        summary["lights"]["lights"] = lights_found
     summary["warnings"] = quality_warnings(asset, summary)
     return summary

@@ -124,6 +124,9 @@ class Scene:
     environments: tuple[Environment, ...]
     materials: tuple[Material, ...]
     lines: dict
+    written_absolute: frozenset[str] = frozenset()
+    """The paths the scene file wrote absolute (maps, MERL files, ``out_dir``): its state
+    files keep them so, every other path relative (:mod:`shbake.batch.scene_paths`)."""
 
     def error(self, key: str, message: str) -> SceneError:
         """A :class:`SceneError` for ``key`` (e.g. ``tolerances.irradiance``)."""
@@ -343,6 +346,7 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
             chk.fail(f"scene.exports[{i}]", f"duplicate export {e!r}")
     stem = os.path.splitext(os.path.basename(path))[0]
     out_dir = os.path.normpath(os.path.join(base, scene.get("out_dir", f"{stem}-assets")))
+    written_absolute = {out_dir} if os.path.isabs(scene.get("out_dir", "")) else set()
     if not allow_outside and not is_inside(out_dir, base):
         chk.fail("scene.out_dir", f"{out_dir} is outside the scene's folder {base} (give "
                  "--allow-outside to write there)")  # fmt: skip
@@ -376,6 +380,9 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
             chk.fail(f"{key}.rotation_deg", f"must be a finite number of degrees in "
                      f"[{-MAX_ROTATION_DEG:g}, {MAX_ROTATION_DEG:g}], got {turn!r}")  # fmt: skip
         tol = chk.tolerances(env.get("tolerances", {}), f"{key}.tolerances")
+        if "name" in env and len(found) > 1:  # issue 32: was silently ignored
+            chk.fail(f"{key}.name", f"one name for the {len(found)} maps {env['map']!r} "
+                     "matches; a glob's probes take their files' names")  # fmt: skip
         for m in found:
             map_stem = os.path.splitext(os.path.basename(m))[0]
             name = chk.name(f"{key}.name", env["name"] if len(found) == 1 and "name" in env
@@ -383,6 +390,8 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
             if any(e.name == name for e in environments):
                 chk.fail(f"{key}.name", f"duplicate environment name {name!r}")
             resources.note_input(m)
+            if os.path.isabs(env["map"]):
+                written_absolute.add(os.path.abspath(m))
             environments.append(Environment(name, os.path.abspath(m), tuple(map(float, pos)),
                                             float(turn), tol, key))  # fmt: skip
 
@@ -413,6 +422,8 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
             if not os.path.isfile(merl):
                 chk.fail(f"{key}.merl", f"no such file: {mat['merl']}")
             resources.note_input(merl)
+            if os.path.isabs(mat["merl"]):
+                written_absolute.add(merl)
             model = "merl"
         params = mat.get("params", {})
         for k, v in params.items():
@@ -454,7 +465,7 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
         chk.fail("materials", "a scene needs at least one [[materials]] entry")
     return Scene(path, scene.get("name", stem), out_dir,
                  tuple(exports), tolerances, tuple(environments), tuple(materials),
-                 lines)  # fmt: skip
+                 lines, frozenset(written_absolute))  # fmt: skip
 
 
 def _check_reflection_model(chk: _Checker, key: str, mat: dict) -> None:

@@ -19,9 +19,7 @@ import stat
 import time
 from contextlib import contextmanager
 
-import numpy as np
-
-from shbake import resources
+from shbake import __version__, resources
 from shbake.batch.makefile import (
     MakeNameError,
     make_path,
@@ -42,6 +40,7 @@ from shbake.batch.scene import (
     settings_text,
     stamp_path,
 )
+from shbake.batch.scene_paths import resolved, scene_folder, stored, stored_asset
 from shbake.errors import OutputError, ParameterError
 from shbake.format.atomic import (
     atomic_path,
@@ -111,28 +110,15 @@ def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
     if not measure:
         return {"outputs": [a["output"]], "bake_seconds": seconds}, {}
     brdf = make_brdf(s["model"], merl_path=s["merl"], **param_strings(s["params"]))
-    from shbake.bakers.kautz_report import probe_views
+    from shbake.batch.brdf_table import table_error
+    from shbake.batch.plan import REFERENCE_SAMPLES
     from shbake.format.asset import read_asset
     from shbake.format.kautz_table import table_at
 
     # measured on views the plan did not use, against the table actually written
-    errs = _table_file_error(brdf, table_at(read_asset(a["output"])).coeffs, s["lmax"],
-                             probe_views(32, seed=23))  # fmt: skip
+    table = table_at(read_asset(a["output"])).coeffs
+    errs = table_error(brdf, table, s["lmax"], REFERENCE_SAMPLES)["error"]
     return {"outputs": [a["output"]], "bake_seconds": seconds}, {"brdf_table": errs}
-
-
-def _table_file_error(brdf, table, lmax, views) -> float:
-    from shbake.bakers.kautz_report import product_energy
-    from shbake.batch.plan import REFERENCE_SAMPLES
-    from shbake.brdf.tabulate import project_views
-    from shbake.evaluation.metrics import mean_relative_norm
-    from shbake.texture.parabolic import fetch
-
-    energy = product_energy(brdf, views, 256).sum(axis=1)
-    ref, _ = project_views(brdf, views, lmax, samples=REFERENCE_SAMPLES)
-    got = fetch(np.asarray(table), views)
-    trunc2 = np.clip(energy - np.sum(ref * ref, axis=(1, 2)), 0, None)
-    return mean_relative_norm(np.sum((got - ref) ** 2, axis=(1, 2)) + trunc2, energy)
 
 
 def _posed_env(a: dict, turn_pixels: bool):
@@ -313,6 +299,14 @@ def _staged_bytes(path: str) -> bytes:
         return f.read()
 
 
+def _with_inputs(rec, path):
+    """Lock record ``rec`` with each input's path (a key of ``inputs``) mapped by ``path``;
+    anything that is not a record as it is (:func:`_poisoned` judges it)."""
+    if not (isinstance(rec, dict) and isinstance(rec.get("inputs"), dict)):
+        return rec
+    return dict(rec, inputs={path(p): h for p, h in rec["inputs"].items()})
+
+
 def _poisoned(asset: dict, rec) -> bool:
     """Whether lock record ``rec`` of ``asset`` cannot be trusted: not a record, or an output
     outside the asset's folder (symbolic links resolved) or not a regular file (a FIFO,
@@ -387,13 +381,14 @@ def read_lock(path: str) -> dict:
     return lock
 
 
-def write_stamps(plan: dict) -> list[str]:
+def write_stamps(plan: dict, scene: Scene) -> list[str]:
     """Write each asset's settings stamp, only where its text changed (make sees no change
-    otherwise). Returns the stamps written."""
+    otherwise), paths relative to the scene's folder (:mod:`shbake.batch.scene_paths`).
+    Returns the stamps written."""
     written = []
     for a in plan["assets"]:
         path = stamp_path(plan["out_dir"], a["id"])
-        text = settings_text(a)
+        text = settings_text(stored_asset(a, scene))
         if _read_state(path) == text:
             continue
         makedirs(os.path.dirname(path))
@@ -427,6 +422,15 @@ def _stamped_asset(scene: Scene, aid: str) -> dict:
     allowed = {e.map for e in scene.environments} | {m.merl for m in scene.materials if m.merl}
     allowed |= {asset_output(scene.out_dir, f"env_sh/{e.name}") for e in scene.environments}
     kind = aid.split("/")[0]
+    if (
+        isinstance(asset, dict)
+        and isinstance(asset.get("output"), str)
+        and isinstance(asset.get("inputs"), list)
+        and all(isinstance(p, str) for p in asset["inputs"])
+    ):
+        base = scene_folder(scene)  # the stamp's paths are relative to the scene's folder
+        asset = dict(asset, output=resolved(asset["output"], base),
+                     inputs=[resolved(p, base) for p in asset["inputs"]])  # fmt: skip
     if not (isinstance(asset, dict) and asset.get("id") == aid and asset.get("kind") == kind
             and kind in BAKERS and asset.get("output") == asset_output(scene.out_dir, aid)
             and isinstance(asset.get("settings"), dict) and isinstance(asset.get("inputs"), list)
@@ -473,7 +477,9 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     plan = plan_scene(scene, cache=units)
     declare_outputs(plan)
     resources.outputs_declared()
-    previous = lock.get("assets", {})
+    base = scene_folder(scene)  # the lock's input paths are relative to it
+    previous = {aid: _with_inputs(rec, lambda p: resolved(p, base))
+                for aid, rec in lock.get("assets", {}).items()}  # fmt: skip
     poisoned = [a["id"] for a in plan["assets"]
                 if a["id"] in previous and _poisoned(a, previous[a["id"]])]  # fmt: skip
     todo = [a for a in plan["assets"]
@@ -483,6 +489,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
              and a["settings"]["env_sh"] in ids]  # fmt: skip
     # two waves: exports read the env_sh assets of the first
     waves = [[a for a in todo if a["kind"] != "export"], [a for a in todo if a["kind"] == "export"]]
+    makedirs(scene.out_dir)
+    write_stamps(plan, scene)  # before the assets: make then finds each newer than its stamp
     results = []
     if scheduler is not None:
         results = _bake_on_scheduler(scheduler, waves)
@@ -496,12 +504,14 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
                if a["id"] in previous and a["id"] not in poisoned}  # fmt: skip
     for r in results:
         records[r["id"]] = r
-    makedirs(scene.out_dir)
-    write_stamps(plan)
     keys = {a["plan_key"] for a in plan["assets"]}
+    keep = scene.written_absolute
     new_lock = {
         "scene": os.path.basename(scene.path),
-        "assets": dict(sorted(records.items())),
+        "assets": {
+            aid: _with_inputs(rec, lambda p: stored(p, base, keep))
+            for aid, rec in sorted(records.items())
+        },  # fmt: skip
         "plans": {k: units[k] for k in sorted(keys) if k in units},
     }
     with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
@@ -520,23 +530,36 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
 
 def check_makeable(scene: Scene, fragment: str, shbake: str = "shbake") -> None:
     """Refuse, before planning, a scene a Makefile fragment cannot name exactly
-    (:mod:`shbake.batch.makefile`): its file, its maps and MERL files, its ``out_dir``
-    (:class:`~shbake.batch.scene.SceneError`: FILE:LINE: KEY), the fragment's path or the
-    ``shbake`` command (:class:`~shbake.batch.makefile.MakeNameError`, naming the option)."""
-    named = [(os.path.abspath(scene.path), "(file)"),
-             (os.path.join(scene.out_dir, STAMP_DIR), "scene.out_dir")]  # fmt: skip
+    (:mod:`shbake.batch.makefile`) as the fragment names it (:func:`fragment_path`): its
+    file, its maps and MERL files, its ``out_dir`` (:class:`~shbake.batch.scene.SceneError`:
+    FILE:LINE: KEY), the fragment's path or the ``shbake`` command
+    (:class:`~shbake.batch.makefile.MakeNameError`, naming the option)."""
+    here = os.path.dirname(os.path.abspath(fragment))
+    named = [(scene.path, "(file)"), (os.path.join(scene.out_dir, STAMP_DIR), "scene.out_dir")]
     named += [(e.map, f"{e.key}.map") for e in scene.environments]
     named += [(m.merl, f"{m.key}.merl") for m in scene.materials if m.merl]
     for path, key in named:
         try:
-            make_path(path)
+            make_path(fragment_path(path, here, scene.written_absolute))
         except MakeNameError as e:
             raise scene.error(key, f"{e.reason}: {e.text!r} (shbake bake takes it)") from None
     try:
-        make_path(os.path.abspath(fragment))
+        make_path(fragment_path(fragment, here))
     except MakeNameError as e:
         raise MakeNameError(e.text, e.reason, "--emit-make") from None
+    if os.path.basename(fragment) == "-":  # make -f - and include - read standard input
+        raise MakeNameError(fragment, "make reads a makefile named '-' from standard input",
+                            "--emit-make")  # fmt: skip
     _shbake_words(shbake)
+
+
+def fragment_path(path: str, here: str, written_absolute=frozenset()) -> str:
+    """``path`` as the fragment in folder ``here`` names it, for make run there: relative to
+    ``here`` (:func:`~shbake.batch.scene_paths.stored`), absolute where the scene wrote it
+    so; ``./`` before a relative name starting with ``-`` or ``~`` (an option to ``sh``'s
+    command, a library or a home folder to make)."""
+    text = stored(os.path.abspath(path), here, written_absolute)
+    return "./" + text if text[0] in "-~" else text
 
 
 def _shbake_words(shbake: str) -> list[str]:
@@ -563,43 +586,56 @@ def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> st
     ``env_sh`` asset) and on its settings stamp, which :func:`write_stamps`
     rewrites only when the asset's settings change, so a changed tolerance
     rebuilds only what it affects. The fragment remakes itself (and the stamps)
-    when the scene file changes; GNU make then restarts with the new rules.
+    when the scene file changes or ``$(SHBAKE) --version`` is not the version that wrote
+    it (asked once each time make reads it); GNU make then restarts with the new rules,
+    and the remade fragment keeps ``--shbake``. Its paths are relative to its own folder,
+    where make runs (``include`` it from a Makefile there), absolute only where the scene
+    wrote them so (:func:`fragment_path`): a scene folder moves with its fragment.
     Every file name, word and value in it is written by :mod:`shbake.batch.makefile`
     (after :func:`check_makeable`): make and ``sh`` read back exactly the paths and
     names given, and run ``$(SHBAKE)`` with exactly the arguments given, nothing else.
     """
     check_makeable(scene, path, shbake)
-    scene_path = os.path.abspath(scene.path)
-    frag = os.path.abspath(path)
-    flags = [] if is_inside(scene.out_dir, os.path.dirname(scene_path)) else ["--allow-outside"]
+    here = os.path.dirname(os.path.abspath(path))
+
+    def named(p: str) -> str:
+        return fragment_path(p, here, scene.written_absolute)
+
+    scene_path, frag = named(scene.path), named(path)
+    flags = [] if is_inside(scene.out_dir, scene_folder(scene)) else ["--allow-outside"]
 
     def recipe(*words: str) -> str:
         return "\t$(SHBAKE) " + " ".join(shell_word(w) for w in words)
 
-    assets = f"SCENE_{variable_name(scene.name)}_ASSETS"
+    prefix = f"SCENE_{variable_name(scene.name)}"
     lines = [
         "# generated by shbake plan --emit-make: one rule per asset of the scene (do not edit)",
         ".DELETE_ON_ERROR:",
         f"SHBAKE ?= {variable_value(_shbake_words(shbake))}",
-        f"{assets} = " + " ".join(make_path(a["output"]) for a in plan["assets"]),
+        f"{prefix}_ASSETS = " + " ".join(make_path(named(a["output"])) for a in plan["assets"]),
         ".PHONY: scene-assets",
-        f"scene-assets: $({assets})",
+        f"scene-assets: $({prefix}_ASSETS)",
         "",
+        f"# written by shbake {__version__}: another version plans again",
+        f"ifneq ($(lastword $(shell $(SHBAKE) --version 2>/dev/null)),{__version__})",
+        f".PHONY: {prefix}_SHBAKE_CHANGED",
+        f"{make_path(frag)} : {prefix}_SHBAKE_CHANGED",
+        "endif",
         f"{make_path(frag)} : {make_path(scene_path)}",
         recipe("plan", scene_path, "--emit-make", frag, "--shbake", shbake, *flags, "--quiet"),
         "",
     ]
     for a in plan["assets"]:
-        deps = [os.path.abspath(p) for p in a["inputs"]] + [stamp_path(plan["out_dir"], a["id"])]
+        deps = [named(p) for p in a["inputs"]] + [named(stamp_path(plan["out_dir"], a["id"]))]
         lines += [
-            f"{make_path(a['output'])} : {' '.join(make_path(p) for p in deps)}",
+            f"{make_path(named(a['output']))} : {' '.join(make_path(p) for p in deps)}",
             recipe("bake", scene_path, "--asset", a["id"], *flags, "--quiet"),
             "",
         ]
     text = "\n".join(lines)
     check_output_path(path, "--emit-make")
     declare_outputs(plan)
-    write_stamps(plan)
+    write_stamps(plan, scene)
     write_text(path, text)
     return text
 

@@ -106,12 +106,12 @@ def shrm_settings(brdf: str = "microfacet", params: dict | None = None,
 
 def bake_shrm_file(env_path: str, output: str, settings: ShrmSettings,
                    exr_dir: str | None = None, report: bool = False, layout=None,
-                   colorspace=None, negative: str = "clamp", fix_nonfinite=None,
-                   quiet: bool = False) -> dict:  # fmt: skip
+                   colorspace=None, negative: str | None = None, fix_nonfinite=None,
+                   quiet: bool = False, png: bool = False) -> dict:  # fmt: skip
     """The ``shbake shrm`` command: load the map, bake at ``settings`` (checked before, by
     :func:`shrm_settings`), write the asset (and the EXR cubes: the ``B_pq`` cubes and the
-    eq. 12 reflection cube for ``settings.view``), optionally build the report; the
-    summary dict."""
+    eq. 12 reflection cube for ``settings.view``, with ``png`` a PNG beside each),
+    optionally build the report; the summary dict."""
     from shbake.envmap import load_environment
     from shbake.format.atomic import check_output_dir, check_writable_dir
     from shbake.format.shrm import write_exr_cubes, write_shrm
@@ -134,7 +134,7 @@ def bake_shrm_file(env_path: str, output: str, settings: ShrmSettings,
     if exr_dir:
         tangent = rb.kind == "tangent"
         reflection = reflection_cube(bake.cube, settings.view, "tangent" if tangent else "surface")
-        summary["exr"] = write_exr_cubes(exr_dir, bake.cube, tangent, reflection)
+        summary["exr"] = write_exr_cubes(exr_dir, bake.cube, tangent, reflection, png)
     if report:
         Fs = sorted({max(1, bake.F // 2), max(1, (3 * bake.F) // 4), bake.F,
                      min(F_LIMIT, bake.F + bake.F // 2)})  # fmt: skip

@@ -639,6 +639,7 @@ def project_views(
     tol: float | None = None,
     max_samples: int = 1 << 16,
     progress=None,
+    advance=None,
 ) -> tuple[np.ndarray, Convergence]:
     """SH coefficients of ``f*(·, v)`` for arbitrary view directions.
 
@@ -655,6 +656,8 @@ def project_views(
         estimate is at most ``tol`` or no doubling fits ``max_samples`` points
         per strategy (or 2048 radial intervals).
     progress : callable(samples, error), optional
+    advance : callable(views), optional
+        Called as views are finished (a progress bar's step; ``V`` in all).
 
     Returns
     -------
@@ -670,23 +673,27 @@ def project_views(
     model, prm, data = brdf.spec.model_id, brdf.packed, brdf.data
     t0 = time.perf_counter()
 
-    def run(idx, n_samples):
-        nr = radial_nodes(n_samples)
-        gx, gw = gauss_legendre_unit(nr)
-        out = np.empty((idx.size, n_coeffs(lmax), 3))
-        sub = np.ascontiguousarray(v[idx])
-        run_blocks(_integrate, idx.size, idx.size * out[0].size * nr * nr * 16.0, model, prm,
-                   data, brdf.spec.has_lobe, sub, lmax, qmm, a, b, gx, gw, 2 * nr, out)  # fmt: skip
-        return out
-
     if tol is not None:
-        coeffs, conv = _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples)
+        coeffs, conv = _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples, advance)
         if progress is not None:
             progress(conv.samples, conv.error)
         return coeffs, conv
     n_half = max(samples // 2, 8)
-    prev = run(np.arange(v.shape[0]), n_half)
-    coeffs = run(np.arange(v.shape[0]), 2 * n_half)
+    rules = []  # the half rule (for the error estimate), then the full one
+    for n_samples in (n_half, 2 * n_half):
+        nr = radial_nodes(n_samples)
+        rules.append((*gauss_legendre_unit(nr), nr))
+    prev, coeffs = (np.empty((v.shape[0], n_coeffs(lmax), 3)) for _ in rules)
+    cuts = np.unique(np.linspace(0, v.shape[0], (ADVANCE_STEPS if advance else 1) + 1,
+                                 dtype=int))  # fmt: skip
+    for i0, i1 in zip(cuts[:-1], cuts[1:], strict=True):
+        sub = np.ascontiguousarray(v[i0:i1])
+        for (gx, gw, nr), out in zip(rules, (prev, coeffs), strict=True):
+            run_blocks(_integrate, i1 - i0, (i1 - i0) * out[0].size * nr * nr * 16.0, model,
+                       prm, data, brdf.spec.has_lobe, sub, lmax, qmm, a, b, gx, gw, 2 * nr,
+                       out[i0:i1])  # fmt: skip
+        if advance is not None:
+            advance(int(i1 - i0))
     errors = SQRT_4PI * np.max(np.abs(coeffs - prev), axis=(1, 2))
     seconds = time.perf_counter() - t0
     history = [{"samples": 2 * n_half, "views": int(v.shape[0]),
@@ -699,7 +706,7 @@ def project_views(
     return coeffs, conv
 
 
-def _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples):
+def _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples, advance=None):
     """The ``tol`` path of :func:`project_views`: :func:`_view_nested` per view, threaded."""
     ccw, ccoff = cc_tables()
     count = v.shape[0]
@@ -714,7 +721,7 @@ def _project_nested(brdf, v, lmax, qmm, a, b, tol, max_samples):
     t0 = time.perf_counter()
     run_blocks(_nested_block, count, 1e8 * count, brdf.spec.model_id, brdf.packed, brdf.data,
                brdf.spec.has_lobe, v, order, lmax, qmm, a, b, ccw, ccoff, float(tol),
-               max_samples, line_cap, out, errors, used, steps, hist)  # fmt: skip
+               max_samples, line_cap, out, errors, used, steps, hist, advance=advance)  # fmt: skip
     seconds = time.perf_counter() - t0
     conv = Convergence(int(used.max()), float(errors.max()), seconds,
                        _nested_history(hist, steps, seconds))  # fmt: skip
@@ -753,6 +760,17 @@ def _nested_history(hist, steps, seconds):
         bucket *= 2
 
 
+ADVANCE_STEPS = 16
+"""Kernel calls a fixed-sample projection is split into when its progress is drawn."""
+
+
+def quadrant_views(h: int, w: int) -> np.ndarray:
+    """The view directions a ``h × w`` table integrates, ``(⌈h/2⌉ ⌈w/2⌉, 3)``: the texel
+    centres of the quadrant ``p_x ≥ 0, p_y ≥ 0`` (row-major)."""
+    h, w = check_resolution(h, w)
+    return texel_views(h, w)[h // 2 :, w // 2 :].reshape(-1, 3)
+
+
 def tabulate(
     brdf: BRDF,
     lmax: int = 4,
@@ -761,20 +779,18 @@ def tabulate(
     tol: float | None = None,
     max_samples: int = 1 << 16,
     progress=None,
+    advance=None,
 ) -> tuple[np.ndarray, Convergence]:
     """The parabolic-map table ``c_i(v)``, shape ``(H, W, (lmax+1)^2, 3)``.
 
-    Only the quadrant ``p_x ≥ 0, p_y ≥ 0`` is integrated; the rest is filled by
-    the mirror symmetries (module docstring). Arguments as :func:`project_views`;
-    ``convergence.view_errors``/``view_samples`` become ``(H, W)`` maps.
+    Only the quadrant ``p_x ≥ 0, p_y ≥ 0`` is integrated (:func:`quadrant_views`); the
+    rest is filled by the mirror symmetries (module docstring). Arguments as
+    :func:`project_views`; ``convergence.view_errors``/``view_samples`` become ``(H, W)`` maps.
     """
     h, w = check_resolution(*resolution)
-    views = texel_views(h, w)
     r0, c0 = h // 2, w // 2
-    quad = views[r0:, c0:]
-    coeffs, conv = project_views(
-        brdf, quad.reshape(-1, 3), lmax, samples, tol, max_samples, progress=progress
-    )
+    coeffs, conv = project_views(brdf, quadrant_views(h, w), lmax, samples, tol, max_samples,
+                                 progress=progress, advance=advance)  # fmt: skip
     n = coeffs.shape[1]
     table = np.empty((h, w, n, 3))
     q = coeffs.reshape(h - r0, w - c0, n, 3)
@@ -823,12 +839,14 @@ def tabulate_axes(
     brdf: BRDF,
     vary: list[tuple[str, np.ndarray]],
     progress=None,
+    advance=None,
     **kwargs,
 ) -> tuple[np.ndarray, list[Convergence]]:
     """Tables over the product of parameter axes: ``(*axis sizes, H, W, n, 3)``.
 
     Each axis ``(name, values)`` overrides one scalar parameter of ``brdf``;
-    every value is validated before any work starts.
+    every value is validated before any work starts. ``advance(views)``: as
+    :func:`project_views`, over every table.
     """
     names = [name for name, _ in vary]
     if len(set(names)) != len(names):
@@ -848,7 +866,7 @@ def tabulate_axes(
             **{name: vary[a][1][i] for a, (name, _) in enumerate(vary) for i in [point[a]]}
         )
         cb = None if progress is None else (lambda n, e, idx=idx: progress(idx, len(points), n, e))
-        table, conv = tabulate(b, progress=cb, **kwargs)
+        table, conv = tabulate(b, progress=cb, advance=advance, **kwargs)
         tables.append(table)
         convs.append(conv)
     shape = tuple(len(v) for _, v in vary)

@@ -12,7 +12,7 @@ from shbake.envmap.layouts import (
     latlong_row_solid_angles,
     texels,
 )
-from shbake.envmap.repair import apply_negative_policy, repair_nonfinite
+from shbake.envmap.repair import DEFAULT_NEGATIVE, apply_negative_policy, repair_nonfinite
 from shbake.messages import warn
 from shbake.sh.projection import fejer_row_weights, project_latlong, project_samples
 
@@ -76,14 +76,15 @@ def load_environment(
     path: str,
     layout: str | None = None,
     colorspace: str | None = None,
-    negative: str = "clamp",
+    negative: str | None = None,
     fix_nonfinite: str | None = None,
     quiet: bool = False,
 ) -> Environment:
     """Read, validate and convert an environment map.
 
     Order of operations: read → RGB → layout → non-finite policy → colourspace
-    → negative policy. See :mod:`shbake.envmap.repair` for the policies.
+    → negative policy (``None``: clamp with a warning). See :mod:`shbake.envmap.repair`
+    for the policies.
     """
     raw, info = read_image(path)
     if info.get("display_referred") and colorspace is None:
@@ -118,7 +119,7 @@ def load_environment(
         "colorspace": WORKING_SPACE,
         "nonfinite_policy": fix_nonfinite or "error",
         "nonfinite_repaired": nonfinite,
-        "negative_policy": negative,
+        "negative_policy": negative or DEFAULT_NEGATIVE,
         "negative_count": n_negative,
         "negative_energy_change": energy_change,
     }

@@ -11,6 +11,8 @@ from shbake.errors import InputError, ParameterError
 from shbake.messages import warn
 
 NEGATIVE_POLICIES = ("clamp", "keep", "error")
+DEFAULT_NEGATIVE = "clamp"
+"""The policy when none is given (SPEC §3: clamp, with a warning)."""
 NONFINITE_REPAIRS = ("black", "box3")
 
 
@@ -47,9 +49,13 @@ def repair_nonfinite(pixels: np.ndarray, repair: str | None, name: str) -> tuple
 
 
 def apply_negative_policy(
-    pixels, weights, policy: str, name: str, quiet: bool = False, inplace: bool = False
+    pixels, weights, policy: str | None, name: str, quiet: bool = False, inplace: bool = False
 ):
     """Apply ``--negative clamp|keep|error``; return ``(pixels, count, energy_change)``.
+
+    ``policy`` ``None`` (the option not given) clamps with a warning on stderr; an explicit
+    ``clamp`` clamps without one (the user chose it; the count and the change are recorded
+    in the asset either way).
 
     ``energy_change`` is ``Σ (new − old) · weight`` per channel (radiance ×
     sr): the change of ``∫ L dω`` caused by clamping. ``weights`` are the
@@ -57,6 +63,8 @@ def apply_negative_policy(
     ``inplace`` the clamp writes into ``pixels`` (the caller owns them) instead
     of a copy.
     """
+    announce = policy is None
+    policy = DEFAULT_NEGATIVE if policy is None else policy
     if policy not in NEGATIVE_POLICIES:
         raise ParameterError(f"unknown --negative {policy!r}; choose one of clamp, keep, error")
     nc = pixels.shape[2]
@@ -79,8 +87,30 @@ def apply_negative_policy(
     w = pixels.shape[1]
     omega = np.asarray(weights)[texel // w, texel % w]  # (H, W) or a broadcast view of it
     change = -np.bincount(flat_idx % nc, weights=values * omega, minlength=nc)
-    warn(f"{name}: clamped {count} negative pixels to 0 (min {float(values.min()):.6g}; "
-         f"∫L dω change {np.array2string(change, precision=4)})", quiet)  # fmt: skip
+    if announce:
+        warn(f"{name}: clamped {count} negative pixels to 0 (min {float(values.min()):.6g}); "
+             f"{_energy_change(pixels, weights, change)}; choose --negative clamp (no warning), "
+             "keep or error", quiet)  # fmt: skip
     out = pixels if inplace else pixels.copy()
     out.flat[flat_idx] = 0.0  # the clamp writes the negatives only
     return out, count, change
+
+
+ROWS_PER_SUM = 64
+"""Rows of the map summed at a time in float64 (no float64 copy of a whole map)."""
+
+
+def _energy_change(pixels, weights, change) -> str:
+    """The clamp's change of ``∫ L dω`` per channel with its unit: in percent of the map's
+    ``∫ L dω`` (before the clamp), or in the map's radiance × sr where that is not positive."""
+    channels = "R, G, B" if change.size == 3 else "per channel"
+    weights = np.asarray(weights)
+    total = np.zeros(change.size)
+    for r in range(0, pixels.shape[0], ROWS_PER_SUM):
+        rows = slice(r, r + ROWS_PER_SUM)
+        total += np.einsum("hwc,hw->c", pixels[rows], weights[rows], dtype=np.float64)
+    if np.all(total > 0):
+        shares = ", ".join(f"{v:+.3g} %" for v in 100.0 * change / total)
+        return f"∫L dω ({channels}) changed by {shares} of the map's"
+    values = ", ".join(f"{v:+.4g}" for v in change)
+    return f"∫L dω ({channels}) changed by {values} (the map's radiance unit × sr)"

@@ -9,7 +9,7 @@ Built by :func:`shbake.bakers.env_sh.bake_env_sh`, shaded by :mod:`shbake.shadin
 
 import numpy as np
 
-from shbake.conventions import LMAX_LIMIT
+from shbake.conventions import LMAX_LIMIT, REC709_LUMINANCE
 from shbake.errors import FormatError
 from shbake.format.registry import SOURCE_MAP_ATTRS, Attr, Data, Kind, register
 
@@ -137,3 +137,34 @@ ENV_SH = register(Kind(
     ),
     check=_check,
 ))  # fmt: skip
+
+
+def asset_lights(asset) -> list[dict]:
+    """The directional lights of an ``env_sh`` asset as people read them: the extracted sun
+    (``/sun``: irradiance at normal incidence = radiance × solid angle) or the fitted lights
+    (``/lights``), each with its world ``direction`` (unit, toward the light),
+    ``elevation_deg`` above the horizon (+Y up) and ``azimuth_deg`` (the lat-long map's
+    ``u × 360°``: 0 at −Z, 90 at +X, SPEC §3), ``irradiance`` (R, G, B), ``intensity`` (its
+    Rec.709 luminance) and ``colour`` (``irradiance / intensity``: luminance 1). Empty when
+    the asset has neither."""
+    if "/sun/direction" in asset:
+        sun_irradiance = np.asarray(asset["/sun/radiance"]) * float(asset["/sun/solid_angle"])
+        found = [("sun", asset["/sun/direction"], sun_irradiance)]
+    elif "/lights/direction" in asset:
+        pairs = zip(asset["/lights/direction"], asset["/lights/irradiance"], strict=True)
+        found = [(f"light {k}", d, e) for k, (d, e) in enumerate(pairs)]
+    else:
+        return []
+    out = []
+    for name, direction, irradiance in found:
+        d = np.asarray(direction, dtype=np.float64).reshape(3)
+        e = np.asarray(irradiance, dtype=np.float64).reshape(-1)
+        intensity = float(e @ REC709_LUMINANCE) if e.size == 3 else float(e.mean())
+        out.append({
+            "name": name, "direction": d.tolist(),
+            "elevation_deg": float(np.degrees(np.arcsin(np.clip(d[1], -1.0, 1.0)))),
+            "azimuth_deg": float(np.degrees(np.arctan2(d[0], -d[2])) % 360.0),
+            "irradiance": e.tolist(), "intensity": intensity,
+            "colour": (e / intensity).tolist() if intensity > 0 else e.tolist(),
+        })  # fmt: skip
+    return out

@@ -213,3 +213,30 @@ def tonemap(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
 def tonemap_to_srgb8(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
     """:func:`tonemap` rounded to 8-bit sRGB."""
     return np.clip(np.round(tonemap(img, exposure) * 255.0), 0, 255).astype(np.uint8)
+
+
+def diverging8(x: np.ndarray) -> np.ndarray:
+    """``x ∈ [−1, 1]`` → red (positive) / blue (negative) on black, 8-bit ``(…, 3)``."""
+    r = np.clip(x, 0, 1)
+    b = np.clip(-x, 0, 1)
+    rgb = np.stack([r, 0.15 * (r + b), b], axis=-1)
+    return np.round(255 * np.sqrt(rgb)).astype(np.uint8)
+
+
+STRIP_GAP = 2
+STRIP_BACKGROUND = 40
+
+
+def component_strip(components: np.ndarray) -> np.ndarray:
+    """A PNG-ready look at signed coefficients ``(H, W, K)`` (e.g. the ``2l+1`` SH components
+    of one band): the ``K`` images side by side, each on :func:`diverging8` scaled by the
+    largest magnitude of all ``K`` (so their sizes compare), 8-bit ``(H, K(W+2)+2, 3)``."""
+    c = np.asarray(components, dtype=np.float64)
+    h, w, k = c.shape
+    scale = max(float(np.abs(c).max()), 1e-30)
+    out = np.full((h + 2 * STRIP_GAP, k * (w + STRIP_GAP) + STRIP_GAP, 3), STRIP_BACKGROUND,
+                  np.uint8)  # fmt: skip
+    for i in range(k):
+        x = STRIP_GAP + i * (w + STRIP_GAP)
+        out[STRIP_GAP : STRIP_GAP + h, x : x + w] = diverging8(c[:, :, i] / scale)
+    return out

@@ -4,10 +4,9 @@ import os
 
 import numpy as np
 
-from shbake.format.images import write_exr, write_png
-
-GAP = 2
-BACKGROUND = 40
+from shbake.format.images import STRIP_BACKGROUND as BACKGROUND
+from shbake.format.images import STRIP_GAP as GAP
+from shbake.format.images import component_strip, diverging8, write_exr, write_png
 
 
 def band_channel_names(l: int, coloured: bool) -> tuple[str, ...]:
@@ -18,8 +17,11 @@ def band_channel_names(l: int, coloured: bool) -> tuple[str, ...]:
     return tuple(names)
 
 
-def write_band_exrs(directory: str, coeffs: np.ndarray, lmax: int, coloured: bool, suffix=""):
-    """Write ``band{l}{suffix}.exr`` (float32) for ``l = 0 … lmax``; ``coeffs (H, W, n, 3)``.
+def write_band_exrs(directory: str, coeffs: np.ndarray, lmax: int, coloured: bool, suffix="",
+                    png: bool = False) -> list[str]:  # fmt: skip
+    """Write ``band{l}{suffix}.exr`` (float32) for ``l = 0 … lmax``; ``coeffs (H, W, n, 3)``;
+    with ``png`` also ``band{l}{suffix}.png``, the band's components (channel mean) side by
+    side (:func:`~shbake.format.images.component_strip`, ``p_y = +1`` at the top as in the sheet).
 
     Returns the paths written. Row 0 of each image is texture row 0 (``p_y = −1``).
     """
@@ -30,15 +32,10 @@ def write_band_exrs(directory: str, coeffs: np.ndarray, lmax: int, coloured: boo
         path = os.path.join(directory, f"band{l}{suffix}.exr")
         write_exr(path, img, half=False, channel_names=band_channel_names(l, coloured))
         paths.append(path)
+        if png:
+            paths.append(os.path.splitext(path)[0] + ".png")
+            write_png(paths[-1], component_strip(block.mean(axis=-1)[::-1]))
     return paths
-
-
-def _diverging(x: np.ndarray) -> np.ndarray:
-    """``x ∈ [−1, 1]`` → red (positive) / blue (negative) on black, 8-bit."""
-    r = np.clip(x, 0, 1)
-    b = np.clip(-x, 0, 1)
-    rgb = np.stack([r, 0.15 * (r + b), b], axis=-1)
-    return np.round(255 * np.sqrt(rgb)).astype(np.uint8)
 
 
 def sheet(coeffs: np.ndarray, lmax: int, tile: int = 128) -> np.ndarray:
@@ -65,7 +62,7 @@ def sheet(coeffs: np.ndarray, lmax: int, tile: int = 128) -> np.ndarray:
         scale = max(float(np.abs(block).max()), 1e-30)
         first = lmax - l
         for k in range(2 * l + 1):
-            put(l, first + k, _diverging(block[:, :, k] / scale))
+            put(l, first + k, diverging8(block[:, :, k] / scale))
         energy.append((block**2).sum(axis=-1))
     top = max(float(max(e.max() for e in energy)), 1e-30)
     for l, e in enumerate(energy):

@@ -160,15 +160,16 @@ def read_shrm(path: str) -> SHRM:
 
 
 def write_exr_cubes(directory: str, cube: np.ndarray, tangent: bool,
-                    reflection: np.ndarray) -> list[str]:  # fmt: skip
+                    reflection: np.ndarray, png: bool = False) -> list[str]:  # fmt: skip
     """``shrm_p{p}.exr`` per ``p`` of the SHRM ``cube (6, S, S, n, 3)`` (channels
     ``q{q}.R/G/B``; ``tangent`` kind: ``R/G/B`` of ``B_p0``) and ``reflection.exr`` (the
     eq. 12 cube ``(6, S, S, 3)`` the caller shaded for one view), OpenEXR cube strips
-    (float32); the paths written."""
+    (float32); with ``png`` a PNG beside each: the ``q`` components (channel mean) side by
+    side, and the reflection tone-mapped. The paths written."""
     import os
 
     from shbake.format.atomic import makedirs
-    from shbake.format.images import write_exr
+    from shbake.format.images import component_strip, tonemap_to_srgb8, write_exr, write_png
 
     makedirs(directory)
     S = cube.shape[1]
@@ -185,7 +186,13 @@ def write_exr_cubes(directory: str, cube: np.ndarray, tangent: bool,
         write_exr(path, img.reshape(6 * S, S, -1), half=False, attrs={"envmap": "cube"},
                   channel_names=names)  # fmt: skip
         written.append(path)
+        if png:
+            written.append(os.path.join(directory, f"shrm_p{p}.png"))
+            write_png(written[-1], component_strip(img.reshape(6 * S, S, -1, 3).mean(axis=-1)))
     path = os.path.join(directory, "reflection.exr")
     write_exr(path, reflection.reshape(6 * S, S, 3), half=False, attrs={"envmap": "cube"})
     written.append(path)
+    if png:
+        written.append(os.path.join(directory, "reflection.png"))
+        write_png(written[-1], tonemap_to_srgb8(reflection.reshape(6 * S, S, 3)))
     return written
