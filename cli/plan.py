@@ -1,5 +1,7 @@
 """``shbake plan`` and ``shbake bake``: a scene's assets, their settings, and baking them."""
 
+from contextlib import contextmanager
+
 import click
 from shbake_cli.options import (
     emit_json,
@@ -24,10 +26,14 @@ allow_outside_opt = click.option(
 )  # fmt: skip
 
 
-def _scene(path, allow_outside):
+@contextmanager
+def scene_errors():
+    """A malformed scene (:class:`SceneError`, ``FILE:LINE: KEY: …``) or a name a Makefile
+    cannot hold (:class:`MakeNameError`) becomes click's usage error (exit 2); any other
+    library error stays what it is (a bad input: exit 1)."""
     try:
-        return load_scene(path, allow_outside)
-    except SceneError as e:
+        yield
+    except (SceneError, MakeNameError) as e:
         raise click.UsageError(str(e)) from None
 
 
@@ -46,16 +52,14 @@ def plan(scene, emit, shbake_cmd, allow_outside, as_json, quiet):
     Prints asset, settings, predicted error (tolerance), predicted seconds and
     bytes per asset; a malformed scene is one line FILE:LINE: KEY: … (exit 2).
     """
-    sc = _scene(scene, allow_outside)
-    try:
+    with scene_errors():
+        sc = load_scene(scene, allow_outside)
         if emit:  # before planning: names a Makefile cannot hold, an unwritable fragment
             check_makeable(sc, emit, shbake_cmd)
             check_output_path(emit, "--emit-make")
         result = plan_scene(sc)
         if emit:
             emit_make(sc, result, emit, shbake_cmd)
-    except (SceneError, MakeNameError) as e:
-        raise click.UsageError(str(e)) from None
     if emit:
         info(f"plan: wrote {emit} ({len(result['assets'])} rules)", quiet)
     if as_json:
@@ -84,11 +88,9 @@ def bake(scene, jobs, scheduler, only, allow_outside, as_json, quiet):
         raise click.UsageError("use --jobs or --scheduler, not both")
     if scheduler and only:
         raise click.UsageError("--asset bakes one asset in this process: no --scheduler")
-    sc = _scene(scene, allow_outside)
-    try:
-        summary = bake_scene(sc, jobs=jobs, scheduler=scheduler, only=only)
-    except SceneError as e:
-        raise click.UsageError(str(e)) from None
+    with scene_errors():
+        summary = bake_scene(load_scene(scene, allow_outside), jobs=jobs, scheduler=scheduler,
+                             only=only)  # fmt: skip
     for w in summary["warnings"]:
         warn(w, quiet)
     if as_json:
