@@ -42,3 +42,17 @@ class TestEncodeKtx2:
             assert 0 <= off - prev_end < align  # padding is the least that aligns
             prev_end = off + length
         assert prev_end == len(data)
+
+    @pytest.mark.parametrize("layers", [0, 1, 3])
+    def test_float32_2d_and_arrays(self, layers):
+        """RGBA32F (``VK_FORMAT_R32G32B32A32_SFLOAT`` = 109, ``typeSize`` 4), ``layerCount``
+        0 for a 2D texture and the layers of an array (spec §3.4), the level the layers one
+        after the other, padded to ``lcm(16, 4)`` = 16 bytes."""
+        texels = np.arange((layers or 1) * 5 * 7 * 4, dtype=np.float32)
+        texels = texels.reshape(((layers,) if layers else ()) + (5, 7, 4))
+        data = encode_ktx2([texels], False, {"a": "x"}, type_size=4, layered=layers > 0)
+        header = struct.unpack_from("<9I", data, 12)
+        assert header == (109, 4, 7, 5, 0, layers, 1, 1, 0)
+        prev_end, [(off, length)] = _level_index(data)
+        assert off % 16 == 0 and 0 <= off - prev_end < 16 and off + length == len(data)
+        assert data[off:] == texels.astype("<f4").tobytes()

@@ -10,17 +10,22 @@ material: the registry's shader of the technique (:func:`shbake.shading.shader.s
 drawn by :func:`shbake.preview.passes.render_pass`, as :mod:`shbake.batch.preview` does
 (float32 textures
 within :data:`FLOAT_TOL` relative RMS over the sphere). Half-float textures (the export's
-float32 texels rounded to half in a copy) are measured against the bound half precision
-implies (:func:`half_bound`). Broken conventions — a texture's rows flipped, two SH bands
-swapped, a Condon–Shortley sign added to the GLSL basis — make the comparison fail.
+float32 texels rewritten as RGBA16F KTX2 in a copy) are measured against the bound half
+precision implies (:func:`half_bound`). The textures are KTX 2.0 files, read here by the
+specification (:func:`read_ktx2`) and by ktx-parse (``tests/engines/ktx2_read.mjs``) and
+compared with the asset's data; the loader refuses a KTX2 it does not read, naming it.
+Broken conventions — a texture's rows flipped, two SH bands swapped, a Condon–Shortley
+sign added to the GLSL basis — make the comparison fail.
 The viewer page (``index.html``) opens without a WebGL error and draws a non-black sphere.
 ``@pytest.mark.slow``: the six shared maps (``make test`` renders forest).
 """
 
+import base64
 import json
 import os
 import re
 import shutil
+import struct
 
 import numpy as np
 import pytest
@@ -251,14 +256,44 @@ def copy_export(folder: str, dest) -> str:
     return str(dest)
 
 
-def edit_texture(folder: str, name: str, edit) -> None:
-    """Replace texture ``name`` of an export by ``edit(texels)`` (``(…, H, W, 4)`` float32)."""
+KTX2_IDENTIFIER = b"\xabKTX 20\xbb\r\n\x1a\n"
+"""KTX 2.0 spec §3.1."""
+KTX2_TEXEL_TYPE = {109: "<f4", 97: "<f2"}
+"""``VK_FORMAT_R32G32B32A32_SFLOAT``, ``VK_FORMAT_R16G16B16A16_SFLOAT`` → texel channel type."""
+
+
+def read_ktx2(path: str) -> tuple[np.ndarray, int]:
+    """An export's texture read by the KTX 2.0 specification, not by shbake's writer: the
+    header (§3.2: nine uint32 after the identifier) says one RGBA float level, 2D
+    (``layerCount`` 0) or a 2D array, no supercompression; the level index (§3.7, at byte
+    80) places level 0. Texels ``([layers,] height, width, 4)`` and level 0's offset."""
+    data = open(path, "rb").read()
+    assert data[:12] == KTX2_IDENTIFIER, path
+    vk, type_size, w, h, depth, layers, faces, levels, scheme = struct.unpack_from("<9I", data, 12)
+    texel = np.dtype(KTX2_TEXEL_TYPE[vk])
+    assert (type_size, depth, faces, levels, scheme) == (texel.itemsize, 0, 1, 1, 0), path
+    offset, length, uncompressed = struct.unpack_from("<3Q", data, 80)
+    shape = ((layers,) if layers else ()) + (h, w, 4)
+    assert length == uncompressed == texel.itemsize * np.prod(shape)
+    assert offset + length <= len(data)
+    return np.frombuffer(data, texel, np.prod(shape), offset).reshape(shape), offset
+
+
+def edit_texture(folder: str, name: str, edit, half: bool = False) -> None:
+    """Replace texture ``name`` of an export by ``edit(texels)`` (``([L,] H, W, 4)`` float32),
+    in place, or (``half``) as an RGBA16F KTX2 of the same shape."""
+    from shbake.format.exports.ktx2 import encode_ktx2
+
     manifest = json.loads(open(os.path.join(folder, "shbake.json")).read())
-    t = manifest["textures"][name]
-    shape = ((t["layers"],) if "layers" in t else ()) + (t["height"], t["width"], 4)
-    path = os.path.join(folder, t["file"])
-    texels = np.fromfile(path, dtype="<f4").reshape(shape)
-    edit(texels).astype("<f4").tofile(path)
+    path = os.path.join(folder, manifest["textures"][name]["file"])
+    texels, offset = read_ktx2(path)
+    new = np.asarray(edit(texels.astype(np.float32)))
+    if half:
+        payload = encode_ktx2([new], False, type_size=2, layered=new.ndim == 4)
+    else:
+        payload = bytearray(open(path, "rb").read())
+        payload[offset : offset + new.size * 4] = new.astype("<f4").tobytes()
+    open(path, "wb").write(payload)
 
 
 def _flip_levels(sizes):
@@ -327,14 +362,16 @@ def half_bound(h5: str) -> float:
 
 
 def test_half_float_textures_within_their_bound(engine_browser, exported, tmp_path):
-    """Half-float texels (rounded from the export's float32): the irradiance pass within
+    """Half-float textures (RGBA16F KTX2, vkFormat 97, rounded from the export's float32,
+    uploaded as ``HALF_FLOAT`` by the loader): the irradiance pass within
     :func:`half_bound`, the split-sum pass within ``2 HALF_EPS`` (a positive bilinear and
     α blend of values each off by ``HALF_EPS`` relative, times a DFG factor off by as much)."""
     env = copy_export(exported["env_dir"], tmp_path / "env")
-    edit_texture(env, "uIrradiance", lambda t: t.astype(np.float16))
+    edit_texture(env, "uIrradiance", lambda t: t, half=True)
     split = copy_export(exported["splitsum_dir"], tmp_path / "split")
     for name in ("uLevels", "uDFG"):
-        edit_texture(split, name, lambda t: t.astype(np.float16))
+        edit_texture(split, name, lambda t: t, half=True)
+    assert read_ktx2(os.path.join(split, "uLevels.ktx2"))[0].dtype == np.float16
     e_err = relative_rms(render(engine_browser, env, ENV_JOBS[:1])["irradiance"],
                          env_previews(exported["env"])["irradiance"])  # fmt: skip
     got = render(engine_browser, split, glossy_jobs("splitsum"))
@@ -342,6 +379,33 @@ def test_half_float_textures_within_their_bound(engine_browser, exported, tmp_pa
     s_err = max(relative_rms(got[k], want[k]) for k in want)
     assert e_err <= half_bound(exported["env"]), e_err
     assert s_err <= 2 * HALF_EPS, s_err
+
+
+KTX2_FAULTS = {
+    "not a KTX2 file": (0, b"\x00", "uIrradiance.ktx2: not a KTX2 file"),
+    "RGB32F": (12, struct.pack("<I", 106), "uIrradiance.ktx2: vkFormat 106 (typeSize 4)"),
+    "zstd": (44, struct.pack("<I", 2), "supercompressionScheme 2: not one uncompressed level"),
+    "cube": (36, struct.pack("<I", 6), "faceCount 6: not a 2D texture or 2D array"),
+    "short level": (88, struct.pack("<Q", 16), "uIrradiance.ktx2: level 0 (16 bytes at"),
+    "array": (32, struct.pack("<I", 1), "1 layers, not the manifest's size"),
+}
+"""A byte patch of the export's ``uIrradiance.ktx2`` (offset, bytes) → the loader's error:
+the identifier (§3.1), ``vkFormat`` 106 ``R32G32B32_SFLOAT``, Zstandard supercompression,
+six faces, a level shorter than its texels, ``layerCount`` 1 (an array the manifest does not
+declare)."""
+
+
+@pytest.mark.parametrize("fault", sorted(KTX2_FAULTS))
+def test_loader_refuses_other_ktx2(engine_browser, exported, tmp_path, fault):
+    """Each KTX2 the loader does not read fails the load with an error naming the file."""
+    offset, patch, message = KTX2_FAULTS[fault]
+    folder = copy_export(exported["env_dir"], tmp_path / "x")
+    path = os.path.join(folder, "uIrradiance.ktx2")
+    data = bytearray(open(path, "rb").read())
+    data[offset : offset + len(patch)] = patch
+    open(path, "wb").write(data)
+    with pytest.raises(RuntimeError, match=re.escape(message)):
+        render(engine_browser, folder, ENV_JOBS[:1])
 
 
 def test_viewer_opens_and_draws(engine_browser, exported, tmp_path):
@@ -377,6 +441,52 @@ class TestExportCommand:
             out[kind] = str(tmp_path / f"{kind}.h5")
             write_asset(out[kind], example(kind, write_map(tmp_path / "map.exr")))
         return out
+
+    def test_textures_are_ktx2(self, run_cli, small, tmp_path):
+        """Every texture is a KTX 2.0 file as ktx-parse (the parser three.js vendors) reads
+        it: RGBA32F (vkFormat 109, typeSize 4), the manifest's size, 2D (layerCount 0) or a
+        2D array, one level, no supercompression, a Basic DFD (RGBSDA, BT.709, linear, four
+        32-bit float|signed samples R, G, B, A, KDFS 1.3 §5.6); its texels are the asset's
+        coefficients, split-sum levels and DFG table, as the spec reader
+        (:func:`read_ktx2`) finds them."""
+        from tests.test_exports import _node
+
+        args = {"env_sh": [], "splitsum_probe": [], "brdf_table": ["--env", small["env_sh"]]}
+        folders = {}
+        for kind, extra in args.items():
+            folders[kind] = tmp_path / kind
+            code, _, err = run_cli("export", small[kind], "--to", "webgl", "-o", folders[kind],
+                                   *extra)  # fmt: skip
+            assert code == 0, err
+            manifest = json.loads((folders[kind] / "shbake.json").read_text())
+            assert not [n for n in os.listdir(folders[kind]) if n.endswith(".f32")]
+            for name, t in manifest["textures"].items():
+                assert t["file"] == name + ".ktx2"
+                r = _node("ktx2_read.mjs", str(folders[kind] / t["file"]))
+                header = [r[k] for k in ("vkFormat", "typeSize", "pixelWidth", "pixelHeight",
+                                         "pixelDepth", "layerCount", "faceCount", "levelCount",
+                                         "supercompressionScheme")]  # fmt: skip
+                assert header == [109, 4, t["width"], t["height"], 0, t.get("layers", 0), 1, 1, 0]
+                dfd = ("colorModel", "colorPrimaries", "transferFunction", "bytesPlane0")
+                assert [r[k] for k in dfd] == [1, 1, 1, 16]
+                assert r["samples"] == [{"bitOffset": 32 * k, "bitLength": 31,
+                                         "channelType": 0x80 | 0x40 | c}
+                                        for k, c in enumerate((0, 1, 2, 15))]  # fmt: skip
+                texels, _ = read_ktx2(str(folders[kind] / t["file"]))
+                assert base64.b64decode(r["levels"][0]) == texels.tobytes()
+        env = read_asset(small["env_sh"])
+        irradiance = read_ktx2(str(folders["env_sh"] / "uIrradiance.ktx2"))[0].reshape(-1, 4)
+        sh = np.asarray(env["/irradiance/sh"], dtype=np.float32)
+        np.testing.assert_array_equal(irradiance[: len(sh), :3], sh)
+        assert not irradiance[len(sh) :].any() and not irradiance[:, 3].any()
+        probe = read_asset(small["splitsum_probe"])
+        levels = read_ktx2(str(folders["splitsum_probe"] / "uLevels.ktx2"))[0]
+        assert levels.shape[0] == int(probe.attrs["levels"])
+        for k, layer in enumerate(levels):
+            lv = np.asarray(probe[f"/levels/{k}"], dtype=np.float32)
+            np.testing.assert_array_equal(layer[: lv.shape[0], : lv.shape[1], :3], lv)
+        dfg = read_ktx2(str(folders["splitsum_probe"] / "uDFG.ktx2"))[0]
+        np.testing.assert_array_equal(dfg[0, ..., :2], np.asarray(probe["/dfg"], np.float32))
 
     def test_same_inputs_same_bytes(self, run_cli, small, tmp_path):
         for kind in ("env_sh", "splitsum_probe"):
@@ -449,7 +559,7 @@ class TestExportCommand:
         if content == "a user's file":
             (out / "notes.txt").write_text("keep me")
         elif content == "a subfolder":
-            (out / "uIrradiance.f32").mkdir()
+            (out / "uIrradiance.ktx2").mkdir()
         else:
             (out / "shbake.json").write_text('{"format": "other"}')
         before = snapshot(tmp_path)
@@ -480,6 +590,6 @@ class TestExportCommand:
         """A staged folder left by a killed run (its process gone) goes with the next run."""
         stale = tmp_path / ".out.shbake-2147483646-1.tmp"
         stale.mkdir()
-        (stale / "uIrradiance.f32").write_bytes(b"\0" * 16)
+        (stale / "uIrradiance.ktx2").write_bytes(b"\0" * 16)
         assert run_cli("export", small["env_sh"], "--to", "webgl", "-o", tmp_path / "out")[0] == 0
         assert not stale.exists()

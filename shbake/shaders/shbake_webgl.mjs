@@ -1,5 +1,5 @@
 // shbake's WebGL2 loader (`shbake export ASSET --to webgl -o DIR` copies it into DIR): reads
-// DIR/shbake.json, its float32 textures and GLSL files, and draws the asset's passes on a unit
+// DIR/shbake.json, its KTX2 textures and GLSL files, and draws the asset's passes on a unit
 // sphere seen orthographically (the geometry of `shbake preview`, shbake/preview/sphere.py,
 // turned by a camera rotation). Raw WebGL2, no dependency. docs/SHADERS.md describes the
 // files; the viewer (DIR/index.html) and the rendered tests (tests/test_webgl_shaders.py)
@@ -107,8 +107,39 @@ const VERTEX = `${HEADER}
 void main() { gl_Position = vec4(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0, 0.0, 1.0); }
 `;
 
+const KTX2_IDENTIFIER = [0xab, 0x4b, 0x54, 0x58, 0x20, 0x32, 0x30, 0xbb, 0x0d, 0x0a, 0x1a, 0x0a];
+const KTX2_FORMATS = {  // vkFormat -> typeSize, WebGL2 internal format and type, texel array
+  109: { typeSize: 4, internalFormat: "RGBA32F", type: "FLOAT", array: Float32Array },  // R32G32B32A32_SFLOAT
+  97: { typeSize: 2, internalFormat: "RGBA16F", type: "HALF_FLOAT", array: Uint16Array },  // R16G16B16A16_SFLOAT
+};
+
+/** The texels of a KTX 2.0 file (KTX 2.0 spec §3: header, level index) as the export writes
+ * them: RGBA32F (or RGBA16F), a 2D texture or 2D array, one level, no supercompression.
+ * Anything else is refused with an error naming `name` and what it holds. */
+export function parseKtx2(buffer, name) {
+  const fail = (why) => { throw new Error(`${name}: ${why}`); };
+  const bytes = new Uint8Array(buffer);
+  if (bytes.length < 104 || KTX2_IDENTIFIER.some((b, i) => bytes[i] !== b)) fail("not a KTX2 file");
+  const view = new DataView(buffer);
+  const [vkFormat, typeSize, width, height, depth, layers, faces, levels, scheme] =
+    Array.from({ length: 9 }, (_, i) => view.getUint32(12 + 4 * i, true));
+  const format = KTX2_FORMATS[vkFormat];
+  if (!format || typeSize !== format.typeSize) {
+    fail(`vkFormat ${vkFormat} (typeSize ${typeSize}); shbake reads R32G32B32A32_SFLOAT (109) or R16G16B16A16_SFLOAT (97)`);
+  }
+  if (depth !== 0 || faces !== 1) fail(`pixelDepth ${depth}, faceCount ${faces}: not a 2D texture or 2D array`);
+  if (levels !== 1 || scheme !== 0) fail(`levelCount ${levels}, supercompressionScheme ${scheme}: not one uncompressed level`);
+  const offset = Number(view.getBigUint64(80, true));
+  const length = Number(view.getBigUint64(88, true));
+  if (length !== width * height * Math.max(layers, 1) * 4 * typeSize || offset % typeSize !== 0
+      || offset + length > bytes.length) {
+    fail(`level 0 (${length} bytes at ${offset}) is not ${width} x ${height} x ${Math.max(layers, 1)} RGBA texels in the file`);
+  }
+  return { width, height, layers, ...format, data: new format.array(buffer, offset, length / typeSize) };
+}
+
 // BEGIN snippet webgl
-// Load an export: its manifest, float32 textures (RGBA32F, nearest: the shaders filter) and GLSL.
+// Load an export: its manifest, KTX2 textures (RGBA32F, nearest: the shaders filter) and GLSL.
 export async function loadShbake(gl, base) {
   const get = async (name) => {
     const r = await fetch(new URL(name, base));
@@ -118,12 +149,15 @@ export async function loadShbake(gl, base) {
   const manifest = await (await get("shbake.json")).json();
   const textures = {};
   for (const [name, t] of Object.entries(manifest.textures)) {
-    const data = new Float32Array(await (await get(t.file)).arrayBuffer());
-    const target = t.layers ? gl.TEXTURE_2D_ARRAY : gl.TEXTURE_2D;
+    const k = parseKtx2(await (await get(t.file)).arrayBuffer(), t.file);
+    if (k.width !== t.width || k.height !== t.height || k.layers !== (t.layers || 0)) {
+      throw new Error(`${t.file}: ${k.width} x ${k.height} x ${k.layers} layers, not the manifest's size`);
+    }
+    const [target, format, type] = [k.layers ? gl.TEXTURE_2D_ARRAY : gl.TEXTURE_2D, gl[k.internalFormat], gl[k.type]];
     const tex = gl.createTexture();
     gl.bindTexture(target, tex);
-    if (t.layers) gl.texImage3D(target, 0, gl.RGBA32F, t.width, t.height, t.layers, 0, gl.RGBA, gl.FLOAT, data);
-    else gl.texImage2D(target, 0, gl.RGBA32F, t.width, t.height, 0, gl.RGBA, gl.FLOAT, data);
+    if (k.layers) gl.texImage3D(target, 0, format, k.width, k.height, k.layers, 0, gl.RGBA, type, k.data);
+    else gl.texImage2D(target, 0, format, k.width, k.height, 0, gl.RGBA, type, k.data);
     for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(target, p, gl.NEAREST);
     textures[name] = { target, tex };
   }

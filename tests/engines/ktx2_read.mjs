@@ -10,8 +10,9 @@ for (const [k, v] of Object.entries(c.keyValue)) kv[k] = typeof v === "string" ?
 const dfd = c.dataFormatDescriptor[0];
 process.stdout.write(JSON.stringify({
   vkFormat: c.vkFormat, typeSize: c.typeSize, pixelWidth: c.pixelWidth, pixelHeight: c.pixelHeight,
-  faceCount: c.faceCount, levelCount: c.levelCount, supercompressionScheme: c.supercompressionScheme,
+  pixelDepth: c.pixelDepth, layerCount: c.layerCount, faceCount: c.faceCount, levelCount: c.levelCount, supercompressionScheme: c.supercompressionScheme,
   colorModel: dfd.colorModel, transferFunction: dfd.transferFunction, colorPrimaries: dfd.colorPrimaries,
+  bytesPlane0: dfd.bytesPlane[0],
   samples: dfd.samples.map((s) => ({ bitOffset: s.bitOffset, bitLength: s.bitLength, channelType: s.channelType })),
   keyValue: kv,
   levels: c.levels.map((l) => Buffer.from(l.levelData.buffer, l.levelData.byteOffset, l.levelData.byteLength).toString("base64")),

@@ -1,30 +1,35 @@
-"""KTX 2.0 files: RGBA16F cube mip chains and RG16F 2D tables (Khronos KTX 2.0 specification).
+"""KTX 2.0 files: half-float cube mip chains and 2D tables, float32 2D and 2D-array textures
+(Khronos KTX 2.0 specification).
 
 libktx's Python binding (``pyktx``) ships only as a source package that needs
 libktx installed; Debian has no libktx package and nothing may be downloaded at
 run time, so this is a small writer of uncompressed KTX2 (no supercompression),
 checked against an independent reader: ``ktx-parse`` (Don McCurdy), the KTX2
 parser three.js vendors (``three/examples/jsm/libs/ktx-parse.module.js``),
-run under node by ``tests/test_exports.py``; libktx itself (pyktx, ``ktx
-validate``) by hand with ``bench/ktx2_libktx.py``.
+run under node by ``tests/test_exports.py`` and ``tests/test_webgl_shaders.py``;
+libktx itself (pyktx, ``ktx validate``) by hand with ``bench/ktx2_libktx.py``.
 
-Layout written (KTX 2.0 spec §3): identifier, header (``vkFormat`` 97
-``R16G16B16A16_SFLOAT`` or 83 ``R16G16_SFLOAT``, ``typeSize`` 2, faces 6 or 1,
+Layout written (KTX 2.0 spec §3): identifier, header (``vkFormat`` of
+:data:`VK_FORMAT`: 97 ``R16G16B16A16_SFLOAT``, 83 ``R16G16_SFLOAT`` with
+``typeSize`` 2; 109 ``R32G32B32A32_SFLOAT``, 103 ``R32G32_SFLOAT`` with
+``typeSize`` 4; faces 6 or 1, ``layerCount`` 0 or the array's layers,
 ``levelCount``), level index, a Basic Data Format Descriptor (``RGBSDA``
 colour model, BT.709 primaries, linear transfer, one sample per channel
 flagged float|signed with lower −1.0f / upper 1.0f, KDFS 1.3 §5.6), key/value
 data sorted by key (``KTXwriter``, ``shbake.*``), then the mip levels from the
 smallest to the largest (spec §3.9), each at the first offset that is a
 multiple of ``lcm(texel block size, 4)`` (spec §3.9.7: 8 bytes for RGBA16F, 4
-for RG16F; ``ktx validate`` rejects any other padding), faces
-+X, −X, +Y, −Y, +Z, −Z inside a level, rows top first.
+for RG16F, 16 for RGBA32F; ``ktx validate`` rejects any other padding), layers
+then faces +X, −X, +Y, −Y, +Z, −Z inside a level, rows top first.
 
 The ``ktx2`` export target writes the GGX prefiltered cube chain of
 :mod:`shbake.bakers.cube_prefilter` (level 0 = mirror map, α = 0) and, beside
 it, the DFG table ``(A0, A1)`` of :mod:`shbake.bakers.dfg` as a 2D
 RG16F KTX2 and an EXR (what cmgen ``--ibl-dfg`` provides): column ``j`` is
 ``n·v``, row ``i`` perceptual roughness, node-centred from (1e-3, 0.02) to
-(1, 1); the axes are recorded in the key/value data and EXR attributes.
+(1, 1); the axes are recorded in the key/value data and EXR attributes. The
+``webgl`` target writes its textures as float32 2D and 2D-array KTX2
+(:mod:`shbake.format.exports.webgl`).
 """
 
 import json
@@ -41,13 +46,22 @@ from shbake.format.images import clamp_to_half
 
 EXTENSION = ".ktx2"
 IDENTIFIER = bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A])
-VK_FORMAT = {4: 97, 2: 83}  # R16G16B16A16_SFLOAT, R16G16_SFLOAT
+VK_FORMAT = {
+    (2, 4): 97,  # R16G16B16A16_SFLOAT
+    (2, 2): 83,  # R16G16_SFLOAT
+    (4, 4): 109,  # R32G32B32A32_SFLOAT
+    (4, 2): 103,  # R32G32_SFLOAT
+}
+"""``(typeSize in bytes, channels)`` → ``vkFormat`` (Vulkan ``VkFormat`` numbers)."""
 _CHANNEL_IDS = {4: (0, 1, 2, 15), 2: (0, 1)}  # KHR_DF_CHANNEL_RGBSDA_R, G, B, ALPHA
 HALF_MAX = 65504.0
+_TYPES = {2: ("<f2", HALF_MAX, "half floats"), 4: ("<f4", float(np.finfo("<f4").max), "float32")}
+"""typeSize → (numpy type, largest finite value, name)."""
 
 
-def _dfd(channels: int) -> bytes:
+def _dfd(channels: int, type_size: int) -> bytes:
     n = channels
+    bits = 8 * type_size
     block = 24 + 16 * n
     out = struct.pack("<I", 0)  # vendorId 0 (Khronos), descriptorType 0 (basic)
     out += struct.pack("<HH", 2, block)  # versionNumber 2 (KDFS 1.3), descriptorBlockSize
@@ -55,9 +69,10 @@ def _dfd(channels: int) -> bytes:
         [1, 1, 1, 0]
     )  # colorModel RGBSDA, primaries BT709, transfer LINEAR, flags straight
     out += bytes([0, 0, 0, 0])  # texelBlockDimension 1x1x1x1 (stored minus one)
-    out += bytes([2 * n, 0, 0, 0, 0, 0, 0, 0])  # bytesPlane0
+    out += bytes([type_size * n, 0, 0, 0, 0, 0, 0, 0])  # bytesPlane0
     for k, cid in enumerate(_CHANNEL_IDS[n]):
-        out += struct.pack("<HBB", 16 * k, 15, cid | 0x80 | 0x40)  # offset, length-1, FLOAT|SIGNED
+        # bitOffset, bitLength - 1, channel | KHR_DF_SAMPLE_DATATYPE_FLOAT | _SIGNED
+        out += struct.pack("<HBB", bits * k, bits - 1, cid | 0x80 | 0x40)
         out += bytes([0, 0, 0, 0])
         out += struct.pack("<II", 0xBF800000, 0x3F800000)  # -1.0f, 1.0f
     return struct.pack("<I", 4 + len(out)) + out
@@ -72,23 +87,38 @@ def _kvd(kv: dict) -> bytes:
     return out
 
 
-def encode_ktx2(levels: list[np.ndarray], cube: bool, kv: dict | None = None) -> bytes:
-    """KTX2 bytes; ``levels[i]``: ``(6, n, n, C)`` (cube) or ``(h, w, C)``, C in {2, 4}."""
+def encode_ktx2(
+    levels: list[np.ndarray],
+    cube: bool,
+    kv: dict | None = None,
+    *,
+    type_size: int = 2,
+    layered: bool = False,
+) -> bytes:
+    """KTX2 bytes; ``levels[i]``: ``(6, n, n, C)`` (``cube``), ``(L, h, w, C)`` (``layered``:
+    a 2D array of ``L`` layers) or ``(h, w, C)``, C in {2, 4}; ``type_size``: bytes a
+    channel, 2 (half floats) or 4 (float32)."""
     if not levels:
         raise ParameterError("a KTX2 file needs at least one level")
+    if cube and layered:
+        raise ParameterError("the KTX2 writer takes a cube or a 2D array, not a cube array")
     c = levels[0].shape[-1]
-    if c not in VK_FORMAT:
-        raise ParameterError(f"KTX2 writer takes 2 or 4 channels, got {c}")
+    if (type_size, c) not in VK_FORMAT:
+        raise ParameterError(
+            f"KTX2 writer takes 2 or 4 channels of 2 or 4 bytes, got {c} of {type_size}"
+        )
+    np_type, largest, type_name = _TYPES[type_size]
     data = []
     for lv in levels:
         a = np.asarray(lv, dtype=np.float64)
-        if not np.all(np.isfinite(a)) or np.abs(a).max() > HALF_MAX:
-            raise OutputError("KTX2 level has values that half floats cannot hold")
-        data.append(a.astype("<f2").tobytes())
+        if not np.all(np.isfinite(a)) or np.abs(a).max() > largest:
+            raise OutputError(f"KTX2 level has values that {type_name} cannot hold")
+        data.append(a.astype(np_type).tobytes())
     h, w = levels[0].shape[-3], levels[0].shape[-2]
+    layers = levels[0].shape[0] if layered else 0  # spec §3.4: 0 when not an array
     n_levels = len(levels)
     kv = {"KTXwriter": "shbake", **(kv or {})}
-    dfd = _dfd(c)
+    dfd = _dfd(c, type_size)
     kvd = _kvd(kv)
     header_end = 12 + 4 * 9 + 4 * 4 + 8 * 2 + 24 * n_levels
     dfd_off = header_end
@@ -96,7 +126,7 @@ def encode_ktx2(levels: list[np.ndarray], cube: bool, kv: dict | None = None) ->
     pos = kvd_off + len(kvd)
     offsets = [0] * n_levels
     body = b""
-    align = math.lcm(2 * c, 4)  # texel block size (c half floats), spec §3.9.7 mip padding
+    align = math.lcm(type_size * c, 4)  # texel block size, spec §3.9.7 mip padding
     for i in reversed(range(n_levels)):  # smallest level first (spec §3.9)
         pad = -pos % align
         body += b"\0" * pad
@@ -105,7 +135,8 @@ def encode_ktx2(levels: list[np.ndarray], cube: bool, kv: dict | None = None) ->
         body += data[i]
         pos += len(data[i])
     out = IDENTIFIER
-    out += struct.pack("<9I", VK_FORMAT[c], 2, w, h, 0, 0, 6 if cube else 1, n_levels, 0)
+    vk_format, faces = VK_FORMAT[type_size, c], 6 if cube else 1
+    out += struct.pack("<9I", vk_format, type_size, w, h, 0, layers, faces, n_levels, 0)
     out += struct.pack("<4I", dfd_off, len(dfd), kvd_off, len(kvd))
     out += struct.pack("<2Q", 0, 0)
     for i in range(n_levels):
@@ -114,9 +145,17 @@ def encode_ktx2(levels: list[np.ndarray], cube: bool, kv: dict | None = None) ->
     return out
 
 
-def write_ktx2(path: str, levels: list[np.ndarray], cube: bool, kv: dict | None = None) -> None:
-    """Write :func:`encode_ktx2` atomically."""
-    payload = encode_ktx2(levels, cube, kv)
+def write_ktx2(
+    path: str,
+    levels: list[np.ndarray],
+    cube: bool,
+    kv: dict | None = None,
+    *,
+    type_size: int = 2,
+    layered: bool = False,
+) -> None:
+    """Write :func:`encode_ktx2` atomically (its arguments)."""
+    payload = encode_ktx2(levels, cube, kv, type_size=type_size, layered=layered)
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         f.write(payload)
 

@@ -8,9 +8,10 @@ existing folder is refused):
 * ``shbake.json``: the manifest — the asset's name and kind, the passes it can draw,
   the GLSL files in include order, each texture (file, width, height, layers) and
   each uniform (GLSL type, value), and the asset's parameters for display;
-* one ``NAME.f32`` per texture: little-endian float32 RGBA texels, rows first
-  (row 0 first: ``texelFetch(tex, ivec2(column, row))`` reads the stored array
-  ``[row, column]``), layer after layer;
+* one ``NAME.ktx2`` per texture: KTX 2.0, ``VK_FORMAT_R32G32B32A32_SFLOAT`` (float32
+  RGBA), one level, no supercompression, 2D or a 2D array (``layerCount`` the layers)
+  (:func:`shbake.format.exports.ktx2.write_ktx2`); row 0 first:
+  ``texelFetch(tex, ivec2(column, row))`` reads the stored array ``[row, column]``;
 * the GLSL files of :mod:`shbake.shaders` the passes need and the loader
   ``shbake_webgl.mjs``;
 * ``index.html`` (+ ``viewer.mjs``, ``viewer.css``): the sphere with orbit controls and
@@ -34,6 +35,8 @@ import numpy as np
 
 from shbake.errors import InputError, OutputError
 from shbake.format.atomic import atomic_folder, atomic_path, makedirs, transaction, write_text
+from shbake.format.exports.ktx2 import EXTENSION as KTX2
+from shbake.format.exports.ktx2 import write_ktx2
 
 CUBES = None
 """No cube maps."""
@@ -249,7 +252,7 @@ KINDS = {
 def _texture_entry(name: str, texels: np.ndarray) -> dict:
     layered = texels.ndim == 4
     h, w = texels.shape[-3], texels.shape[-2]
-    entry = {"file": name + ".f32", "width": int(w), "height": int(h)}
+    entry = {"file": name + KTX2, "width": int(w), "height": int(h)}
     if layered:
         entry["layers"] = int(texels.shape[0])
     return entry
@@ -264,13 +267,13 @@ def _copy_package_file(name: str, dest: str) -> None:
 MANIFEST = "shbake.json"
 MANIFEST_BYTES = 1 << 20
 """Largest manifest :func:`check_replaceable` reads (an export's is a few KiB)."""
-TEXTURE_FILE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*\.f32$")
+TEXTURE_FILE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*\.ktx2$")
 
 
 def check_replaceable(out: str) -> None:
     """Refuse to replace ``out`` unless it is missing, an empty folder, or a folder of an
     earlier export: regular files only, each named as an export names its files (textures
-    ``NAME.f32``, the package's GLSL and viewer files, ``index.html``, :data:`MANIFEST`),
+    ``NAME.ktx2``, the package's GLSL and viewer files, ``index.html``, :data:`MANIFEST`),
     and a manifest of format ``shbake-webgl``. A user's other folder is never removed."""
     if not os.path.lexists(out):
         return
@@ -322,7 +325,7 @@ def write_export(asset, name: str, out: str, context=None) -> list[str]:
         raise InputError(f"{name}: {e}") from None
     manifest = {
         "format": "shbake-webgl",
-        "version": 1,
+        "version": 2,
         "asset": {"name": name, "kind": asset.kind, "parameters": params},
         "passes": passes,
         "shaders": list(SHADERS[asset.kind]),
@@ -331,14 +334,14 @@ def write_export(asset, name: str, out: str, context=None) -> list[str]:
     }
     out = os.path.abspath(out)
     check_replaceable(out)
-    names = [k + ".f32" for k in textures] + [*SHADERS[asset.kind], *VIEWER_FILES]
+    names = [k + KTX2 for k in textures] + [*SHADERS[asset.kind], *VIEWER_FILES]
     names += [MANIFEST, "index.html"]
     with transaction():
         makedirs(os.path.dirname(out))
         with atomic_folder(out) as folder:
             for k, t in textures.items():
-                with atomic_path(os.path.join(folder, k + ".f32")) as tmp, open(tmp, "wb") as f:
-                    f.write(np.ascontiguousarray(t, dtype="<f4").tobytes())
+                write_ktx2(os.path.join(folder, k + KTX2), [t], cube=False, type_size=4,
+                           layered=t.ndim == 4)  # fmt: skip
             for f in SHADERS[asset.kind] + VIEWER_FILES:
                 _copy_package_file(f, os.path.join(folder, f))
             write_text(os.path.join(folder, MANIFEST),
