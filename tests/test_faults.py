@@ -382,11 +382,11 @@ class TestCompanionFiles:
                                   "--exr-dir", box / "maps"), fragment="directory")  # fmt: skip
 
     def test_export_name_is_a_directory(self, run_cli, box):
-        (box / "old.gltf").mkdir()
+        (box / "old-threejs" / "old.json").mkdir(parents=True)  # where --export threejs writes
         (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
         with unchanged(box):
             assert_failed(run_cli("project-env", box / "map.exr", "-o", box / "old.h5",
-                                  "--export", "gltf"), fragment="directory")  # fmt: skip
+                                  "--export", "threejs"), fragment="directory")  # fmt: skip
 
     def test_half_overflow(self, run_cli, box):
         write_map(box / "bright.exr", scale=1e6)
@@ -1092,7 +1092,7 @@ class TestDeterminism:
 
     RUNS = {
         "project-env": ["project-env", "{map}", "-o", "{out}/e.h5", "--exr-dir", "{out}/maps",
-                        "--png", "--export", "gltf", "--lmax", "4", "-q"],
+                        "--png", "--export", "threejs", "--lmax", "4", "-q"],
         "brdf-table": ["brdf-table", "phong", "-o", "{out}/t.h5", "--size", "8", "--lmax", "2",
                        "--samples", "64", "--exr-dir", "{out}/bands", "--reproducible", "-q"],
         "preview": ["preview", "{env}", "-o", "{out}/p.exr", "--size", "8", "--diff", "--png",

@@ -39,7 +39,7 @@ from tests.test_faults import _can_mount, assert_failed, fill, shbake, snapshot,
 
 SCENE = """[scene]
 name = "s"
-exports = ["gltf"]
+exports = ["threejs"]
 [tolerances]
 irradiance = 0.05
 [[environments]]
@@ -54,7 +54,7 @@ SMALL_CUBES = ["--size", "16", "--samples", "16"]
 
 CASES = {
     "project-env": ["project-env", "{in}/map.exr", "-o", "{out}/old.h5", "--exr-dir",
-                    "{out}/maps", "--png", "--export", "gltf"],
+                    "{out}/maps", "--png", "--export", "threejs"],
     "brdf-table": ["brdf-table", "phong", "-o", "{out}/old.h5", "--size", "16", "--lmax", "4",
                    "--samples", "32", "--exr-dir", "{out}/bands"],
     "shrm": ["shrm", "{in}/map.exr", "-o", "{out}/old.h5", "--exr-dir", "{out}/cubes",
