@@ -4,6 +4,11 @@ helpers.py); the ``--update-golden`` option."""
 import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the shbake command does (cli/__init__.py)
+# The make runs of the scene tests behave as when a user types make: not as sub-makes of the
+# `make test` that runs pytest (MAKELEVEL adds "Entering directory" lines, MAKEFLAGS its
+# jobserver and options).
+for outer_make in ("MAKELEVEL", "MAKEFLAGS", "MFLAGS", "MAKEOVERRIDES"):
+    os.environ.pop(outer_make, None)
 
 from pathlib import Path  # noqa: E402
 
