@@ -141,16 +141,19 @@ class TestProbeExtremes:
 
 
 def _ktx2_levels(path) -> list[np.ndarray]:
-    """Every level of a KTX2 RGBA16F file as float32 (KTX 2.0 §3.9 level index; an
-    independent reader of the bytes, not shbake's writer)."""
+    """Every level of a KTX2 file of half or single floats (``vkFormat`` 83 RG16F, 97 RGBA16F, 103
+    RG32F, 109 RGBA32F) as float32 (KTX 2.0 §3.9 level index; an independent reader of the
+    bytes, not shbake's writer)."""
     import struct
 
     data = open(path, "rb").read()
+    vk_format = struct.unpack_from("<I", data, 12)[0]
+    dtype = {83: "<f2", 97: "<f2", 103: "<f4", 109: "<f4"}[vk_format]
     n_levels = struct.unpack_from("<I", data, 12 + 4 * 7)[0]
     out = []
     for i in range(n_levels):
         off, length, _ = struct.unpack_from("<3Q", data, 80 + 24 * i)
-        out.append(np.frombuffer(data[off : off + length], "<f2").astype(np.float32))
+        out.append(np.frombuffer(data[off : off + length], dtype).astype(np.float32))
     return out
 
 
