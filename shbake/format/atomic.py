@@ -209,6 +209,11 @@ def os_error_message(e: OSError, path: str | None = None) -> str:
     return f"cannot write {where} ({reason})"
 
 
+def _create_file(path: str) -> None:
+    """Create the empty file ``path`` (owner-only until commit), failing if it exists."""
+    os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+
+
 class Transaction:
     """The outputs of one run: staged temporaries, and folders created for them."""
 
@@ -246,30 +251,11 @@ class Transaction:
 
     def stage(self, path: str) -> str:
         """A new temporary beside ``path``; it replaces ``path`` at :meth:`commit`."""
-        global _counter
         check_output_path(path)
         check_not_input(path)
         path = os.path.abspath(os.fspath(path))
-        with _lock:
-            if any(final == path for _, final in self.staged):
-                raise OutputError(f"{path}: written twice by one run")
-            _counter += 1
-            n = _counter
-        remove_stale(path)
-        folder, base = os.path.split(path)
-        suffix = os.path.splitext(base)[1]
-        tmp = os.path.join(folder, f".{base}{TAG}{os.getpid()}-{n}.tmp{suffix}")
-        # registered before it exists: a signal between the two steps leaves nothing that
-        # abort does not remove (removing a temporary not yet made is a no-op)
-        with _lock:
-            self.staged.append((tmp, path))
-        try:
-            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
-        except OSError as e:
-            with _lock:
-                self.staged.remove((tmp, path))
-            raise OutputError(os_error_message(e, path)) from None
-        return tmp
+        suffix = os.path.splitext(path)[1]
+        return self._new_temporary("staged", path, suffix, _create_file)
 
     def stage_folder(self, path: str) -> str:
         """A new empty folder beside the folder ``path``, for the run to write into (its
@@ -277,26 +263,33 @@ class Transaction:
         ``path`` whole: swapped in one step where Linux can (``renameat2``), the old folder
         and its files then removed, so ``path`` never holds a mix of two runs. The caller
         checks that an existing ``path`` may be replaced."""
-        global _counter
         path = os.path.abspath(os.fspath(path))
         if os.path.islink(path) or (os.path.exists(path) and not os.path.isdir(path)):
             raise OutputError(f"{path}: exists and is not a folder")
         check_output_dir(os.path.dirname(path), "-o/--output", missing_ok=False, shown=path)
+        return self._new_temporary("folders", path, "", lambda tmp: os.mkdir(tmp, 0o755))
+
+    def _new_temporary(self, registry: str, path: str, suffix: str, make) -> str:
+        """Name a temporary beside the absolute ``path`` (refused if this run already writes
+        ``path``), register it in ``self.<registry>`` and create it with ``make(tmp)``.
+        Registered before it exists: a signal between the two steps leaves nothing that
+        abort does not remove (removing a temporary not yet made is a no-op)."""
+        global _counter
         with _lock:
-            if any(final == path for _, final in self.folders):
+            if any(final == path for _, final in getattr(self, registry)):
                 raise OutputError(f"{path}: written twice by one run")
             _counter += 1
             n = _counter
         remove_stale(path)
         folder, base = os.path.split(path)
-        tmp = os.path.join(folder, f".{base}{TAG}{os.getpid()}-{n}.tmp")
-        with _lock:  # registered first, as in stage
-            self.folders.append((tmp, path))
+        tmp = os.path.join(folder, f".{base}{TAG}{os.getpid()}-{n}.tmp{suffix}")
+        with _lock:
+            getattr(self, registry).append((tmp, path))
         try:
-            os.mkdir(tmp, 0o755)
+            make(tmp)
         except OSError as e:
             with _lock:
-                self.folders.remove((tmp, path))
+                getattr(self, registry).remove((tmp, path))
             raise OutputError(os_error_message(e, path)) from None
         return tmp
 
