@@ -587,7 +587,13 @@ class TestExportCommand:
         assert options_of_target("gltf") == options_of_target("babylon") == set(TARGET_OPTIONS)
         assert all(options_of_target(t) <= set(TARGET_OPTIONS) for t in TARGETS)
 
-    def test_errors(self, run_cli, sky_asset, tmp_path):
+    def test_errors(self, run_cli, sky_asset, tmp_path, monkeypatch):
+        """Bad targets, inputs and output names get one line, before any cube chain is baked."""
+
+        def no_bake(*args, **kwargs):
+            raise AssertionError("a cube chain was baked for an export that is refused")
+
+        monkeypatch.setattr("shbake.batch.export.prefilter_chain", no_bake)
         code, _, err = run_cli("export", sky_asset["h5"], "--to", "unreal", "-o", tmp_path / "x")
         assert code == 2 and "unreal" in err
         code, _, err = run_cli(
@@ -601,8 +607,12 @@ class TestExportCommand:
             tmp_path / "missing.exr",
         )
         assert code == 1 and err.startswith("shbake: error:")
-        code, _, err = run_cli("export", sky_asset["h5"], "--to", "gltf", "-o", tmp_path / "x.glb")
-        assert code == 1 and ".gltf" in err
+        for target, name, ending in [("gltf", "x.glb", ".gltf"), ("babylon", "x.babylon", ".env"),
+                                     ("filament", "x.ktx", "_sh.txt"), ("ktx2", "x.ktx", ".ktx2"),
+                                     ("threejs-pmrem", "x.exr", ".ktx2")]:  # fmt: skip
+            code, _, err = run_cli("export", sky_asset["h5"], "--to", target, "-o", tmp_path / name)
+            assert code == 1 and ending in err and err.count("\n") == 1, (target, err)
+        assert os.listdir(tmp_path) == []
 
     @pytest.mark.parametrize(
         ("args", "named"),

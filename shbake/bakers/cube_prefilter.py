@@ -46,7 +46,6 @@ their shared edges (no seam).
 
 import math
 
-import numba
 import numpy as np
 
 from shbake.brdf.ggx import ggx_d, half_vector_cos2
@@ -57,8 +56,8 @@ from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.resources import check_memory
 from shbake.texture.bilinear import axis, blend
-from shbake.texture.cube import cube_address, face_bilinear, nearest_texels
 from shbake.texture.cube import cube_directions as texel_directions
+from shbake.texture.cube import cube_face_st, nearest_texels, texel_coordinate
 
 # GL cube faces: columns (s axis, t axis, face normal) in GL cube space.
 GL_FACES = np.array(
@@ -149,22 +148,55 @@ def _bilinear_latlong(img, u, v, out):
 
 
 @jit
-def _resample_latlong(img, dirs_sub, out, b0, b1):
-    # dirs_sub: (M, S, 3) sub-texel directions; out (M, 3) box average
-    s = dirs_sub.shape[1]
-    for k in range(b0, b1):
-        acc = np.zeros(3)
-        tmp = np.zeros(3)
-        for q in range(s):
-            dx, dy, dz = dirs_sub[k, q, 0], dirs_sub[k, q, 1], dirs_sub[k, q, 2]
+def _sub_direction(frames, rot, size, k, face, row, col, q):
+    """Unit direction of sub-texel ``q`` (row-major ``k × k`` grid) of texel ``(row, col)`` on
+    face ``face`` of a ``size``² cube (faces ``frames``), turned by ``rot`` (row vector ``d R``)."""
+    s = 2.0 * ((col + ((q % k) + 0.5) / k) / size) - 1.0
+    t = 2.0 * ((row + ((q // k) + 0.5) / k) / size) - 1.0
+    F = frames[face]
+    x = F[0, 0] * s + F[0, 1] * t + F[0, 2]
+    y = F[1, 0] * s + F[1, 1] * t + F[1, 2]
+    z = F[2, 0] * s + F[2, 1] * t + F[2, 2]
+    n = math.sqrt(x * x + y * y + z * z)
+    x, y, z = x / n, y / n, z / n
+    return (
+        x * rot[0, 0] + y * rot[1, 0] + z * rot[2, 0],
+        x * rot[0, 1] + y * rot[1, 1] + z * rot[2, 1],
+        x * rot[0, 2] + y * rot[1, 2] + z * rot[2, 2],
+    )
+
+
+@jit
+def _sub_directions(frames, rot, size, k, out, b0, b1):
+    # out (6 size², k², 3): every sub-texel direction of texels b0 … b1
+    for m in range(b0, b1):
+        face, rc = m // (size * size), m % (size * size)
+        for q in range(k * k):
+            d = _sub_direction(frames, rot, size, k, face, rc // size, rc % size, q)
+            out[m, q, 0], out[m, q, 1], out[m, q, 2] = d
+
+
+@jit
+def _resample_latlong(img, frames, rot, size, k, out, b0, b1):
+    # out (6 size², 3): box average of the k² bilinear lat-long fetches of each texel
+    tmp = np.zeros(3)
+    for m in range(b0, b1):
+        face, rc = m // (size * size), m % (size * size)
+        acc0 = 0.0
+        acc1 = 0.0
+        acc2 = 0.0
+        for q in range(k * k):
+            dx, dy, dz = _sub_direction(frames, rot, size, k, face, rc // size, rc % size, q)
             u = math.atan2(dx, -dz) / (2.0 * math.pi)
             u = u - math.floor(u)
             v = math.acos(min(1.0, max(-1.0, dy))) / math.pi
             _bilinear_latlong(img, u, v, tmp)
-            for c in range(3):
-                acc[c] += tmp[c]
-        for c in range(3):
-            out[k, c] = acc[c] / s
+            acc0 += tmp[0]
+            acc1 += tmp[1]
+            acc2 += tmp[2]
+        out[m, 0] = acc0 / (k * k)
+        out[m, 1] = acc1 / (k * k)
+        out[m, 2] = acc2 / (k * k)
 
 
 SUPERSAMPLE = 4
@@ -186,20 +218,16 @@ def mirror_cube(
     if size < 1 or size & (size - 1):
         raise ParameterError(f"cube size must be a power of two, got {size}")
     k = int(supersample)
-    sub = (np.arange(k) + 0.5) / k
-    edges = 2.0 * ((np.arange(size)[:, None] + sub[None, :]) / size).reshape(-1) - 1.0
-    s, t = np.meshgrid(edges, edges)
-    st1 = np.stack([s, t, np.ones_like(s)], -1)
-    d = np.einsum("kij,abj->kabi", world_face_frames(), st1)
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    if rotation is not None:
-        d = d @ np.asarray(rotation, dtype=np.float64)  # row vectors: (Rᵀ d_t)ᵀ = d_tᵀ R
-    d = d.reshape(6, size, k, size, k, 3).transpose(0, 1, 3, 2, 4, 5).reshape(-1, k * k, 3)
-    out = np.empty((d.shape[0], 3))
+    rot = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
+    frames = world_face_frames()
+    texels = 6 * size * size
+    out = np.empty((texels, 3))
     if env.layout == "latlong":
-        run_blocks(_resample_latlong, d.shape[0], d.shape[0] * d.shape[1] * 60.0,
-                   env.pixels.astype(np.float64), np.ascontiguousarray(d), out)  # fmt: skip
+        run_blocks(_resample_latlong, texels, texels * k * k * 60.0,
+                   env.pixels.astype(np.float64), frames, rot, size, k, out)  # fmt: skip
     else:
+        d = np.empty((texels, k * k, 3))
+        run_blocks(_sub_directions, texels, texels * k * k * 20.0, frames, rot, size, k, d)
         out[:] = _nearest_cube_input(env, d).mean(axis=1)
     return out.reshape(6, size, size, 3)
 
@@ -235,11 +263,24 @@ def cube_pyramid(cube: np.ndarray) -> list[np.ndarray]:
 
 
 @jit
-def _fetch_level(level, wf, dx, dy, dz, out):
-    """Bilinear fetch of one cube level at world direction d (clamp-to-edge within the face)."""
-    face, x, y = cube_address(wf, dx, dy, dz, level.shape[1])
+def _fetch_packed(packed, offset, n, face, s, t, out):
+    """Bilinear fetch (clamp-to-edge within the face) at face coordinates ``(s, t)`` of the
+    ``n``² level starting at row ``offset`` of ``packed`` (:func:`_packed_pyramid`)."""
+    i0, i1, fy = axis(texel_coordinate(t, n), n)
+    j0, j1, fx = axis(texel_coordinate(s, n), n)
+    row0 = offset + (face * n + i0) * n
+    row1 = offset + (face * n + i1) * n
     for c in range(3):
-        out[c] = face_bilinear(level, face, x, y, c)
+        out[c] = blend(packed[row0 + j0, c], packed[row0 + j1, c], packed[row1 + j0, c],
+                       packed[row1 + j1, c], fy, fx)  # fmt: skip
+
+
+def _packed_pyramid(pyramid: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The levels of ``pyramid`` as rows of one ``(Σ 6 n², 3)`` array, with each level's first
+    row and edge ``n`` (one array the kernel indexes, not a list of arrays)."""
+    sizes = np.array([p.shape[1] for p in pyramid], dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(6 * sizes * sizes)[:-1]]).astype(np.int64)
+    return np.concatenate([p.reshape(-1, 3) for p in pyramid]), offsets, sizes
 
 
 @jit
@@ -255,9 +296,45 @@ def _hammersley(i, n):
 
 
 @jit
-def _prefilter_fis(pyr, wf, dirs, alpha, samples, omega_p, use_fis, out, b0, b1):
-    n_levels = len(pyr)
+def _sample_table(alpha, samples, omega_p, n_levels, use_fis, table):
+    """Row ``q`` of ``table``: sample ``q``'s light direction in the texel's frame (``n = +z``),
+    its source levels ``i0``, ``i1`` and blend ``f``; the same for every texel of a level.
+    Returns the number of rows (samples below the horizon are left out)."""
     a2 = alpha * alpha
+    m = 0
+    for q in range(samples):
+        u1, u2 = _hammersley(q, samples)
+        cos2 = half_vector_cos2(a2, u1)
+        ct = math.sqrt(cos2)
+        st = math.sqrt(max(0.0, 1.0 - cos2))
+        ph = 2.0 * math.pi * u2
+        hx, hy, hz = st * math.cos(ph), st * math.sin(ph), ct
+        # l = 2 (n.h) h - n in the local frame (n = +z)
+        lz = 2.0 * hz * hz - 1.0
+        if lz <= 0.0:
+            continue
+        if use_fis:
+            pdf = ggx_d(alpha, alpha, hx, hy, hz) * 0.25
+            omega_s = 1.0 / (samples * pdf)
+            lod = 0.5 * math.log2(omega_s / omega_p) + 1.0
+            lod = min(max(lod, 0.0), n_levels - 1.0)
+        else:
+            lod = 0.0
+        i0 = int(lod)
+        table[m, 0] = 2.0 * hz * hx
+        table[m, 1] = 2.0 * hz * hy
+        table[m, 2] = lz
+        table[m, 3] = i0
+        table[m, 4] = min(i0 + 1, n_levels - 1)
+        table[m, 5] = lod - i0
+        m += 1
+    return m
+
+
+@jit
+def _prefilter_fis(packed, offsets, sizes, wf, dirs, table, out, b0, b1):
+    lo = np.zeros(3)
+    hi = np.zeros(3)
     for k in range(b0, b1):
         nx, ny, nz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
         # tangent frame (Frisvad-style, branchless enough)
@@ -268,42 +345,26 @@ def _prefilter_fis(pyr, wf, dirs, alpha, samples, omega_p, use_fis, out, b0, b1)
         tn = math.sqrt(tx * tx + ty * ty + tz * tz)
         tx, ty, tz = tx / tn, ty / tn, tz / tn
         bx, by, bz = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
-        acc = np.zeros(3)
-        lo = np.zeros(3)
-        hi = np.zeros(3)
+        acc0 = 0.0
+        acc1 = 0.0
+        acc2 = 0.0
         wsum = 0.0
-        for q in range(samples):
-            u1, u2 = _hammersley(q, samples)
-            cos2 = half_vector_cos2(a2, u1)
-            ct = math.sqrt(cos2)
-            st = math.sqrt(max(0.0, 1.0 - cos2))
-            ph = 2.0 * math.pi * u2
-            hx, hy, hz = st * math.cos(ph), st * math.sin(ph), ct
-            # l = 2 (n.h) h - n in the local frame (n = +z)
-            lz = 2.0 * hz * hz - 1.0
-            if lz <= 0.0:
-                continue
-            lx, ly = 2.0 * hz * hx, 2.0 * hz * hy
+        for q in range(table.shape[0]):
+            lx, ly, lz = table[q, 0], table[q, 1], table[q, 2]
             wx = lx * tx + ly * bx + lz * nx
             wy = lx * ty + ly * by + lz * ny
             wz = lx * tz + ly * bz + lz * nz
-            if use_fis:
-                pdf = ggx_d(alpha, alpha, hx, hy, hz) * 0.25
-                omega_s = 1.0 / (samples * pdf)
-                lod = 0.5 * math.log2(omega_s / omega_p) + 1.0
-                lod = min(max(lod, 0.0), n_levels - 1.0)
-            else:
-                lod = 0.0
-            i0 = int(lod)
-            i1 = min(i0 + 1, n_levels - 1)
-            f = lod - i0
-            _fetch_level(pyr[i0], wf, wx, wy, wz, lo)
-            _fetch_level(pyr[i1], wf, wx, wy, wz, hi)
-            for c in range(3):
-                acc[c] += lz * ((1.0 - f) * lo[c] + f * hi[c])
+            face, s, t = cube_face_st(wf, wx, wy, wz)
+            l0, l1, f = int(table[q, 3]), int(table[q, 4]), table[q, 5]
+            _fetch_packed(packed, offsets[l0], sizes[l0], face, s, t, lo)
+            _fetch_packed(packed, offsets[l1], sizes[l1], face, s, t, hi)
+            acc0 += lz * ((1.0 - f) * lo[0] + f * hi[0])
+            acc1 += lz * ((1.0 - f) * lo[1] + f * hi[1])
+            acc2 += lz * ((1.0 - f) * lo[2] + f * hi[2])
             wsum += lz
-        for c in range(3):
-            out[k, c] = acc[c] / wsum
+        out[k, 0] = acc0 / wsum
+        out[k, 1] = acc1 / wsum
+        out[k, 2] = acc2 / wsum
 
 
 def prefilter_level(
@@ -324,18 +385,17 @@ def prefilter_level(
     n0 = pyramid[0].shape[1]
     omega_p = 4.0 * math.pi / (6.0 * n0 * n0)
     out = np.empty((6 * size * size, 3))
-    pyr = numba.typed.List([np.ascontiguousarray(p) for p in pyramid])
+    table = np.empty((int(samples), 6))
+    rows = _sample_table(float(alpha), int(samples), omega_p, len(pyramid), bool(fis), table)
+    table = table[:rows]
     run_blocks(
         _prefilter_fis,
         out.shape[0],
-        out.shape[0] * samples * 100.0,
-        pyr,
+        out.shape[0] * table.shape[0] * 60.0,
+        *_packed_pyramid(pyramid),
         world_face_frames(),
         dirs.reshape(-1, 3),
-        float(alpha),
-        int(samples),
-        omega_p,
-        bool(fis),
+        table,
         out,
     )
     return out.reshape(6, size, size, 3)

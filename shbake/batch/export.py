@@ -12,7 +12,7 @@ from shbake.bakers.cube_prefilter import check_chain, extend_chain, prefilter_ch
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
-from shbake.format.exports import target_module
+from shbake.format.exports import check_ending, target_module
 from shbake.format.exports.source import load_source, require_sh
 
 TARGET_OPTIONS = {
@@ -25,8 +25,6 @@ TARGET_OPTIONS = {
     "babylon_scene": "--babylon-scene",
 }
 """Settings that only some targets read, and the option that sets each."""
-FIXED_LOD_MAPPING = ("filament", "threejs-pmrem")
-"""Targets whose engine shader fixes the roughness of each mip level (their ``CUBES`` mapping)."""
 FIXED_LOD_MAPPING = ("filament", "threejs-pmrem")
 """Targets whose engine shader fixes the roughness of each mip level (their ``CUBES`` mapping)."""
 
@@ -115,6 +113,7 @@ def export_assets(
         return _export_webgl(assets, out, one_file, frame, rotate_deg, env_path)
     if one_file:  # refused before the cube chains are baked
         check_output_path(out)
+        check_ending(target, out)
     else:
         check_output_dir(out, "--out-dir")
     written = []
@@ -139,8 +138,6 @@ def export_assets(
                 samples=cfg["samples"],
                 rotation=src.cube_rotation,
             )
-            if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
-                levels, rough = extend_chain(levels, rough)
             if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
                 levels, rough = extend_chain(levels, rough)
             extra.update(levels=levels, roughness=rough, mapping=cfg["mapping"])

@@ -52,8 +52,8 @@ def cube_directions(size: int, axes: np.ndarray = FACE_AXES) -> np.ndarray:
 
 
 @jit
-def cube_address(axes, dx, dy, dz, size):
-    """Face and continuous texel coordinates ``(face, x, y)`` of a non-zero direction
+def cube_face_st(axes, dx, dy, dz):
+    """Face and face coordinates ``(face, s, t)``, ``s, t ∈ [−1, 1]``, of a non-zero direction
     (faces ``axes``, ``(6, 3, 3)``; module docstring)."""
     best = -1.0
     face = 0
@@ -65,8 +65,21 @@ def cube_address(axes, dx, dy, dz, size):
     A = axes[face]
     u = A[0, 0] * dx + A[1, 0] * dy + A[2, 0] * dz
     w = A[0, 1] * dx + A[1, 1] * dy + A[2, 1] * dz
-    s, t = u / best, w / best
-    return face, 0.5 * (s + 1.0) * size - 0.5, 0.5 * (t + 1.0) * size - 0.5
+    return face, u / best, w / best
+
+
+@jit
+def texel_coordinate(s, size):
+    """Continuous texel coordinate ``(s + 1) S/2 − ½`` of face coordinate ``s``, ``size`` texels."""
+    return 0.5 * (s + 1.0) * size - 0.5
+
+
+@jit
+def cube_address(axes, dx, dy, dz, size):
+    """Face and continuous texel coordinates ``(face, x, y)`` of a non-zero direction
+    (faces ``axes``, ``(6, 3, 3)``; module docstring)."""
+    face, s, t = cube_face_st(axes, dx, dy, dz)
+    return face, texel_coordinate(s, size), texel_coordinate(t, size)
 
 
 @jit

@@ -4,7 +4,8 @@
 ``write(source, out, **options) -> list[str]`` taking an
 :class:`~shbake.format.exports.source.ExportSource` (already in the target's
 frame) and, for targets with cube maps (``CUBES`` not None), the prefiltered
-chain; it returns the files written. The format layer only serialises:
+chain; it returns the files written. ``OUTPUT_ENDINGS`` (a tuple, or ``None`` for any name)
+are the endings its ``out`` may have (:func:`check_ending`). The format layer only serialises:
 :func:`shbake.batch.export.export_assets` (the one library entry point of
 ``shbake export`` and ``project-env --export``) bakes the cube chains.
 """
@@ -34,4 +35,12 @@ def target_module(name: str):
     return importlib.import_module(TARGETS[name])
 
 
-__all__ = ["TARGETS", "target_module"]
+def check_ending(name: str, out: str) -> None:
+    """Refuse an output file ``out`` that target ``name`` does not write (its module's
+    ``OUTPUT_ENDINGS``): a :class:`~shbake.errors.ParameterError` before anything is baked."""
+    endings = target_module(name).OUTPUT_ENDINGS
+    if endings is not None and not str(out).endswith(endings):
+        raise ParameterError(f"{out}: --to {name} writes a file ending {' or '.join(endings)}")
+
+
+__all__ = ["TARGETS", "check_ending", "target_module"]

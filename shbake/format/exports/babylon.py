@@ -43,6 +43,7 @@ from shbake.format.images import clamp_to_half
 from shbake.sh.kernels import lambert_kernel
 
 EXTENSION = ".gltf"
+OUTPUT_ENDINGS = (".gltf", ".env")
 CUBES = gltf.CUBES
 """The glTF's chain (256² faces, as Babylon's own ``.env`` files; ``α = 1`` at 8²); a ``.env``
 continues it to 1² (:func:`shbake.bakers.cube_prefilter.extend_chain`)."""
@@ -138,10 +139,16 @@ def write(
     """``out`` ending ``.env``: :func:`write_env`; ``.gltf``: the glTF (:func:`.gltf.write`)."""
     if out.endswith(".gltf"):
         return gltf.write(src, out, levels, roughness, mapping, babylon_scene)
-    if not out.endswith(".env"):
-        raise ParameterError(f"{out}: the babylon export writes a .gltf or a .env file")
     require_sh(src, "babylon")
     return write_env(src, out, levels, roughness, mapping, babylon_scene)
 
 
-__all__ = ["CUBES", "EXTENSION", "babylon_polynomial", "encode_env", "write", "write_env"]
+__all__ = [
+    "CUBES",
+    "EXTENSION",
+    "OUTPUT_ENDINGS",
+    "babylon_polynomial",
+    "encode_env",
+    "write",
+    "write_env",
+]

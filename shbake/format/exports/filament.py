@@ -50,13 +50,14 @@ import struct
 
 import numpy as np
 
-from shbake.errors import OutputError, ParameterError
+from shbake.errors import OutputError
 from shbake.format.atomic import atomic_path, write_text
 from shbake.format.exports.source import ExportSource, require_sh
 from shbake.format.images import clamp_to_half
 from shbake.sh.basis import real_sh
 
 EXTENSION = "_sh.txt"
+OUTPUT_ENDINGS = ("_sh.txt",)
 KTX1_IDENTIFIER = bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x31, 0x31, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A])
 GL_RGB, GL_R11F_G11F_B10F = 0x1907, 0x8C3A
 R11G11B10_MAX = 64512.0
@@ -163,8 +164,6 @@ def write(
     (given the cube chain ``levels``, made with the ``filament`` mapping) and, with a
     sun, ``<stem>_sun.json`` (with fitted lights, ``<stem>_lights.json``)."""
     require_sh(src, "filament")
-    if not out.endswith("_sh.txt"):
-        raise ParameterError(f"{out}: the filament export writes <stem>_sh.txt")
     stem = out[: -len("_sh.txt")]
     sh = filament_sh(src.irradiance9)
     write_text(out, sh_text(sh))

@@ -51,6 +51,7 @@ from shbake.format.atomic import atomic_path, write_text
 from shbake.format.exports.source import ExportSource, require_sh
 
 EXTENSION = ".gltf"
+OUTPUT_ENDINGS = (".gltf",)
 BABYLON_SCENES = ("left-handed", "right-handed")
 """Handedness of the Babylon.js scene that loads the file (``--babylon-scene``)."""
 BABYLON_SIGNS = np.array([1, -1, 1, 1, -1, -1, 1, 1, 1], dtype=np.float64)
@@ -170,8 +171,6 @@ def write(
     ``[0, 1, 0, 0]`` to undo it.
     """
     require_sh(src, "gltf")
-    if not out.endswith(".gltf"):
-        raise ParameterError(f"{out}: the glTF export writes a .gltf file")
     if babylon_scene not in BABYLON_SCENES:
         raise ParameterError(
             f"babylon scene must be left-handed or right-handed, got {babylon_scene!r}"

@@ -45,6 +45,7 @@ from shbake.format.exports.source import ExportSource
 from shbake.format.images import clamp_to_half
 
 EXTENSION = ".ktx2"
+OUTPUT_ENDINGS = (".ktx2",)
 IDENTIFIER = bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A])
 VK_FORMAT = {
     (2, 4): 97,  # R16G16B16A16_SFLOAT
@@ -220,8 +221,6 @@ def write(
     ``levels``/``roughness``: the chain in the target frame and each level's
     perceptual roughness; ``dfg_table``: ``(n_μ, n_r, 2)`` of :mod:`shbake.bakers.dfg`.
     """
-    if not out.endswith(".ktx2"):
-        raise ParameterError(f"{out}: the ktx2 export writes a .ktx2 file")
     write_cube_chain(out, src, levels, roughness, mapping)
     written = [out]
     if dfg_table is not None:

@@ -18,11 +18,11 @@ holding each level's six faces, turned into a ``CompressedCubeTexture`` with
   at the normal): GGX at ``α = 1`` has ``D = 1/π``, so it holds ``E(n)/π``.
 """
 
-from shbake.errors import ParameterError
 from shbake.format.exports.ktx2 import write_cube_chain
 from shbake.format.exports.source import ExportSource, require_sh
 
 EXTENSION = "_pmrem.ktx2"
+OUTPUT_ENDINGS = (".ktx2",)
 CUBES = {"size": 256, "floor": 4, "samples": 512, "mapping": "filament"}
 """Seven levels, 256² to 4² faces, three's roughness↔LOD rule.
 
@@ -35,10 +35,8 @@ to 2² leaves the rough levels too coarse (4² faces at r 0.59: 9 % median)."""
 def write(src: ExportSource, out: str, levels, roughness, mapping: str = "filament", **_ignored):
     """Write the chain ``levels`` (three's mapping) to ``out`` (``…_pmrem.ktx2``)."""
     require_sh(src, "threejs-pmrem")
-    if not out.endswith(".ktx2"):
-        raise ParameterError(f"{out}: the threejs-pmrem export writes a .ktx2 file")
     write_cube_chain(out, src, levels, roughness, mapping)
     return [out]
 
 
-__all__ = ["CUBES", "EXTENSION", "write"]
+__all__ = ["CUBES", "EXTENSION", "OUTPUT_ENDINGS", "write"]

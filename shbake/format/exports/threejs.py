@@ -40,6 +40,7 @@ from shbake.format.exports.source import ExportSource, require_sh
 CUBES = None
 """No cube maps."""
 EXTENSION = ".json"
+OUTPUT_ENDINGS = None
 _UUID = "00000000-0000-4000-8000-{:012d}"
 
 

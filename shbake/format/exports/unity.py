@@ -39,6 +39,7 @@ from shbake.format.exports.source import ExportSource, require_sh
 CUBES = None
 """No cube maps."""
 EXTENSION = ".unity.json"
+OUTPUT_ENDINGS = None
 UNITY_FROM_WORLD = np.diag([-1.0, 1.0, 1.0])
 X_ODD = np.array([1, 1, 1, -1, -1, 1, 1, -1, 1], dtype=np.float64)
 """Sign of each shbake basis polynomial under ``x → −x`` (indices 3, 4, 7 are odd in x)."""

@@ -41,6 +41,7 @@ from shbake.format.exports.ktx2 import write_ktx2
 CUBES = None
 """No cube maps."""
 EXTENSION = ""
+OUTPUT_ENDINGS = None
 """The export is a folder (named after the asset with ``--out-dir``)."""
 MAX_LIGHTS = 8
 """``SHBAKE_MAX_LIGHTS`` of common.glsl: the sun or up to 8 fitted lights
