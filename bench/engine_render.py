@@ -28,8 +28,7 @@ from shbake.envmap import load_environment  # noqa: E402
 from shbake.format.asset import write_asset  # noqa: E402
 from shbake.format.exports.source import load_source  # noqa: E402
 from tests.engine_browser import EngineBrowser, chromium_or_reason  # noqa: E402
-from tests.helpers import SHARED_MAPS, map_path  # noqa: E402
-from tests.test_engine_render import (  # noqa: E402
+from tests.engine_cases import (  # noqa: E402
     BABYLON_CUBES,
     FOV_DEG,
     GLOSSY,
@@ -37,7 +36,6 @@ from tests.test_engine_render import (  # noqa: E402
     SIZE,
     THREE_CUBES,
     VIEWS,
-    _materials,
     babylon_expected,
     diffuse_error,
     export_recording,
@@ -47,11 +45,13 @@ from tests.test_engine_render import (  # noqa: E402
     render_babylon,
     render_filament,
     render_three_glossy,
+    sphere_materials,
     three_expected,
     white_env,
     white_environment,
     white_ktx1,
 )
+from tests.helpers import SHARED_MAPS, map_path  # noqa: E402
 
 
 def sizes(files) -> int:
@@ -86,9 +86,9 @@ def map_rows(browser, name: str, d: Path) -> dict:
     # Filament: the same chain
     fil, _ = export_recording(h5, "filament", str(d / f"{name}_sh.txt"), chain=chain, **THREE_CUBES)
     ibl = next(f for f in fil if f.endswith("_ibl.ktx"))
-    env_r = render_filament(browser, d, [LAMBERT, *_materials()], ibl)
+    env_r = render_filament(browser, d, [LAMBERT, *sphere_materials()], ibl)
     unit = white_ktx1(d, [THREE_CUBES["size"] >> i for i in range(n_levels)])
-    white_r = render_filament(browser, d, _materials(), unit)
+    white_r = render_filament(browser, d, sphere_materials(), unit)
     rows["Filament 1.53.4"] = {
         "diffuse": diffuse_error(env_r, src),
         "glossy": glossy_errors(
@@ -100,12 +100,12 @@ def map_rows(browser, name: str, d: Path) -> dict:
     benv, bchain = export_recording(h5, "babylon", str(d / f"{name}.env"), **BABYLON_CUBES)
     bgltf, _ = export_recording(h5, "babylon", str(d / f"{name}.gltf"), chain=bchain,
                                 **BABYLON_CUBES)  # fmt: skip
-    white_b = render_babylon(browser, _materials(), env=white_env(d, BABYLON_CUBES["size"]))
+    white_b = render_babylon(browser, sphere_materials(), env=white_env(d, BABYLON_CUBES["size"]))
     for label, kw, files in (
         (".env", {"env": benv[0]}, benv),
         (".gltf", {"gltf": bgltf[0]}, bgltf),
     ):
-        rb = render_babylon(browser, [LAMBERT, *_materials()], **kw)
+        rb = render_babylon(browser, [LAMBERT, *sphere_materials()], **kw)
         rows[f"Babylon.js 9.31 ({label})"] = {
             "diffuse": diffuse_error(rb, src),
             "glossy": glossy_errors(

@@ -39,7 +39,7 @@ from shbake.format.asset import write_asset  # noqa: E402
 from shbake.format.shrm import build_shrm_asset  # noqa: E402
 from tests.engine_browser import EngineBrowser, chromium_or_reason  # noqa: E402
 from tests.helpers import map_path  # noqa: E402
-from tests.test_webgl_shaders import FIT, GLOSSY, SHRMS, SPLIT, TABLES  # noqa: E402
+from tests.webgl_cases import FIT, GLOSSY, SHRMS, SPLIT, TABLES  # noqa: E402
 
 WIDTH, HEIGHT = 1920, 1080
 SMALL_PASSES = ("kautz", "kautz-fixed-light", "kautz-fixed-view")

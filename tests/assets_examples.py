@@ -1,12 +1,15 @@
-"""One valid, small asset of every registered kind, built by the kinds' own builders
-(shared by tests/test_registry.py and tests/test_faults.py)."""
+"""One valid, small asset of every registered kind, built by the kinds' own builders, and
+the corrupt variants of them that readers must refuse (:data:`CORRUPTIONS`), shared by
+tests/test_registry.py, tests/test_faults.py and tests/test_hostile_assets.py."""
 
 from pathlib import Path
 from types import SimpleNamespace
 
+import h5py
 import numpy as np
 
 from shbake.conventions import DFG_SIZE
+from shbake.format.asset import write_asset
 
 MAP_SHAPE = (16, 32)
 
@@ -84,3 +87,127 @@ def example(kind: str, map_path) -> "object":
                          face_size=4)  # fmt: skip
         return build_shrm_asset(bake, env.meta)
     raise KeyError(kind)
+
+
+# -- corrupt assets ---------------------------------------------------------------------
+
+
+def _mutate(path, fn):
+    with h5py.File(path, "r+") as f:
+        fn(f)
+
+
+def _replace(name, data):
+    def fn(f):
+        attrs = dict(f[name].attrs) if name in f else {}
+        del f[name]
+        f[name] = data
+        f[name].attrs.update(attrs)
+
+    return fn
+
+
+def _set_attr(name, value):
+    def fn(f):
+        f.attrs[name] = value
+
+    return fn
+
+
+def _del(name):
+    def fn(f):
+        if name.startswith("/"):
+            del f[name]
+        else:
+            del f.attrs[name]
+
+    return fn
+
+
+NAN3 = np.array([np.nan, 0.0, 1.0])
+
+
+def _lights(direction, irradiance, keep_sun=False):
+    """Replace the example's sun by fitted lights (``/lights``) with these values."""
+
+    def fn(f):
+        if not keep_sun:
+            del f["/sun"]
+        if direction is not None:
+            f["/lights/direction"] = np.asarray(direction, dtype=np.float64)
+            attrs = {"requested": "auto", "fit_directions": 4096, "fit_mean_error": 0.01}
+            f["/lights/direction"].attrs.update(attrs | {"fit_max_error": 0.1})
+        f["/lights/irradiance"] = np.asarray(irradiance, dtype=np.float64)
+
+    return fn
+
+
+CORRUPTIONS = {
+    # id: (kind, mutation, message fragment)
+    "wrong-kind": ("env_sh", _set_attr("kind", "nope"), "kind 'nope' is unknown"),
+    "kind-array": ("env_sh", _set_attr("kind", np.array([b"env_sh", b"x"])), "kind an array"),
+    "newer-version": ("env_sh", _set_attr("format_version", np.int64(99)), "format_version 99"),
+    "older-version": ("env_sh", _set_attr("format_version", np.int64(1)), "format_version 1"),
+    "version-array": ("env_sh", _set_attr("format_version", np.arange(40)), "format_version an"),
+    "format-array": ("env_sh", _set_attr("format", np.array([1, 2])), "not a shbake asset"),
+    "missing-dataset": ("env_sh", _del("/lighting/band_energy"), "missing dataset"),
+    "irradiance-9x1": ("env_sh", _replace("/irradiance/sh", np.zeros((9, 1))), "shape"),
+    "irradiance-10x3": ("env_sh", _replace("/irradiance/sh", np.zeros((10, 3))), "shape"),
+    "irradiance-1d": ("env_sh", _replace("/irradiance/sh", np.zeros(27)), "shape"),
+    "irradiance-empty": ("env_sh", _replace("/irradiance/sh", np.zeros((0, 3))), "shape"),
+    "irradiance-scalar": ("env_sh", _replace("/irradiance/sh", 1.0), "shape"),
+    "irradiance-int": ("env_sh", _replace("/irradiance/sh", np.zeros((9, 3), int)), "float64"),
+    "irradiance-complex": ("env_sh", _replace("/irradiance/sh", np.zeros((9, 3), complex)),
+                           "float64"),
+    "irradiance-string": ("env_sh", _replace("/irradiance/sh", "abc"), "float64"),
+    "lighting-nan": ("env_sh", lambda f: f["/lighting/sh"].__setitem__((0, 0), np.nan),
+                     "non-finite"),
+    "sun-2": ("env_sh", _replace("/sun/direction", np.array([0.0, 1.0])), "sun/direction"),
+    "sun-nan": ("env_sh", _replace("/sun/direction", NAN3), "non-finite"),
+    "sun-not-unit": ("env_sh", _replace("/sun/direction", np.array([0.0, 2.0, 0.0])),
+                     "unit vector"),
+    "sun-partial": ("env_sh", _del("/sun/radiance"), "missing dataset /sun/radiance"),
+    "sun-no-direction": ("env_sh", _del("/sun/direction"), "missing dataset /sun/direction"),
+    "lights-not-unit": ("env_sh", _lights([[0.0, 2.0, 0.0]], [[1.0, 1.0, 1.0]]), "unit vector"),
+    "lights-negative": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0, -1.0, 1.0]]), "negative"),
+    "lights-no-direction": ("env_sh", _lights(None, [[1.0, 1.0, 1.0]]),
+                            "missing dataset /lights/direction"),
+    "lights-count-differs": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3, [2.0] * 3]),
+                             "lights/irradiance"),
+    "lights-and-sun": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], keep_sun=True),
+                       "not both"),
+    "knots-equal": ("shexp_probe", _replace("/knots", np.array([0.5, 0.5])), "/knots must"),
+    "knots-negative": ("shexp_probe", _replace("/knots", np.array([-1.0, 0.5])), "/knots must"),
+    "matrix-333": ("env_sh", _replace("/tangent_irradiance/matrix", np.zeros((3, 3, 3))),
+                   "shape"),
+    "lmax-attr-string": ("env_sh", lambda f: f["/lighting/sh"].attrs.__setitem__("lmax", "x"),
+                         "must be an integer"),
+    "probe-dfg-222": ("shexp_probe", _replace("/dfg", np.zeros((2, 2, 2), np.float32)), "shape"),
+    "probe-dfg-nan": ("shexp_probe", lambda f: f["/dfg"].__setitem__((0, 0, 0), np.nan),
+                      "non-finite"),
+    "probe-range-missing": ("shexp_probe", _del("alpha_range"), "alpha_range"),
+    "probe-range-not-json": ("shexp_probe", _set_attr("alpha_range", "[0.2,"),
+                             "not valid JSON"),
+    "probe-config-not-json": ("shexp_probe", _set_attr("fit_config", "{"), "not valid JSON"),
+    "probe-p-float64": ("shexp_probe", _replace("/p", np.zeros((2, 36, 3))), "float32"),
+    "set-count-missing": ("shexp_probe_set", _del("probe_count"), "probe_count"),
+    "set-count-wrong": ("shexp_probe_set", _set_attr("probe_count", np.int64(5)), "5"),
+    "levels-0": ("splitsum_probe", _set_attr("levels", np.int64(0)), "levels = 0"),
+    "levels-minus-1": ("splitsum_probe", _set_attr("levels", np.int64(-1)), "levels = -1"),
+    "levels-missing": ("splitsum_probe", _del("levels"), "levels"),
+    "level-missing": ("splitsum_probe", _del("/levels/1"), "missing dataset /levels/1"),
+    "table-axes-missing": ("brdf_table", lambda f: f["/table"].attrs.__delitem__("axes"),
+                           "axes"),
+    "table-model-missing": ("brdf_table", _del("brdf_model"), "brdf_model"),
+    "table-axis-missing": ("brdf_table", _del("/axes/exponent"), "/axes/exponent"),
+    "table-3d": ("brdf_table", _replace("/table", np.zeros((4, 4, 9), np.float32)), "axes"),
+}  # fmt: skip
+
+
+def corrupt(case: str, map_path, folder) -> tuple[str, str]:
+    """Write the asset of ``case`` corrupted; return (path, expected message fragment)."""
+    kind, fn, fragment = CORRUPTIONS[case]
+    path = str(Path(folder) / f"{case}.h5")
+    write_asset(path, example(kind, map_path))
+    _mutate(path, fn)
+    return path, fragment

@@ -5,11 +5,15 @@ Imported as ``tests.helpers`` everywhere (``pythonpath = ["."]`` in pyproject.to
 """
 
 import contextlib
+import json
 import logging
 import os
+import struct
+import subprocess
 from pathlib import Path
 
 import numpy as np
+import pytest
 from numpy.polynomial.legendre import leggauss
 
 from shbake.envmap.layouts import latlong_directions
@@ -18,6 +22,8 @@ from shbake.sh.basis import real_sh
 ROOT = Path(__file__).resolve().parent.parent
 SHARED_HDRI = ROOT.parent / "shared" / "hdri"
 SAMPLES = ROOT / "data_samples"
+ENGINES_DIR = str(ROOT / "tests" / "engines")
+"""The pinned engine packages (three, Babylon.js, Filament) and their node scripts."""
 SHARED_MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
 GOLDEN = ROOT / "tests" / "data" / "golden"
 """Golden files: outputs of the release before a change, compared byte for byte
@@ -90,3 +96,45 @@ def local_cluster():
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=":0", silence_logs=logging.CRITICAL) as c:  # fmt: skip
         yield c.scheduler_address
+
+
+def smooth_map(h=32, sun=None):
+    """A smooth positive lat-long map (optionally a one-texel sun)."""
+    d = latlong_directions(h, 2 * h)
+    base = 0.5 + 0.4 * d[..., 1] + 0.3 * d[..., 2] ** 2
+    img = np.stack([base, 0.8 * base + 0.1 * d[..., 0], 1.2 - 0.5 * base], -1)
+    img = np.clip(img, 0.02, None).astype(np.float32)
+    if sun is not None:
+        img[h // 4, h // 2] = sun
+    return img
+
+
+def run_node(script: str, *args: str) -> dict:
+    """Run the node script ``tests/engines/SCRIPT ARGS`` (the engines' own code); the JSON of
+    its last output line."""
+    if not os.path.isdir(os.path.join(ENGINES_DIR, "node_modules")):
+        pytest.fail("engine packages missing: run `npm ci --prefix tests/engines` (make test does)")
+    r = subprocess.run(
+        ["node", os.path.join(ENGINES_DIR, script), *args],
+        cwd=ENGINES_DIR,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def ktx2_levels(path) -> list[np.ndarray]:
+    """Every level of a KTX2 file of half or single floats (``vkFormat`` 83 RG16F, 97 RGBA16F, 103
+    RG32F, 109 RGBA32F) as float32 (KTX 2.0 §3.9 level index; an independent reader of the
+    bytes, not shbake's writer)."""
+    data = open(path, "rb").read()
+    vk_format = struct.unpack_from("<I", data, 12)[0]
+    dtype = {83: "<f2", 97: "<f2", 103: "<f4", 109: "<f4"}[vk_format]
+    n_levels = struct.unpack_from("<I", data, 12 + 4 * 7)[0]
+    out = []
+    for i in range(n_levels):
+        off, length, _ = struct.unpack_from("<3Q", data, 80 + 24 * i)
+        out.append(np.frombuffer(data[off : off + length], dtype).astype(np.float32))
+    return out

@@ -256,3 +256,48 @@ class TestDownstreamLoadsNoBaker:
         bakers = sorted(m for m in loaded if m.startswith(("shbake.bakers", "shbake.batch")))
         assert not bakers, bakers
         assert "shbake.brdf.tabulate" not in loaded
+
+
+def imported_modules(path: Path) -> list[str]:
+    """Every module a test or benchmark file imports (function-local imports included)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.append(node.module)
+        elif isinstance(node, ast.Import):
+            found += [a.name for a in node.names]
+    return found
+
+
+class TestTestImports:
+    """Tests and benchmarks share code through helper modules (``tests/helpers.py``,
+    ``tests/faults.py``, ``tests/references.py``, …), imported one way (``tests.X``), so plain
+    ``pytest`` and ``python -m pytest`` collect the same set; no file imports a test module."""
+
+    FILES = sorted((PACKAGE.parent / "tests").rglob("*.py")) + sorted(
+        (PACKAGE.parent / "bench").glob("*.py")
+    )
+    LOCAL = {p.stem for p in (PACKAGE.parent / "tests").rglob("*.py")}
+
+    def test_no_file_imports_a_test_module(self):
+        bad = [
+            f"{path.name}: {m}"
+            for path in self.FILES
+            for m in imported_modules(path)
+            if m.split(".")[-1].startswith("test_") and m.split(".")[-1] in self.LOCAL
+        ]
+        assert bad == [], bad
+
+    def test_helpers_are_imported_as_tests_dot(self):
+        bad = [
+            f"{path.name}: {m}"
+            for path in self.FILES
+            for m in imported_modules(path)
+            if m.split(".")[0] in self.LOCAL
+        ]
+        assert bad == [], bad
+
+    def test_finder_finds_a_test_module_import(self, tmp_path):
+        path = tmp_path / "x.py"
+        path.write_text("def f():\n    from tests.test_faults import snapshot\n")
+        assert imported_modules(path) == ["tests.test_faults"]

@@ -25,6 +25,7 @@ from shbake.sh.basis import real_sh, recurrence_tables
 from shbake.sh.kernels import lambert_kernel
 from shbake.sh.point_sets import gauss_legendre_unit
 from tests.helpers import write_merl
+from tests.references import albedo_quadrature
 
 RNG = np.random.default_rng(3)
 
@@ -33,26 +34,6 @@ def hemi(n, rng=RNG):
     d = rng.normal(size=(n, 3))
     d[:, 2] = np.abs(d[:, 2]) + 1e-3
     return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-
-def albedo_quadrature(brdf, v, n_theta=384, rows=64):
-    """∫ f(s, v) s_z ds by GL(θ) × trapezoid(φ) on the hemisphere, θ split at the mirror.
-
-    ``rows`` θ rows at a time (at 2048 × 8192 nodes the whole grid's arrays took 2.6× as long).
-    """
-    x, w = np.polynomial.legendre.leggauss(n_theta)
-    theta = 0.25 * np.pi * (x + 1.0)
-    wt = 0.25 * np.pi * w * np.sin(theta)
-    n_phi = 4 * n_theta
-    phi = 2 * np.pi * (np.arange(n_phi) + 0.5) / n_phi
-    total = 0.0
-    for i in range(0, n_theta, rows):
-        st, ct = np.sin(theta[i : i + rows])[:, None], np.cos(theta[i : i + rows])[:, None]
-        s = np.stack(np.broadcast_arrays(st * np.cos(phi), st * np.sin(phi), ct), -1)
-        s = s.reshape(-1, 3)
-        weight = (wt[i : i + rows, None] * np.full(n_phi, 2 * np.pi / n_phi)).reshape(-1)
-        total = total + weight @ (brdf.evaluate(s, v) * s[:, 2:3])
-    return total
 
 
 FURNACE_MODELS = {

@@ -22,76 +22,58 @@ A face flipped in the file, roughness levels mis-mapped and gamma applied twice 
 make the glossy comparison fail. ``@pytest.mark.slow``: the six shared maps.
 """
 
-import json
 import os
-import re
 
 import numpy as np
 import pytest
 
-from shbake.bakers.cube_prefilter import BABYLON_MIN_ALPHA, reference_radiance
 from shbake.bakers.env_sh import bake_env_sh
 from shbake.batch.export import export_assets
-from shbake.conventions import REC709_LUMINANCE
 from shbake.envmap import load_environment
 from shbake.format.asset import write_asset
-from shbake.format.exports.gltf import png_rgba8
-from shbake.format.exports.ktx2 import write_ktx2
-from shbake.format.exports.source import load_source, shbake_irradiance
-from shbake.reference.irradiance import brute_force_irradiance
-from shbake.sh.basis import real_sh
+from shbake.format.exports.source import load_source
 from tests.engine_browser import (
-    View,
     inner_pixels,
-    latlong_bilinear,
-    normal_derivative,
-    reflect,
-    signed_permutations,
-    write_sphere_gltf,
 )
-from tests.helpers import ROOT, SHARED_MAPS, map_path
+from tests.engine_cases import (
+    BABYLON_CUBES,
+    DIFFUSE_TOL,
+    FILAMENT_LIMITS,
+    FILAMENT_MIN_ROUGHNESS,
+    FOV_DEG,
+    LAMBERT,
+    SIZE,
+    THREE_CUBES,
+    VIEWS,
+    assert_identity_wins,
+    babylon_expected,
+    diffuse_error,
+    export_recording,
+    filament_expected,
+    glossy_errors,
+    glossy_within,
+    limits_of,
+    pick_pixels,
+    print_errors,
+    render_babylon,
+    render_filament,
+    render_maps,
+    render_three_glossy,
+    snippet,
+    sphere_materials,
+    three_expected,
+    white_env,
+    white_environment,
+    white_ktx1,
+)
+from tests.helpers import ROOT, map_path
 
 pytestmark = pytest.mark.xdist_group("engine-render")
 """One worker runs this module (``make test``: ``--dist loadgroup``), so each map's chains
 are baked once and one browser serves every page."""
-SIZE = 128
-"""Render-target edge (pixels): the sphere spans about 124 of them."""
-FOV_DEG = 30.0
-VIEWS = [View((0.0, 0.0, 4.0)), View((3.0, 2.0, -2.0)), View((-2.0, -3.0, 2.0))]
-GLOSSY = [(f"{kind}{r}", kind, r) for r in (0.0, 0.3, 0.6) for kind in ("metal", "dielectric")]
-"""(name, kind, perceptual roughness): metal = white base, metalness 1 (F0 1);
-dielectric = black base, metalness 0 (F0 0.04, no diffuse)."""
-REFERENCE_PIXELS = 1500
-"""Sphere pixels (all views together) the brute-force references are computed at."""
-THREE_CUBES = {"size": 256, "floor": 4, "samples": 512}
-"""three.js's and Filament's chain (their defaults: the same roughness mapping)."""
-FAST_MAPS = ("forest",)
-"""The map ``make test`` renders; the six shared maps are ``slow`` (and bench/engine_render.py)."""
-DIFFUSE_TOL = 0.02
-MEDIAN_TOL, P95_TOL = 0.05, 0.15
 
 
-def _maps():
-    return [
-        pytest.param(m, marks=() if m in FAST_MAPS else pytest.mark.slow, id=m) for m in SHARED_MAPS
-    ]
-
-
-def _luminance_error(got: np.ndarray, want: np.ndarray) -> np.ndarray:
-    y = REC709_LUMINANCE
-    return np.abs(got @ y - want @ y) / np.maximum(want @ y, 1e-12)
-
-
-def snippet(path: str, marker: str) -> str:
-    """The text between ``BEGIN snippet MARKER`` and ``END snippet MARKER`` lines of ``path``."""
-    text = open(path, encoding="utf-8").read()
-    m = re.search(rf"// BEGIN snippet {re.escape(marker)}\n(.*?)// END snippet {re.escape(marker)}",
-                  text, re.S)  # fmt: skip
-    assert m, f"{path}: no snippet {marker}"
-    return m.group(1)
-
-
-@pytest.fixture(scope="module", params=_maps())
+@pytest.fixture(scope="module", params=render_maps())
 def baked(request, tmp_path_factory):
     """An env_sh asset (lmax 2) of a shared map."""
     name = request.param
@@ -102,237 +84,6 @@ def baked(request, tmp_path_factory):
     h5 = str(d / f"{name}.h5")
     write_asset(h5, asset)
     return {"name": name, "env": env, "h5": h5, "dir": d}
-
-
-def white_environment(d, sizes: list[int]) -> str:
-    """A test-side PMREM KTX2 of a unit-radiance environment (every texel 1)."""
-    pmrem = str(d / "white_pmrem.ktx2")
-    write_ktx2(pmrem, [np.ones((6, s, s, 4)) for s in sizes], cube=True)
-    return pmrem
-
-
-THREE_DFG = os.path.join(ROOT, "tests", "engines", "node_modules", "three", "src", "renderers",
-                         "shaders", "DFGLUTData.js")  # fmt: skip
-
-
-def three_dfg(roughness: np.ndarray, n_dot_v: np.ndarray) -> np.ndarray:
-    """three's DFG table (``DFGLUTData.js``: 16×16 RG16F, u = roughness, v = n·v, linear
-    filtering, rows from v = 0) read as the shader does (``lights_fragment_begin``:
-    ``texture2D(dfgLUT, vec2(roughness, dotNV))``): ``(…, 2)`` = (scale, bias)."""
-    text = open(THREE_DFG, encoding="utf-8").read()
-    words = re.findall(r"0x[0-9a-f]{4}", text.split("new Uint16Array", 1)[1].split("]", 1)[0])
-    lut = np.array([int(w, 16) for w in words], dtype="<u2").view("<f2").astype(np.float64)
-    lut = lut.reshape(16, 16, 2)
-
-    def axis(t):
-        x = np.clip(np.asarray(t) * 16 - 0.5, 0.0, 15.0)
-        i0 = np.minimum(np.floor(x).astype(int), 14)
-        return i0, (x - i0)[..., None]
-
-    c0, fc = axis(roughness)
-    r0, fr = axis(n_dot_v)
-    top = (1 - fc) * lut[r0, c0] + fc * lut[r0, c0 + 1]
-    bottom = (1 - fc) * lut[r0 + 1, c0] + fc * lut[r0 + 1, c0 + 1]
-    return (1 - fr) * top + fr * bottom
-
-
-def three_scattering(f0: float, roughness: np.ndarray, n_dot_v: np.ndarray) -> tuple:
-    """``(FssEss, Fms·Ems)`` of three's ``computeMultiscattering`` (Fdez-Agüera 2019) for a
-    grey ``F0`` and ``F90 = 1``."""
-    fab = three_dfg(roughness, n_dot_v)
-    fss_ess = f0 * fab[..., 0] + fab[..., 1]
-    ess = fab[..., 0] + fab[..., 1]
-    ems = 1.0 - ess
-    favg = f0 + (1.0 - f0) / 21.0
-    fms = fss_ess * favg / (1.0 - ems * favg)
-    return fss_ess, fms * ems
-
-
-def _materials(kinds=("metal", "dielectric")):
-    """The :data:`GLOSSY` spheres of ``kinds`` as page materials (the fault tests draw the
-    metals only: a fault breaks both kinds alike)."""
-    out = []
-    for name, kind, r in GLOSSY:
-        if kind not in kinds:
-            continue
-        metal = kind == "metal"
-        out.append({"name": name, "kind": "standard", "color": [1.0 if metal else 0.0] * 3,
-                    "metalness": 1.0 if metal else 0.0, "roughness": r})  # fmt: skip
-    return out
-
-
-def render_three_glossy(browser, pmrem: str, white: str) -> dict:
-    """The glossy spheres in the export's environment and in the white one."""
-    kw = {"size": SIZE, "fov_deg": FOV_DEG, "materials": _materials()}
-    return {
-        "env": browser.render("three.html", VIEWS, pmrem=browser.url(pmrem), **kw),
-        "white": browser.render("three.html", VIEWS, pmrem=browser.url(white), **kw),
-    }
-
-
-THREE_MIN_ROUGHNESS = 0.0525
-"""three's floor on roughness (``lights_physical_fragment``: ``max(roughnessFactor, 0.0525)``)."""
-
-
-def three_expected(env, renders: dict, pick, white: bool = False) -> dict:
-    """Per glossy material: (rendered, expected) radiance at the ``pick``ed sphere pixels.
-
-    three r187 shades an environment-lit surface (``RE_IndirectSpecular_Physical``) as
-    ``FssEss · prefiltered(R', r) + Fms·Ems · E(n)/π``, ``E`` the irradiance it reads
-    from the PMREM (``getIBLIrradiance``): ``r`` the material's roughness raised to
-    ``0.0525`` plus the geometry roughness (the normal's screen derivatives,
-    :func:`normal_derivative`), ``R' = normalize(mix(R, n, r⁴))``
-    (``envmap_physical_pars_fragment``), the two factors from three's DFG table
-    (:func:`three_scattering`). The expected value puts the brute-force ``P(R', r²)`` and
-    brute-force ``E(n)`` in their place; ``white=True``: a unit environment (both 1).
-    """
-    normal = renders["env"]["normal"]
-    n = normal[..., :3][pick]
-    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
-    rays = renders["env"]["rays"][pick]
-    n_dot_v = np.clip(-(rays * n).sum(-1), 0.0, 1.0)
-    r_geo = normal_derivative(normal)[pick]
-    refl = reflect(rays, n)
-    if not white:
-        d, w, rad = env.samples()
-        e_over_pi = brute_force_irradiance(d, w, rad, n) / np.pi
-    out = {}
-    for name, kind, r in GLOSSY:
-        if name not in renders["white" if white else "env"]["radiance"]:
-            continue
-        r_eff = np.minimum(np.maximum(r, THREE_MIN_ROUGHNESS) + r_geo, 1.0)
-        single, multi = three_scattering(1.0 if kind == "metal" else 0.04, r_eff, n_dot_v)
-        if white:
-            want = (single + multi)[:, None] * np.ones(3)
-        else:
-            look = refl + (n - refl) * (r_eff**4)[:, None]
-            look /= np.linalg.norm(look, axis=-1, keepdims=True)
-            prefiltered = reference_radiance(env, look, r_eff**2)
-            want = single[:, None] * prefiltered + multi[:, None] * e_over_pi
-        got = renders["white" if white else "env"]["radiance"][name][..., :3][pick]
-        out[name] = (got, want)
-    return out
-
-
-def pick_pixels(normal: np.ndarray) -> tuple:
-    """A fixed sample of :data:`REFERENCE_PIXELS` inner sphere pixels (all views)."""
-    idx = np.argwhere(inner_pixels(normal))
-    rng = np.random.default_rng(0)
-    idx = idx[np.sort(rng.choice(len(idx), min(REFERENCE_PIXELS, len(idx)), replace=False))]
-    return tuple(idx.T)
-
-
-def glossy_errors(expected: dict) -> dict:
-    """Per material: (median, 95th percentile) of the luminance relative error."""
-    out = {}
-    for name, (got, want) in expected.items():
-        e = _luminance_error(got, want)
-        out[name] = (float(np.median(e)), float(np.percentile(e, 95)))
-    return out
-
-
-MIRROR_P95_TOL = 0.30
-"""The mirrors' 95th percentile, held to the measured figure (three 22.9 %, Babylon.js
-22 % on forest): the map has 0.7° texels and a high-contrast canopy; the engines show it
-resampled to 256² cube faces (box-filtered cells) and read bilinearly, the reference reads
-the map itself, so edges of its detail differ by a texel's contrast. Median and the other
-roughnesses are held to the issue's bounds."""
-
-
-MEASURED_LIMITS = {
-    ("three.js", "studio"): {"0.0": (0.10, 2.4), "0.3": (0.08, 0.45), "0.6": (0.06, 0.45)},
-    ("Filament", "studio"): {"0.0": (0.55, 6.2), "0.3": (0.09, 0.75), "0.6": (0.045, 0.32)},
-    ("Filament", "esplanade"): {"0.0": (0.14, 1.40)},
-    ("Babylon.js", "studio"): {"0.3": (0.065, 0.24)},
-}
-"""(engine, map) → {roughness: (median, p95)}: cases held to their measured figures (about
-1.2× the 2026-11-26 measurement, docs/BENCHMARKS.md) instead of the issue's bounds.
-
-* studio: a few lamps of a few map texels, up to 3730 against a 0.1–1 room. The chain's
-  GGX filter (filtered importance sampling, 512·2^(i−1) samples at level i, as cmgen and
-  glTF-IBL-Sampler filter) spreads each lamp over a sample's footprint: its level 3 (32²,
-  r 0.29) is 5.7 % median / 61 % p95 from brute force even with 2048 samples; and the
-  engines blend two levels linearly in lod, which for such a lamp is not the lobe between
-  them (an ideal chain read with three's rule: 3.0 % / 8.1 % at r 0.3). Filament's mirror
-  (below) reads the 128² level, where each lamp spreads over a 0.7° texel.
-* Filament's mirror: its roughness floor reads the 128² level (:data:`FILAMENT_LIMITS`);
-  esplanade's sun, 29 856 in a few texels, makes that blur 11.9 % / 116 %.
-"""
-
-
-def glossy_within(errors: dict, limits: dict | None = None) -> bool:
-    """Every material within :data:`MEDIAN_TOL` (median) and :data:`P95_TOL` (95th
-    percentile; the mirrors :data:`MIRROR_P95_TOL`), or within ``limits`` ({roughness:
-    (median, p95)}, :data:`MEASURED_LIMITS`) where given."""
-    for name, (m, p) in errors.items():
-        r = name[-3:]
-        default = (MEDIAN_TOL, MIRROR_P95_TOL if r == "0.0" else P95_TOL)
-        med_tol, p95_tol = (limits or {}).get(r, default)
-        if m > med_tol or p > p95_tol:
-            return False
-    return True
-
-
-def limits_of(engine: str, name: str, base: dict | None = None) -> dict:
-    """The limits an engine's glossy test holds map ``name`` to (``base``: the engine's own)."""
-    return {**(base or {}), **MEASURED_LIMITS.get((engine, name), {})}
-
-
-def print_errors(engine: str, name: str, errors: dict) -> None:
-    for material, (med, p95) in errors.items():
-        print(f"\n{name}: {engine} {material}: median {med:.2%}, p95 {p95:.2%}", end="")
-
-
-ORIENTATION_MARGIN = 0.75
-"""The identity's median error, at most this fraction of the best other orientation's."""
-ORIENTATION_MARGINS = {("Filament", "studio"): 1.0}
-"""Measured exception: Filament's "mirror" reads its 128² level (:data:`FILAMENT_LIMITS`),
-where studio's few-texel lamps blur into every orientation's error alike (identity 0.37,
-next 0.38 in view 0): the identity still fits best, by less than the margin."""
-ORIENTATION_PIXELS = 400
-"""Sphere pixels per view the orientation fit uses when its reference is brute force."""
-
-
-def assert_identity_wins(
-    baked, render: dict, scale: np.ndarray, alpha: float = 0.0, engine: str = ""
-) -> None:
-    """Of the 48 axis flips and swaps applied to the mirror's lookup direction, the identity
-    fits the rendered mirror (``metal0.0`` divided by its environment-BRDF ``scale``, the
-    same sphere in a unit environment) best by :data:`ORIENTATION_MARGIN`, in every view.
-
-    The mirror's reference is the map read bilinearly, or, for an engine whose "mirror" is a
-    lobe of GGX width ``alpha`` (Filament's roughness floor), brute-force ``P(R, alpha)``
-    at :data:`ORIENTATION_PIXELS` pixels per view (on studio the map read bilinearly fits
-    Filament's blurred lamps in every orientation alike: identity 0.91, next 0.94; forest
-    0.26 → 0.09 against next 0.59 → 0.49). ``engine``: its :data:`ORIENTATION_MARGINS`."""
-    margin = ORIENTATION_MARGINS.get((engine, baked["name"]), ORIENTATION_MARGIN)
-    normal = render["normal"]
-    inner = inner_pixels(normal)
-    got_all = render["radiance"]["metal0.0"][..., :3]
-    rng = np.random.default_rng(0)
-    for k in range(len(VIEWS)):
-        n = normal[k][inner[k]][:, :3]
-        n /= np.linalg.norm(n, axis=-1, keepdims=True)
-        refl = reflect(render["rays"][k][inner[k]], n)
-        got = got_all[k][inner[k]] / scale[k][inner[k]][:, :3]
-        if alpha > 0.0:
-            keep = np.sort(rng.choice(len(n), min(ORIENTATION_PIXELS, len(n)), replace=False))
-            refl, got = refl[keep], got[keep]
-
-            def lookup(d):
-                return reference_radiance(baked["env"], d, alpha)
-        else:
-
-            def lookup(d):
-                return latlong_bilinear(baked["env"].pixels, d)
-
-        medians = [
-            float(np.median(_luminance_error(got, lookup(refl @ m.T))))
-            for m in signed_permutations()
-        ]
-        best_other = min(medians[1:])
-        print(f"\n{baked['name']} view {k}: identity {medians[0]:.3f}, next {best_other:.3f}")
-        assert medians[0] < margin * best_other
 
 
 class TestHarness:
@@ -354,23 +105,6 @@ class TestHarness:
             n /= np.linalg.norm(n, axis=-1, keepdims=True)
             worst = np.degrees(np.arccos(np.clip((hit * n).sum(-1), -1.0, 1.0))).max()
             assert worst < 2.0, (k, worst)  # tessellation and pixel-centre offsets only
-
-
-def export_recording(h5: str, target: str, out: str, chain: dict | None = None, **kw) -> tuple:
-    """``export_assets`` for one file, the chain it baked kept (``chain`` given: that chain
-    written instead of baking one): (files, chain)."""
-    import shbake.batch.export as batch
-
-    kept, bake = dict(chain or {}), batch.prefilter_chain
-
-    def recording(*args, **kwargs):
-        if not kept:
-            kept["levels"], kept["roughness"] = bake(*args, **kwargs)
-        return kept["levels"], kept["roughness"]
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(batch, "prefilter_chain", recording)
-        return export_assets([h5], target, out, **kw), kept
 
 
 @pytest.fixture(scope="module")
@@ -470,111 +204,11 @@ class TestThree:
         renders = dict(three["renders"])
         renders["env"] = engine_browser.render(
             "three.html", VIEWS, SIZE, FOV_DEG, pmrem=engine_browser.url(files[0]),
-            materials=_materials(("metal",)),
+            materials=sphere_materials(("metal",)),
         )  # fmt: skip
         errors = glossy_errors(three_expected(baked["env"], renders, three["pick"]))
         print(f"\nthree.js with fault {fault}: {errors}")
         assert not glossy_within(errors)
-
-
-# ---------------------------------------------------------------- Babylon.js
-
-BABYLON_CUBES = {"size": 256, "floor": 8, "samples": 512}
-
-
-def white_env(d, size: int) -> str:
-    """A test-side Babylon ``.env`` of a unit-radiance environment: every RGBD texel
-    (255, 255, 255, 255) = 1 on every level to 1², and the polynomial of ``E/π = 1``
-    (``xx = yy = zz = 1``, since ``n_x² + n_y² + n_z² = 1``), read with level scale 1."""
-    images, position, mipmaps = [], 0, []
-    n = size
-    while n >= 1:
-        png = png_rgba8(np.full((n, n, 4), 255, np.uint8))
-        for _ in range(6):
-            images.append(png)
-            mipmaps.append({"length": len(png), "position": position})
-            position += len(png)
-        n //= 2
-    one, zero = [1.0, 1.0, 1.0], [0.0, 0.0, 0.0]
-    manifest = {
-        "version": 2, "width": size, "imageType": "image/png",
-        "irradiance": {k: one if k in ("xx", "yy", "zz") else zero
-                       for k in ("x", "y", "z", "xx", "yy", "zz", "yz", "zx", "xy")},
-        "specular": {"mipmaps": mipmaps, "lodGenerationScale": 1.0},
-    }  # fmt: skip
-    path = str(d / "white.env")
-    magic = bytes([0x86, 0x16, 0x87, 0x96, 0xF6, 0xD6, 0x96, 0x36])
-    with open(path, "wb") as f:
-        f.write(magic + json.dumps(manifest).encode() + b"\0" + b"".join(images))
-    return path
-
-
-def babylon_expected(env, src, renders: dict, white: dict, pick) -> dict:
-    """Per glossy material: (rendered, expected) radiance at the ``pick``ed sphere pixels.
-
-    Babylon.js 9 shades an environment-lit PBR surface (``pbrBlockReflection``) with the
-    radiance ``mix(prefiltered(R, α), E(n)/π, α)`` (``MIX_IBL_RADIANCE_WITH_IRRADIANCE``,
-    on by default; ``E`` its SH irradiance), ``α = r² + 0.0005`` (``pbrHelperFunctions``
-    ``convertRoughnessToAverageSlope``), ``R = reflect(−v, n)``, times its environment BRDF
-    (DFG table, energy conservation), a factor of ``n·v`` and ``r`` only: measured per pixel
-    by the same sphere in a unit environment (``white``: both terms 1). The expected value
-    puts brute-force ``P(R, α)`` and the asset's ``E`` (which the diffuse test checks
-    Babylon shades) in their place; the mirror (``α`` below the map's texel, where the
-    brute-force sum is the nearest texel) reads the map bilinearly.
-    """
-    normal = renders["normal"]
-    n = normal[..., :3][pick]
-    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
-    refl = reflect(renders["rays"][pick], n)
-    e_over_pi = shbake_irradiance(src, n) / np.pi
-    out = {}
-    for name, _kind, r in GLOSSY:
-        if name not in renders["radiance"]:
-            continue
-        a = r * r + BABYLON_MIN_ALPHA
-        if r == 0.0:
-            prefiltered = latlong_bilinear(env.pixels, refl)
-        else:
-            prefiltered = reference_radiance(env, refl, a)
-        factor = white["radiance"][name][..., :3][pick]
-        want = factor * ((1.0 - a) * prefiltered + a * e_over_pi)
-        out[name] = (renders["radiance"][name][..., :3][pick], want)
-    return out
-
-
-LAMBERT = {"name": "lambert", "kind": "lambert", "color": [1.0, 1.0, 1.0], "metalness": 0.0,
-           "roughness": 1.0}  # fmt: skip
-"""A white diffuse sphere (Babylon: a PBR dielectric with no specular lobe, F0 factor 0)."""
-
-
-def diffuse_error(render: dict, src, clamped: bool = True) -> float:
-    """Max relative error of the rendered white Lambert sphere against ``E(n)/π`` of the asset.
-
-    Per direction ``max |engine − shbake| / Σ_i |E_i y_i(n)|/π`` (the size of the terms
-    summed, as ``tests/test_exports.py``: ``E(n)`` itself nears 0 where they cancel, studio).
-    ``clamped``: the engine shows no negative light where the SH truncation makes ``E < 0``
-    (Filament ``light_indirect.fs`` ``Irradiance_SphericalHarmonics`` ``max(…, 0)``; Babylon
-    ``pbrBlockFinalColorComposition.js:45`` ``max(finalColor, 0)``), so shbake's is clamped
-    too; three.js (``clamped=False``) shows it as it is.
-    """
-    inner = inner_pixels(render["normal"])
-    n = render["normal"][..., :3][inner]
-    n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    want = shbake_irradiance(src, n) / np.pi
-    if clamped:
-        want = np.maximum(want, 0.0)
-    terms = np.abs(real_sh(n, 2)) @ np.abs(src.irradiance9) / np.pi
-    if src.sun_direction is not None:
-        terms += np.maximum(n @ src.sun_direction, 0.0)[:, None] * src.sun_irradiance / np.pi
-    got = render["radiance"]["lambert"][..., :3][inner]
-    return float((np.abs(got - want) / terms).max(-1).max())
-
-
-def render_babylon(browser, materials, **files) -> dict:
-    """The sphere with ``materials`` in the environment of ``files`` (``env=`` a .env,
-    ``gltf=`` a .gltf, loaded by the snippet), plus ``gammaSpace`` for the fault test."""
-    params = {k: browser.url(v) if k in ("env", "gltf") else v for k, v in files.items()}
-    return browser.render("babylon.html", VIEWS, SIZE, FOV_DEG, materials=materials, **params)
 
 
 class TestBabylon:
@@ -588,11 +222,11 @@ class TestBabylon:
         env_file = files[0]
         gltf_file = export_recording(baked["h5"], "babylon", str(baked["dir"] / "b.gltf"),
                                      chain=chain, **BABYLON_CUBES)[0][0]  # fmt: skip
-        materials = [LAMBERT, *_materials()]
+        materials = [LAMBERT, *sphere_materials()]
         renders = {
             "env": render_babylon(engine_browser, materials, env=env_file),
             "gltf": render_babylon(engine_browser, materials, gltf=gltf_file),
-            "white": render_babylon(engine_browser, _materials(),
+            "white": render_babylon(engine_browser, sphere_materials(),
                                     env=white_env(baked["dir"], BABYLON_CUBES["size"])),
         }  # fmt: skip
         pick = pick_pixels(renders["env"]["normal"])
@@ -651,78 +285,13 @@ class TestBabylon:
             faulty = {"levels": levels, "roughness": chain["roughness"]}
             files["gltf"] = export_recording(baked["h5"], "babylon", out, chain=faulty,
                                              **BABYLON_CUBES)[0][0]  # fmt: skip
-        render = render_babylon(engine_browser, _materials(("metal",)), **files)
+        render = render_babylon(engine_browser, sphere_materials(("metal",)), **files)
         r = babylon["renders"]
         errors = glossy_errors(
             babylon_expected(baked["env"], babylon["src"], render, r["white"], babylon["pick"])
         )
         print(f"\nBabylon.js with fault {fault}: {errors}")
         assert not glossy_within(errors)
-
-
-# ---------------------------------------------------------------- Filament
-
-FILAMENT_MIN_ROUGHNESS = 0.089
-"""Filament's floor on perceptual roughness in its mobile materials (the web build's;
-``shaders/src/common_material.fs`` ``MIN_PERCEPTUAL_ROUGHNESS``)."""
-FILAMENT_LIMITS = {"0.0": (0.10, 0.70)}
-"""Filament's mirror, held to its measured median and 95th percentile (forest 8.5 %, 60 %):
-its roughness floor 0.089 reads lod ``6 · 0.089 · 1.911 = 1.02``, the 128² level, whose
-bilinear texels (0.7°) are wider than the ``α = 0.0079`` lobe the reference draws; what
-Filament shows fits ``α`` 0.012–0.018 best (3.9 % median). The other roughnesses are held
-to the issue's bounds."""
-
-
-def white_ktx1(d, sizes: list[int]) -> str:
-    """A test-side Filament IBL of a unit-radiance environment: KTX 1.1, R11F_G11F_B10F texels
-    1.0 (R, G: exponent 15 mantissa 0 = 0x3C0; B 0x1E0) on every level, ``sh`` metadata of
-    ``E/π = 1`` (the first coefficient 1)."""
-    import struct
-
-    texel = 0x3C0 | (0x3C0 << 11) | (0x1E0 << 22)
-    entry = b"sh\0" + ("1 1 1\n" + "0 0 0\n" * 8).encode() + b"\0"
-    kvd = struct.pack("<I", len(entry)) + entry + b"\0" * (-len(entry) % 4)
-    head = bytes.fromhex("ab4b5458203131bb0d0a1a0a") + struct.pack(
-        "<13I", 0x04030201, 0x8C3A, 1, 0x1907, 0x8C3A, 0x1907, sizes[0], sizes[0], 0, 0, 6,
-        len(sizes), len(kvd))  # fmt: skip
-    body = b"".join(struct.pack("<I", n * n * 4) + struct.pack("<I", texel) * (6 * n * n)
-                    for n in sizes)  # fmt: skip
-    path = str(d / "white_ibl.ktx")
-    with open(path, "wb") as f:
-        f.write(head + kvd + body)
-    return path
-
-
-def filament_expected(env, renders: dict, white: dict, pick) -> dict:
-    """Per glossy material: (rendered, expected) radiance at the ``pick``ed sphere pixels.
-
-    Filament (``shaders/src/light_indirect.fs``) shades ``specularDFG · prefilteredRadiance(R′,
-    r) · energyCompensation`` with ``r`` raised to :data:`FILAMENT_MIN_ROUGHNESS`,
-    ``α = r²`` and ``R′ = mix(R, n, α²)`` (``getSpecularDominantDirection``); the factors
-    depend on ``n·v`` and ``r`` only and are measured per pixel in a unit environment
-    (``white``). The expected value puts brute-force ``P(R′, α)`` in its place.
-    """
-    n = renders["normal"][..., :3][pick]
-    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
-    refl = reflect(renders["rays"][pick], n)
-    out = {}
-    for name, _kind, r in GLOSSY:
-        if name not in renders["radiance"]:
-            continue
-        a = max(r, FILAMENT_MIN_ROUGHNESS) ** 2
-        look = refl + (n - refl) * a * a
-        look /= np.linalg.norm(look, axis=-1, keepdims=True)
-        want = white["radiance"][name][..., :3][pick] * reference_radiance(env, look, a)
-        out[name] = (renders["radiance"][name][..., :3][pick], want)
-    return out
-
-
-def render_filament(browser, d, materials, ibl: str) -> dict:
-    """The sphere with ``materials`` in the Filament IBL ``ibl`` (loaded by the snippet)."""
-    spheres = {k: browser.url(write_sphere_gltf(str(d / f"sphere_{k}.gltf"), k))
-               for k in ("lit", "diffuse", "normal")}  # fmt: skip
-    return browser.render("filament.html", VIEWS, SIZE, FOV_DEG, materials=materials,
-                          ibl=browser.url(ibl), spheres=spheres)  # fmt: skip
 
 
 class TestFilament:
@@ -736,8 +305,10 @@ class TestFilament:
         ibl = next(f for f in files if f.endswith("_ibl.ktx"))
         sizes = [THREE_CUBES["size"] >> i for i in range(7)]
         renders = {
-            "env": render_filament(engine_browser, baked["dir"], [LAMBERT, *_materials()], ibl),
-            "white": render_filament(engine_browser, baked["dir"], _materials(),
+            "env": render_filament(
+                engine_browser, baked["dir"], [LAMBERT, *sphere_materials()], ibl
+            ),
+            "white": render_filament(engine_browser, baked["dir"], sphere_materials(),
                                      white_ktx1(baked["dir"], sizes)),
         }  # fmt: skip
         return {"files": files, "ibl": ibl, "renders": renders, "chain": filament_chain["chain"],
@@ -804,7 +375,7 @@ class TestFilament:
             monkeypatch.setattr(fil, "filament_faces", faulty)
             files, _ = export_recording(baked["h5"], "filament", out, chain=chain, **THREE_CUBES)
         ibl = next(f for f in files if f.endswith("_ibl.ktx"))
-        render = render_filament(engine_browser, baked["dir"], _materials(("metal",)), ibl)
+        render = render_filament(engine_browser, baked["dir"], sphere_materials(("metal",)), ibl)
         white = filament["renders"]["white"]
         errors = glossy_errors(filament_expected(baked["env"], render, white, filament["pick"]))
         print(f"\nFilament with fault {fault}: {errors}")

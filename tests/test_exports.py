@@ -13,7 +13,6 @@ import glob
 import json
 import os
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
@@ -27,10 +26,11 @@ from shbake.format.asset import write_asset
 from shbake.format.exports import target_module
 from shbake.format.exports.source import frame_matrix, load_source, shbake_irradiance
 from shbake.sh.windows import fibonacci_sphere
+from tests.helpers import run_node
 
-HERE = os.path.dirname(__file__)
-ENGINES = os.path.join(HERE, "engines")
-SHARED = os.environ.get("SHBAKE_SHARED", os.path.join(HERE, "..", "..", "shared"))
+SHARED = os.environ.get(
+    "SHBAKE_SHARED", os.path.join(os.path.dirname(__file__), "..", "..", "shared")
+)
 MAPS = sorted(glob.glob(os.path.join(SHARED, "hdri", "*.exr")))
 N_DIRS = 300
 TOL = 1e-4
@@ -41,20 +41,6 @@ SMALL = {
 }  # specular chain kept small: these tests are about SH
 
 pytestmark = pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
-
-
-def _node(script: str, *args: str) -> dict:
-    if not os.path.isdir(os.path.join(ENGINES, "node_modules")):
-        pytest.fail("engine packages missing: run `npm ci --prefix tests/engines` (make test does)")
-    r = subprocess.run(
-        ["node", os.path.join(ENGINES, script), *args],
-        cwd=ENGINES,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert r.returncode == 0, r.stderr[-2000:]
-    return json.loads(r.stdout.strip().splitlines()[-1])
 
 
 def _scale(src, dirs) -> np.ndarray:
@@ -115,7 +101,7 @@ class TestBabylonGltf:
     """gltf.write: Babylon.js's loader reads shbake's irradiance (sun included)."""
 
     def test_irradiance_equals_shbake(self, baked, dirs_file):
-        r = _node("babylon_irradiance.mjs", baked["gltf"], dirs_file)
+        r = run_node("babylon_irradiance.mjs", baked["gltf"], dirs_file)
         got = np.array(r["irradiance"])
         src = load_source(baked["h5"])
         d = np.array(json.load(open(dirs_file)))
@@ -128,7 +114,7 @@ class TestBabylonGltf:
         assert _rel(got, want, src, d) < TOL
 
     def test_validator_reports_no_error(self, baked):
-        r = _node("validate_gltf.mjs", baked["gltf"])
+        r = run_node("validate_gltf.mjs", baked["gltf"])
         assert r["numErrors"] == 0, r["messages"]
 
     def test_right_handed_babylon_scene(self, baked, dirs_file, tmp_path):
@@ -139,9 +125,11 @@ class TestBabylonGltf:
         rh = export_assets(
             [baked["h5"]], "gltf", str(tmp_path / "rh.gltf"), babylon_scene="right-handed", **SMALL
         )[0]
-        got = np.array(_node("babylon_irradiance.mjs", rh, dirs_file, "rh")["irradiance"])
+        got = np.array(run_node("babylon_irradiance.mjs", rh, dirs_file, "rh")["irradiance"])
         assert _rel(got, want, src, d) < TOL
-        lh = np.array(_node("babylon_irradiance.mjs", baked["gltf"], dirs_file, "rh")["irradiance"])
+        lh = np.array(
+            run_node("babylon_irradiance.mjs", baked["gltf"], dirs_file, "rh")["irradiance"]
+        )
         assert _rel(lh, want) > 1e-3
 
     @pytest.mark.parametrize("fault", ["flip-x", "flip-y", "flip-z", "pi", "no-sign"])
@@ -167,7 +155,7 @@ class TestBabylonGltf:
             im["uri"] = im["uri"].replace("a_specular_", "bad_specular_")
         with open(bad, "w") as f:
             json.dump(doc, f)
-        got = np.array(_node("babylon_irradiance.mjs", bad, dirs_file)["irradiance"])
+        got = np.array(run_node("babylon_irradiance.mjs", bad, dirs_file)["irradiance"])
         want = shbake_irradiance(load_source(baked["h5"]), np.array(json.load(open(dirs_file))))
         assert _rel(got, want) > 1e-3
 
@@ -176,7 +164,7 @@ class TestThreejs:
     """threejs.write: three's ObjectLoader + LightProbe.getIrradianceAt + DirectionalLight."""
 
     def test_irradiance_equals_shbake(self, baked, dirs_file):
-        r = _node("three_irradiance.mjs", baked["three"], dirs_file)
+        r = run_node("three_irradiance.mjs", baked["three"], dirs_file)
         got = np.array(r["irradiance"])
         src = load_source(baked["h5"])
         d = np.array(json.load(open(dirs_file)))
@@ -203,7 +191,7 @@ class TestThreejs:
             f.attrs["probe_position"] = np.array([1.5, 2.0, -3.0])
         out = str(sky_asset["dir"] / f"pos-{frame}.json")
         export_assets([h5], "threejs", out, frame=frame, rotate_deg=rotate)
-        r = _node("three_irradiance.mjs", out, dirs_file)
+        r = run_node("three_irradiance.mjs", out, dirs_file)
         # z-up: (x, y, z) -> (x, -z, y); --rotate turns the environment, not the probe
         assert r["positions"] == [want]
         src = load_source(h5, frame=frame, rotate_deg=rotate)
@@ -228,7 +216,7 @@ class TestThreejs:
         bad = str(baked["dir"] / "bad.json")
         with open(bad, "w") as f:
             json.dump(doc, f)
-        got = np.array(_node("three_irradiance.mjs", bad, dirs_file)["irradiance"])
+        got = np.array(run_node("three_irradiance.mjs", bad, dirs_file)["irradiance"])
         want = shbake_irradiance(load_source(baked["h5"]), np.array(json.load(open(dirs_file))))
         assert _rel(got, want) > 1e-3
 
@@ -238,7 +226,7 @@ class TestAgainstBruteForce:
 
     def test_report(self, baked, dirs_file):
         ref = brute_force_reference(baked["env"], n_dirs=N_DIRS)
-        got = np.array(_node("three_irradiance.mjs", baked["three"], dirs_file)["irradiance"])
+        got = np.array(run_node("three_irradiance.mjs", baked["three"], dirs_file)["irradiance"])
         y = got @ REC709_LUMINANCE
         rel = np.abs(y - ref["irradiance"]) / np.maximum(ref["irradiance"], 1e-30)
         print(
@@ -262,10 +250,10 @@ class TestFrameRoundTrip:
         three = export_assets(
             [baked["h5"]], "threejs", str(tmp_path / "t.json"), frame=frame, rotate_deg=deg
         )[0]
-        got = np.array(_node("three_irradiance.mjs", three, str(dt))["irradiance"])
+        got = np.array(run_node("three_irradiance.mjs", three, str(dt))["irradiance"])
         assert _rel(got, want, src, d) < TOL
         # and the rotation is really applied: reading the rotated export in the world frame fails
-        got_world = np.array(_node("three_irradiance.mjs", three, dirs_file)["irradiance"])
+        got_world = np.array(run_node("three_irradiance.mjs", three, dirs_file)["irradiance"])
         assert _rel(got_world, want) > 1e-3
 
 
@@ -279,7 +267,7 @@ class TestRegistry:
 
 
 def _ktx2(path: str) -> dict:
-    return _node("ktx2_read.mjs", path)
+    return run_node("ktx2_read.mjs", path)
 
 
 class TestKtx2:

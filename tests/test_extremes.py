@@ -26,7 +26,7 @@ from shbake.format.asset import write_asset
 from shbake.format.exports import TARGETS
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.shader import shader
-from tests.helpers import map_path, write_test_exr
+from tests.helpers import ktx2_levels, map_path, write_test_exr
 
 pytestmark = pytest.mark.extremes
 
@@ -140,23 +140,6 @@ class TestProbeExtremes:
             assert all(np.all(lv == 0) for lv in prefilter_chain(env.pixels, config))
 
 
-def _ktx2_levels(path) -> list[np.ndarray]:
-    """Every level of a KTX2 file of half or single floats (``vkFormat`` 83 RG16F, 97 RGBA16F, 103
-    RG32F, 109 RGBA32F) as float32 (KTX 2.0 §3.9 level index; an independent reader of the
-    bytes, not shbake's writer)."""
-    import struct
-
-    data = open(path, "rb").read()
-    vk_format = struct.unpack_from("<I", data, 12)[0]
-    dtype = {83: "<f2", 97: "<f2", 103: "<f4", 109: "<f4"}[vk_format]
-    n_levels = struct.unpack_from("<I", data, 12 + 4 * 7)[0]
-    out = []
-    for i in range(n_levels):
-        off, length, _ = struct.unpack_from("<3Q", data, 80 + 24 * i)
-        out.append(np.frombuffer(data[off : off + length], dtype).astype(np.float32))
-    return out
-
-
 def _json_numbers(obj):
     if isinstance(obj, dict):
         for v in obj.values():
@@ -178,12 +161,13 @@ def _exported_finite(files):
             assert "Infinity" not in text and "NaN" not in text, f
             assert all(np.isfinite(x) for x in _json_numbers(json.loads(text))), f
         elif f.endswith(".ktx2"):
-            for lv in _ktx2_levels(f):
+            for lv in ktx2_levels(f):
                 assert np.all(np.isfinite(lv)), f
         elif f.endswith(".txt"):
             nums = [float(x) for x in re.findall(r"[-+]?[\d.]+(?:e[-+]?\d+)?|inf|nan",
                                                   open(f).read().lower())]  # fmt: skip
             assert all(np.isfinite(x) for x in nums), f
+
 
 SMALL_CUBES = {"size": 16, "floor": 4, "samples": 32}
 
@@ -193,8 +177,17 @@ class TestExportExtremes:
     tiny maps: finite files; constant maps give the closed forms."""
 
     @pytest.mark.parametrize("target", TARGETS)
-    @pytest.mark.parametrize("kind, sun", [("black", False), ("constant", False), ("sun", False),
-                                           ("sun", True), ("dim", False), ("tiny", False)])
+    @pytest.mark.parametrize(
+        "kind, sun",
+        [
+            ("black", False),
+            ("constant", False),
+            ("sun", False),
+            ("sun", True),
+            ("dim", False),
+            ("tiny", False),
+        ],
+    )
     def test_finite_exports(self, maps, tmp_path, target, kind, sun):
         env = load_environment(maps[kind], quiet=True)
         asset, _ = bake_env_sh(env, lmax=2, irradiance_lmax=2, sun=sun)
@@ -205,7 +198,7 @@ class TestExportExtremes:
         _exported_finite(files)
         if kind == "constant" and target == "ktx2":
             # a constant radiance 0.75 prefilters to 0.75 at every level (RGB; A = 1)
-            for lv in _ktx2_levels(next(f for f in files if f.endswith(".ktx2")
+            for lv in ktx2_levels(next(f for f in files if f.endswith(".ktx2")
                                         and "_dfg" not in f)):  # fmt: skip
                 np.testing.assert_allclose(lv.reshape(-1, 4)[:, :3], 0.75, rtol=2e-3)
         if kind == "constant" and target == "threejs":
@@ -244,7 +237,7 @@ class TestHalfFloatOverflow:
         assert len(lines) == (1 if target == "ktx2" else 2)  # filament: _ibl and _skybox
         assert lines[0].startswith("shbake: warning: ") and "clamped" in lines[0]
         if target == "ktx2":
-            lv0 = _ktx2_levels(next(f for f in files if f.endswith(".ktx2") and "_dfg" not in f))
+            lv0 = ktx2_levels(next(f for f in files if f.endswith(".ktx2") and "_dfg" not in f))
             assert np.all(np.isfinite(lv0[0])) and lv0[0].max() == np.float32(65504.0)
         _exported_finite(files)
 

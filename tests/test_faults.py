@@ -26,65 +26,19 @@ import numpy as np
 import pytest
 
 from shbake.format.asset import write_asset
-from tests.assets_examples import example, write_map
-from tests.test_registry import CORRUPTIONS, corrupt
-
-TIMEOUT = 120
-"""Seconds any subprocess case may take (a hang fails the test instead of the suite)."""
-
-
-# -- helpers --------------------------------------------------------------------------------
-
-
-def shbake(*args, timeout=TIMEOUT, stdout=subprocess.PIPE, env=None, preexec=None):
-    """Run ``shbake ARGS`` in a subprocess; ``(status, stdout, stderr)``."""
-    full_env = dict(os.environ, NUMBA_NUM_THREADS="1", **(env or {}))
-    p = subprocess.run(
-        [sys.executable, "-m", "shbake_cli.main", *map(str, args)],
-        stdout=stdout, stderr=subprocess.PIPE, text=True, timeout=timeout, env=full_env,
-        preexec_fn=preexec,
-    )  # fmt: skip
-    return p.returncode, p.stdout or "", p.stderr
-
-
-def snapshot(*folders) -> dict:
-    """``path → bytes`` (or ``"dir"``) of everything under ``folders``, hidden files too."""
-    out = {}
-    for folder in folders:
-        for root, dirs, files in os.walk(folder):
-            for d in dirs:
-                out[os.path.join(root, d)] = "dir"
-            for f in files:
-                p = os.path.join(root, f)
-                if os.path.isfile(p) and not os.path.islink(p):
-                    out[p] = Path(p).read_bytes()
-                else:
-                    out[p] = "special"
-    return out
-
-
-def assert_failed(result, code=1, fragment=None):
-    """Exit ``code``, one ``shbake: error:`` line, no traceback; return the message."""
-    status, _, err = result
-    lines = [x for x in err.splitlines() if x.startswith("shbake: error:")]
-    assert status == code, f"exit {status}, stderr: {err[-2000:]}"
-    assert len(lines) == 1, err[-2000:]
-    assert "Traceback" not in err and "Exception ignored" not in err, err[-2000:]
-    if fragment is not None:
-        assert fragment in lines[0], lines[0]
-    return lines[0]
-
-
-@contextlib.contextmanager
-def unchanged(*folders):
-    """Assert that the block leaves ``folders`` exactly as they were (no new file)."""
-    before = snapshot(*folders)
-    yield
-    after = snapshot(*folders)
-    new = sorted(set(after) - set(before))
-    gone = sorted(set(before) - set(after))
-    changed = sorted(p for p in before if p in after and before[p] != after[p])
-    assert not (new or gone or changed), f"new {new}, gone {gone}, changed {changed}"
+from tests.assets_examples import CORRUPTIONS, corrupt, example, write_map
+from tests.faults import (
+    PREVIEW_OF_KIND,
+    TIMEOUT,
+    TMPFS_SIZE,
+    assert_failed,
+    can_mount,
+    file_size_limit,
+    fill,
+    shbake,
+    snapshot,
+    unchanged,
+)
 
 
 def dead_pid() -> int:
@@ -120,16 +74,6 @@ def box(tmp_path, ws):
     return tmp_path
 
 
-TMPFS_SIZE = "2m"
-
-
-def _can_mount() -> bool:
-    """Root on Linux (``SHBAKE_TEST_NO_MOUNT=1`` tries the injected faults instead)."""
-    if os.environ.get("SHBAKE_TEST_NO_MOUNT"):
-        return False
-    return hasattr(os, "geteuid") and os.geteuid() == 0 and sys.platform.startswith("linux")
-
-
 @pytest.fixture
 def tmpfs(tmp_path):
     """A folder on a 2 MB tmpfs when the tests may mount one (root), else a plain folder;
@@ -137,7 +81,7 @@ def tmpfs(tmp_path):
     every case runs for every user."""
     mnt = tmp_path / "mnt"
     mnt.mkdir()
-    mounted = _can_mount() and subprocess.run(
+    mounted = can_mount() and subprocess.run(
         ["mount", "-t", "tmpfs", "-o", f"size={TMPFS_SIZE}", "tmpfs", str(mnt)],
         capture_output=True,
     ).returncode == 0  # fmt: skip
@@ -146,27 +90,6 @@ def tmpfs(tmp_path):
     finally:
         if mounted:
             subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
-
-
-def _file_size_limit():
-    """``preexec_fn``: writing past a file's current end fails (``EFBIG``, ``SIGXFSZ``
-    ignored) — a full disk for a user who cannot mount one."""
-    import resource
-
-    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
-
-
-def fill(folder: Path) -> None:
-    """Fill the file system of ``folder`` to the last byte."""
-    fd = os.open(folder / "filler", os.O_WRONLY | os.O_CREAT, 0o644)
-    try:
-        for size in (65536, 4096, 1):
-            with contextlib.suppress(OSError):
-                while os.write(fd, b"\0" * size) == size:
-                    pass
-    finally:
-        os.close(fd)
 
 
 # -- 1. output = input; output locations checked before any work --------------------------
@@ -338,7 +261,7 @@ class TestFullDisk:
             (box / "warm").mkdir()
             assert shbake(*args(box / "warm"))[0] == 0
             shutil.rmtree(box / "warm")
-            run, fragment = (lambda: shbake(*args(tmpfs), preexec=_file_size_limit)), "writing"
+            run, fragment = (lambda: shbake(*args(tmpfs), preexec=file_size_limit)), "writing"
         with unchanged(tmpfs, box):
             assert_failed(run(), fragment=fragment)
 
@@ -679,14 +602,6 @@ class TestOtherCommandsMemory:
 
 
 # -- 6, 7 (and issue 10). corrupt assets ----------------------------------------------------
-
-
-PREVIEW_OF_KIND = {
-    "env_sh": lambda a, out: ["preview", a, "-o", out, "--size", 8],
-    "shexp_probe": lambda a, out: ["preview", a, "-o", out, "--size", 8],
-    "shexp_probe_set": lambda a, out: ["preview", a, "-o", out, "--size", 8],
-    "splitsum_probe": lambda a, out: ["preview", a, "-o", out, "--size", 8],
-}
 
 
 class TestCorruptAssets:

@@ -35,7 +35,7 @@ from shbake.format import registry
 from shbake.format.asset import WRITE_OPTIONS, Asset, write_asset, write_into
 from shbake.format.provenance import relativise
 from tests.assets_examples import example, write_map
-from tests.test_faults import _can_mount, assert_failed, fill, shbake, snapshot, unchanged
+from tests.faults import assert_failed, can_mount, fill, shbake, snapshot, unchanged
 
 SCENE = """[scene]
 name = "s"
@@ -153,7 +153,7 @@ def measured(ws, tmp_path_factory, run_cli):
 def tmpfs(folder: Path, size: str = "16m", read_only: bool = False, setup=None):
     """A tmpfs mounted on ``folder`` (root only: otherwise the test is skipped, saying so);
     ``setup(folder)`` runs before a read-only remount."""
-    if not _can_mount():
+    if not can_mount():
         pytest.skip("needs root on Linux to mount a tmpfs (CI runs as root); the file size "
                     "limit case runs for every user")  # fmt: skip
     folder.mkdir()

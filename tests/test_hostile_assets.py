@@ -18,7 +18,7 @@ import pytest
 from shbake.errors import FormatError
 from shbake.format.asset import LINKS_MAX, read_asset, write_asset
 from tests.assets_examples import example, write_map
-from tests.test_faults import PREVIEW_OF_KIND, assert_failed, shbake, unchanged
+from tests.faults import PREVIEW_OF_KIND, assert_failed, shbake, unchanged
 
 ROOT = Path(__file__).resolve().parent.parent
 SH = "/lighting/sh"

@@ -14,7 +14,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from shbake_cli.main import main
-from test_brdf import albedo_quadrature
 
 from shbake.bakers.dfg import dfg_axes, dfg_table
 from shbake.bakers.shexp import FitConfig, FitPlan, design_rows
@@ -34,20 +33,10 @@ from shbake.shading.shexp import evaluate_shexp, hat_weight, hat_weights
 from shbake.shading.splitsum import evaluate_splitsum
 from shbake.texture.octahedral import decode as oct_decode
 from shbake.texture.octahedral import encode as oct_encode
-from tests.helpers import map_path, write_test_exr
+from tests.helpers import map_path, smooth_map, write_test_exr
+from tests.references import albedo_quadrature
 
 SMALL = FitConfig(normals=16, views=16, samples=256)
-
-
-def smooth_map(h=32, sun=None):
-    """A smooth positive lat-long map (optionally a one-texel sun)."""
-    d = latlong_directions(h, 2 * h)
-    base = 0.5 + 0.4 * d[..., 1] + 0.3 * d[..., 2] ** 2
-    img = np.stack([base, 0.8 * base + 0.1 * d[..., 0], 1.2 - 0.5 * base], -1)
-    img = np.clip(img, 0.02, None).astype(np.float32)
-    if sun is not None:
-        img[h // 4, h // 2] = sun
-    return img
 
 
 def random_pairs(n, seed):
@@ -87,8 +76,7 @@ class TestGgxIntegrals:
         bf = brute_force_shading(d, omega, img.reshape(-1, 3), frames, views_local,
                                  make_brdf("ggx", F0=1.0, alpha=r * r))  # fmt: skip
         errs = [
-            np.abs(ggx_integrals(img, v, n, r * r, s)[0] / bf - 1).max()
-            for s in (256, 4096, 65536)
+            np.abs(ggx_integrals(img, v, n, r * r, s)[0] / bf - 1).max() for s in (256, 4096, 65536)
         ]
         assert errs[2] < errs[1] < errs[0] and errs[2] < 1e-3, errs
 
@@ -269,7 +257,8 @@ class TestShexpFit:
     @pytest.mark.parametrize("weights", ["log", "shaded-nv"])
     def test_black_map_is_finite(self, weights):
         probe = FitPlan(replace(SMALL, weights=weights), (32, 64)).fit(
-            np.zeros((32, 64, 3), np.float32))
+            np.zeros((32, 64, 3), np.float32)
+        )
         assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
         table = dfg_table(size=8, samples=256)
         out = evaluate_shexp(probe.p, probe.q, table, [[0, 0, 1.0]], [[0, 0, 1.0]], 0.5,

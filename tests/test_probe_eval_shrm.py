@@ -180,7 +180,7 @@ class TestCli:
         sphere and faces: the SHRM and both split-sums are evaluated in all 8 cases, SH-exp
         has no column, the SHRM's shortfall at ε = 0.01 is printed, the JSON carries its
         orders and bytes (≈ 30 s idle: the split-sum prefilter and ρ̂ to the caps)."""
-        from test_probe import smooth_map
+        from tests.helpers import smooth_map
 
         src = write_test_exr(tmp_path / "m.exr", smooth_map(32))
         code, out, err = run_cli("probe-eval", src, "--size", "8", "--samples", "64",
@@ -204,7 +204,7 @@ class TestCli:
         assert code == 2 and "--roughness" in err
 
     def test_bad_eps_one_line(self, tmp_path, run_cli):
-        from test_probe import smooth_map
+        from tests.helpers import smooth_map
 
         src = write_test_exr(tmp_path / "m.exr", smooth_map(16))
         code, _, err = run_cli("probe-eval", src, "--eps", "0", "-o", tmp_path / "r.md")

@@ -114,9 +114,8 @@ class TestRotatedProbeEqualsRotatedMap:
         assert turned.attrs["probe_rotation_deg"] == 90.0
 
     def test_export_cube_maps_follow_the_turn(self, maps, tmp_path):
-        from test_extremes import _ktx2_levels
-
         from shbake.batch.export import export_assets
+        from tests.helpers import ktx2_levels
 
         folder, src, rolled = maps
         out = {}
@@ -127,6 +126,6 @@ class TestRotatedProbeEqualsRotatedMap:
             files = export_assets([str(folder / "env_sh" / f"{name}.h5")], "ktx2",
                                   str(tmp_path / name), many=True, size=16, floor=4,
                                   samples=32)  # fmt: skip
-            out[name] = _ktx2_levels(next(f for f in files if f.endswith(f"{name}.ktx2")))
+            out[name] = ktx2_levels(next(f for f in files if f.endswith(f"{name}.ktx2")))
         for a, b in zip(out["turned"], out["rolled"], strict=True):
             np.testing.assert_allclose(a, b, rtol=2e-3, atol=1e-3 * np.abs(b).max())

@@ -7,45 +7,11 @@ from shbake.envmap import Environment, load_environment
 from shbake.envmap.layouts import LAYOUTS, texels
 from shbake.sh.basis import real_sh
 from shbake.sh.kernels import convolve, kajiya_kay_kernel, lambert_kernel
-from shbake.sh.projection import IMAGE_FRAME, fejer_row_weights, project_latlong
-from shbake.sh.rotation import SHRotation
+from shbake.sh.projection import IMAGE_FRAME, project_latlong
 from tests.helpers import map_path, synth_latlong
+from tests.references import ducc0_project
 
 ducc0 = pytest.importorskip("ducc0")
-
-
-def ducc0_project(img, lmax):
-    """Projection by ducc0 with the same nodes and weights, converted per SPEC §5."""
-    h, w, nc = img.shape
-    theta = np.pi * (np.arange(h) + 0.5) / h
-    out = np.zeros(((lmax + 1) ** 2, nc))
-    for c in range(nc):
-        alm = ducc0.sht.experimental.adjoint_synthesis(
-            map=np.ascontiguousarray(img[:, :, c], dtype=np.float64).reshape(1, -1),
-            theta=theta,
-            lmax=lmax,
-            spin=0,
-            nphi=np.full(h, w, dtype=np.uintp),
-            phi0=np.full(h, np.pi / w),
-            ringstart=(np.arange(h) * w).astype(np.uintp),
-            ringfactor=fejer_row_weights(h, w),
-            nthreads=1,
-        )[0]
-        idx = 0
-        for m in range(lmax + 1):
-            for l in range(m, lmax + 1):
-                a = alm[idx]
-                idx += 1
-                if m == 0:
-                    out[l * (l + 1), c] = a.real
-                else:
-                    s = np.sqrt(2) * (-1) ** m
-                    out[l * (l + 1) + m, c] = s * a.real
-                    out[l * (l + 1) - m, c] = -s * a.imag
-    # ducc0's frame (x', y', z') = (-d_z, d_x, d_y) is improper: T = -(proper rotation).
-    T = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-    parity = (-1.0) ** np.repeat(np.arange(lmax + 1), 2 * np.arange(lmax + 1) + 1)
-    return SHRotation(-T, lmax).apply(out * parity[:, None], transpose=True)
 
 
 class TestWhiteDome:

@@ -21,7 +21,7 @@ from shbake.sh import projection
 from shbake.sh.projection import project_latlong
 from shbake.sh.rotation import SHRotation
 from tests.helpers import SHARED_MAPS, map_path
-from tests.test_projection import ducc0_project
+from tests.references import ducc0_project
 
 BEFORE = np.load(Path(__file__).parent / "data" / "projection_before.npz")
 RANDOM_MAPS = ("random37x75", "random20x42", "random33x64")

@@ -22,7 +22,8 @@ import termios
 import numpy as np
 import OpenImageIO as oiio
 import pytest
-from helpers import map_path, write_test_exr
+
+from tests.helpers import map_path, write_test_exr
 
 REC709 = np.array([0.2126, 0.7152, 0.0722])
 """Rec.709 luminance weights (ITU-R BT.709), written out here as the oracle."""

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from shbake.batch.scene import load_scene
+from tests.faults import assert_failed, unchanged
 from tests.helpers import write_test_exr
-from tests.test_faults import assert_failed, unchanged
 
 DIFFUSE = '[[materials]]\nname = "plaster"\nkind = "diffuse"\n'
 

@@ -25,8 +25,8 @@ import pytest
 from shbake.batch import scheduler
 from shbake.errors import ParameterError
 from shbake.format import atomic
+from tests.faults import TIMEOUT, assert_failed, shbake, snapshot, unchanged
 from tests.helpers import local_cluster, write_test_exr
-from tests.test_faults import TIMEOUT, assert_failed, shbake, snapshot, unchanged
 
 
 @pytest.fixture(scope="module")

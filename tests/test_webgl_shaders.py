@@ -31,9 +31,7 @@ import numpy as np
 import pytest
 
 from shbake.bakers.env_sh import bake_env_sh
-from shbake.bakers.shexp import FitConfig
 from shbake.bakers.shrm import bake_shrm
-from shbake.bakers.splitsum import SplitSumConfig
 from shbake.batch.brdf_table import bake_brdf_table
 from shbake.batch.export import export_assets
 from shbake.batch.probe_eval import bake_splitsum_file
@@ -50,6 +48,7 @@ from shbake.sh.basis import real_sh
 from shbake.shading.shader import shader
 from tests.engine_browser import decode
 from tests.helpers import ROOT, SHARED_MAPS, map_path
+from tests.webgl_cases import FIT, GLOSSY, SHRMS, SPLIT, TABLES
 
 pytestmark = pytest.mark.xdist_group("webgl-shaders")
 """One worker runs this module (``make test``: ``--dist loadgroup``): one browser, each
@@ -61,21 +60,6 @@ FLOAT_TOL = 1e-3
 """Relative RMS over the sphere, float32 textures (issue 30)."""
 HALF_EPS = 2.0**-11
 """Unit roundoff of IEEE half floats (10 stored mantissa bits)."""
-GLOSSY = [(r, f0) for r in (0.25, 0.5, 0.75, 1.0) for f0 in (1.0, 0.04)]
-"""(perceptual roughness, F0) of the glossy passes: chrome and dielectric, r 0.25 … 1."""
-SPLIT = SplitSumConfig(top=32, min_size=8, alphas=(0.0625, 0.25, 0.5, 1.0), samples=64)
-"""A small split-sum chain over α = r² for r 0.25 … 1 (its values do not matter here)."""
-FIT = FitConfig(normals=16, views=8, alpha_count=4, alpha_min=0.0625, polish=0, samples=64)
-"""A quick SH-exp fit (two sets, lmax 5 and 2) over the same range."""
-SHRMS = {
-    "surface": ("ggx", {"alpha": 0.3, "F0": 1.0}, {"F": 6, "P": 2, "face_size": 16}),
-    "lobe": ("phong-lobe", {"s": 32.0}, {"F": 10, "P": 0, "face_size": 16}),
-    "tangent": ("kajiya-kay", {}, {"F": 8, "P": 4, "face_size": 8}),
-}
-"""One SHRM per kind (RH02 §7.5): GGX (P 2), a Phong lobe, Kajiya–Kay hair; small bakes."""
-TABLES = {"ashikhmin-shirley": {"nu": 40.0, "nv": 4.0}, "phong": {}}
-"""Kautz tables (lmax 4, 16² views, 64 samples): anisotropic Ashikhmin–Shirley (brushed
-along the preview's meridians) and an analytic, MERL-free Phong."""
 FIXED = ("kautz-fixed-light", "kautz-fixed-view")
 KAUTZ_MODES = [
     pytest.param("phong", ("kautz", *FIXED), id="phong"),
@@ -449,7 +433,7 @@ class TestExportCommand:
         32-bit float|signed samples R, G, B, A, KDFS 1.3 §5.6); its texels are the asset's
         coefficients, split-sum levels and DFG table, as the spec reader
         (:func:`read_ktx2`) finds them."""
-        from tests.test_exports import _node
+        from tests.helpers import run_node
 
         args = {"env_sh": [], "splitsum_probe": [], "brdf_table": ["--env", small["env_sh"]]}
         folders = {}
@@ -462,7 +446,7 @@ class TestExportCommand:
             assert not [n for n in os.listdir(folders[kind]) if n.endswith(".f32")]
             for name, t in manifest["textures"].items():
                 assert t["file"] == name + ".ktx2"
-                r = _node("ktx2_read.mjs", str(folders[kind] / t["file"]))
+                r = run_node("ktx2_read.mjs", str(folders[kind] / t["file"]))
                 header = [r[k] for k in ("vkFormat", "typeSize", "pixelWidth", "pixelHeight",
                                          "pixelDepth", "layerCount", "faceCount", "levelCount",
                                          "supercompressionScheme")]  # fmt: skip
@@ -552,7 +536,7 @@ class TestExportCommand:
     def test_other_folder_refused(self, run_cli, small, tmp_path, content):
         """An existing folder that is not an export is never replaced: one line, exit 1,
         the folder byte-identical."""
-        from tests.test_faults import snapshot
+        from tests.faults import snapshot
 
         out = tmp_path / "out"
         out.mkdir()
@@ -572,7 +556,7 @@ class TestExportCommand:
         earlier export byte-identical, no staged folder or temporary left."""
         from shbake.errors import OutputError
         from shbake.format.exports import webgl
-        from tests.test_faults import snapshot
+        from tests.faults import snapshot
 
         out = tmp_path / "out"
         assert run_cli("export", small["env_sh"], "--to", "webgl", "-o", out)[0] == 0
