@@ -46,6 +46,11 @@ FURNACE_MODELS = {
     "kajiya-kay": {"kd": 0.3, "ks": 0.4, "p": 16},
 }
 
+FURNACE_NODES = {"ashikhmin-shirley": 384}
+"""θ nodes of the reference albedo quadrature where 128 are not enough: 128 and 384 nodes
+agree within 2e-7 for every other model (1e-13 for Lambert and Phong) but differ by
+3.7e-5 for Ashikhmin–Shirley (measured over 17 of the furnace views)."""
+
 
 def furnace_views():
     """50 views: 40 random, 10 grazing (z = 0.03 … 0.1, ~84°–88°)."""
@@ -76,7 +81,8 @@ class TestWhiteFurnace:
         views = furnace_views()
         c, conv = project_views(brdf, views, lmax=2, samples=None, tol=2e-5, max_samples=1 << 17)
         q = SQRT_4PI * c[:, 0, :]  # unit constant light: L_00 = sqrt(4π)
-        ref = np.array([albedo_quadrature(brdf, v) for v in views])
+        n_theta = FURNACE_NODES.get(name, 128)
+        ref = np.array([albedo_quadrature(brdf, v, n_theta) for v in views])
         np.testing.assert_allclose(q, ref, atol=1e-4, rtol=0)
 
     def test_merl(self, merl_file):
