@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))  # the tests package (tests.helpers), as pytest se
 
 from timing import interleaved, machine, med, previous_module, ratio  # noqa: E402
 
-from shbake.bakers.kautz_report import settings_report  # noqa: E402
+from shbake.bakers.brdf_table_report import settings_report  # noqa: E402
 from shbake.brdf import make_brdf  # noqa: E402
 from shbake.brdf.tabulate import tabulate  # noqa: E402
 from tests.helpers import map_path  # noqa: E402

@@ -24,7 +24,7 @@ from shbake_cli.options import (
     warn,
 )
 
-from shbake.bakers.kautz_report import format_report
+from shbake.bakers.brdf_table_report import format_report
 from shbake.batch.brdf_table import bake_brdf_table, check_parameters
 from shbake.brdf import MODELS, model_spec
 from shbake.conventions import KAUTZ_LMAX_LIMIT

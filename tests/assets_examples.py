@@ -39,7 +39,7 @@ def example(kind: str, map_path) -> "object":
     from shbake.bakers.splitsum import SplitSumConfig
     from shbake.brdf.model import make_brdf
     from shbake.envmap import load_environment
-    from shbake.format.kautz_table import build_table_asset
+    from shbake.format.brdf_table import build_table_asset
     from shbake.format.shexp import build_shexp_asset, build_shexp_set_asset
     from shbake.format.splitsum import build_splitsum_asset
 

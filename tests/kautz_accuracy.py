@@ -10,7 +10,7 @@ from shbake.brdf import make_brdf
 from shbake.brdf.tabulate import tabulate
 from shbake.envmap import load_environment
 from shbake.evaluation.metrics import relative_rms_error
-from shbake.format.kautz_table import BRDFTable
+from shbake.format.brdf_table import BRDFTable
 from shbake.preview.passes import render_pass
 from shbake.shading.shader import shader
 

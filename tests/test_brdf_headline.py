@@ -15,7 +15,7 @@ import h5py
 import numpy as np
 import pytest
 
-from shbake.bakers.kautz_report import probe_views
+from shbake.bakers.brdf_table_report import probe_views
 from shbake.batch.brdf_table import TABLE_ERROR_VIEWS
 from shbake.brdf import make_brdf
 from shbake.sh.basis import real_sh

@@ -176,7 +176,7 @@ class TestKautzKernels:
                     L_local=L_local, q=q, c_world=c_world)  # fmt: skip
 
     def test_full_frame(self, scene):
-        from shbake.shading.kautz_table import shade_full
+        from shbake.shading.brdf_table import shade_full
 
         s = scene
         out = np.empty((len(s["frames"]), 3))
@@ -184,7 +184,7 @@ class TestKautzKernels:
         np.testing.assert_allclose(out, s["q"], rtol=0, atol=1e-12 * np.abs(s["q"]).max())
 
     def test_rotated_lighting_and_fixed_light_frame(self, scene):
-        from shbake.shading.kautz_table import lookup_dot, rotate_lighting
+        from shbake.shading.brdf_table import lookup_dot, rotate_lighting
 
         s = scene
         L_local = np.empty_like(s["L_local"])
@@ -195,7 +195,7 @@ class TestKautzKernels:
         np.testing.assert_allclose(out, s["q"], rtol=0, atol=1e-12 * np.abs(s["q"]).max())
 
     def test_fixed_view_frame(self, scene):
-        from shbake.shading.kautz_table import dot_world, rotate_coeffs_to_world
+        from shbake.shading.brdf_table import dot_world, rotate_coeffs_to_world
 
         s = scene
         cw = np.empty_like(s["c_world"])

@@ -7,7 +7,7 @@ import pytest
 from shbake.envmap import load_environment
 from shbake.errors import ParameterError
 from shbake.format import registry
-from shbake.format.kautz_table import BRDFTable
+from shbake.format.brdf_table import BRDFTable
 from shbake.reference.truth import TRUTHS, truth
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.shader import (

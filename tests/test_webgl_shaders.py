@@ -40,7 +40,7 @@ from shbake.brdf.reflection import make_reflection_brdf
 from shbake.conventions import DFG_MU_MIN, ROUGHNESS_MIN
 from shbake.envmap import load_environment
 from shbake.format.asset import read_asset, write_asset
-from shbake.format.kautz_table import table_at
+from shbake.format.brdf_table import table_at
 from shbake.format.shrm import build_shrm_asset
 from shbake.preview.passes import render_pass
 from shbake.preview.sphere import sphere_geometry

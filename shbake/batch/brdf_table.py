@@ -2,23 +2,23 @@
 
 :func:`bake_brdf_table` validates the model, parameters, axes and outputs
 before any work, tabulates (:mod:`shbake.brdf.tabulate`), writes the
-``brdf_table`` asset (:mod:`shbake.format.kautz_table`), the band EXRs and the
+``brdf_table`` asset (:mod:`shbake.format.brdf_table`), the band EXRs and the
 Kautz et al. Fig. 2 sheet, and with ``report`` measures error and time against
-lmax, resolution and samples (:mod:`shbake.bakers.kautz_report`).
+lmax, resolution and samples (:mod:`shbake.bakers.brdf_table_report`).
 """
 
 import os
 
 import numpy as np
 
-from shbake.bakers.kautz_report import probe_views, product_energy, settings_report
+from shbake.bakers.brdf_table_report import probe_views, product_energy, settings_report
 from shbake.brdf import make_brdf, model_spec
 from shbake.brdf.tabulate import parse_vary, project_views, quadrant_views, tabulate_axes
 from shbake.conventions import KAUTZ_LMAX_LIMIT, check_lmax
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
+from shbake.format.brdf_table import build_table_asset, table_at
 from shbake.format.kautz_images import write_band_exrs, write_sheet
-from shbake.format.kautz_table import build_table_asset, table_at
 from shbake.progress import NO_PROGRESS
 
 
@@ -34,10 +34,10 @@ def check_parameters(model: str, params: dict, vary: tuple[str, ...] = ()) -> No
 
 
 TABLE_ERROR_VIEWS = (32, 23)
-"""Count and seed of the :func:`~shbake.bakers.kautz_report.probe_views` a written table's
+"""Count and seed of the :func:`~shbake.bakers.brdf_table_report.probe_views` a written table's
 error is measured at (none of them a texel centre)."""
 ENERGY_NODES = 256
-"""Gauss–Legendre nodes in θ of :func:`~shbake.bakers.kautz_report.product_energy` for
+"""Gauss–Legendre nodes in θ of :func:`~shbake.bakers.brdf_table_report.product_energy` for
 :func:`table_error`."""
 
 

@@ -151,10 +151,10 @@ def _export_webgl(assets, out, one_file, frame, rotate_deg, env_path) -> list[st
     """``--to webgl``: one folder per asset (``out`` itself for one), shbake's world frame;
     ``env_path``: the ``env_sh`` asset that lights ``brdf_table`` assets (the kautz pass)."""
     from shbake.format.asset import read_asset
+    from shbake.format.brdf_table import table_at
     from shbake.format.exports.webgl import KINDS, write_export
-    from shbake.format.kautz_table import table_at
+    from shbake.shading.brdf_table import lighting_with_sun
     from shbake.shading.env_sh import lights_of
-    from shbake.shading.kautz_table import lighting_with_sun
 
     if frame != "y-up" or rotate_deg != 0.0:
         raise ParameterError("--to webgl writes shbake's world frame: no --frame z-up or --rotate")

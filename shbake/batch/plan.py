@@ -34,10 +34,10 @@ Error models (cheap, each measured, never assumed):
   the Parseval rule when none does.
 * ``brdf_table``: three parts, combined as ``sqrt(a² + b² + c²)``: lmax
   truncation of ``f*`` (Parseval against a dense quadrature, as
-  :mod:`shbake.bakers.kautz_report`), sample noise (projection at the chosen
+  :mod:`shbake.bakers.brdf_table_report`), sample noise (projection at the chosen
   samples vs :data:`REFERENCE_SAMPLES`), and bilinear look-up error of a
   table at each candidate size against direct projection; relative to
-  ``‖f*(·, v)‖``, mean over :func:`~shbake.bakers.kautz_report.probe_views`.
+  ``‖f*(·, v)‖``, mean over :func:`~shbake.bakers.brdf_table_report.probe_views`.
 * SH-exp: the fit's RMS log residual on the map downsampled to
   :data:`FIT_PREDICT_HEIGHT` rows (said in the plan's ``note``).
 * split-sum: no error model in shbake (its approximation error is not a
@@ -57,9 +57,9 @@ from dataclasses import asdict
 
 import numpy as np
 
+from shbake.bakers.brdf_table_report import probe_views, product_energy
 from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, choose_lights, irradiance_target
 from shbake.bakers.env_sh import band_energy
-from shbake.bakers.kautz_report import probe_views, product_energy
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
 from shbake.bakers.splitsum import SplitSumConfig
 from shbake.batch.plan_costs import WARMED, cpu_timed, recipe_overheads, warm_seconds

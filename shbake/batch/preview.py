@@ -20,8 +20,8 @@ from shbake.conventions import ggx_alpha
 from shbake.errors import ParameterError
 from shbake.evaluation.metrics import mean_squared_error, relative_rms_error
 from shbake.format.asset import read_asset
+from shbake.format.brdf_table import table_at
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
-from shbake.format.kautz_table import table_at
 from shbake.format.provenance import reload_source
 from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import write_contact_sheet

@@ -113,7 +113,7 @@ def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.batch.brdf_table import table_error
     from shbake.batch.plan import REFERENCE_SAMPLES
     from shbake.format.asset import read_asset
-    from shbake.format.kautz_table import table_at
+    from shbake.format.brdf_table import table_at
 
     # measured on views the plan did not use, against the table actually written
     table = table_at(read_asset(a["output"])).coeffs

@@ -15,7 +15,7 @@ import os
 
 import numpy as np
 
-from shbake.bakers.kautz_report import probe_views, product_energy
+from shbake.bakers.brdf_table_report import probe_views, product_energy
 from shbake.batch.plan import (
     ERROR_LMAX,
     MAX_IRRADIANCE_LMAX,

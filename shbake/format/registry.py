@@ -140,7 +140,7 @@ def kind_of(name) -> Kind:
 
 KIND_MODULES = (
     "shbake.format.env_sh",
-    "shbake.format.kautz_table",
+    "shbake.format.brdf_table",
     "shbake.format.shexp",
     "shbake.format.splitsum",
     "shbake.format.shrm",

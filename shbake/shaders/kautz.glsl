@@ -1,6 +1,6 @@
 // shbake kautz: a BRDF table shaded under SH lighting (Kautz, Sloan & Snyder 2002, "Fast,
 // arbitrary BRDF shading for low-frequency lighting using spherical harmonics", section 4:
-// rotate, fetch, dot). Needs common.glsl. CPU twin: shbake.shading.kautz_table.KautzShader
+// rotate, fetch, dot). Needs common.glsl. CPU twin: shbake.shading.brdf_table.KautzShader
 // (shade_full; the registry's and the preview's `kautz`, its three modes), the rotation of
 // shbake.sh.rotation (Ivanic & Ruedenberg 1996, with the 1998 erratum), the parabolic fetch
 // of shbake.texture.parabolic (Heidrich & Seidel 1999).
@@ -9,7 +9,7 @@
 // v = R V:
 //   Q = sum_i (M(R) L)_i c_i(v)
 // L: the world lighting coefficients (the sun or fitted lights folded in as SH of delta
-// lights, band-limited like the rest: shading.kautz_table.lighting_with_sun); M(R): the SH
+// lights, band-limited like the rest: shading.brdf_table.lighting_with_sun); M(R): the SH
 // rotation, y(R d) = M(R) y(d), built band by band from the l = 1 block (R permuted to the
 // basis order (y, z, x)) and the previous band's block; c(v): the table's coefficients at
 // v, bilinear in the parabolic map (p = (v_x, v_y)/(1 + v_z), texel centres (k+1/2)/size,

@@ -127,7 +127,7 @@ SHADERS = {
     "irradiance": "env_sh:IrradianceShader",
     "tangent": "env_sh:TangentShader",
     "tangent-sh": "env_sh:TangentSHShader",
-    "kautz": "kautz_table:KautzShader",
+    "kautz": "brdf_table:KautzShader",
     "shexp": "shexp:ShexpShader",
     "splitsum": "splitsum:SplitsumShader",
     "shrm": "shrm:ShrmShader",

@@ -219,8 +219,8 @@ def _shrm(asset, _lights):
 
 def _kautz(asset, context):
     """``context``: ``(BRDFTable, L)``: the table's parameter point
-    (:func:`shbake.format.kautz_table.table_at`) and the world lighting that shades it,
-    ``((lmax+1)², 3)`` (:func:`shbake.shading.kautz_table.lighting_with_sun`)."""
+    (:func:`shbake.format.brdf_table.table_at`) and the world lighting that shades it,
+    ``((lmax+1)², 3)`` (:func:`shbake.shading.brdf_table.lighting_with_sun`)."""
     table, lighting = context
     h, w, n = table.coeffs.shape[:3]
     if table.lmax > KAUTZ_LMAX:

@@ -271,7 +271,7 @@ class KautzShader(Shader):
     (:func:`lighting_with_sun`): per point the local frame of :func:`~shbake.brdf.sampling.
     fibre_frames` (normal, brushing ``tangents``), the view in it (``z`` clamped to 0),
     steps 1–4 of the module docstring. ``from_asset(env_asset, table=BRDFTable)``
-    (:func:`shbake.format.kautz_table.table_at`)."""
+    (:func:`shbake.format.brdf_table.table_at`)."""
 
     name = "kautz"
     glsl = "kautz.glsl:shbakeKautz"
