@@ -152,14 +152,14 @@ def _export_webgl(assets, out, one_file, frame, rotate_deg, env_path) -> list[st
     ``env_path``: the ``env_sh`` asset that lights ``brdf_table`` assets (the kautz pass)."""
     from shbake.format.asset import read_asset
     from shbake.format.brdf_table import table_at
-    from shbake.format.exports.webgl import KINDS, write_export
+    from shbake.format.exports.webgl import TEXTURES_OF_KIND, write_export
     from shbake.shading.brdf_table import lighting_with_sun
     from shbake.shading.env_sh import lights_of
 
     if frame != "y-up" or rotate_deg != 0.0:
         raise ParameterError("--to webgl writes shbake's world frame: no --frame z-up or --rotate")
     check_output_dir(out, "-o/--output" if one_file else "--out-dir")
-    read = [(path, read_asset(path, kinds=tuple(KINDS))) for path in assets]
+    read = [(path, read_asset(path, kinds=tuple(TEXTURES_OF_KIND))) for path in assets]
     tables = any(asset.kind == "brdf_table" for _, asset in read)
     if tables != (env_path is not None):
         raise ParameterError("--to webgl: a brdf_table needs --env ENV_SH.h5 (its lighting); "

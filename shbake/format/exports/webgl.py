@@ -239,7 +239,7 @@ def _kautz(asset, context):
     return textures, uniforms, ["kautz", "kautz-fixed-light", "kautz-fixed-view"], params
 
 
-KINDS = {
+TEXTURES_OF_KIND = {
     "env_sh": _env_sh,
     "splitsum_probe": _splitsum,
     "shexp_probe": _shexp,
@@ -315,13 +315,13 @@ def viewer_page(title: str) -> str:
 
 
 def write_export(asset, name: str, out: str, context=None) -> list[str]:
-    """Export ``asset`` (a kind of :data:`KINDS`, read from the file ``name``) as the
+    """Export ``asset`` (a kind of :data:`TEXTURES_OF_KIND`, read from the file ``name``) as the
     folder ``out`` (replacing an earlier export there, :func:`check_replaceable`); the
     files written, as they are named once committed. ``context``: what the kind's pass reads from
     elsewhere — an ``env_sh`` asset's lights ``(directions (K, 3), E (K, 3))``
     (:func:`shbake.shading.env_sh.lights_of`), a ``brdf_table``'s ``(BRDFTable, L)``."""
     try:
-        textures, uniforms, passes, params = KINDS[asset.kind](asset, context)
+        textures, uniforms, passes, params = TEXTURES_OF_KIND[asset.kind](asset, context)
     except InputError as e:
         raise InputError(f"{name}: {e}") from None
     manifest = {
@@ -351,4 +351,10 @@ def write_export(asset, name: str, out: str, context=None) -> list[str]:
     return [os.path.join(out, n) for n in names]
 
 
-__all__ = ["KINDS", "check_replaceable", "coefficient_texture", "viewer_page", "write_export"]
+__all__ = [
+    "TEXTURES_OF_KIND",
+    "check_replaceable",
+    "coefficient_texture",
+    "viewer_page",
+    "write_export",
+]
