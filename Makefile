@@ -36,7 +36,7 @@ demo: $(RUNTIME)
 	  n=$$(basename $$m .exr); \
 	  echo "== $$n" >&2; \
 	  $(BIN)/shbake project-env $$m -o $(OUT)/$$n.h5 --lmax 8 --extract-sun \
-	      --exr-dir $(OUT)/$$n-maps --export gltf --report || exit 1; \
+	      --exr-dir $(OUT)/$$n-maps --export gltf --report --json > $(OUT)/$$n.json || exit 1; \
 	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass irradiance -o $(OUT)/$$n-irradiance.exr \
 	      --diff --json > $(OUT)/$$n-irradiance.json || exit 1; \
 	  $(BIN)/shbake preview $(OUT)/$$n.h5 --pass tangent -o $(OUT)/$$n-tangent.exr \
