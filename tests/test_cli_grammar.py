@@ -163,6 +163,7 @@ class TestRangesAreUsageErrors:
         ("probe-fit", "--targets-lmax"): R(1, 24, True),
         ("probe-fit", "--tol"): R(0.0, 1.0, False, True, True),
         ("overview", "--tol"): R(0.0, 1.0, False, True, True),
+        ("export", "--lmax"): R(0, 128, True),
         ("probe-fit", "--jobs"): R(1, 4 * CPUS, True),
         ("split-sum", "--size"): R(8, 2048, True, extra=("--min-size", "8")),
         ("split-sum", "--top"): R(8, 2048, True, extra=("--min-size", "8")),
