@@ -9,6 +9,7 @@ from shbake_cli.options import (
     FiniteRange,
     also_wrote,
     emit_json,
+    headline_line,
     info,
     input_policy_opts,
     json_opt,
@@ -196,12 +197,10 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
 
 
 def bake_line(summary: dict) -> str:
-    """A map input's bake in one line: its settings and its irradiance error."""
-    err = summary["report"]["error_vs_brute_force"]["irradiance"]
+    """A map input's bake in one line: its settings and the headline error of the export."""
     sun = summary.get("sun", {})
     lights = summary.get("lights")
     light = ("the sun extracted" if sun.get("extracted") else
              f"{lights['count']} lights fitted" if lights else "no sun extracted")  # fmt: skip
     return (f"{summary['input']}: baked env_sh lmax {summary['lmax']} ({light}, window "
-            f"{summary['window']}); irradiance vs brute force, relative: mean "
-            f"{err['mean']:.2%}, max {err['max']:.2%}")  # fmt: skip
+            f"{summary['window']}); " + headline_line(summary["error"]))  # fmt: skip

@@ -324,6 +324,13 @@ LISTED_PER_FOLDER = 3
 """A ``wrote`` line names up to this many files of one folder, else the folder and a count."""
 
 
+def headline_line(error: dict) -> str:
+    """A bake's headline error (:func:`shbake.batch.project_env.headline_error`) on one line."""
+    return (f"error {error['value']:.2%} (relative RMS of luminance vs brute force) of the "
+            f"{error['quantity']}; mean {error['mean']:.2%}, max {error['max']:.2%} "
+            "relative")  # fmt: skip
+
+
 def also_wrote(paths) -> str:
     """The ``; also …`` tail of a ``wrote MAIN …`` line: every other file the run wrote, by
     name where a folder holds at most :data:`LISTED_PER_FOLDER` of them, else as ``N files in

@@ -238,6 +238,7 @@ def export_inputs(
                 irradiance_lmax=min(settings["lmax"], 2), tangent_irradiance=False,
                 extract_sun=settings["extract_sun"], lights=settings["lights"],
                 sun_radius=options.get("sun_radius_deg", 10.0), report=True,
+                measure_export=target != "ktx2",  # ktx2 carries cube maps, no SH
                 **{k: settings.get(k) for k in ("layout", "negative", "fix_nonfinite",
                                                 "colorspace")},
                 progress=progress,
