@@ -181,14 +181,13 @@ def preview_asset(
     check_preview_memory(size, diff, coeffs, src)
     truth = {"samples": samples, "merl_path": merl_path}
     name = pass_name or technique
-    with progress.task(f"preview {os.path.basename(asset_path)}", total=None, unit="pass"):
-        if reference:
-            img, timing = render_pass(sh, size, material, src, **truth)
-        else:
-            img, timing = render_pass(sh, size, material)
-        ref = None
-        if diff:
-            ref, ref_timing = render_pass(sh, size, material, src, **truth)
+    if reference:
+        img, timing = render_pass(sh, size, material, src, progress, **truth)
+    else:
+        img, timing = render_pass(sh, size, material)
+    ref = None
+    if diff:
+        ref, ref_timing = render_pass(sh, size, material, src, progress, **truth)
     summary = {"pass": name, "size": size, "asset": asset_path, "kind": asset.kind,
                "display": display, **summary, **timing}  # fmt: skip
     if diff:
