@@ -125,6 +125,24 @@ class TestSummaryTable:
         assert len(night) == 1
         assert "colour (1.200, 1.000, 0.800)" in night[0] and "intensity 3.25" in night[0]
 
+    def test_fitted_lights(self, tmp_path):
+        """A bake with ``--lights``: each fitted light in its map's line; a light with a
+        field of the wrong type makes the summary not a summary (skipped)."""
+        (tmp_path / "a.h5").write_bytes(b"x")
+        light = {"name": "light 0", "direction": [0.0, 1.0, 0.0], "colour": [1.0, 0.5, 0.25],
+                 "intensity": 2.5, "elevation_deg": 90.0, "azimuth_deg": 0.0}  # fmt: skip
+        summary = {"output": "a.h5", "outputs": ["a.h5"], "lights": {"count": 1,
+                   "lights": [light]}, "report": {"error_vs_brute_force": {
+                   "irradiance": {"mean": 0.01, "max": 0.1}}}}  # fmt: skip
+        (tmp_path / "a.json").write_text(json.dumps(summary))
+        page = Page(render(tmp_path))
+        lines = [x for _, x in page.of("p") if "light 1: direction (0.000, 1.000, 0.000)" in x]
+        assert len(lines) == 1 and "colour (1.000, 0.500, 0.250), intensity 2.5" in lines[0]
+        light["colour"] = ["<b>", 0, 0]
+        (tmp_path / "a.json").write_text(json.dumps(summary))
+        with pytest.raises(Exception, match="nothing to show"):
+            render(tmp_path)
+
     def test_scene_lock_rows(self, tmp_path):
         """A scene lock's records: each measured error against the scene's tolerance, its
         outputs' bytes; an export measuring nothing says so; a poisoned record is skipped."""

@@ -78,6 +78,12 @@ def _is_sun(sun) -> bool:
     )
 
 
+def _is_lights(lights) -> bool:
+    """``--lights``' summary: its ``lights``, each as a sun's fields (:func:`_is_sun`)."""
+    found = lights.get("lights", []) if isinstance(lights, dict) else None
+    return isinstance(found, list) and all(_is_sun(x) for x in found)
+
+
 def _is_errors(errors) -> bool:
     return isinstance(errors, dict) and all(
         isinstance(e, dict) and _number(e.get("mean")) for e in errors.values()
@@ -87,7 +93,8 @@ def _is_errors(errors) -> bool:
 def is_bake(summary) -> bool:
     """Whether ``summary`` has the types a bake's ``--json`` writes: its ``output`` and
     ``outputs``; optionally ``kind``, ``lmax``, ``irradiance_lmax``, ``window``,
-    ``bake_seconds``, ``sun``, ``report.error_vs_brute_force`` and ``error`` (the headline:
+    ``bake_seconds``, ``sun``, ``lights``, ``report.error_vs_brute_force`` and ``error`` (the
+    headline:
     ``{"quantity", "value"}``)."""
     if not (isinstance(summary, dict) and isinstance(summary.get("output"), str)
             and _strings(summary.get("outputs"))):  # fmt: skip
@@ -100,7 +107,8 @@ def is_bake(summary) -> bool:
     report = summary.get("report", {})
     headline = summary.get("error", {"quantity": "", "value": 0.0})
     return (ints and _optional(summary, "bake_seconds", _number)
-            and _optional(summary, "sun", _is_sun) and isinstance(report, dict)
+            and _optional(summary, "sun", _is_sun) and _optional(summary, "lights", _is_lights)
+            and isinstance(report, dict)
             and _optional(report, "error_vs_brute_force", _is_errors)
             and isinstance(headline, dict) and isinstance(headline.get("quantity"), str)
             and _number(headline.get("value")))  # fmt: skip

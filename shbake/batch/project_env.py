@@ -30,8 +30,9 @@ from shbake.shading.shader import shader
 
 EXPORTS = ("gltf", "babylon", "threejs")
 """The engines ``--export`` writes beside the asset, as ``shbake export --to TARGET`` would."""
-TRUNCATION_WARNING = 0.10
-"""Relative irradiance error (max vs brute force) above which ``--report`` warns."""
+TRUNCATION_WARNING = 0.02
+"""Relative RMS error of luminance against brute force (the headline's measure) above which
+``--report`` warns about an error, with the options that lower it (:func:`lowering`)."""
 MINIMUM_DIRECTIONS = 4096
 """Directions at which the baked irradiance is checked for negative values."""
 
@@ -57,7 +58,8 @@ def quality_warnings(asset, summary: dict) -> list[str]:
 
     Negative Lambert irradiance anywhere on a Fibonacci sphere means ringing
     (Gibbs) from a compact bright source; a ``--report`` error above
-    :data:`TRUNCATION_WARNING` means the chosen ``lmax`` is too low for the map.
+    :data:`TRUNCATION_WARNING` means the light the consumer reads (its bands, the
+    sun or lights) is too little for the map.
     """
     out = []
     fixes = []
@@ -84,11 +86,11 @@ def quality_warnings(asset, summary: dict) -> list[str]:
     errors = summary.get("report", {}).get("error_vs_brute_force", {})
     same = "export" in errors and summary.get("irradiance_lmax", 0) <= 2  # one error, twice
     for name, err in errors.items():
-        if err["max"] > TRUNCATION_WARNING and not (same and name == "irradiance"):
+        if err["relative_rms"] > TRUNCATION_WARNING and not (same and name == "irradiance"):
             hint = " or ".join(lowering(name, summary))
             out.append(
-                f"{name} differs from brute force by up to {err['max']:.0%} of the reference "
-                f"luminance (mean {err['mean']:.1%}, relative); try {hint}"
+                f"{name} differs from brute force by {err['relative_rms']:.1%} (relative RMS of "
+                f"luminance; mean {err['mean']:.1%}, max {err['max']:.0%} relative); try {hint}"
             )
     return out
 
@@ -98,8 +100,8 @@ def lowering(name: str, summary: dict) -> list[str]:
     of a bake ``summary``: taking the sun out or fitting lights (the part of the light no
     band limit can hold: ``tests/test_export_map.py``), and, where the consumer reads more
     than 9 coefficients (not ``export``), more bands."""
-    lights, sun = summary.get("lights"), summary.get("sun", {}).get("extracted")
-    out = [] if lights or sun else ["--extract-sun"]
+    lights, tried_sun = summary.get("lights"), "sun" in summary  # --extract-sun was given
+    out = [] if lights or tried_sun else ["--extract-sun"]
     if not lights:
         out.append("--lights auto")
     elif lights["count"] < MAX_LIGHTS:

@@ -108,6 +108,11 @@ def _sun(sun: dict | None) -> str | None:
         contrast = sun.get("contrast")
         return "no sun extracted" + ("" if contrast is None else
                                      f" (peak/background contrast {contrast:.1f})")  # fmt: skip
+    return "sun: " + _light(sun)
+
+
+def _light(sun: dict) -> str:
+    """A directional light (the sun, a fitted light): its fields in words."""
     vec = lambda v: "(" + ", ".join(f"{c:.3f}" for c in v) + ")"  # noqa: E731
     parts = [f"direction {vec(sun['direction'])}" if "direction" in sun else "",
              f"elevation {sun['elevation_deg']:.1f}°" if "elevation_deg" in sun else "",
@@ -115,11 +120,13 @@ def _sun(sun: dict | None) -> str | None:
              f"colour {vec(sun['colour'])}" if "colour" in sun else "",
              f"intensity {sun['intensity']:.4g} (irradiance at normal incidence, luminance)"
              if "intensity" in sun else ""]  # fmt: skip
-    return "sun: " + ", ".join(p for p in parts if p)
+    return ", ".join(p for p in parts if p)
 
 
 def _group(name: str, group: dict, base: str) -> dict:
     bakes = [{"asset": _link(b["output"], base), "sun": _sun(b.get("sun")),
+              "lights": [f"light {k + 1}: " + _light(x)
+                         for k, x in enumerate(b.get("lights", {}).get("lights", []))],
               "files": [_link(p, base) for p in b["outputs"] if p != b["output"]]}
              for b in group["bakes"]]  # fmt: skip
     cards = [_card(stem, s, base) for stem, s in sorted(group["previews"], key=lambda c: c[0])]
