@@ -22,7 +22,8 @@ from shbake_cli.options import (
 
 from shbake.bakers.cube_prefilter import CUBE_SIZE_LIMIT, LOD_MAPPINGS
 from shbake.bakers.env_lights import MAX_LIGHTS
-from shbake.batch.export import MAP_DEFAULTS, cube_settings, export_inputs
+from shbake.batch.export import cube_settings
+from shbake.batch.export_map import MAP_DEFAULTS, export_inputs
 from shbake.conventions import LMAX_LIMIT
 from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
 from shbake.format.exports import TARGETS
