@@ -9,7 +9,6 @@ import contextlib
 import hashlib
 import json
 import tempfile
-from html.parser import HTMLParser
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
@@ -18,51 +17,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from shbake.batch.overview import overview_page
+from tests.html_page import Page
 
 TAGS = {"html": set(), "head": set(), "meta": {"charset", "http-equiv", "content"},
         "title": set(), "style": set(), "body": set(), "h1": set(), "h2": set(),
         "p": {"class"}, "b": set(), "div": {"class"}, "img": {"src", "alt"}, "a": {"href"},
         "table": set(), "tr": set(), "th": set(), "td": {"class"}}  # fmt: skip
 """Every element the template writes, with the attributes it may carry."""
-
-
-class Page(HTMLParser):
-    """The elements (tag, attributes), the text of each, as a browser's tokenizer sees them."""
-
-    def __init__(self, text: str):
-        super().__init__(convert_charrefs=True)
-        self.elements, self.text, self.open = [], [], []
-        self.feed(text)
-        self.close()
-
-    def handle_starttag(self, tag, attrs):
-        self.elements.append((tag, dict(attrs)))
-        if tag not in ("meta", "img"):
-            self.open.append(len(self.elements) - 1)
-        self.text.append("")
-
-    def handle_endtag(self, tag):
-        if self.open:
-            self.open.pop()
-
-    def handle_data(self, data):
-        if self.open:
-            self.text[self.open[-1]] += data
-
-    def handle_comment(self, data):
-        raise AssertionError(f"a comment: {data!r}")
-
-    def handle_decl(self, decl):
-        assert decl == "doctype html", decl
-
-    def handle_pi(self, data):
-        raise AssertionError(f"a processing instruction: {data!r}")
-
-    def unknown_decl(self, data):
-        raise AssertionError(f"a declaration: {data!r}")
-
-    def of(self, tag):
-        return [(attrs, self.text[i]) for i, (t, attrs) in enumerate(self.elements) if t == tag]
 
 
 def render(folder: Path, title: str) -> str:

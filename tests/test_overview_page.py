@@ -20,7 +20,7 @@ import pytest
 from shbake.batch.overview import overview_page
 from shbake.format.images import aces_filmic, tonemap, write_png
 from shbake.preview.contact_sheet import ERROR_SCALE, beyond_scale
-from tests.test_overview import Page
+from tests.html_page import Page
 
 MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
 """The demo's six maps (``make demo``)."""

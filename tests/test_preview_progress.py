@@ -10,7 +10,7 @@ disc), written out here; the old bar drew ``0pass [00:00, ?pass/s]`` with no tot
 import numpy as np
 
 from tests.helpers import map_path
-from tests.test_run_reports import bar_counts, run_on_terminal
+from tests.terminal import bar_counts, run_on_terminal
 
 
 def disc_pixels(size: int) -> int:

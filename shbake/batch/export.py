@@ -28,6 +28,8 @@ TARGET_OPTIONS = {
 """Settings that only some targets read, and the option that sets each."""
 FIXED_LOD_MAPPING = ("filament", "threejs-pmrem")
 """Targets whose engine shader fixes the roughness of each mip level (their ``CUBES`` mapping)."""
+FIXED_LOD_MAPPING = ("filament", "threejs-pmrem")
+"""Targets whose engine shader fixes the roughness of each mip level (their ``CUBES`` mapping)."""
 
 
 def options_of_target(target: str) -> frozenset:
@@ -144,6 +146,8 @@ def export_assets(
                 samples=cfg["samples"],
                 rotation=src.cube_rotation,
             )
+            if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
+                levels, rough = extend_chain(levels, rough)
             if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
                 levels, rough = extend_chain(levels, rough)
             extra.update(levels=levels, roughness=rough, mapping=cfg["mapping"])
