@@ -287,6 +287,7 @@ def project_environment(
         summary[target] = files[0]
         written.extend(files)
     summary.update(
+        kind="env_sh",
         output=output,
         outputs=written,
         input=env_path,

@@ -62,11 +62,14 @@ def relative_url(path: str, base: str) -> str | None:
 
 
 def _link(path: str | None, base: str) -> dict | None:
-    """``{"name", "src"}`` of a file: ``src`` its relative URL, ``None`` when it is not a
-    file inside ``base`` (then named only)."""
+    """``{"name", "src"}`` of a file: ``src`` its relative URL and ``name`` its path relative
+    to ``base`` when it is a file inside ``base``; else ``src`` ``None`` and the path as given
+    (named only)."""
     if not path:
         return None
-    return {"name": path, "src": relative_url(path, base)}
+    src = relative_url(path, base)
+    return {"name": path if src is None else os.path.relpath(os.path.abspath(path), base),
+            "src": src}  # fmt: skip
 
 
 def _percent(x) -> str | None:
@@ -75,8 +78,9 @@ def _percent(x) -> str | None:
 
 def _table_row(r: dict, base: str) -> dict:
     verdict = {None: "—", True: "pass", False: "FAIL"}[r["verdict"]]
-    src = relative_url(r["href"], base) if r["href"] else None
-    return {"asset": {"name": r["asset"], "src": src}, "kind": r["kind"],
+    link = _link(r["href"], base) or {"name": r["asset"], "src": None}
+    name = link["name"] if r["asset"] == r["href"] else r["asset"]  # a path, or a lock's id
+    return {"asset": {"name": name, "src": link["src"]}, "kind": r["kind"],
             "setting": r["setting"], "quantity": r["quantity"], "error": _percent(r["error"]),
             "tolerance": f"{r['tolerance']:.2%} ({r['tolerance_from']})", "verdict": verdict,
             "bytes": "—" if r["bytes"] is None else f"{r['bytes']:,}",
