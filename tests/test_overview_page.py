@@ -174,6 +174,29 @@ class TestSummaryTable:
         ]  # fmt: skip
 
 
+def test_hostile_bake_summary_and_lock_are_text(tmp_path):
+    """Every string of a bake summary and a lock record (names, settings, the sun's name,
+    the headline's quantity, output paths) stays text: no element, attribute or link
+    leaves the template's."""
+    evil = "<script>alert(1)</script>\"'><img src=x onerror=alert(2)>"
+    (tmp_path / "a.h5").write_bytes(b"x")
+    (tmp_path / "b.json").write_text(json.dumps({
+        "output": "a.h5", "outputs": ["a.h5", evil, "javascript:alert(3)"], "kind": evil,
+        "window": evil, "input": evil, "lmax": 2, "error": {"quantity": evil, "value": 0.5},
+        "sun": {"extracted": True, "name": evil, "direction": [0, 1, 0]}}))  # fmt: skip
+    record = {"settings": {evil: evil}, "outputs": {evil: evil},
+              "measured_error": {evil: 0.1}, "tolerances": {evil: 0.2}}  # fmt: skip
+    lock = {"assets": {f"env_sh/{evil}": record}}
+    (tmp_path / "scene.lock.json").write_text(json.dumps(lock))
+    page = Page(render(tmp_path))
+    allowed = {"html", "head", "meta", "title", "style", "body", "h1", "h2", "p", "b", "div",
+               "table", "tr", "th", "td", "a", "img"}  # fmt: skip
+    assert {t for t, _ in page.elements} <= allowed and not page.of("img")
+    assert [a["href"] for a, _ in page.of("a")] == ["a.h5", "a.h5"]  # the asset, twice
+    text = "".join(page.text)
+    assert evil in text and "FAIL" in text
+
+
 class TestContactSheet:
     def test_fixed_error_scale(self):
         """The fraction beyond the fixed scale counts the pixels whose relative luminance
