@@ -1,30 +1,40 @@
-"""``shbake export``: env_sh (or split-sum) assets → engine-ready files (``docs/EXPORTS.md``)."""
+"""``shbake export``: env_sh (or split-sum) assets, or environment maps baked on the way,
+→ engine-ready files (``docs/EXPORTS.md``)."""
 
 import click
 from click.core import ParameterSource
 from shbake_cli.options import (
     FINITE,
+    BarProgress,
     FiniteRange,
     also_wrote,
     emit_json,
+    headline_line,
     info,
+    input_policy_opts,
     json_opt,
     output_opt,
     quiet_opt,
     samples_opt,
     usage_errors,
+    warn,
 )
 
 from shbake.bakers.cube_prefilter import CUBE_SIZE_LIMIT, LOD_MAPPINGS
-from shbake.batch.export import cube_settings, export_assets
+from shbake.bakers.env_lights import MAX_LIGHTS
+from shbake.batch.export import cube_settings
+from shbake.batch.export_map import MAP_DEFAULTS, export_inputs
+from shbake.conventions import LMAX_LIMIT
 from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
 from shbake.format.exports import TARGETS
 from shbake.format.exports.gltf import BABYLON_SCENES
 from shbake.format.exports.source import FRAMES
+from shbake.sh.windows import WINDOW_METHODS
 
 
 @click.command("export")
-@click.argument("assets", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("assets", metavar="INPUTS", nargs=-1, required=True,
+                type=click.Path(dir_okay=False))  # fmt: skip
 @click.option(
     "--to", "target", required=True, type=click.Choice(sorted(TARGETS)), help="Engine / format."
 )
@@ -102,10 +112,45 @@ from shbake.format.exports.source import FRAMES
     show_default=True,
     help="gltf/babylon: the handedness of the Babylon scene that loads the file.",
 )
+@click.option(
+    "--lmax",
+    type=click.IntRange(0, LMAX_LIMIT),
+    default=None,
+    help=f"Map input: highest SH band of the baked lighting [{MAP_DEFAULTS['lmax']}: every SH "
+    "target reads the first 9 coefficients].",
+)
+@click.option(
+    "--window",
+    type=click.Choice(WINDOW_METHODS),
+    default=None,
+    help="Map input: band window before the irradiance kernels, as project-env's [none].",
+)
+@click.option(
+    "--extract-sun/--no-extract-sun",
+    default=None,
+    help="Map input: take the dominant compact light out of the map as a directional light "
+    "(where the map has one) [on].",
+)
+@click.option(
+    "--lights",
+    type=click.Choice(["auto"] + [str(k) for k in range(MAX_LIGHTS + 1)]),
+    default=None,
+    help="Map input: fit K directional lights with the SH to the irradiance, as project-env's; "
+    "auto: the fewest meeting a 1 % mean error. Lights are what lowers an L2 export's error.",
+)
+@click.option(
+    "--keep-asset",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Map input: also keep the baked env_sh asset here (otherwise none is left).",
+)
+@input_policy_opts
 @json_opt
 @quiet_opt
 def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_json, quiet, **cube):
-    """Export ASSETS (env_sh; split-sum probes for ktx2) to an engine format.
+    """Export INPUTS to an engine format: env_sh assets (split-sum probes for ktx2), or
+    environment maps (EXR, HDR, …), baked first into an env_sh asset as project-env would
+    with the recommended settings (lmax 2, the sun extracted), measured against brute force.
 
     Beside the main file: gltf/babylon FILE_specular_<mip>_<face>.png (babylon
     FILE.env: STEM_lights.gltf with a sun); ktx2
@@ -119,9 +164,13 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
     settings = {k: cube[k] for k in ("size", "floor", "mapping", "samples") if cube[k] is not None}
     with usage_errors():
         cube_settings(target, **settings)
+    bake = {k: cube.pop(k) for k in ("lmax", "window", "extract_sun", "layout", "negative",
+                                     "fix_nonfinite", "colorspace", "lights")}  # fmt: skip
+    if bake["lights"] not in (None, "auto"):
+        bake["lights"] = int(bake["lights"])
     ctx = click.get_current_context()
     explicit = {k for k in ctx.params if ctx.get_parameter_source(k) is ParameterSource.COMMANDLINE}
-    written = export_assets(
+    result = export_inputs(
         list(assets),
         target,
         output if output is not None else out_dir,
@@ -131,10 +180,28 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
         sun_radius_deg=sun_radius_deg,
         babylon_scene=babylon_scene,
         many=out_dir is not None,
+        bake=bake,
+        keep_asset=cube["keep_asset"],
         explicit=explicit,
+        progress=BarProgress(quiet),
         **settings,
     )
+    written = result["written"]
+    for summary in result["bakes"]:
+        info(bake_line(summary), quiet)
+        for w in summary["warnings"]:
+            warn(w, quiet)
     if as_json:
-        emit_json({"target": target, "written": written})
+        emit_json({"target": target, "written": written, "bakes": result["bakes"]})
     else:
         info(f"wrote {written[0]} ({target})" + also_wrote(written[1:]), quiet)
+
+
+def bake_line(summary: dict) -> str:
+    """A map input's bake in one line: its settings and the headline error of the export."""
+    sun = summary.get("sun", {})
+    lights = summary.get("lights")
+    light = ("the sun extracted" if sun.get("extracted") else
+             f"{lights['count']} lights fitted" if lights else "no sun extracted")  # fmt: skip
+    return (f"{summary['input']}: baked env_sh lmax {summary['lmax']} ({light}, window "
+            f"{summary['window']}); " + headline_line(summary["error"]))  # fmt: skip

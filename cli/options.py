@@ -16,7 +16,7 @@ from contextlib import contextmanager
 import click
 import numpy as np
 
-from shbake.conventions import SAMPLES_LIMIT, perceptual_roughness
+from shbake.conventions import DISPLAY_TRANSFORMS, SAMPLES_LIMIT, perceptual_roughness
 from shbake.envmap.layouts import LAYOUTS
 from shbake.envmap.repair import NEGATIVE_POLICIES, NONFINITE_REPAIRS
 from shbake.errors import OutputError, ParameterError
@@ -147,6 +147,14 @@ report_opt = click.option(
 )
 png_opt = click.option(
     "--png", is_flag=True, help="Also write a tone-mapped PNG beside every EXR image."
+)
+display_opt = click.option(
+    "--display",
+    type=click.Choice(DISPLAY_TRANSFORMS),
+    default="reinhard",
+    show_default=True,
+    help="Display transform of the contact sheet and PNGs: Reinhard on luminance (hue kept) "
+    "or the ACES filmic curve per channel, as engines show it (Narkowicz's fit).",
 )
 layout_opt = click.option(
     "--layout",
@@ -314,6 +322,13 @@ def info(msg: str, quiet: bool = False) -> None:
 
 LISTED_PER_FOLDER = 3
 """A ``wrote`` line names up to this many files of one folder, else the folder and a count."""
+
+
+def headline_line(error: dict) -> str:
+    """A bake's headline error (:func:`shbake.batch.project_env.headline_error`) on one line."""
+    return (f"error {error['value']:.2%} (relative RMS of luminance vs brute force) of the "
+            f"{error['quantity']}; mean {error['mean']:.2%}, max {error['max']:.2%} "
+            "relative")  # fmt: skip
 
 
 def also_wrote(paths) -> str:

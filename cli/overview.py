@@ -1,24 +1,30 @@
-"""``shbake overview``: one HTML page over a folder of previews (what ``make demo`` opens with)."""
+"""``shbake overview``: one HTML page that judges a folder of bakes, previews and scene locks
+(what ``make demo`` opens with)."""
 
 import click
-from shbake_cli.options import emit_json, info, json_opt, output_opt, quiet_opt
+from shbake_cli.options import emit_json, info, json_opt, output_opt, quiet_opt, tol_opt
 
-from shbake.preview.overview import write_overview
+from shbake.batch.overview import DEFAULT_TOLERANCE, write_overview
 
 
 @click.command("overview")
 @click.argument("folder", type=click.Path(file_okay=False))
 @output_opt("The HTML page (e.g. FOLDER/index.html)")
 @click.option("--title", default="shbake previews", show_default=True, help="Page title.")
+@tol_opt(f"relative error an error is judged against where its summary names no tolerance "
+         f"(a scene lock's are its own) [default: {DEFAULT_TOLERANCE:g}]")  # fmt: skip
 @json_opt
 @quiet_opt
-def overview(folder, output, title, as_json, quiet):
-    """Write an HTML overview of the contact sheets and errors of the previews in FOLDER.
+def overview(folder, output, title, tol, as_json, quiet):
+    """Write an HTML overview of FOLDER: a summary table of every error against its tolerance
+    (pass/fail, bytes, bake seconds) first, then the tradeoff plots and the contact sheets.
 
-    FOLDER holds the outputs of 'shbake preview ... --json > NAME.json'.
+    FOLDER holds 'shbake preview ... --json > NAME.json', bake summaries ('project-env ...
+    --json > NAME.json'), tradeoff*.png, and scene.lock.json (in FOLDER or a folder in it).
     """
-    summary = write_overview(folder, output, title)
+    summary = write_overview(folder, output, title, DEFAULT_TOLERANCE if tol is None else tol)
     if as_json:
         emit_json(summary)
     else:
-        info(f"wrote {output}: {summary['cards']} previews", quiet)
+        failed = f", {summary['failed']} of {summary['rows']} errors over tolerance"
+        info(f"wrote {output}: {summary['cards']} previews" + failed, quiet)

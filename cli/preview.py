@@ -7,6 +7,7 @@ from shbake_cli.options import (
     FiniteRange,
     NameValue,
     also_wrote,
+    display_opt,
     emit_json,
     info,
     json_opt,
@@ -82,6 +83,7 @@ from shbake.batch.preview import ALL_PASSES, preview_asset
 )
 @samples_opt(4096, "per pixel of the probes' glossy reference (visible-normal + map samples)")
 @png_opt
+@display_opt
 @json_opt
 @quiet_opt
 def preview(asset_path, output, at, as_json, quiet, **settings):

@@ -128,6 +128,10 @@ def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, a
 
     summary = fit_probes(maps, probe_list, output, out_dir, config, progress=progress,
                          notes=lambda text: info_lines(text, quiet), **run)  # fmt: skip
+    for probe in summary["probes"]:
+        e = probe["error"]
+        info(f"{probe['source']}: error {e['value']:.2%} (relative RMS of luminance vs brute "
+             f"force) of the {e['quantity']}", quiet)  # fmt: skip
     for w in summary["warnings"]:
         warn(w, quiet)
     info(f"probe-fit: {len(summary['probes'])} probes in {summary['seconds']:.2f} s "

@@ -9,6 +9,7 @@ from shbake_cli.options import (
     deprecated,
     emit_json,
     exr_dir_opt,
+    headline_line,
     info,
     input_policy_opts,
     json_opt,
@@ -148,6 +149,8 @@ def print_report(summary: dict, quiet: bool) -> None:
     rep = summary["report"]
     sun = summary.get("sun", {})
     after = " (after the sun was extracted)" if sun.get("extracted") else ""
+    if summary.get("error"):
+        info(headline_line(summary["error"]) + "; its parts below", quiet)
     info("band  energy Σ_m L_lm² (R, G, B)", quiet)
     for l, e in enumerate(rep["band_energy"]):
         info(f"{l:4d}  " + "  ".join(f"{v:.4g}" for v in e), quiet)

@@ -49,6 +49,10 @@ SQRT_4PI = float(np.sqrt(4.0 * np.pi))
 
 REC709_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 """Rec.709 luminance weights, used wherever a scalar brightness is needed."""
+DISPLAY_TRANSFORMS = ("reinhard", "aces")
+"""Display transforms of the images for people (``--display``): Reinhard on luminance (hue
+kept) or the ACES filmic curve per channel, as engines show it
+(:func:`shbake.format.images.aces_filmic`)."""
 
 
 def n_coeffs(lmax: int) -> int:

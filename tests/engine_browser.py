@@ -114,16 +114,23 @@ class EngineBrowser:
         self.proc.stdin.flush()
         return json.loads(self.proc.stdout.readline() or "{}")
 
-    def screenshot(self, path: str, selector: str | None = None) -> dict:
-        """Open the page ``path`` (a file under ``data_root``: an export's own viewer), wait
-        until its body's ``data-state`` leaves ``loading`` and capture it (the element
-        ``selector`` alone, if given): ``state``, ``png`` (bytes) and ``console``, the
-        page's lines before the capture."""
-        answer = self._ask({"screenshot": self.url(path), "selector": selector})
+    def screenshot(self, path: str, selector: str | None = None, viewport=(640, 720),
+                   measure=()) -> dict:  # fmt: skip
+        """Open the page ``path`` (a file under ``data_root``: an export's own viewer, the
+        overview) in a ``viewport`` of (width, height) CSS pixels, wait until its body's
+        ``data-state`` leaves ``loading`` and capture it (the element ``selector`` alone, if
+        given): ``state``, ``png`` (bytes), ``console``, the page's lines before the
+        capture, and ``layout``: ``scrollWidth``, ``clientWidth``, ``innerHeight``,
+        ``rects`` (the box of each selector in ``measure``) and ``overflowing`` (elements
+        reaching past the right edge)."""
+        answer = self._ask({"screenshot": self.url(path), "selector": selector,
+                            "width": viewport[0], "height": viewport[1],
+                            "measure": list(measure)})  # fmt: skip
         if not answer.get("ok"):
             raise RuntimeError(f"{path}: {answer.get('error', 'harness died')}")
         r = answer["result"]
-        return {"state": r["state"], "png": base64.b64decode(r["png"]), "console": r["console"]}
+        return {"state": r.get("state"), "png": base64.b64decode(r["png"]), "console": r["console"],
+                "layout": r["layout"]}  # fmt: skip
 
     def render(self, page: str, views: list[View], size: int, fov_deg: float, **params) -> dict:
         """Render ``params['materials']`` on the unit sphere from ``views``: a dict with

@@ -162,6 +162,8 @@ class TestRangesAreUsageErrors:
         ("probe-fit", "--floor"): R(0.0, 1.0, False, True, True),
         ("probe-fit", "--targets-lmax"): R(1, 24, True),
         ("probe-fit", "--tol"): R(0.0, 1.0, False, True, True),
+        ("overview", "--tol"): R(0.0, 1.0, False, True, True),
+        ("export", "--lmax"): R(0, 128, True),
         ("probe-fit", "--jobs"): R(1, 4 * CPUS, True),
         ("split-sum", "--size"): R(8, 2048, True, extra=("--min-size", "8")),
         ("split-sum", "--top"): R(8, 2048, True, extra=("--min-size", "8")),
@@ -210,6 +212,7 @@ class TestRangesAreUsageErrors:
             "export": [a, "--to", "gltf", "-o", out / "a.gltf"], "shrm": [m, "-o", out / "a.h5"],
             "bake": [inputs / "scene.toml"],
             "tradeoff": ["env_sh", "--map", m, "-o", out / "a.png"],
+            "overview": [inputs, "-o", out / "index.html"],
         }[command]  # fmt: skip
 
     def values(self, r: R):

@@ -250,7 +250,11 @@ class TestPlan:
         _, _, _, summary = baked
         for rec in summary["records"].values():
             for k, v in rec["measured_error"].items():
-                assert np.isfinite(v) and v <= rec["tolerances"][k], (rec["id"], k, v)
+                assert np.isfinite(v), (rec["id"], k, v)
+                if k in rec["tolerances"]:  # an export's error (issue 32) has none in the plan
+                    assert v <= rec["tolerances"][k], (rec["id"], k, v)
+            if rec["id"].startswith("export/threejs/"):  # what the engine evaluates, measured
+                assert 0 < rec["measured_error"]["irradiance"] < 1, rec
 
     def test_shrm_for_glossy_non_ggx(self, baked):
         _, _, scene, summary = baked

@@ -3,7 +3,8 @@
 The format layer (:mod:`shbake.format.exports`) serialises; this module bakes
 the GGX prefiltered cube chain (:mod:`shbake.bakers.cube_prefilter`) for the
 targets that carry cube maps (their ``CUBES`` defaults, overridable) and the
-DFG table (:mod:`shbake.bakers.dfg`) for ``ktx2``.
+DFG table (:mod:`shbake.bakers.dfg`) for ``ktx2``. Maps given instead of assets:
+:mod:`shbake.batch.export_map`.
 """
 
 import os
@@ -43,6 +44,15 @@ def options_of_target(target: str) -> frozenset:
     if target == "webgl":
         reads.add("env_path")  # the env_sh asset lighting a brdf_table
     return frozenset(reads)
+
+
+def check_target_options(target: str, explicit=()) -> None:
+    """Refuse (:class:`~shbake.errors.ParameterError`) a setting of :data:`TARGET_OPTIONS`
+    named in ``explicit`` that ``target`` does not read."""
+    reads = options_of_target(target)
+    stray = [o for k, o in TARGET_OPTIONS.items() if k in explicit and k not in reads]
+    if stray:
+        raise ParameterError(f"{', '.join(stray)}: not read for --to {target}")
 
 
 def cube_settings(target: str, size=None, floor=None, samples=None, mapping=None) -> dict | None:
@@ -102,10 +112,7 @@ def export_assets(
         Passed to the target's ``write`` (e.g. ``babylon_scene``).
     """
     mod = target_module(target)
-    reads = options_of_target(target)
-    stray = [o for k, o in TARGET_OPTIONS.items() if k in explicit and k not in reads]
-    if stray:
-        raise ParameterError(f"{', '.join(stray)}: not read for --to {target}")
+    check_target_options(target, explicit)
     if not assets:
         raise ParameterError("no asset to export")
     one_file = not (many if many is not None else len(assets) > 1)
@@ -183,6 +190,7 @@ def _export_webgl(assets, out, one_file, frame, rotate_deg, env_path) -> list[st
 __all__ = [
     "FIXED_LOD_MAPPING",
     "TARGET_OPTIONS",
+    "check_target_options",
     "cube_settings",
     "export_assets",
     "options_of_target",

@@ -24,7 +24,7 @@ from shbake.format.brdf_table import table_at
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
 from shbake.format.provenance import reload_source
 from shbake.format.shexp import probe_from_set
-from shbake.preview.contact_sheet import write_contact_sheet
+from shbake.preview.contact_sheet import beyond_scale, write_contact_sheet
 from shbake.preview.passes import render_pass
 from shbake.progress import NO_PROGRESS
 from shbake.resources import check_memory
@@ -129,6 +129,7 @@ def preview_asset(
     index: int = 0,
     samples: int = 4096,
     png: bool = False,
+    display: str = "reinhard",
     progress=NO_PROGRESS,
     explicit=(),
 ) -> dict:
@@ -138,6 +139,8 @@ def preview_asset(
     (:func:`~shbake.shading.shader.shaders_of_kind`; default: the kind's) or a reference
     pass (:data:`REFERENCE_PASSES`); ``diff`` adds the ground truth of the pass's technique.
     Probes are drawn as a GGX sphere of perceptual ``roughness`` and Schlick ``f0``;
+    ``display``: the display transform of the sheet and PNGs
+    (:data:`shbake.format.images.DISPLAY_TRANSFORMS`);
     ``table_path`` (``at``) is the Kautz pass's BRDF table.
     ``explicit``: names of the settings the caller set on purpose (the command line's);
     one of :data:`KIND_OPTIONS` that the asset's kind does not read raises
@@ -178,27 +181,29 @@ def preview_asset(
     check_preview_memory(size, diff, coeffs, src)
     truth = {"samples": samples, "merl_path": merl_path}
     name = pass_name or technique
-    with progress.task(f"preview {os.path.basename(asset_path)}", total=None, unit="pass"):
-        if reference:
-            img, timing = render_pass(sh, size, material, src, **truth)
-        else:
-            img, timing = render_pass(sh, size, material)
-        ref = None
-        if diff:
-            ref, ref_timing = render_pass(sh, size, material, src, **truth)
-    summary = {"pass": name, "size": size, **summary, **timing}
+    if reference:
+        img, timing = render_pass(sh, size, material, src, progress, **truth)
+    else:
+        img, timing = render_pass(sh, size, material)
+    ref = None
+    if diff:
+        ref, ref_timing = render_pass(sh, size, material, src, progress, **truth)
+    summary = {"pass": name, "size": size, "asset": asset_path, "kind": asset.kind,
+               "display": display, **summary, **timing}  # fmt: skip
     if diff:
         summary["reference_seconds"] = ref_timing["seconds"]
     settings = ", ".join(x for x in (sh.label(), text, f"size {size}") if x)
     title = f"{os.path.basename(asset_path)} ({asset.kind}): pass {name}, {settings}"
-    write_outputs(output, img, ref, summary, title, png, src)
+    write_outputs(output, img, ref, summary, title, png, src, display)
     return summary
 
 
-def write_outputs(output, img, reference, summary, title, png=False, source=None):
-    """Write the pass EXR (and with a reference: the reference, the signed error, MSE and
-    relative RMS error into ``summary``), the contact sheet and, with ``png``, plain PNGs.
-    Refuses to overwrite the ``source`` map."""
+def write_outputs(output, img, reference, summary, title, png=False, source=None,
+                  display="reinhard"):  # fmt: skip
+    """Write the pass EXR (and with a reference: the reference, the signed error, MSE,
+    relative RMS error and the fraction of pixels beyond the sheet's error scale into
+    ``summary``), the contact sheet (with the ``source`` map's thumbnail) and, with ``png``,
+    plain PNGs, through the ``display`` transform. Refuses to overwrite the ``source`` map."""
     stem = os.path.splitext(output)[0]
     images = {output: img}
     subtitle = ""
@@ -210,7 +215,8 @@ def write_outputs(output, img, reference, summary, title, png=False, source=None
         rel = relative_rms_error(img, reference)
         images[stem + "-reference.exr"] = reference
         images[stem + "-diff.exr"] = err
-        summary.update(mse=mse, relative_rms_error=rel)
+        summary.update(mse=mse, relative_rms_error=rel,
+                       error_beyond_scale=beyond_scale(img, reference, mask))  # fmt: skip
         subtitle = f"MSE {mse:.4g} (over sphere pixels and channels), relative RMS error {rel:.3%}"
     sheet = stem + "-sheet.png"
     written = list(images) + [sheet] + ([os.path.splitext(p)[0] + ".png" for p in images]
@@ -225,7 +231,10 @@ def write_outputs(output, img, reference, summary, title, png=False, source=None
         if png:
             write_png(
                 os.path.splitext(path)[0] + ".png",
-                tonemap_to_srgb8(np.abs(im) if path.endswith("-diff.exr") else im, exposure),
+                tonemap_to_srgb8(
+                    np.abs(im) if path.endswith("-diff.exr") else im, exposure, display
+                ),
             )
-    write_contact_sheet(sheet, img, mask, title, reference, subtitle)
+    write_contact_sheet(sheet, img, mask, title, reference, subtitle, display=display,
+                        source=None if source is None else source.pixels)  # fmt: skip
     summary["outputs"] = written

@@ -13,6 +13,8 @@ from shbake.shading.shader import shader
 
 QUERY_CHUNK = 128
 """Query directions per brute-force call (one progress step)."""
+EXPORT_COEFFS = 9
+"""Irradiance SH coefficients every SH export target carries (lmax 2, docs/EXPORTS.md)."""
 
 
 def brute_force_reference(env: Environment, n_dirs: int = 2048, progress=NO_PROGRESS) -> dict:
@@ -65,3 +67,18 @@ def irradiance_errors(
             "relative_rms": relative_rms_error(got, ref[name]),
         }
     return out
+
+
+def export_irradiance_errors(
+    asset: Asset, env: Environment, reference: dict | None = None, progress=NO_PROGRESS,
+    rotation=None,
+) -> dict:  # fmt: skip
+    """Luminance errors of the irradiance an engine evaluates from any SH export of the asset
+    (:data:`EXPORT_COEFFS` coefficients of ``/irradiance/sh`` and the asset's directional
+    lights, what every target writes) against brute force of ``env``, as
+    :func:`irradiance_errors` measures the asset's own: ``{"mean", "max", "relative_rms"}``.
+    The frame a target turns both into changes none of them."""
+    cut = Asset(asset.kind, asset.attrs, {
+        k: (v[:EXPORT_COEFFS] if k == "/irradiance/sh" else v)
+        for k, v in asset.datasets.items() if not k.startswith("/tangent_irradiance")})  # fmt: skip
+    return irradiance_errors(cut, env, reference, progress, rotation)["irradiance"]

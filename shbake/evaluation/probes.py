@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shbake.conventions import ggx_alpha
-from shbake.evaluation.metrics import mean_squared_error
+from shbake.conventions import REC709_LUMINANCE, ggx_alpha
+from shbake.evaluation.metrics import mean_squared_error, relative_rms_error
 from shbake.format.asset import Asset
 from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.sphere import sphere_geometry
@@ -33,6 +33,10 @@ from shbake.shading.shader import shader
 MATERIALS = {"chrome": 1.0, "dielectric": 0.04}
 ALPHAS = tuple(round(ggx_alpha(r), 6) for r in (0.5, 0.6, 0.7, 0.8, 0.9, 1.0))
 VIEW_YAWS = (0.0, 90.0, 180.0, 270.0)
+HEADLINE_SIZE = 32
+"""Sphere size (pixels per side) of a probe's headline error (:func:`glossy_error`)."""
+HEADLINE_SAMPLES = 1024
+"""Samples per pixel of the headline's ground truth (MIS, :func:`ggx_integrals`)."""
 
 
 def sphere_views(size: int, yaw_deg: float):
@@ -144,3 +148,27 @@ def evaluate_cases(pixels, assets: dict, size: int = 32, truth_samples: int = 40
                 if sheet_dir is not None:
                     write_case_sheet(sheet_dir, label, material, a, yaw, size, shaded, ref, mse)
     return rows
+
+
+def glossy_error(asset: Asset, pixels, size: int = HEADLINE_SIZE,
+                 samples: int = HEADLINE_SAMPLES) -> dict:  # fmt: skip
+    """The headline error of a glossy probe: what an engine shades from it against brute
+    force. ``E0`` (F0 = 1, the lobe alone) shaded by the probe's registry shader on a
+    ``size``² sphere seen from +Z (pixels with ``n·v > 10⁻³``) at the ends and the middle of
+    its ``alpha_range``, against :func:`ggx_integrals` of the lat-long ``pixels`` (``samples``
+    per pixel); the relative RMS of luminance over all three (``value``) and each
+    (``by_alpha``)."""
+    sh = shader(asset)
+    lo, hi = (float(a) for a in asset.attrs["alpha_range"])
+    normals, view, _ = sphere_views(size, 0.0)
+    views = np.ascontiguousarray(np.broadcast_to(view, normals.shape))
+    got, ref, by_alpha = [], [], []
+    for alpha in (lo, 0.5 * (lo + hi), hi):
+        g = sh.shade(normals, views, **sh.check(alpha=alpha, f0=1.0)) @ REC709_LUMINANCE
+        r = ggx_integrals(pixels, views, normals, alpha, samples)[0] @ REC709_LUMINANCE
+        got.append(g)
+        ref.append(r)
+        by_alpha.append({"alpha": alpha, "relative_rms": relative_rms_error(g, r)})
+    return {"quantity": "glossy E0 (F0 = 1) an engine shades from the probe, over its α range",
+            "value": relative_rms_error(np.concatenate(got), np.concatenate(ref)),
+            "by_alpha": by_alpha}  # fmt: skip

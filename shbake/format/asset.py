@@ -169,6 +169,18 @@ def write_into(f: h5py.File, asset: Asset) -> None:
             ds.attrs[k] = _attr_value(v)
 
 
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+"""The first bytes of an HDF5 file without a user block (every file shbake writes)."""
+
+
+def is_asset_file(path: str) -> bool:
+    """Whether the regular file ``path`` starts with :data:`HDF5_SIGNATURE` (an asset to
+    read), not an image (a map to bake); refuses a folder, FIFO or device first."""
+    resources.check_regular_file(path, "input")
+    with open(path, "rb") as f:
+        return f.read(len(HDF5_SIGNATURE)) == HDF5_SIGNATURE
+
+
 def _open(path: str):
     resources.check_regular_file(path, "asset")
     try:  # sec2 named: HDF5_DRIVER cannot choose a driver that reads other files

@@ -5,8 +5,8 @@ import os
 import numpy as np
 import OpenImageIO as oiio
 
-from shbake.conventions import REC709_LUMINANCE
-from shbake.errors import OutputError
+from shbake.conventions import DISPLAY_TRANSFORMS, REC709_LUMINANCE
+from shbake.errors import OutputError, ParameterError
 from shbake.format.atomic import atomic_path
 from shbake.messages import warn
 
@@ -190,29 +190,55 @@ def auto_exposure(img: np.ndarray) -> float:
     return 0.18 / float(np.exp(np.mean(np.log(nz)))) if nz.size else 1.0
 
 
-def tonemap(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
-    """Tone-map linear RGB to display sRGB in ``[0, 1]`` for looking at, hue preserved.
+ACES_EXPOSURE = 0.6
+"""Narkowicz's pre-scale of linear radiance before his ACES fit (it matches the fit to the
+reference RRT+ODT at exposure 1; the post's ``x *= 0.6``)."""
+
+
+def aces_filmic(x: np.ndarray) -> np.ndarray:
+    """Narkowicz's fit of the ACES RRT + sRGB ODT, per channel, to display-linear ``[0, 1]``:
+    ``f(x) = x(2.51x + 0.03) / (x(2.43x + 0.59) + 0.14)`` of ``x`` = 0.6 × radiance,
+    clipped to ``[0, 1]`` (K. Narkowicz, "ACES Filmic Tone Mapping Curve", 2016-01-06,
+    knarkowicz.wordpress.com; the curve Unreal's and three.js's filmic modes approximate).
+    Per channel, as engines apply it: bright colours drift towards white."""
+    x = ACES_EXPOSURE * np.maximum(np.asarray(x, dtype=np.float64), 0.0)
+    return np.clip(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
+
+
+def tonemap(
+    img: np.ndarray, exposure: float | None = None, display: str = "reinhard"
+) -> np.ndarray:
+    """Tone-map linear RGB to display sRGB in ``[0, 1]`` for looking at.
 
     ``exposure`` (a multiplier; default :func:`auto_exposure`) scales the
-    radiance; Reinhard's curve ``Y/(1+Y)`` is applied to the Rec.709
-    luminance ``Y`` and every channel scaled by the same factor (so a white
-    sphere under coloured light keeps its colour instead of turning grey, as
-    a per-channel curve does), channels above 1 clipped; then the sRGB
-    transfer function. Deterministic.
+    radiance. ``display`` (:data:`DISPLAY_TRANSFORMS`): ``reinhard`` applies
+    Reinhard's curve ``Y/(1+Y)`` to the Rec.709 luminance ``Y`` and scales
+    every channel by the same factor (so a white sphere under coloured light
+    keeps its colour instead of turning grey, as a per-channel curve does),
+    channels above 1 clipped; ``aces`` the filmic curve per channel
+    (:func:`aces_filmic`). Then the sRGB transfer function. Deterministic.
     """
+    if display not in DISPLAY_TRANSFORMS:
+        raise ParameterError(f"display transform {display!r}: one of "
+                             f"{', '.join(DISPLAY_TRANSFORMS)}")  # fmt: skip
     x = np.maximum(np.asarray(img, dtype=np.float64), 0.0)
     if exposure is None:
         exposure = auto_exposure(x)
     x = x * exposure
-    lum = x @ REC709_LUMINANCE
-    scale = np.where(lum > 0.0, 1.0 / (1.0 + lum), 1.0)
-    x = np.minimum(x * scale[..., None], 1.0)
+    if display == "aces":
+        x = aces_filmic(x)
+    else:
+        lum = x @ REC709_LUMINANCE
+        scale = np.where(lum > 0.0, 1.0 / (1.0 + lum), 1.0)
+        x = np.minimum(x * scale[..., None], 1.0)
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
 
 
-def tonemap_to_srgb8(img: np.ndarray, exposure: float | None = None) -> np.ndarray:
+def tonemap_to_srgb8(
+    img: np.ndarray, exposure: float | None = None, display: str = "reinhard"
+) -> np.ndarray:
     """:func:`tonemap` rounded to 8-bit sRGB."""
-    return np.clip(np.round(tonemap(img, exposure) * 255.0), 0, 255).astype(np.uint8)
+    return np.clip(np.round(tonemap(img, exposure, display) * 255.0), 0, 255).astype(np.uint8)
 
 
 def diverging8(x: np.ndarray) -> np.ndarray:

@@ -2,13 +2,15 @@
 
 One PNG per preview (or evaluation case) that a person can read without the
 command line that made it: the shaded result and the brute-force reference
-tone-mapped with ONE exposure (:func:`shbake.format.images.tonemap`, on
-luminance), and the signed luminance error divided by the reference's mean
-luminance on a diverging scale symmetric about 0, its colour bar labelled.
-The title names the asset, the pass and its settings; the subtitle the MSE
-and the relative RMS error. Written through :mod:`shbake.format.atomic`;
-matplotlib's ``Agg`` backend with no timestamp, so the same images give the
-same bytes.
+tone-mapped with ONE exposure and one display transform
+(:func:`shbake.format.images.tonemap`: Reinhard or ACES), and the signed luminance
+error divided by the reference's mean luminance on a FIXED diverging scale
+(:data:`ERROR_SCALE`, the same on every sheet; pixels beyond it marked), its colour
+bar labelled; under them, when given, a thumbnail of the source map. The title
+names the asset, the pass and its settings; the subtitle the MSE and the
+relative RMS error; the last line the exposure and display transform. Written
+through :mod:`shbake.format.atomic`; matplotlib's ``Agg`` backend with no timestamp,
+so the same images give the same bytes.
 """
 
 import numpy as np
@@ -18,6 +20,15 @@ from shbake.format.atomic import atomic_path
 from shbake.format.images import auto_exposure, tonemap
 
 BACKGROUND = (0.18, 0.18, 0.18)
+ERROR_SCALE = 0.10
+"""The error panel's fixed scale: ±10 % of the reference's mean luminance, the same on every
+sheet so that sheets compare; pixels beyond it are drawn in :data:`BEYOND_COLOURS`."""
+BEYOND_COLOURS = ("lime", "magenta")
+"""Error pixels below −:data:`ERROR_SCALE` and above +:data:`ERROR_SCALE`."""
+THUMBNAIL_WIDTH = 256
+"""Largest width in texels of the source map's thumbnail (block means)."""
+FONT_PT = 10
+"""Every label's size in points (9 for tick labels): readable at the page's scale."""
 
 
 def signed_relative_error(result: np.ndarray, reference: np.ndarray, mask) -> np.ndarray:
@@ -29,10 +40,30 @@ def signed_relative_error(result: np.ndarray, reference: np.ndarray, mask) -> np
     return np.where(mask, err, 0.0)
 
 
+def beyond_scale(result: np.ndarray, reference: np.ndarray, mask) -> float:
+    """Fraction of the ``mask`` pixels whose :func:`signed_relative_error` lies beyond
+    ±:data:`ERROR_SCALE` (the pixels the sheet marks)."""
+    if not np.any(mask):
+        return 0.0
+    err = signed_relative_error(result, reference, mask)[mask]
+    return float(np.count_nonzero(np.abs(err) > ERROR_SCALE)) / err.size
+
+
+def thumbnail(pixels: np.ndarray, width: int = THUMBNAIL_WIDTH) -> np.ndarray:
+    """A map ``(H, W, 3)`` shrunk by block means to at most ``width`` columns (its layout
+    kept: lat-long, strip or cross), rows and columns cropped to whole blocks."""
+    img = np.asarray(pixels, dtype=np.float64)
+    f = max(1, -(-img.shape[1] // width))
+    h, w = img.shape[0] // f * f, img.shape[1] // f * f
+    if h == 0:
+        return img[:1, ::f]
+    return img[:h, :w].reshape(h // f, f, w // f, f, 3).mean(axis=(1, 3))
+
+
 def _panel(ax, rgb, mask, label):
     img = np.where(mask[..., None], rgb, BACKGROUND)
     ax.imshow(img, interpolation="nearest")
-    ax.set_title(label, fontsize=9)
+    ax.set_title(label, fontsize=FONT_PT)
     ax.set_axis_off()
 
 
@@ -44,38 +75,57 @@ def write_contact_sheet(
     reference: np.ndarray | None = None,
     subtitle: str = "",
     labels: tuple[str, str] = ("result", "brute-force reference"),
+    display: str = "reinhard",
+    source: np.ndarray | None = None,
 ) -> str:
     """Write the sheet for a ``(H, W, 3)`` linear ``result`` (and ``reference``) to ``path``.
 
-    ``mask`` marks the pixels that were shaded (the sphere). Returns ``path``.
+    ``mask`` marks the pixels that were shaded (the sphere). ``display``: the display
+    transform (:data:`shbake.format.images.DISPLAY_TRANSFORMS`). ``source``: the source
+    map's linear pixels, shown shrunk (:func:`thumbnail`) under the panels at its own
+    exposure. The error panel's scale is fixed (:data:`ERROR_SCALE`). Returns ``path``.
     """
     import matplotlib
 
     matplotlib.use("Agg", force=True)
+    from matplotlib import colormaps
     from matplotlib.figure import Figure
 
     exposure = auto_exposure(np.where(mask[..., None], reference if reference is not None
                                       else result, 0.0))  # fmt: skip
     panels = 1 if reference is None else 3
-    fig = Figure(figsize=(3.2 * panels + (0.6 if reference is not None else 0.0), 3.9), dpi=100)
-    axes = fig.subplots(1, panels, squeeze=False)[0]
-    _panel(axes[0], tonemap(result, exposure), mask, labels[0])
+    rows = 1 if source is None else 2
+    fig = Figure(figsize=(3.4 * panels + (0.9 if reference is not None else 0.0),
+                          4.4 + (1.5 if source is not None else 0.0)), dpi=100)  # fmt: skip
+    grid = fig.add_gridspec(rows, panels, height_ratios=[3.4, 1.3][:rows])
+    axes = [fig.add_subplot(grid[0, k]) for k in range(panels)]
+    _panel(axes[0], tonemap(result, exposure, display), mask, labels[0])
     if reference is not None:
-        _panel(axes[1], tonemap(reference, exposure), mask, labels[1])
+        _panel(axes[1], tonemap(reference, exposure, display), mask, labels[1])
         err = signed_relative_error(result, reference, mask)
-        scale = float(np.max(np.abs(err[mask]))) if np.any(mask) else 0.0
-        scale = scale if scale > 0 else 1.0
+        cmap = colormaps["RdBu_r"].with_extremes(under=BEYOND_COLOURS[0], over=BEYOND_COLOURS[1])
         shown = np.ma.masked_where(~mask, err)
-        im = axes[2].imshow(shown, cmap="RdBu_r", vmin=-scale, vmax=scale,
+        im = axes[2].imshow(shown, cmap=cmap, vmin=-ERROR_SCALE, vmax=ERROR_SCALE,
                             interpolation="nearest")  # fmt: skip
         axes[2].set_facecolor(BACKGROUND)
-        axes[2].set_title("signed error", fontsize=9)
+        beyond = beyond_scale(result, reference, mask)
+        axes[2].set_title(f"signed error ({beyond:.1%} beyond ±{ERROR_SCALE:.0%})",
+                          fontsize=FONT_PT)  # fmt: skip
         axes[2].set_axis_off()
-        bar = fig.colorbar(im, ax=axes[2], fraction=0.046, pad=0.04)
-        bar.set_label("(result − reference) / mean reference luminance", fontsize=7)
-        bar.ax.tick_params(labelsize=7)
-    fig.suptitle(title + ("\n" + subtitle if subtitle else ""), fontsize=9)
-    fig.text(0.01, 0.01, f"exposure ×{exposure:.3g}, Reinhard on luminance, sRGB", fontsize=6)
+        bar = fig.colorbar(im, ax=axes[2], fraction=0.046, pad=0.04, extend="both",
+                           ticks=np.linspace(-ERROR_SCALE, ERROR_SCALE, 5),
+                           format=lambda v, _: f"{v:+.1%}")  # fmt: skip
+        bar.set_label("(result − reference) / mean ref. luminance;\n"
+                      f"fixed ±{ERROR_SCALE:.0%}: green below, magenta above",
+                      fontsize=FONT_PT - 1)  # fmt: skip
+        bar.ax.tick_params(labelsize=FONT_PT - 1)
+    if source is not None:
+        ax = fig.add_subplot(grid[1, :])
+        ax.imshow(tonemap(thumbnail(source), None, display), interpolation="nearest")
+        ax.set_title("source map (its own exposure)", fontsize=FONT_PT)
+        ax.set_axis_off()
+    shown_as = f"exposure ×{exposure:.3g}, {display} display transform, sRGB"
+    fig.suptitle("\n".join(x for x in (title, subtitle, shown_as) if x), fontsize=FONT_PT)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", metadata={"Software": None})
     return path

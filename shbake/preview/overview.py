@@ -1,20 +1,17 @@
-"""One HTML page over a folder of previews: the page a person opens first after ``make demo``.
+"""The overview page: what a person opens first after ``make demo`` (HTML, no script).
 
-Every ``*.json`` in the folder that is a ``preview --json`` summary (it lists
-its ``outputs``, one of them a ``-sheet.png`` contact sheet) becomes a card:
-the contact sheet, the pass, the error against brute force and the speed; a
-``-sheet.png`` without a summary becomes a card with its name only.
-Cards are grouped by the asset's stem and sorted by name, so the same folder
-gives the same bytes. Images are linked relatively: the page moves with the
-folder.
+:func:`render_page` draws what :mod:`shbake.batch.overview` gathered from a folder: FIRST
+a summary table (asset, kind, setting, error against its tolerance with the verdict,
+bytes, bake seconds), then the tradeoff plots, then one group per map (its stem): the
+extracted sun (direction, colour, intensity), links to the asset and its exports, and
+one card per preview (the contact sheet: result, reference, the signed error on the fixed
+±10 % scale, the source map's thumbnail; :mod:`shbake.preview.contact_sheet`).
 
-The summaries and the file names are untrusted (``docs/SECURITY.md``): the page is
+The summaries, locks and file names are untrusted (``docs/SECURITY.md``): the page is
 rendered by Jinja2 with autoescaping from the templates in ``templates/`` (package
-data), so every value from a summary or a name is text, never markup. A summary
-whose fields do not have the types ``preview --json`` writes is not a summary (skipped,
-as a file that is not JSON is). A contact sheet is linked only when it is a file inside
-the page's folder, by a percent-encoded relative URL (no scheme, no ``..``, no absolute
-path can come from data); another is named in its card, not linked. A
+data), so every value from a summary or a name is text, never markup. A file is linked
+only when it is a file inside the page's folder, by a percent-encoded relative URL (no
+scheme, no ``..``, no absolute path can come from data); another is named, not linked. A
 ``Content-Security-Policy`` meta allows images from the page's own origin and the
 page's one style (by its SHA-256), nothing else: no script, no form, no ``<base>``.
 """
@@ -22,20 +19,11 @@ page's one style (by its SHA-256), nothing else: no script, no form, no ``<base>
 import base64
 import functools
 import hashlib
-import json
-import math
 import os
 from pathlib import Path
 from urllib.parse import quote
 
-from shbake.errors import InputError
-from shbake.format.atomic import write_text
-from shbake.resources import read_bounded
-
-SUMMARY_MAX_BYTES = 1 << 20
-"""Largest ``--json`` summary file read."""
-NUMBERS = ("roughness", "f0", "relative_rms_error", "mse", "fps")
-"""The summary fields the page shows as numbers (finite reals in a summary)."""
+from shbake.preview.contact_sheet import ERROR_SCALE
 
 
 @functools.lru_cache(maxsize=1)
@@ -62,40 +50,6 @@ def content_security_policy(style: str) -> str:
             "base-uri 'none'; form-action 'none'")  # fmt: skip
 
 
-def _is_summary(summary) -> bool:
-    """Whether ``summary`` has the types ``preview --json`` writes (where it has a field)."""
-    if not isinstance(summary, dict) or not isinstance(summary.get("outputs", []), list):
-        return False
-    if not all(isinstance(p, str) for p in summary.get("outputs", [])):
-        return False
-    if not isinstance(summary.get("pass", ""), str):
-        return False
-    size = summary.get("size", 1)
-    if isinstance(size, bool) or not isinstance(size, int) or size < 1:
-        return False
-    return all(isinstance(summary.get(k, 0.0), int | float) and not isinstance(summary.get(k), bool)
-               and math.isfinite(summary.get(k, 0.0)) for k in NUMBERS)  # fmt: skip
-
-
-def _summaries(folder: Path) -> list[tuple[str, dict]]:
-    out = []
-    for path in sorted(folder.glob("*.json")):
-        try:
-            summary = json.loads(read_bounded(str(path), SUMMARY_MAX_BYTES, "preview summary"))
-        except (OSError, ValueError):  # unreadable, special (FIFO), too large or not JSON
-            continue
-        if not _is_summary(summary):
-            continue
-        sheets = [p for p in summary.get("outputs", []) if p.endswith("-sheet.png")]
-        if sheets:
-            out.append((path.stem, summary | {"sheet": sheets[0]}))
-    described = {os.path.abspath(s["sheet"]) for _, s in out}
-    for sheet in sorted(folder.glob("*-sheet.png")):
-        if os.path.abspath(sheet) not in described:  # a sheet without a summary: its name only
-            out.append((sheet.name[: -len("-sheet.png")], {"sheet": str(sheet)}))
-    return sorted(out, key=lambda card: card[0])
-
-
 def relative_url(path: str, base: str) -> str | None:
     """The file ``path`` (relative to the working directory, or absolute) as a URL relative
     to the folder ``base``, each segment percent-encoded (``:`` included, so no scheme);
@@ -105,6 +59,32 @@ def relative_url(path: str, base: str) -> str | None:
     if os.path.isabs(rel) or not parts or ".." in parts or not os.path.isfile(path):
         return None
     return "/".join(quote(part, safe="") for part in parts)
+
+
+def _link(path: str | None, base: str) -> dict | None:
+    """``{"name", "src"}`` of a file: ``src`` its relative URL and ``name`` its path relative
+    to ``base`` when it is a file inside ``base``; else ``src`` ``None`` and the path as given
+    (named only)."""
+    if not path:
+        return None
+    src = relative_url(path, base)
+    return {"name": path if src is None else os.path.relpath(os.path.abspath(path), base),
+            "src": src}  # fmt: skip
+
+
+def _percent(x) -> str | None:
+    return None if x is None else format(x, ".2%")
+
+
+def _table_row(r: dict, base: str) -> dict:
+    verdict = {None: "—", True: "pass", False: "FAIL"}[r["verdict"]]
+    link = _link(r["href"], base) or {"name": r["asset"], "src": None}
+    name = link["name"] if r["asset"] == r["href"] else r["asset"]  # a path, or a lock's id
+    return {"asset": {"name": name, "src": link["src"]}, "kind": r["kind"],
+            "setting": r["setting"], "quantity": r["quantity"], "error": _percent(r["error"]),
+            "tolerance": f"{r['tolerance']:.2%} ({r['tolerance_from']})", "verdict": verdict,
+            "bytes": "—" if r["bytes"] is None else f"{r['bytes']:,}",
+            "seconds": "—" if r["seconds"] is None else f"{r['seconds']:.2f}"}  # fmt: skip
 
 
 def _card(stem: str, summary: dict, base: str) -> dict:
@@ -119,37 +99,57 @@ def _card(stem: str, summary: dict, base: str) -> dict:
         "stem": stem, "src": src, "outside": None if src is not None else summary["sheet"],
         "pass": summary.get("pass"), "roughness": num("roughness", "g"), "f0": num("f0", "g", 1),
         "error": num("relative_rms_error", ".2%"), "mse": num("mse", ".3g"),
+        "beyond": num("error_beyond_scale", ".1%"), "display": summary.get("display"),
         "fps": num("fps", ".0f"), "size": summary.get("size"),
     }  # fmt: skip
 
 
-def write_overview(folder: str, output: str, title: str = "shbake previews") -> dict:
-    """Write the overview page of ``folder`` to ``output``; returns ``{"cards": n, ...}``."""
-    page, cards, groups = overview_page(folder, os.path.dirname(os.path.abspath(output)), title)
-    write_text(output, page)
-    return {"output": output, "cards": cards, "groups": groups}
+def _sun(sun: dict | None) -> str | None:
+    """The extracted sun in one line (direction, elevation, azimuth, colour, intensity)."""
+    if not sun:
+        return None
+    if not sun.get("extracted"):
+        contrast = sun.get("contrast")
+        return "no sun extracted" + ("" if contrast is None else
+                                     f" (peak/background contrast {contrast:.1f})")  # fmt: skip
+    return "sun: " + _light(sun)
 
 
-def overview_page(folder: str, base: str, title: str) -> tuple[str, int, int]:
-    """The page over ``folder`` for a file in the folder ``base`` (links are relative to it),
-    its number of cards and of groups."""
-    root = Path(folder)
-    if not root.is_dir():
-        raise InputError(f"{folder}: not a directory")
-    cards = _summaries(root)
-    if not cards:
-        raise InputError(f"{folder}: no contact sheets (*-sheet.png from 'shbake preview')")
-    groups: dict[str, list] = {}
-    for stem, summary in cards:
-        groups.setdefault(stem.split("-")[0], []).append(_card(stem, summary, base))
-    rows = [{"group": g, "pass": c["pass"], "error": c["error"]}
-            for g in sorted(groups) for c in groups[g] if c["error"] is not None]  # fmt: skip
+def _light(sun: dict) -> str:
+    """A directional light (the sun, a fitted light): its fields in words."""
+    vec = lambda v: "(" + ", ".join(f"{c:.3f}" for c in v) + ")"  # noqa: E731
+    parts = [f"direction {vec(sun['direction'])}" if "direction" in sun else "",
+             f"elevation {sun['elevation_deg']:.1f}°" if "elevation_deg" in sun else "",
+             f"azimuth {sun['azimuth_deg']:.1f}°" if "azimuth_deg" in sun else "",
+             f"colour {vec(sun['colour'])}" if "colour" in sun else "",
+             f"intensity {sun['intensity']:.4g} (irradiance at normal incidence, luminance)"
+             if "intensity" in sun else ""]  # fmt: skip
+    return ", ".join(p for p in parts if p)
+
+
+def _group(name: str, group: dict, base: str) -> dict:
+    bakes = [{"asset": _link(b["output"], base), "sun": _sun(b.get("sun")),
+              "lights": [f"light {k + 1}: " + _light(x)
+                         for k, x in enumerate(b.get("lights", {}).get("lights", []))],
+              "files": [_link(p, base) for p in b["outputs"] if p != b["output"]]}
+             for b in group["bakes"]]  # fmt: skip
+    cards = [_card(stem, s, base) for stem, s in sorted(group["previews"], key=lambda c: c[0])]
+    return {"name": name, "bakes": bakes, "cards": cards}
+
+
+def render_page(title: str, rows: list[dict], groups: dict, plots: list[str], base: str,
+                tol: float) -> str:  # fmt: skip
+    """The page (links relative to the folder ``base``) over the summary ``rows``, the
+    ``groups`` of bakes and previews and the tradeoff ``plots``
+    (:func:`shbake.batch.overview.gather`); ``tol``: the tolerance of rows without their own."""
     from markupsafe import Markup
 
     env = _templates()
     style = Markup(env.loader.get_source(env, "overview.css")[0])  # package data: not escaped
-    page = env.get_template("overview.html").render(
-        title=title, style=style, csp=content_security_policy(style), rows=rows,
-        groups=[{"name": g, "cards": groups[g]} for g in sorted(groups)],
+    failed = sum(1 for r in rows if r["verdict"] is False)
+    return env.get_template("overview.html").render(
+        title=title, style=style, csp=content_security_policy(style),
+        rows=[_table_row(r, base) for r in rows], failed=failed, tol=f"{tol:.2%}",
+        scale=f"{ERROR_SCALE:.0%}", plots=[_link(p, base) for p in plots],
+        groups=[_group(g, groups[g], base) for g in sorted(groups)],
     )  # fmt: skip
-    return page, len(cards), len(groups)

@@ -15,10 +15,13 @@ import time
 import numpy as np
 
 from shbake.preview.sphere import paint, sphere_geometry
+from shbake.progress import NO_PROGRESS
 from shbake.reference.truth import truth
 
 VIEW = np.array([0.0, 0.0, 1.0])
 """The preview camera's view (toward the viewer, world): orthographic from +Z."""
+TRUTH_CHUNKS = 32
+"""Blocks of pixels a ground truth is integrated in (one progress step each)."""
 
 
 def sphere_points(size: int, min_nv: float | None = None):
@@ -40,18 +43,29 @@ def _timed(run) -> tuple[np.ndarray, dict]:
 
 
 def render_pass(shader, size: int, material: dict | None = None, source=None,
-                **truth_settings) -> tuple[np.ndarray, dict]:  # fmt: skip
+                progress=NO_PROGRESS, **truth_settings) -> tuple[np.ndarray, dict]:  # fmt: skip
     """Draw ``shader`` with ``material`` on a ``size``² sphere; ``(image (size, size, 3),
     timing)``. Timing: ``seconds``/``fps`` of the first update regime, and ``modes`` (each
     regime's) when the shader has several. ``source``: draw its ground truth under that map
-    instead (``truth_settings``: ``samples``, ``merl_path``)."""
+    instead (``truth_settings``: ``samples``, ``merl_path``), in :data:`TRUTH_CHUNKS`
+    blocks of pixels counted on ``progress`` (each pixel's integral is its own: the same
+    bits as one call)."""
     material = dict(material or {})
     n, t, v, mask = sphere_points(size, shader.min_nv)
     tangents = {"tangents": t} if shader.tangents else {}
     out = np.zeros((size, size, 3))
     if source is not None:
-        img, timing = _timed(lambda: truth(shader, source, n, v, t, **material,
-                                           **truth_settings))  # fmt: skip
+
+        def run():
+            parts = []
+            with progress.task("brute-force reference", total=len(n), unit="pixel") as advance:
+                for block in np.array_split(np.arange(len(n)), min(TRUTH_CHUNKS, len(n))):
+                    parts.append(truth(shader, source, n[block], v[block], t[block],
+                                       **material, **truth_settings))  # fmt: skip
+                    advance(len(block))
+            return np.concatenate(parts)
+
+        img, timing = _timed(run)
         paint(out, mask, img)
         return out, timing
     modes, timings, img = shader.modes(n, v, **tangents, **material), {}, None

@@ -10,7 +10,8 @@
 // A page defines `window.shbakeRender(params)` (async, returns JSON) once its modules are loaded;
 // the harness opens a fresh tab for each request, calls it and closes the tab. A request
 // {"id", "screenshot": "/data/DIR/index.html", "selector": "canvas"} opens that page instead and
-// returns its PNG (of the element `selector` alone, if given). Files are named
+// returns its PNG (of the element `selector` alone, if given) and its layout (optional "width",
+// "height" of the viewport; "measure": selectors whose boxes come back). Files are named
 // to the page as "/data/<path relative to DATA_ROOT>". The page's console lines (warnings and
 // errors included) come back with the answer so that a test can require there are none.
 // Render-target conventions every page follows (tests/engine_browser.py reads them): float32
@@ -99,7 +100,21 @@ async function screenshot(page, request) {
   const state = await page.evaluate(() => document.body.dataset.state);
   const before = request.lines.slice();  // the page's own lines: capturing reads pixels back
   const target = request.selector ? await page.$(request.selector) : page;  // an element alone
-  return { state, console: before, png: await target.screenshot({ encoding: "base64" }) };
+  const layout = await page.evaluate(measureLayout, request.measure || []);
+  return { state, console: before, layout, png: await target.screenshot({ encoding: "base64" }) };
+}
+
+// The page's layout at its viewport: the document's scroll and client widths, the viewport's
+// height, the box of each selector's first element, and the elements reaching past the right
+// edge (tag.class, the first ten).
+function measureLayout(selectors) {
+  const doc = document.documentElement;
+  const box = (e) => { const r = e.getBoundingClientRect(); return { top: r.top, bottom: r.bottom, left: r.left, right: r.right }; };
+  const rects = {};
+  for (const s of selectors) { const e = document.querySelector(s); rects[s] = e ? box(e) : null; }
+  const past = [...document.body.querySelectorAll("*")].filter((e) => e.getBoundingClientRect().right > doc.clientWidth + 0.5);
+  return { scrollWidth: doc.scrollWidth, clientWidth: doc.clientWidth, innerHeight: window.innerHeight, rects,
+           overflowing: past.slice(0, 10).map((e) => `${e.tagName.toLowerCase()}.${e.className}`) };
 }
 
 async function shutdown() {

@@ -1,0 +1,115 @@
+"""``shbake export MAP``: one step from an environment map to an engine (issue 32).
+
+:func:`export_inputs` exports each input as :func:`shbake.batch.export.export_assets`
+does; an input that is an environment map, not an asset, is first baked into an
+``env_sh`` asset with :data:`MAP_DEFAULTS` (as ``project-env`` would, measured against
+brute force with the headline error of what the engines evaluate), which is staged in
+the run's transaction, read back by the export and dropped unless ``keep_asset`` names
+where to keep it.
+"""
+
+import os
+
+from shbake.batch.export import check_target_options, export_assets
+from shbake.batch.project_env import check_settings, project_environment
+from shbake.errors import ParameterError
+from shbake.format.asset import is_asset_file
+from shbake.format.atomic import check_output_dir, makedirs, staged, transaction
+from shbake.format.exports import target_module
+from shbake.progress import NO_PROGRESS
+
+MAP_OPTIONS = {
+    "lmax": "--lmax",
+    "window": "--window",
+    "extract_sun": "--extract-sun/--no-extract-sun",
+    "lights": "--lights",
+    "keep_asset": "--keep-asset",
+    "layout": "--layout",
+    "negative": "--negative",
+    "fix_nonfinite": "--fix-nonfinite",
+    "colorspace": "--colorspace",
+}
+"""Settings read only for an environment-map input (its bake), and the option of each."""
+MAP_DEFAULTS = {"lmax": 2, "window": "none", "extract_sun": True, "lights": None}
+"""How a map input is baked unless told: lmax 2 (every SH target reads the first 9
+coefficients), no window, the dominant compact light taken out as a directional light
+where the map has one (``project-env``'s advice; nothing is taken from a map without one)."""
+
+
+def export_inputs(
+    inputs: list[str],
+    target: str,
+    out: str,
+    many: bool | None = None,
+    bake: dict | None = None,
+    keep_asset: str | None = None,
+    explicit=(),
+    progress=NO_PROGRESS,
+    **options,
+) -> dict:
+    """Export each of ``inputs`` to ``target`` (:func:`export_assets`); an input that is not
+    an HDF5 asset is an environment map, baked first into an ``env_sh`` asset with
+    :data:`MAP_DEFAULTS` updated by ``bake`` (``lmax``, ``window``, ``extract_sun``,
+    ``lights`` — which, unless ``extract_sun`` is explicit, replace the sun —, the input
+    policies) and measured against brute force (the ``project-env --report`` error).
+
+    The baked asset is an output of the run's transaction, read back by the export and
+    then discarded; ``keep_asset`` (one map input) keeps it there. Returns ``{"written":
+    files, "bakes": [the project-env summary of each map]}``. Settings of
+    :data:`MAP_OPTIONS` named in ``explicit`` without a map input, or of
+    :data:`TARGET_OPTIONS` the target does not read, raise
+    :class:`~shbake.errors.ParameterError` before anything is baked.
+    """
+    check_target_options(target, explicit)
+    one_file = not (many if many is not None else len(inputs) > 1)
+    maps = [p for p in inputs if not is_asset_file(p)]
+    given = [o for k, o in MAP_OPTIONS.items() if k in explicit]
+    if given and not maps:
+        raise ParameterError(f"{', '.join(given)}: read for an environment-map input only")
+    if keep_asset is not None and len(maps) != 1:
+        raise ParameterError("--keep-asset keeps the asset of one map input")
+    settings = MAP_DEFAULTS | {k: v for k, v in (bake or {}).items() if v is not None}
+    if settings["lights"] is not None and "extract_sun" not in explicit:
+        settings["extract_sun"] = False  # fitted lights replace the extracted sun
+    lmax, lights = settings["lmax"], settings["lights"]
+    check_settings(lmax, min(lmax, 2), True, ("threejs",), lights, 0.01,
+                   settings["extract_sun"], settings["window"])  # fmt: skip
+    if not one_file:
+        check_output_dir(out, "--out-dir")
+    written, bakes = [], []
+    with transaction() as t:
+        for path in inputs:
+            if path not in maps:
+                written += export_assets([path], target, out, many=not one_file,
+                                         explicit=explicit, **options)  # fmt: skip
+                continue
+            folder = out if not one_file else os.path.dirname(os.path.abspath(out))
+            stem = os.path.splitext(os.path.basename(path))[0]
+            asset = keep_asset or os.path.join(folder, stem + ".h5")
+            if not one_file:
+                makedirs(out)
+            summary = project_environment(
+                path, asset, lmax=settings["lmax"], window=settings["window"],
+                irradiance_lmax=min(settings["lmax"], 2), tangent_irradiance=False,
+                extract_sun=settings["extract_sun"], lights=settings["lights"],
+                sun_radius=options.get("sun_radius_deg", 10.0), report=True,
+                measure_export=target != "ktx2",  # ktx2 carries cube maps, no SH
+                **{k: settings.get(k) for k in ("layout", "negative", "fix_nonfinite",
+                                                "colorspace")},
+                progress=progress,
+            )  # fmt: skip
+            if target_module(target).CUBES is not None:  # the cube chain's map: this one
+                options = options | {"env_path": options.get("env_path") or path}
+            files = export_assets([asset], target, out, many=not one_file, explicit=explicit,
+                                  **options)  # fmt: skip
+            if keep_asset is None:
+                t.discard(staged(asset))
+                summary["outputs"] = files
+            else:
+                summary["outputs"] = [asset, *files]
+            written += summary["outputs"]
+            bakes.append(summary)
+    return {"written": written, "bakes": bakes}
+
+
+__all__ = ["MAP_DEFAULTS", "MAP_OPTIONS", "export_inputs"]

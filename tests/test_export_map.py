@@ -1,0 +1,107 @@
+"""``shbake export MAP --to TARGET -o OUT``: one step from map to engine (issue 32, Deliver 6).
+
+The map is baked as ``project-env MAP --extract-sun`` would (lmax 2) and exported as
+``export ASSET`` would: the oracle is those two commands run one after the other (the
+exported bytes must be the same), an independent KTX2 header read for the filed failure
+(``export sky.exr --to ktx2`` said "file signature not found"), and the folder listing:
+no asset and no temporary is left unless ``--keep-asset`` asks for it.
+"""
+
+import json
+import os
+
+import h5py
+import numpy as np
+import pytest
+
+from tests.helpers import map_path, write_test_exr
+
+KTX2_IDENTIFIER = b"\xabKTX 20\xbb\r\n\x1a\n"
+"""KTX 2.0 §3.1: the file's first 12 bytes."""
+
+
+@pytest.fixture(scope="module")
+def sky(tmp_path_factory):
+    """A small map with a sun: 32×64 sky, one bright 2×2 patch."""
+    folder = tmp_path_factory.mktemp("sky")
+    img = np.full((32, 64, 3), 0.5)
+    img[8:10, 20:22] = 2000.0
+    return str(write_test_exr(folder / "sky.exr", img))
+
+
+def listing(folder) -> list[str]:
+    return sorted(os.listdir(folder))
+
+
+class TestOneStep:
+    def test_same_bytes_as_two_commands(self, tmp_path, run_cli, sky):
+        one, two = tmp_path / "one", tmp_path / "two"
+        one.mkdir()
+        two.mkdir()
+        code, _, err = run_cli("export", sky, "--to", "threejs", "-o", one / "sky.json")
+        assert code == 0, err
+        assert listing(one) == ["sky.json"]  # no asset, no temporary
+        assert "sky.exr: baked env_sh lmax 2 (the sun extracted, window none); error " in err
+        assert run_cli("project-env", sky, "-o", two / "sky.h5", "--extract-sun", "-q")[0] == 0
+        assert run_cli("export", two / "sky.h5", "--to", "threejs", "-o", two / "sky.json")[0] == 0
+        assert (one / "sky.json").read_bytes() == (two / "sky.json").read_bytes()
+
+    def test_filed_ktx2_case(self, tmp_path, run_cli, sky):
+        """Issue 32 item 6: ``export sky.exr --to ktx2`` failed with "file signature not
+        found" (the map was read as an HDF5 asset)."""
+        code, _, err = run_cli("export", sky, "--to", "ktx2", "-o", tmp_path / "sky.ktx2",
+                               "--size", "16", "--samples", "16")  # fmt: skip
+        assert code == 0, err
+        assert listing(tmp_path) == ["sky.ktx2", "sky_dfg.exr", "sky_dfg.ktx2"]
+        assert (tmp_path / "sky.ktx2").read_bytes()[:12] == KTX2_IDENTIFIER
+
+    def test_keep_asset_and_json(self, tmp_path, run_cli, sky):
+        code, out, err = run_cli("export", sky, "--to", "threejs", "-o", tmp_path / "s.json",
+                                 "--keep-asset", tmp_path / "s.h5", "--lmax", "3",
+                                 "--no-extract-sun", "--json", "-q")  # fmt: skip
+        assert code == 0 and err == "", err
+        summary = json.loads(out)
+        assert listing(tmp_path) == ["s.h5", "s.json"]
+        assert summary["written"] == [str(tmp_path / "s.h5"), str(tmp_path / "s.json")]
+        (bake,) = summary["bakes"]
+        assert bake["lmax"] == 3 and not bake.get("sun", {}).get("extracted")
+        with h5py.File(tmp_path / "s.h5", "r") as f:
+            assert f["lighting/sh"].shape == (16, 3) and "sun" not in f
+
+    def test_several_maps_out_dir(self, tmp_path, run_cli):
+        maps = [map_path("studio"), map_path("night")]
+        code, _, err = run_cli("export", *maps, "--to", "threejs", "--out-dir", tmp_path / "o",
+                               "-q")  # fmt: skip
+        assert code == 0, err
+        assert listing(tmp_path / "o") == ["night.json", "studio.json"]
+
+
+class TestRefused:
+    @pytest.mark.parametrize("content", [b"not an image at all", b"\x89HDF\r\n\x1a\ngarbage"])
+    def test_hostile_input_one_line(self, tmp_path, run_cli, content):
+        bad = tmp_path / "in" / "sky.exr"
+        bad.parent.mkdir()
+        bad.write_bytes(content)
+        out = tmp_path / "out"
+        out.mkdir()
+        (out / "sky.json").write_text("old")
+        code, stdout, err = run_cli("export", bad, "--to", "threejs", "-o", out / "sky.json")
+        assert code == 1 and stdout == "" and err.count("\n") == 1, err
+        assert err.startswith("shbake: error: ") and str(bad) in err
+        assert listing(out) == ["sky.json"] and (out / "sky.json").read_text() == "old"
+
+    def test_map_options_need_a_map(self, tmp_path, run_cli, sky):
+        asset = tmp_path / "a.h5"
+        assert run_cli("project-env", sky, "-o", asset, "-q")[0] == 0
+        code, _, err = run_cli("export", asset, "--to", "threejs", "-o", tmp_path / "a.json",
+                               "--lmax", "4")  # fmt: skip
+        assert code == 1
+        assert err == "shbake: error: --lmax: read for an environment-map input only\n"
+        assert listing(tmp_path) == ["a.h5"]
+
+    def test_failed_export_leaves_no_asset(self, tmp_path, run_cli, sky):
+        """The bake succeeds, the export fails (webgl refuses --rotate): nothing is left."""
+        code, _, err = run_cli("export", sky, "--to", "webgl", "-o", tmp_path / "w",
+                               "--rotate", "30", "--keep-asset", tmp_path / "k.h5")  # fmt: skip
+        assert code == 1 and err.count("\n") == 1, err
+        assert listing(tmp_path) == []
