@@ -14,7 +14,7 @@ from shbake_cli.options import (
 )
 
 from shbake.batch.makefile import MakeNameError
-from shbake.batch.plan import format_plan, plan_scene
+from shbake.batch.plan import format_plan, plan_scene_kept
 from shbake.batch.scene import SceneError, load_scene
 from shbake.batch.scene_bake import bake_scene, check_makeable, emit_make, format_bake
 from shbake.format.atomic import check_output_path
@@ -57,7 +57,7 @@ def plan(scene, emit, shbake_cmd, allow_outside, as_json, quiet):
         if emit:  # before planning: names a Makefile cannot hold, an unwritable fragment
             check_makeable(sc, emit, shbake_cmd)
             check_output_path(emit, "--emit-make")
-        result = plan_scene(sc)
+        result = plan_scene_kept(sc)
         if emit:
             emit_make(sc, result, emit, shbake_cmd)
     if emit:
