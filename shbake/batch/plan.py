@@ -545,14 +545,28 @@ def plan_scene_kept(scene: Scene, cache: dict | None = None) -> dict:
     from shbake.batch.plan_cache import scene_units, store_scene_units
 
     kept = scene_units(scene.path)
-    units = kept | (cache if cache is not None else {})
+    units = _Consulted(kept | (cache if cache is not None else {}))
     plan = plan_scene(scene, cache=units)
-    used = {a["plan_key"] for a in plan["assets"] if a["plan_key"] in units}
-    if cache is not None:
-        cache.update(units)
-    if any(kept.get(k) != units[k] for k in used) or used != kept.keys():
-        store_scene_units(scene.path, {k: units[k] for k in sorted(used)})
+    used = {k: units[k] for k in sorted(units.read)}
+    if cache is not None:  # the units this plan read: what the lock keeps
+        cache.clear()
+        cache.update(used)
+    if used != kept:
+        store_scene_units(scene.path, used)
     return plan
+
+
+class _Consulted(dict):
+    """Per-unit plans that remember which keys a plan read (``read``): the units it used,
+    an SH-exp fit that missed its tolerance (and so has no asset) included."""
+
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.read: set = set()
+
+    def __getitem__(self, key):
+        self.read.add(key)
+        return super().__getitem__(key)
 
 
 def _plan_shrm_asset(scene, env, m, model, terms, digest, get_env, cache, assets, add,

@@ -27,7 +27,7 @@ from shbake.batch.makefile import (
     variable_name,
     variable_value,
 )
-from shbake.batch.plan import file_hash, plan_scene
+from shbake.batch.plan import file_hash, plan_scene_kept
 from shbake.batch.probe_jobs import worker_pool
 from shbake.batch.scene import (
     NAME_PATTERN,
@@ -70,7 +70,7 @@ def _committed():
 def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.batch.project_env import project_environment
     from shbake.envmap.turn import turn_matrix
-    from shbake.evaluation.env_sh import brute_force_reference, irradiance_errors
+    from shbake.evaluation.env_sh import check_reference, irradiance_errors
     from shbake.format.asset import read_asset
     from shbake.format.provenance import reload_source
 
@@ -89,11 +89,13 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
         return {"outputs": outputs, "bake_seconds": seconds}, {}
     asset = read_asset(a["output"])
     env = reload_source(asset, a["output"], a["inputs"][0])  # the map as baked, unturned
-    ref = brute_force_reference(env, n_dirs=1024)
+    names = [n for n, on in (("irradiance", s["irradiance"]), ("tangent_irradiance", s["tangent"]))
+             if on]  # fmt: skip
+    ref = check_reference(env, names)
     turn = turn_matrix(s.get("pose", {}).get("rotation_deg", 0.0))
     measured = irradiance_errors(asset, env, ref, rotation=turn)  # the scene's tolerances
     errors = {name: e["relative_rms"] for name, e in measured.items()}
-    return {"outputs": outputs, "bake_seconds": seconds}, errors
+    return {"outputs": outputs, "bake_seconds": seconds, "error_method": ref["methods"]}, errors
 
 
 def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
@@ -118,7 +120,9 @@ def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
     # measured on views the plan did not use, against the table actually written
     table = table_at(read_asset(a["output"])).coeffs
     errs = table_error(brdf, table, s["lmax"], REFERENCE_SAMPLES)["error"]
-    return {"outputs": [a["output"]], "bake_seconds": seconds}, {"brdf_table": errs}
+    info = {"outputs": [a["output"]], "bake_seconds": seconds,
+            "error_method": {"brdf_table": "reference-projection"}}  # fmt: skip
+    return info, {"brdf_table": errs}
 
 
 def _posed_env(a: dict, turn_pixels: bool):
@@ -147,7 +151,8 @@ def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
     probe = fit_plan(config, env.shape).fit_many([env.pixels])[0]
     with _committed():
         write_asset(a["output"], build_shexp_asset(probe, config, shared_dfg_table(), env.meta))
-    return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0},
+    return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0,
+             "error_method": {"glossy_probe": "fit-residual"}},
             {"glossy_probe": float(probe.stats["log_rms"])})  # fmt: skip
 
 
@@ -189,7 +194,9 @@ def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
     if not measure:
         return info, {}
     check = ShrmCheck(env, rb, rotation=rotation)
-    return info, ({"shrm": check.rel_energy(asset)} if check.ref is not None else {})
+    if check.ref is None:
+        return info, {}
+    return info | {"error_method": {"shrm": "brute-force"}}, {"shrm": check.rel_energy(asset)}
 
 
 def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
@@ -248,6 +255,7 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
         "inputs": {p: file_hash(staged(p) or p) for p in asset["inputs"]},
         "outputs": outputs,
         "measured_error": errors,
+        "error_method": info.get("error_method", {}) if measure else {},
         "tolerances": asset["tolerances"],
         "predicted_error": asset["predicted_error"],
         "predicted_seconds": asset["predicted_seconds"],
@@ -256,18 +264,48 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
     }
 
 
-def _dask_bake(asset: dict, sources: dict[str, bytes]) -> tuple[dict, dict[str, bytes]]:
-    """A Dask worker's bake of ``asset``: its lock record and its outputs' bytes by path
-    relative to the asset's folder, for the client to write (the worker writes nothing
-    where outputs go, :mod:`shbake.batch.scheduler`). ``sources``: the bytes of inputs that
-    this run baked earlier (the env_sh asset of an export), not yet committed."""
+CHUNK_MAPS = 8
+"""Maps whose assets one task bakes (a pool's or a Dask worker's unit of work): enough to
+amortise the task's scheduling and share each map's decode between its assets and checks,
+few enough to balance two workers from a few dozen maps on."""
+
+
+def chunks(wave: list[dict], maps: int = CHUNK_MAPS) -> list[list[dict]]:
+    """``wave``'s assets in tasks of the assets of ``maps`` maps each (an asset without a map,
+    a BRDF table, a task of its own group), in the wave's order within a task."""
+    groups: dict = {}
+    for a in wave:
+        key = a["inputs"][0] if a["kind"] != "brdf_table" and a["inputs"] else ("", a["id"])
+        groups.setdefault(key, []).append(a)
+    ordered = list(groups.values())
+    return [[a for g in ordered[i : i + maps] for a in g] for i in range(0, len(ordered), maps)]
+
+
+def bake_chunk(assets: list[dict]) -> list[dict]:
+    """Bake ``assets`` (:func:`bake_asset`, in order), each map decoded once for all of them
+    and their checks (:func:`shbake.envmap.environment.decoded_once`); their records."""
+    from shbake.envmap.environment import decoded_once
+
+    with decoded_once():
+        return [bake_asset(a) for a in assets]
+
+
+def _dask_bake(assets: list[dict], sources: dict[str, bytes]) -> list[tuple[dict, dict]]:
+    """A Dask worker's bake of a chunk of ``assets``: per asset, its lock record and its
+    outputs' bytes by path relative to the asset's folder, for the client to write (the
+    worker writes nothing where outputs go, :mod:`shbake.batch.scheduler`). ``sources``: the
+    bytes of inputs that this run baked earlier (the env_sh assets of exports), not yet
+    committed."""
     use_one_thread()
     with collected() as outputs:
         for path, data in sources.items():
             outputs.adopt(path, data)
-        record = bake_asset(asset)
-        folder = os.path.dirname(asset["output"])
-        return record, {rel: outputs.read(os.path.join(folder, rel)) for rel in record["outputs"]}
+        out = []
+        for asset, record in zip(assets, bake_chunk(assets), strict=True):
+            folder = os.path.dirname(asset["output"])
+            out.append((record, {rel: outputs.read(os.path.join(folder, rel))
+                                 for rel in record["outputs"]}))  # fmt: skip
+        return out
 
 
 def _bake_on_scheduler(client, waves: list[list[dict]]) -> list[dict]:
@@ -280,17 +318,20 @@ def _bake_on_scheduler(client, waves: list[list[dict]]) -> list[dict]:
     for wave in waves:
         for a in wave:  # the workers check them (removed again if the run fails)
             makedirs(os.path.dirname(a["output"]))
-        sources = [{p: _staged_bytes(p) for p in a["inputs"] if staged(p)} for a in wave]
-        records: list = [None] * len(wave)
-        futures = client.map(_dask_bake, wave, sources, pure=False)
-        for i, (record, files) in completed(client, futures):
-            folder = os.path.dirname(wave[i]["output"])
-            for rel, data in files.items():
-                if hashlib.sha256(data).hexdigest() != record["outputs"].get(rel):
-                    raise OutputError(f"{wave[i]['id']}: {rel} differs from its lock record")
-                write_returned(inside(folder, rel), data)
-            records[i] = record
-        results += records
+        tasks = chunks(wave)
+        sources = [{p: _staged_bytes(p) for a in task for p in a["inputs"] if staged(p)}
+                   for task in tasks]  # fmt: skip
+        records: list = [None] * len(tasks)
+        futures = client.map(_dask_bake, tasks, sources, pure=False)
+        for i, baked in completed(client, futures):  # written as each task returns
+            for asset, (record, files) in zip(tasks[i], baked, strict=True):
+                folder = os.path.dirname(asset["output"])
+                for rel, data in files.items():
+                    if hashlib.sha256(data).hexdigest() != record["outputs"].get(rel):
+                        raise OutputError(f"{asset['id']}: {rel} differs from its lock record")
+                    write_returned(inside(folder, rel), data)
+            records[i] = [record for record, _ in baked]
+        results += [r for task in records for r in task]
     return results
 
 
@@ -474,7 +515,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     lock = read_lock(lock_file)
     # per-unit plans (measured once), filled by the plan
     units = {k: v for k, v in lock.get("plans", {}).items() if isinstance(v, dict)}
-    plan = plan_scene(scene, cache=units)
+    plan = plan_scene_kept(scene, cache=units)
     declare_outputs(plan)
     resources.outputs_declared()
     base = scene_folder(scene)  # the lock's input paths are relative to it
@@ -495,16 +536,15 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     if scheduler is not None:
         results = _bake_on_scheduler(scheduler, waves)
     elif jobs > 1 and len(todo) > 1:
-        with worker_pool(jobs) as pool:
+        with worker_pool(jobs) as pool:  # one pool: its workers stay warm across waves
             for wave in waves:
-                results += list(pool.map(bake_asset, wave))
+                results += [r for task in pool.map(bake_chunk, chunks(wave)) for r in task]
     else:
-        results = [bake_asset(a) for wave in waves for a in wave]
+        results = [r for wave in waves for task in chunks(wave) for r in bake_chunk(task)]
     records = {a["id"]: previous[a["id"]] for a in plan["assets"]
                if a["id"] in previous and a["id"] not in poisoned}  # fmt: skip
     for r in results:
         records[r["id"]] = r
-    keys = {a["plan_key"] for a in plan["assets"]}
     keep = scene.written_absolute
     new_lock = {
         "scene": os.path.basename(scene.path),
@@ -512,7 +552,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
             aid: _with_inputs(rec, lambda p: stored(p, base, keep))
             for aid, rec in sorted(records.items())
         },  # fmt: skip
-        "plans": {k: units[k] for k in sorted(keys) if k in units},
+        "plans": {k: units[k] for k in sorted(units)},  # the units the plan read
     }
     with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
         json.dump(new_lock, f, indent=1, sort_keys=True)

@@ -1,0 +1,180 @@
+"""Issue 31: the scene layer at scale — cheap checks that stay honest, plan results carried
+to the bake, one decode per map, tasks of several maps.
+
+The cheap checks are compared with the full brute force (every texel, 4096 directions),
+computed here by :func:`shbake.reference.irradiance.brute_force_irradiance`, not by the
+code under test.
+"""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from shbake.batch.project_env import project_environment
+from shbake.envmap import load_environment
+from shbake.evaluation.env_sh import brute_force_reference, check_reference, irradiance_errors
+from shbake.format.asset import read_asset
+from shbake.reference.irradiance import brute_force_irradiance
+from shbake.reference.irradiance_pyramid import IrradiancePyramid
+from shbake.sh.point_sets import fibonacci_sphere
+from tests.helpers import SHARED_MAPS, map_path, write_test_exr
+
+DIFFUSE_SCENE = """[scene]
+out_dir = "out"
+[[environments]]
+map = "maps/*.exr"
+[[materials]]
+name = "plaster"
+kind = "diffuse"
+"""
+
+
+class TestPyramid:
+    @pytest.mark.parametrize("name", ["studio", "sunset"])
+    def test_is_the_brute_force_sum(self, name):
+        """The pyramid reorders the brute-force sum exactly (not an approximation)."""
+        env = load_environment(str(map_path(name)), quiet=True)
+        q = fibonacci_sphere(300)
+        got = IrradiancePyramid(env).irradiance(q)
+        ref = brute_force_irradiance(*env.samples(), q)
+        assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref))
+
+    def test_a_sun_and_a_cube_layout(self, tmp_path):
+        """One texel of 1e5 (a sun) on a cube cross: bins of every size, empty texels."""
+        px = np.full((96, 128, 3), 0.25, np.float32)  # 4:3 cross, 32-texel faces
+        px[40, 50] = 1e5
+        path = write_test_exr(tmp_path / "cross.exr", px)
+        env = load_environment(str(path), layout="cross-h", quiet=True)
+        q = fibonacci_sphere(200)
+        got = IrradiancePyramid(env).irradiance(q)
+        ref = brute_force_irradiance(*env.samples(), q)
+        assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("name", SHARED_MAPS)
+def test_cheap_check_agrees_with_full_brute_force(name, tmp_path):
+    """The scene bake's irradiance check (pyramid, 256 directions) against the full brute
+    force (every texel, 4096 directions): the measured relative RMS errors agree within
+    10 % of the error itself, sun kept and extracted, lmax 2 and 4."""
+    env = load_environment(str(map_path(name)), quiet=True)
+    full = brute_force_reference(env, 4096, names=("irradiance",))
+    for sun in (False, True):
+        for lmax in (2, 4):
+            out = str(tmp_path / f"{sun}{lmax}.h5")
+            project_environment(str(map_path(name)), out, lmax=lmax, irradiance_lmax=lmax,
+                                tangent_irradiance=False, extract_sun=sun,
+                                quiet=True)  # fmt: skip
+            asset = read_asset(out)
+            cheap = irradiance_errors(asset, env, check_reference(env, ["irradiance"]))
+            exact = irradiance_errors(asset, env, full)
+            a, b = cheap["irradiance"]["relative_rms"], exact["irradiance"]["relative_rms"]
+            assert abs(a - b) <= 0.1 * b, (name, sun, lmax, a, b)
+
+
+def diffuse_scene(folder: Path, names=("studio", "sunset")) -> Path:
+    (folder / "maps").mkdir()
+    for n in names:
+        shutil.copy(map_path(n), folder / "maps" / f"{n}.exr")
+    path = folder / "scene.toml"
+    path.write_text(DIFFUSE_SCENE)
+    return path
+
+
+def test_lock_says_how_errors_were_measured_and_no_tangent_is_computed(tmp_path, monkeypatch):
+    """Each record names its error's method; an asset without tangent irradiance computes
+    none (the brute force once computed both for every env_sh asset)."""
+    import shbake.reference.irradiance as reference
+    from shbake.batch.scene import load_scene
+    from shbake.batch.scene_bake import bake_scene
+
+    calls = []
+    real = reference.brute_force_irradiance
+
+    def spy(dirs, omega, radiance, normals, tangent=False):
+        calls.append(tangent)
+        return real(dirs, omega, radiance, normals, tangent)
+
+    monkeypatch.setattr(reference, "brute_force_irradiance", spy)
+    import shbake.evaluation.env_sh as env_sh
+
+    monkeypatch.setattr(env_sh, "brute_force_irradiance", spy)
+    scene = load_scene(str(diffuse_scene(tmp_path)))
+    bake_scene(scene)
+    lock = json.loads((tmp_path / "out" / "scene.lock.json").read_text())
+    assert set(lock["assets"]) == {"env_sh/studio", "env_sh/sunset"}
+    for rec in lock["assets"].values():
+        assert rec["error_method"] == {"irradiance": "direction-set-pyramid"}
+        assert set(rec["measured_error"]) == {"irradiance"}
+    assert True not in calls
+
+
+def test_bake_after_plan_does_not_plan_again(tmp_path, monkeypatch):
+    """``plan`` keeps its per-unit plans; a bake from a cold output folder reuses them."""
+    import shbake.batch.plan as plan
+    from shbake.batch.scene import load_scene
+    from shbake.batch.scene_bake import bake_scene
+
+    scene = load_scene(str(diffuse_scene(tmp_path)))
+    first = plan.plan_scene_kept(scene)
+    measured = []
+    real = plan.plan_env_sh
+    monkeypatch.setattr(plan, "plan_env_sh", lambda *a, **k: measured.append(a) or real(*a, **k))
+    summary = bake_scene(scene)
+    assert measured == []
+    assert sorted(summary["baked"]) == sorted(a["id"] for a in first["assets"])
+
+
+def test_bake_decodes_each_map_once(tmp_path, monkeypatch):
+    """A bake reads each map's pixels once for its assets and their checks."""
+    import shbake.envmap.environment as environment
+    from shbake.batch.scene import load_scene
+    from shbake.batch.scene_bake import bake_scene
+
+    reads = []
+    real = environment.read_image
+    monkeypatch.setattr(environment, "read_image", lambda p: reads.append(p) or real(p))
+    text = DIFFUSE_SCENE + '[[materials]]\nname = "v"\nkind = "glossy"\nroughness = [0.5, 0.9]\n'
+    path = diffuse_scene(tmp_path, ("studio",))
+    path.write_text(text)
+    scene = load_scene(str(path))
+    from shbake.batch.plan import plan_scene_kept
+
+    plan_scene_kept(scene)
+    reads.clear()
+    summary = bake_scene(scene)
+    assert len(summary["baked"]) == 2  # env_sh and a glossy probe, each checked
+    assert len(reads) == 1
+
+
+def test_decoded_once_sees_changed_bytes(tmp_path):
+    """Within a scope a file rewritten (other size or time) is decoded again; each caller
+    gets its own pixels."""
+    from shbake.envmap.environment import decoded_once
+
+    path = tmp_path / "m.exr"
+    write_test_exr(path, np.full((8, 16, 3), 1.0))
+    with decoded_once():
+        a = load_environment(str(path), quiet=True)
+        a.pixels[:] = 7.0
+        b = load_environment(str(path), quiet=True)
+        assert np.all(b.pixels == 1.0)
+        write_test_exr(path, np.full((16, 32, 3), 2.0))
+        c = load_environment(str(path), quiet=True)
+        assert c.shape == (16, 32) and np.all(c.pixels == 2.0)
+
+
+def test_chunks_keep_a_maps_assets_together():
+    from shbake.batch.scene_bake import chunks
+
+    wave = [{"id": f"{k}/m{i}", "kind": k, "inputs": [f"m{i}.exr"]}
+            for i in range(5) for k in ("env_sh", "shexp")]  # fmt: skip
+    wave.append({"id": "brdf_table/x", "kind": "brdf_table", "inputs": []})
+    tasks = chunks(wave, maps=2)
+    assert [len(t) for t in tasks] == [4, 4, 3]
+    assert [a for t in tasks for a in t] == wave
+    for t in tasks:
+        maps = {a["inputs"][0] for a in t if a["inputs"]}
+        assert len(maps) <= 2
