@@ -178,3 +178,59 @@ def test_chunks_keep_a_maps_assets_together():
     for t in tasks:
         maps = {a["inputs"][0] for a in t if a["inputs"]}
         assert len(maps) <= 2
+
+
+def _same_asset(a: Path, b: Path) -> None:
+    """Every dataset and attribute equal, but what provenance records of the run."""
+    import h5py
+
+    run_attrs = {"command_line", "source_path"}
+    with h5py.File(a) as fa, h5py.File(b) as fb:
+        items = []
+        fa.visititems(lambda name, obj: items.append(name))
+        for name in [""] + items:
+            oa, ob = fa[name] if name else fa, fb[name] if name else fb
+            assert set(oa.attrs) == set(ob.attrs)
+            for k in set(oa.attrs) - run_attrs:
+                assert np.array_equal(np.asarray(oa.attrs[k]), np.asarray(ob.attrs[k])), (name, k)
+            if isinstance(oa, h5py.Dataset):
+                assert np.array_equal(oa[()], ob[()]), name
+
+
+@pytest.mark.parametrize("command, options", [
+    ("project-env", ["--extract-sun", "--no-tangent-irradiance"]),
+    ("split-sum", ["--size", "32", "--min-size", "16", "--samples", "64"]),
+])  # fmt: skip
+def test_many_maps_in_one_call(command, options, tmp_path):
+    """``--out-dir``/``--jobs``/``--list``: each map's asset is the one-map command's."""
+    import subprocess
+    import sys
+
+    shbake = str(Path(sys.executable).with_name("shbake"))
+    names = ("city", "night", "studio")
+    (tmp_path / "list.txt").write_text(f"{map_path('sunset')} named.h5\n")
+    maps = [str(map_path(n)) for n in names]
+    subprocess.run([shbake, command, *maps, "--list", str(tmp_path / "list.txt"), "--out-dir",
+                    str(tmp_path / "many"), "--jobs", "2", "-q", *options], check=True)  # fmt: skip
+    assert sorted(p.name for p in (tmp_path / "many").iterdir()) == [f"{n}.h5" for n in names]
+    for name, src in [*zip(names, maps, strict=True), ("named", str(map_path("sunset")))]:
+        one = tmp_path / f"one-{name}.h5"
+        subprocess.run([shbake, command, src, "-o", str(one), "-q", *options], check=True)
+        many = tmp_path / ("named.h5" if name == "named" else f"many/{name}.h5")
+        _same_asset(one, many)
+
+
+def test_many_maps_refused_before_any_work(tmp_path):
+    """Two maps that would write one file: one line, non-zero, nothing written."""
+    import subprocess
+    import sys
+
+    shbake = str(Path(sys.executable).with_name("shbake"))
+    (tmp_path / "a").mkdir()
+    shutil.copy(map_path("city"), tmp_path / "a" / "city.exr")
+    done = subprocess.run([shbake, "project-env", str(map_path("city")),
+                           str(tmp_path / "a" / "city.exr"), "--out-dir", str(tmp_path / "o")],
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode != 0
+    assert done.stderr.count("\n") == 1 and "two maps would write" in done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]
