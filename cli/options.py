@@ -94,11 +94,11 @@ def many_maps_opts(f):
     )(f)
 
 
-def many_maps(maps, output, map_list, out_dir, n_jobs, **one_map_only) -> bool:
+def many_maps(maps, output, map_list, out_dir, **one_map_only) -> bool:
     """Whether a command runs on many maps (several MAPS, ``--list`` or ``--out-dir``),
     refusing what only one map takes (``-o`` and the options named in ``one_map_only``,
     when set) — or, for one map, a missing ``-o``."""
-    if len(maps) == 1 and map_list is None and out_dir is None and n_jobs == 1:
+    if len(maps) == 1 and map_list is None and out_dir is None:  # --jobs: one map, one job
         if output is None:
             raise click.MissingParameter(param_hint="'-o' / '--output'", param_type="option")
         return False

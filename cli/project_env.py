@@ -128,7 +128,7 @@ def project_env(ctx, maps, output, map_list, out_dir, n_jobs, exr_dir, size, as_
         check_settings(settings["lmax"], settings["irradiance_lmax"], settings["irradiance"],
                        settings["exports"], settings["lights"], settings["light_tol"],
                        settings["extract_sun"], settings["window"])  # fmt: skip
-    if many_maps(maps, output, map_list, out_dir, n_jobs, exr_dir=exr_dir,
+    if many_maps(maps, output, map_list, out_dir, exr_dir=exr_dir,
                  export=settings["exports"], report=settings["report"]):  # fmt: skip
         settings |= {"irradiance_sh": settings.pop("irradiance"), "quiet": True,
                      "command_line": command_line(ctx)}  # fmt: skip

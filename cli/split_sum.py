@@ -74,7 +74,7 @@ def split_sum(maps, output, map_list, out_dir, n_jobs, size, min_size, alphas,
     with usage_errors():
         config = SplitSumConfig(size, min_size, parse_levels(alphas, roughness_levels), samples,
                                 prefilter)  # fmt: skip
-    if many_maps(maps, output, map_list, out_dir, n_jobs):
+    if many_maps(maps, output, map_list, out_dir):
         settings = {"config": config, "negative": negative, "fix_nonfinite": fix_nonfinite}
         run_many_maps("split-sum", maps, map_list, out_dir, n_jobs, settings, as_json, quiet)
         return

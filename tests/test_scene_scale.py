@@ -234,3 +234,34 @@ def test_many_maps_refused_before_any_work(tmp_path):
     assert done.returncode != 0
     assert done.stderr.count("\n") == 1 and "two maps would write" in done.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]
+
+
+def test_grouped_make_rules_rebake_exactly_what_changed(tmp_path):
+    """``plan --emit-make --maps-per-rule 2``: one rule (one process) for two maps' assets,
+    the same bytes as ``bake``; a touched map rebakes only its own assets."""
+    import os
+    import subprocess
+    import sys
+
+    shbake = str(Path(sys.executable).with_name("shbake"))
+    path = diffuse_scene(tmp_path, ("studio", "sunset", "night"))
+    run = lambda *a: subprocess.run(a, cwd=tmp_path, check=True, capture_output=True,  # noqa: E731
+                                    text=True)  # fmt: skip
+    run(shbake, "plan", path.name, "--emit-make", "scene.mk", "--shbake", shbake,
+        "--maps-per-rule", "2", "-q")  # fmt: skip
+    fragment = (tmp_path / "scene.mk").read_text()
+    assert fragment.count("&:") == 1 and fragment.count("\t$(SHBAKE) bake") == 2
+    (tmp_path / "Makefile").write_text("include scene.mk\n")
+    run("make", "-j2", "scene-assets")
+    out = tmp_path / "out" / "env_sh"
+    by_make = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert subprocess.run(["make", "-q", "scene-assets"], cwd=tmp_path).returncode == 0
+    later = os.stat(out / "sunset.h5").st_mtime + 100
+    os.utime(tmp_path / "maps" / "studio.exr", (later, later))  # newer: its asset only
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    run("make", "scene-assets")
+    after = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    assert [n for n in sorted(after) if after[n] != before[n]] == ["studio.h5"]
+    shutil.rmtree(tmp_path / "out")
+    run(shbake, "bake", path.name, "-q")
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == by_make

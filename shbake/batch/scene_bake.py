@@ -482,13 +482,46 @@ def _stamped_asset(scene: Scene, aid: str) -> dict:
     return asset
 
 
+def _out_of_date(asset: dict) -> bool:
+    """make's rule for one asset of a grouped rule: its output is missing or older than one
+    of its inputs or its settings stamp."""
+    try:
+        built = os.stat(asset["output"]).st_mtime_ns
+    except OSError:
+        return True
+    deps = [*asset["inputs"], asset["stamp"]]
+    return any(os.stat(p).st_mtime_ns > built for p in deps if os.path.exists(p))
+
+
+def _bake_stamped(scene: Scene, ids: list[str]) -> dict:
+    """Bake assets ``ids`` from their settings stamps, in this process (what the fragment's
+    recipes run): one id unconditionally (make decided); several — a rule of several maps'
+    assets (:func:`emit_make` with ``maps_per_rule``) — those out of date by make's own rule
+    (:func:`_out_of_date`), so a rule's recipe rebakes exactly what changed; each map
+    decoded once."""
+    from shbake.envmap.environment import decoded_once
+
+    assets = []
+    for aid in dict.fromkeys(ids):
+        asset = _stamped_asset(scene, aid)
+        full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0,
+                    stamp=stamp_path(scene.out_dir, aid))  # fmt: skip
+        resources.declare_output(full["output"])
+        assets.append(full)
+    todo = assets if len(assets) == 1 else [a for a in assets if _out_of_date(a)]
+    with decoded_once():
+        records = {a["id"]: bake_asset(a, measure=False) for a in todo}
+    return {"baked": list(records), "skipped": [a["id"] for a in assets if a["id"] not in records],
+            "records": records, "warnings": []}  # fmt: skip
+
+
 def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
-               only: str | None = None, progress=None) -> dict:  # fmt: skip
+               only: str | list[str] | None = None, progress=None) -> dict:  # fmt: skip
     """Plan ``scene`` and bake what is out of date; the summary (baked, skipped, records,
     ``warnings``: lock records that could not be trusted and were baked again).
 
-    ``only``: bake just this asset id from its stamp (what the make rules run);
-    the lock is then left alone (make's own timestamps track it).
+    ``only``: bake just this asset id (or these ids, :func:`_bake_stamped`) from its stamp
+    (what the make rules run); the lock is then left alone (make's own timestamps track it).
 
     Inputs are never outputs: the scene, its maps and MERL files are the run's inputs
     (:func:`~shbake.batch.scene.load_scene`), the lock and every planned output are
@@ -505,11 +538,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
         with session(scheduler) as client, transaction():
             return bake_scene(scene, jobs, client, only, progress)
     if only is not None:
-        asset = _stamped_asset(scene, only)
-        full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0)
-        resources.declare_output(full["output"])
-        rec = bake_asset(full, measure=False)
-        return {"baked": [only], "skipped": [], "records": {only: rec}, "warnings": []}
+        return _bake_stamped(scene, [only] if isinstance(only, str) else list(only))
     lock_file = lock_path(scene)
     resources.declare_output(lock_file)  # read, then replaced: no input may be the lock
     lock = read_lock(lock_file)
@@ -618,7 +647,8 @@ def _shbake_words(shbake: str) -> list[str]:
     return words
 
 
-def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> str:
+def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake",
+              maps_per_rule: int = 1) -> str:  # fmt: skip
     """Write the Makefile fragment of ``plan`` to ``path`` and the settings stamps
     (together: one transaction); its text.
 
@@ -634,6 +664,11 @@ def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> st
     Every file name, word and value in it is written by :mod:`shbake.batch.makefile`
     (after :func:`check_makeable`): make and ``sh`` read back exactly the paths and
     names given, and run ``$(SHBAKE)`` with exactly the arguments given, nothing else.
+
+    ``maps_per_rule`` > 1: one rule (GNU make ≥ 4.3 grouped targets, ``&:``) for the assets
+    of that many maps (:func:`chunks`; exports keep a rule each), one process per rule; its
+    recipe names every asset of the rule and rebakes those out of date by make's own rule
+    (:func:`_bake_stamped`), so incremental rebuilds stay exact per asset.
     """
     check_makeable(scene, path, shbake)
     here = os.path.dirname(os.path.abspath(path))
@@ -662,14 +697,23 @@ def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> st
         f"{make_path(frag)} : {prefix}_SHBAKE_CHANGED",
         "endif",
         f"{make_path(frag)} : {make_path(scene_path)}",
-        recipe("plan", scene_path, "--emit-make", frag, "--shbake", shbake, *flags, "--quiet"),
+        recipe("plan", scene_path, "--emit-make", frag, "--shbake", shbake, *flags, *(
+            ["--maps-per-rule", str(maps_per_rule)] if maps_per_rule > 1 else []), "--quiet"),
         "",
     ]
-    for a in plan["assets"]:
-        deps = [named(p) for p in a["inputs"]] + [named(stamp_path(plan["out_dir"], a["id"]))]
+    groups = [[a] for a in plan["assets"]]
+    if maps_per_rule > 1:
+        groups = chunks([a for a in plan["assets"] if a["kind"] != "export"], maps_per_rule)
+        groups += [[a] for a in plan["assets"] if a["kind"] == "export"]
+    for group in groups:
+        deps = [named(p) for a in group for p in a["inputs"]]
+        deps += [named(stamp_path(plan["out_dir"], a["id"])) for a in group]
+        targets = " ".join(make_path(named(a["output"])) for a in group)
+        ids = [w for a in group for w in ("--asset", a["id"])]
         lines += [
-            f"{make_path(named(a['output']))} : {' '.join(make_path(p) for p in deps)}",
-            recipe("bake", scene_path, "--asset", a["id"], *flags, "--quiet"),
+            f"{targets} {'&:' if len(group) > 1 else ':'} "
+            + " ".join(make_path(p) for p in dict.fromkeys(deps)),
+            recipe("bake", scene_path, *ids, *flags, "--quiet"),
             "",
         ]
     text = "\n".join(lines)
