@@ -265,3 +265,59 @@ def test_grouped_make_rules_rebake_exactly_what_changed(tmp_path):
     shutil.rmtree(tmp_path / "out")
     run(shbake, "bake", path.name, "-q")
     assert {p.name: p.read_bytes() for p in out.iterdir()} == by_make
+
+
+def test_two_workers_with_their_own_folders(tmp_path):
+    """A scheduler and two ``dask worker`` processes, each started in a working directory
+    (and ``--local-directory``) of its own, as on two machines: ``bake --scheduler`` writes
+    the same bytes as a local bake, every file written by the client, none in the
+    workers' folders."""
+    import json as json_
+    import subprocess
+    import sys
+    import time
+
+    bin_dir = Path(sys.executable).parent
+    shbake, dask = str(bin_dir / "shbake"), str(bin_dir / "dask")
+    (tmp_path / "scene").mkdir()
+    scene = diffuse_scene(tmp_path / "scene", ("studio", "sunset", "night"))
+    info = tmp_path / "scheduler.json"
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                               "--dashboard-address", ":0", "--scheduler-file", str(info)],
+                              cwd=tmp_path, stderr=subprocess.DEVNULL)]  # fmt: skip
+    try:
+        workers = []
+        for i in range(2):
+            folder = tmp_path / f"worker{i}"
+            folder.mkdir()
+            workers.append(folder)
+            procs.append(subprocess.Popen(
+                [dask, "worker", "--scheduler-file", str(info), "--nthreads", "1",
+                 "--local-directory", str(folder), "--no-dashboard"],
+                cwd=folder, stderr=subprocess.DEVNULL))  # fmt: skip
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            if info.exists():
+                from distributed import Client
+
+                with Client(scheduler_file=str(info), timeout=60) as client:
+                    client.wait_for_workers(2, timeout=120)
+                    address = client.scheduler.address
+                break
+            time.sleep(0.5)
+        done = subprocess.run([shbake, "bake", str(scene), "--scheduler", address, "--json",
+                               "-q"], capture_output=True, text=True)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        assert len(json_.loads(done.stdout)["baked"]) == 3
+        out = tmp_path / "scene" / "out" / "env_sh"
+        by_dask = {p.name: p.read_bytes() for p in out.iterdir()}
+        for folder in workers:
+            assert not [p for p in folder.rglob("*.h5")], folder
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            p.wait(30)
+    shutil.rmtree(tmp_path / "scene" / "out")
+    subprocess.run([shbake, "bake", str(scene), "-q"], check=True)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == by_dask
