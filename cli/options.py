@@ -72,6 +72,64 @@ def output_opt(help_text: str, required: bool = True, dir_okay: bool = False):
     )
 
 
+def many_maps_opts(f):
+    """``--list``, ``--out-dir``, ``--jobs``: a command's maps in one call
+    (:mod:`shbake.batch.project_many`), as ``probe-fit`` takes them."""
+    from shbake.batch.probe_jobs import JOBS_LIMIT
+
+    jobs_help = f"Local worker processes for several maps (1…{JOBS_LIMIT})."
+    f = click.option("--jobs", "n_jobs", type=click.IntRange(1, JOBS_LIMIT), default=1,
+                     show_default=True, help=jobs_help)(f)  # fmt: skip
+    f = click.option(
+        "--out-dir",
+        default=None,
+        type=click.Path(file_okay=False),
+        help="Several maps: each asset as OUT_DIR/STEM.h5 [default: .].",
+    )(f)
+    return click.option(
+        "--list",
+        "map_list",
+        type=click.Path(dir_okay=False),
+        help="Maps: lines 'MAP [OUTPUT]', relative to the list.",
+    )(f)
+
+
+def many_maps(maps, output, map_list, out_dir, **one_map_only) -> bool:
+    """Whether a command runs on many maps (several MAPS, ``--list`` or ``--out-dir``),
+    refusing what only one map takes (``-o`` and the options named in ``one_map_only``,
+    when set) — or, for one map, a missing ``-o``."""
+    if len(maps) == 1 and map_list is None and out_dir is None:  # --jobs: one map, one job
+        if output is None:
+            raise click.MissingParameter(param_hint="'-o' / '--output'", param_type="option")
+        return False
+    if not maps and map_list is None:
+        raise click.UsageError("give a map, several maps or a --list file")
+    given = [k for k, v in {"output": output, **one_map_only}.items() if v]
+    if given:
+        raise click.UsageError(f"--{given[0].replace('_', '-')} takes one map (several maps: "
+                               "--out-dir, --list)")  # fmt: skip
+    return True
+
+
+def run_many_maps(command, maps, map_list, out_dir, n_jobs, settings, as_json, quiet) -> None:
+    """Run ``command`` on many maps (:func:`shbake.batch.project_many.run_many`) and report
+    them: one line, each map's warnings, ``--json`` the per-map summaries."""
+    import time
+
+    from shbake.batch.project_many import many_outputs, run_many
+
+    pairs = many_outputs(maps, map_list, out_dir or ".")
+    t0 = time.perf_counter()
+    done = run_many(command, pairs, settings, n_jobs)
+    seconds = time.perf_counter() - t0
+    for d in done:
+        for w in d["warnings"]:
+            warn(f"{d['input']}: {w}", quiet)
+    info(f"{command}: {len(done)} maps in {seconds:.2f} s", quiet)
+    if as_json:
+        emit_json({"maps": done, "seconds": seconds})
+
+
 def exr_dir_opt(help_text: str):
     """``--exr-dir DIR``: companion OpenEXR images go into this folder."""
     return click.option(

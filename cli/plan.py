@@ -14,7 +14,7 @@ from shbake_cli.options import (
 )
 
 from shbake.batch.makefile import MakeNameError
-from shbake.batch.plan import format_plan, plan_scene
+from shbake.batch.plan import format_plan, plan_scene_kept
 from shbake.batch.scene import SceneError, load_scene
 from shbake.batch.scene_bake import bake_scene, check_makeable, emit_make, format_bake
 from shbake.format.atomic import check_output_path
@@ -43,10 +43,13 @@ def scene_errors():
               help="Also write a Makefile fragment (one rule per asset) to this file.")
 @click.option("--shbake", "shbake_cmd", default="shbake", show_default=True,
               help="How the fragment's rules call shbake (overridable as $(SHBAKE)).")
+@click.option("--maps-per-rule", type=click.IntRange(1, 1024), default=1, show_default=True,
+              help="Fragment rules bake the assets of this many maps in one process (GNU "
+              "make 4.3 grouped targets); each rule rebakes only its out-of-date assets.")
 @allow_outside_opt
 @json_opt
 @quiet_opt
-def plan(scene, emit, shbake_cmd, allow_outside, as_json, quiet):
+def plan(scene, emit, shbake_cmd, maps_per_rule, allow_outside, as_json, quiet):
     """Decide which assets SCENE (a TOML scene file) needs and at which settings.
 
     Prints asset, settings, predicted error (tolerance), predicted seconds and
@@ -57,9 +60,9 @@ def plan(scene, emit, shbake_cmd, allow_outside, as_json, quiet):
         if emit:  # before planning: names a Makefile cannot hold, an unwritable fragment
             check_makeable(sc, emit, shbake_cmd)
             check_output_path(emit, "--emit-make")
-        result = plan_scene(sc)
+        result = plan_scene_kept(sc)
         if emit:
-            emit_make(sc, result, emit, shbake_cmd)
+            emit_make(sc, result, emit, shbake_cmd, maps_per_rule)
     if emit:
         info(f"plan: wrote {emit} ({len(result['assets'])} rules)", quiet)
     if as_json:
@@ -73,8 +76,9 @@ def plan(scene, emit, shbake_cmd, allow_outside, as_json, quiet):
 @click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
               help="Local worker processes.")
 @scheduler_opt
-@click.option("--asset", "only", default=None, metavar="ID",
-              help="Bake only this asset from its settings stamp (what make rules run).")
+@click.option("--asset", "only", multiple=True, metavar="ID",
+              help="Bake only this asset from its settings stamp (what make rules run); "
+              "repeated: those of them out of date by make's rule.")
 @allow_outside_opt
 @json_opt
 @quiet_opt
@@ -90,7 +94,7 @@ def bake(scene, jobs, scheduler, only, allow_outside, as_json, quiet):
         raise click.UsageError("--asset bakes one asset in this process: no --scheduler")
     with scene_errors():
         summary = bake_scene(load_scene(scene, allow_outside), jobs=jobs, scheduler=scheduler,
-                             only=only)  # fmt: skip
+                             only=list(only) or None)  # fmt: skip
     for w in summary["warnings"]:
         warn(w, quiet)
     if as_json:

@@ -13,10 +13,13 @@ from shbake_cli.options import (
     info,
     input_policy_opts,
     json_opt,
+    many_maps,
+    many_maps_opts,
     output_opt,
     png_opt,
     quiet_opt,
     report_opt,
+    run_many_maps,
     size_opt,
     tol_opt,
     usage_errors,
@@ -31,8 +34,9 @@ from shbake.sh.windows import WINDOW_METHODS
 
 
 @click.command("project-env")
-@click.argument("env", type=click.Path(dir_okay=False))
-@output_opt("The env_sh asset (.h5)")
+@click.argument("maps", nargs=-1, type=click.Path(dir_okay=False))
+@output_opt("The env_sh asset (.h5) of one map", required=False)
+@many_maps_opts
 @click.option(
     "--lmax",
     type=click.IntRange(0, LMAX_LIMIT),
@@ -108,10 +112,12 @@ from shbake.sh.windows import WINDOW_METHODS
 @deprecated("--exr-maps", "exr_dir", "--exr-dir", type=click.Path(file_okay=False))
 @deprecated("--map-height", "size", "--size", type=click.IntRange(2, 4096))
 @click.pass_context
-def project_env(ctx, env, output, exr_dir, size, as_json, quiet, **settings):
-    """Project the environment map ENV onto SH and write the env_sh asset OUTPUT.
+def project_env(ctx, maps, output, map_list, out_dir, n_jobs, exr_dir, size, as_json, quiet,
+                **settings):  # fmt: skip
+    """Project the environment map MAPS onto SH and write the env_sh asset OUTPUT; several
+    MAPS (or --list, --out-dir): each to OUT_DIR/STEM.h5, in one process or --jobs workers.
 
-    ENV: lat-long, cube strip or cross; EXR, HDR or any format OpenImageIO reads.
+    MAPS: lat-long, cube strip or cross; EXR, HDR or any format OpenImageIO reads.
     """
     lights = settings.pop("lights")
     tol = settings.pop("tol")
@@ -123,8 +129,14 @@ def project_env(ctx, env, output, exr_dir, size, as_json, quiet, **settings):
         check_settings(settings["lmax"], settings["irradiance_lmax"], settings["irradiance"],
                        settings["exports"], settings["lights"], settings["light_tol"],
                        settings["extract_sun"], settings["window"])  # fmt: skip
+    if many_maps(maps, output, map_list, out_dir, exr_dir=exr_dir,
+                 export=settings["exports"], report=settings["report"]):  # fmt: skip
+        settings |= {"irradiance_sh": settings.pop("irradiance"), "quiet": True,
+                     "command_line": command_line(ctx)}  # fmt: skip
+        run_many_maps("project-env", maps, map_list, out_dir, n_jobs, settings, as_json, quiet)
+        return
     summary = project_environment(
-        env,
+        maps[0],
         output,
         exr_dir=exr_dir,
         map_size=size,

@@ -7,9 +7,12 @@ from shbake_cli.options import (
     fix_nonfinite_opt,
     info,
     json_opt,
+    many_maps,
+    many_maps_opts,
     negative_opt,
     output_opt,
     quiet_opt,
+    run_many_maps,
     samples_opt,
     size_opt,
     usage_errors,
@@ -42,8 +45,9 @@ def parse_levels(alphas: str | None, roughness: str | None) -> tuple[float, ...]
 
 
 @click.command("split-sum")
-@click.argument("env", type=click.Path(dir_okay=False))
-@output_opt("The splitsum_probe asset (.h5)")
+@click.argument("maps", nargs=-1, type=click.Path(dir_okay=False))
+@output_opt("The splitsum_probe asset (.h5) of one map", required=False)
+@many_maps_opts
 @size_opt(128, "Texels per side of the first (sharpest) octahedral level", lo=LEVEL_SIZE_MIN,
           hi=LEVEL_SIZE_MAX)  # fmt: skip
 @click.option("--min-size", type=click.IntRange(LEVEL_SIZE_MIN, LEVEL_SIZE_MAX), default=32,
@@ -62,13 +66,19 @@ def parse_levels(alphas: str | None, roughness: str | None) -> tuple[float, ...]
 @fix_nonfinite_opt
 @json_opt
 @quiet_opt
-def split_sum(env, output, size, min_size, alphas, roughness_levels, prefilter, samples,
-              negative, fix_nonfinite, as_json, quiet):  # fmt: skip
-    """Bake the split-sum baseline of ENV (Karis 2013) as a probe asset of its own."""
+def split_sum(maps, output, map_list, out_dir, n_jobs, size, min_size, alphas,
+              roughness_levels, prefilter, samples, negative, fix_nonfinite, as_json,
+              quiet):  # fmt: skip
+    """Bake the split-sum baseline of MAPS (Karis 2013) as a probe asset of its own; several
+    MAPS (or --list, --out-dir): each to OUT_DIR/STEM.h5, in one process or --jobs workers."""
     with usage_errors():
         config = SplitSumConfig(size, min_size, parse_levels(alphas, roughness_levels), samples,
                                 prefilter)  # fmt: skip
-    summary = bake_splitsum_file(env, output, config, negative, fix_nonfinite)
+    if many_maps(maps, output, map_list, out_dir):
+        settings = {"config": config, "negative": negative, "fix_nonfinite": fix_nonfinite}
+        run_many_maps("split-sum", maps, map_list, out_dir, n_jobs, settings, as_json, quiet)
+        return
+    summary = bake_splitsum_file(maps[0], output, config, negative, fix_nonfinite)
     info(f"split-sum: {output}: {summary['levels']} levels, {summary['bytes']} bytes", quiet)
     if as_json:
         emit_json(summary)

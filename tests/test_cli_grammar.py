@@ -187,6 +187,9 @@ class TestRangesAreUsageErrors:
         ("shrm", "--P"): R(0, 16, True),
         ("shrm", "--face-size"): R(4, 1024, True),
         ("bake", "--jobs"): R(1, 64, True),
+        ("project-env", "--jobs"): R(1, 4 * CPUS, True),
+        ("split-sum", "--jobs"): R(1, 4 * CPUS, True),
+        ("plan", "--maps-per-rule"): R(1, 1024, True),
         ("tradeoff", "--tol"): R(0.0, 1.0, False, True, True),
         ("tradeoff", "--samples"): R(16, 1 << 20, True),
     }
@@ -210,7 +213,7 @@ class TestRangesAreUsageErrors:
             "brdf-table": ["ggx", "-o", out / "a.h5"], "probe-fit": [m, "-o", out / "a.h5"],
             "split-sum": [m, "-o", out / "a.h5"], "probe-eval": [m, "-o", out / "a.md"],
             "export": [a, "--to", "gltf", "-o", out / "a.gltf"], "shrm": [m, "-o", out / "a.h5"],
-            "bake": [inputs / "scene.toml"],
+            "bake": [inputs / "scene.toml"], "plan": [inputs / "scene.toml"],
             "tradeoff": ["env_sh", "--map", m, "-o", out / "a.png"],
             "overview": [inputs, "-o", out / "index.html"],
         }[command]  # fmt: skip

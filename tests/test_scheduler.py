@@ -212,7 +212,7 @@ class TestWorkersWriteNothing:
         folder = Path(asset["output"]).parent
         folder.mkdir(parents=True)  # the client creates the asset's folder before submitting
         with Client(cluster, set_as_default=False) as client:
-            record, files = client.submit(_dask_bake, asset, {}, pure=False).result()
+            [(record, files)] = client.submit(_dask_bake, [asset], {}, pure=False).result()
         assert list(folder.iterdir()) == []  # no output, no temporary
         name = Path(asset["output"]).name
         assert list(files) == [name] == list(record["outputs"])

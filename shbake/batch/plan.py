@@ -62,7 +62,13 @@ from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, choose_lights, irradiance_
 from shbake.bakers.env_sh import band_energy
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
 from shbake.bakers.splitsum import SplitSumConfig
-from shbake.batch.plan_costs import WARMED, cpu_timed, recipe_overheads, warm_seconds
+from shbake.batch.plan_costs import (
+    WARMED,
+    cpu_timed,
+    recipe_overheads,
+    shape_seconds,
+    warm_seconds,
+)
 from shbake.batch.scene import Scene, asset_output, param_strings
 from shbake.brdf import make_brdf
 from shbake.brdf.reflection import F_LIMIT, P_LIMIT
@@ -153,7 +159,8 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
                  if all(e[L] <= t for e, t in errs.values())), None)  # fmt: skip
     if lmax is None:
         return {"impossible": {k: float(e[MAX_IRRADIANCE_LMAX]) for k, (e, _) in errs.items()}}
-    t_l = warm_seconds("env_sh", residual.project, lmax)
+    t_l = shape_seconds("env_sh", (residual.layout, residual.shape, lmax), residual.project,
+                        lmax)  # fmt: skip
     settings = {
         "lmax": lmax,
         "irradiance": irr_tol is not None,
@@ -277,18 +284,18 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
     """An SH-exp probe over perceptual roughness ``[lo, hi]`` (α = r²): the paper's fit
     (one set, 4 α samples, 256 samples per target); the error from a fit on the map
     downsampled to :data:`FIT_PREDICT_HEIGHT` rows, the time from the fit of the map itself
-    with its plan (built here once per machine into the plan cache, as the bake loads it)."""
-    from shbake.bakers.shexp import FitPlan
+    with its plan (built here once per machine into the plan cache, as the bake loads it),
+    once per map shape and configuration (:func:`~shbake.batch.plan_costs.shape_seconds`)."""
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
 
     a_lo, a_hi = ggx_alpha(lo), ggx_alpha(hi)
     config = FitConfig.paper(alpha_min=a_lo, alpha_max=a_hi,
                              alpha_count=4 if a_hi > a_lo else 1, samples=256)  # fmt: skip
     small = _downsample(env.pixels, FIT_PREDICT_HEIGHT)
-    probe = FitPlan(config, small.shape[:2]).fit(small)
+    probe = fit_plan(config, small.shape[:2]).fit(small)  # one plan for every map
     full = fit_plan(config, env.shape)  # the bake's plan, now in the plan cache
     shared_dfg_table()
-    t_fit = warm_seconds("shexp", full.fit, env.pixels)
+    t_fit = shape_seconds("shexp", (config, env.shape), full.fit, env.pixels)
     return {
         "settings": {"fit": config.as_dict()},
         "predicted_error": {"glossy_probe": float(probe.stats["log_rms"])},
@@ -338,7 +345,8 @@ def plan_splitsum(env: EnvMap, lo: float, hi: float) -> dict:
     """A split-sum probe covering perceptual roughness ``[lo, hi]`` (4 levels, α = r²
     evenly spaced); no error model (module docstring).
 
-    Time: the chain prefiltered at half the size, scaled by texel count.
+    Time: the chain prefiltered at half the size, scaled by texel count (once per map shape
+    and configuration, :func:`~shbake.batch.plan_costs.shape_seconds`).
     """
     from shbake.bakers.splitsum import prefilter_chain
     from shbake.batch.probe_jobs import shared_dfg_table
@@ -349,7 +357,7 @@ def plan_splitsum(env: EnvMap, lo: float, hi: float) -> dict:
     alphas = tuple(float(a) for a in np.linspace(a_lo, min(a_hi, 1.0), 4))
     config = SplitSumConfig(top=64, min_size=16, alphas=alphas, samples=256)
     small = SplitSumConfig(**(config.as_dict() | {"top": 32, "min_size": 8}))
-    t = warm_seconds("splitsum", prefilter_chain, env.pixels, small)
+    t = shape_seconds("splitsum", (small, env.shape), prefilter_chain, env.pixels, small)
     texels = sum(s * s for s in config.sizes)
     return {
         "settings": {"splitsum": config.as_dict()},
@@ -529,6 +537,38 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
             "assets": assets, "materials": used}  # fmt: skip
 
 
+def plan_scene_kept(scene: Scene, cache: dict | None = None) -> dict:
+    """:func:`plan_scene` with the per-unit plans the last plan of this scene measured
+    (:func:`shbake.batch.plan_cache.scene_units`; ``cache`` — the lock's — first), keeping
+    the units it used there for the next: ``shbake plan`` then ``shbake bake`` from a cold
+    output folder measures each unit once, not twice."""
+    from shbake.batch.plan_cache import scene_units, store_scene_units
+
+    kept = scene_units(scene.path)
+    units = _Consulted(kept | (cache if cache is not None else {}))
+    plan = plan_scene(scene, cache=units)
+    used = {k: units[k] for k in sorted(units.read)}
+    if cache is not None:  # the units this plan read: what the lock keeps
+        cache.clear()
+        cache.update(used)
+    if used != kept:
+        store_scene_units(scene.path, used)
+    return plan
+
+
+class _Consulted(dict):
+    """Per-unit plans that remember which keys a plan read (``read``): the units it used,
+    an SH-exp fit that missed its tolerance (and so has no asset) included."""
+
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.read: set = set()
+
+    def __getitem__(self, key):
+        self.read.add(key)
+        return super().__getitem__(key)
+
+
 def _plan_shrm_asset(scene, env, m, model, terms, digest, get_env, cache, assets, add,
                      optional=False) -> list[str] | None:  # fmt: skip
     """Plan ``m``'s SHRMs on ``env``, one per ``(id suffix, params)`` of ``terms`` (an asset
@@ -612,4 +652,4 @@ def format_plan(plan: dict) -> str:
     return "\n".join(line.rstrip() for line in lines)
 
 
-__all__ = ["plan_scene", "format_plan", "file_hash", "asdict"]
+__all__ = ["plan_scene", "plan_scene_kept", "format_plan", "file_hash", "asdict"]

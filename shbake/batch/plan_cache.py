@@ -122,3 +122,43 @@ def cached_dfg_table() -> np.ndarray:
     table = dfg.dfg_table()
     _store(path, lambda f: np.save(f, table))
     return table
+
+
+SCENE_UNITS_FORMAT = 1
+
+
+def _scene_units_path(scene_path: str) -> Path | None:
+    folder = cache_dir()
+    if folder is None:
+        return None
+    spec = f"{SCENE_UNITS_FORMAT} {shbake.__version__} {os.path.abspath(scene_path)}"
+    return folder / f"units-{hashlib.sha256(spec.encode()).hexdigest()[:32]}.json"
+
+
+def scene_units(scene_path: str) -> dict:
+    """The per-unit plans ``shbake plan`` last measured for the scene at ``scene_path``
+    (:func:`store_scene_units`), so that a ``bake`` from a cold output folder does not plan
+    again; ``{}`` when there are none or the entry is not one (read as untrusted: only
+    objects keyed by strings are kept). Each unit's key names its inputs' bytes and settings
+    (:func:`shbake.batch.plan.plan_scene`), so an entry of an older scene is never used for
+    changed inputs."""
+    path = _scene_units_path(scene_path)
+    if path is None:
+        return {}
+    try:
+        with open(path, encoding="utf-8") as f:
+            units = json.loads(f.read(64 << 20))
+    except (OSError, ValueError, RecursionError):
+        return {}
+    if not isinstance(units, dict):
+        return {}
+    return {k: v for k, v in units.items() if isinstance(k, str) and isinstance(v, dict)}
+
+
+def store_scene_units(scene_path: str, units: dict) -> None:
+    """Keep ``units`` (unit key → plan) for the scene at ``scene_path`` in the plan cache
+    (atomically; a cache that cannot be written only costs a re-plan)."""
+    path = _scene_units_path(scene_path)
+    if path is not None:
+        data = json.dumps(units, sort_keys=True).encode()
+        _store(path, lambda f: f.write(data))

@@ -76,6 +76,20 @@ def warm_seconds(kind: str, fn, *a, **k) -> float:
     return best
 
 
+_SHAPE_SECONDS: dict = {}
+
+
+def shape_seconds(kind: str, key, fn, *a, **k) -> float:
+    """:func:`warm_seconds` of ``fn(*a, **k)``, measured once per process for each ``(kind,
+    key)``: work whose cost depends only on the map's shape and the settings (``key``), not
+    on its pixels — a projection, a fit with its plan, a prefiltered chain — is timed on the
+    first map of that shape and reused for the others (the plan of N maps then times it
+    once, not N times)."""
+    if (kind, key) not in _SHAPE_SECONDS:
+        _SHAPE_SECONDS[kind, key] = warm_seconds(kind, fn, *a, **k)
+    return _SHAPE_SECONDS[kind, key]
+
+
 def _children_cpu() -> float:
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime

@@ -27,7 +27,7 @@ from shbake.batch.makefile import (
     variable_name,
     variable_value,
 )
-from shbake.batch.plan import file_hash, plan_scene
+from shbake.batch.plan import file_hash, plan_scene_kept
 from shbake.batch.probe_jobs import worker_pool
 from shbake.batch.scene import (
     NAME_PATTERN,
@@ -70,7 +70,7 @@ def _committed():
 def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     from shbake.batch.project_env import project_environment
     from shbake.envmap.turn import turn_matrix
-    from shbake.evaluation.env_sh import brute_force_reference, irradiance_errors
+    from shbake.evaluation.env_sh import check_reference, irradiance_errors
     from shbake.format.asset import read_asset
     from shbake.format.provenance import reload_source
 
@@ -89,11 +89,13 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
         return {"outputs": outputs, "bake_seconds": seconds}, {}
     asset = read_asset(a["output"])
     env = reload_source(asset, a["output"], a["inputs"][0])  # the map as baked, unturned
-    ref = brute_force_reference(env, n_dirs=1024)
+    names = [n for n, on in (("irradiance", s["irradiance"]), ("tangent_irradiance", s["tangent"]))
+             if on]  # fmt: skip
+    ref = check_reference(env, names)
     turn = turn_matrix(s.get("pose", {}).get("rotation_deg", 0.0))
     measured = irradiance_errors(asset, env, ref, rotation=turn)  # the scene's tolerances
     errors = {name: e["relative_rms"] for name, e in measured.items()}
-    return {"outputs": outputs, "bake_seconds": seconds}, errors
+    return {"outputs": outputs, "bake_seconds": seconds, "error_method": ref["methods"]}, errors
 
 
 def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
@@ -118,7 +120,9 @@ def _bake_brdf_table(a: dict, measure: bool = True) -> tuple[dict, dict]:
     # measured on views the plan did not use, against the table actually written
     table = table_at(read_asset(a["output"])).coeffs
     errs = table_error(brdf, table, s["lmax"], REFERENCE_SAMPLES)["error"]
-    return {"outputs": [a["output"]], "bake_seconds": seconds}, {"brdf_table": errs}
+    info = {"outputs": [a["output"]], "bake_seconds": seconds,
+            "error_method": {"brdf_table": "reference-projection"}}  # fmt: skip
+    return info, {"brdf_table": errs}
 
 
 def _posed_env(a: dict, turn_pixels: bool):
@@ -147,7 +151,8 @@ def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
     probe = fit_plan(config, env.shape).fit_many([env.pixels])[0]
     with _committed():
         write_asset(a["output"], build_shexp_asset(probe, config, shared_dfg_table(), env.meta))
-    return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0},
+    return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0,
+             "error_method": {"glossy_probe": "fit-residual"}},
             {"glossy_probe": float(probe.stats["log_rms"])})  # fmt: skip
 
 
@@ -189,7 +194,9 @@ def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
     if not measure:
         return info, {}
     check = ShrmCheck(env, rb, rotation=rotation)
-    return info, ({"shrm": check.rel_energy(asset)} if check.ref is not None else {})
+    if check.ref is None:
+        return info, {}
+    return info | {"error_method": {"shrm": "brute-force"}}, {"shrm": check.rel_energy(asset)}
 
 
 def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
@@ -208,22 +215,26 @@ def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
     info = {"outputs": [a["output"]] + sorted(files), "bake_seconds": time.perf_counter() - t0}
     if not measure or a["settings"]["target"] == "ktx2":  # ktx2: cube maps, no SH
         return info, {}
-    return info, {"irradiance": _export_error(env_map, env_sh)}
+    error, methods = _export_error(env_map, env_sh)
+    return info | {"error_method": methods}, {"irradiance": error}
 
 
-def _export_error(env_map: str, env_sh: str) -> float:
+def _export_error(env_map: str, env_sh: str) -> tuple[float, dict]:
     """Relative RMS luminance error of what an engine evaluates from the export of ``env_sh``
-    (9 SH coefficients + lights) against brute force of ``env_map``, in the asset's pose."""
+    (9 SH coefficients + lights) against the brute-force irradiance of ``env_map`` (the
+    scene check's reference, :func:`~shbake.evaluation.env_sh.check_reference`), in the
+    asset's pose; and how it was measured."""
     from shbake.envmap.turn import turn_matrix
-    from shbake.evaluation.env_sh import brute_force_reference, export_irradiance_errors
+    from shbake.evaluation.env_sh import check_reference, export_irradiance_errors
     from shbake.format.asset import read_asset
     from shbake.format.provenance import reload_source
 
     asset = read_asset(env_sh)
     env = reload_source(asset, env_sh, env_map)
     turn = turn_matrix(float(asset.attrs.get("probe_rotation_deg", 0.0)))
-    ref = brute_force_reference(env, n_dirs=1024)
-    return export_irradiance_errors(asset, env, ref, rotation=turn)["relative_rms"]
+    ref = check_reference(env, ["irradiance"])
+    error = export_irradiance_errors(asset, env, ref, rotation=turn)["relative_rms"]
+    return error, ref["methods"]
 
 
 BAKERS = {"export": _bake_export, "env_sh": _bake_env_sh, "brdf_table": _bake_brdf_table,
@@ -265,6 +276,7 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
         "inputs": {p: file_hash(staged(p) or p) for p in asset["inputs"]},
         "outputs": outputs,
         "measured_error": errors,
+        "error_method": info.get("error_method", {}) if measure else {},
         "tolerances": asset["tolerances"],
         "predicted_error": asset["predicted_error"],
         "predicted_seconds": asset["predicted_seconds"],
@@ -273,18 +285,48 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
     }
 
 
-def _dask_bake(asset: dict, sources: dict[str, bytes]) -> tuple[dict, dict[str, bytes]]:
-    """A Dask worker's bake of ``asset``: its lock record and its outputs' bytes by path
-    relative to the asset's folder, for the client to write (the worker writes nothing
-    where outputs go, :mod:`shbake.batch.scheduler`). ``sources``: the bytes of inputs that
-    this run baked earlier (the env_sh asset of an export), not yet committed."""
+CHUNK_MAPS = 8
+"""Maps whose assets one task bakes (a pool's or a Dask worker's unit of work): enough to
+amortise the task's scheduling and share each map's decode between its assets and checks,
+few enough to balance two workers from a few dozen maps on."""
+
+
+def chunks(wave: list[dict], maps: int = CHUNK_MAPS) -> list[list[dict]]:
+    """``wave``'s assets in tasks of the assets of ``maps`` maps each (an asset without a map,
+    a BRDF table, a task of its own group), in the wave's order within a task."""
+    groups: dict = {}
+    for a in wave:
+        key = a["inputs"][0] if a["kind"] != "brdf_table" and a["inputs"] else ("", a["id"])
+        groups.setdefault(key, []).append(a)
+    ordered = list(groups.values())
+    return [[a for g in ordered[i : i + maps] for a in g] for i in range(0, len(ordered), maps)]
+
+
+def bake_chunk(assets: list[dict]) -> list[dict]:
+    """Bake ``assets`` (:func:`bake_asset`, in order), each map decoded once for all of them
+    and their checks (:func:`shbake.envmap.environment.decoded_once`); their records."""
+    from shbake.envmap.environment import decoded_once
+
+    with decoded_once():
+        return [bake_asset(a) for a in assets]
+
+
+def _dask_bake(assets: list[dict], sources: dict[str, bytes]) -> list[tuple[dict, dict]]:
+    """A Dask worker's bake of a chunk of ``assets``: per asset, its lock record and its
+    outputs' bytes by path relative to the asset's folder, for the client to write (the
+    worker writes nothing where outputs go, :mod:`shbake.batch.scheduler`). ``sources``: the
+    bytes of inputs that this run baked earlier (the env_sh assets of exports), not yet
+    committed."""
     use_one_thread()
     with collected() as outputs:
         for path, data in sources.items():
             outputs.adopt(path, data)
-        record = bake_asset(asset)
-        folder = os.path.dirname(asset["output"])
-        return record, {rel: outputs.read(os.path.join(folder, rel)) for rel in record["outputs"]}
+        out = []
+        for asset, record in zip(assets, bake_chunk(assets), strict=True):
+            folder = os.path.dirname(asset["output"])
+            out.append((record, {rel: outputs.read(os.path.join(folder, rel))
+                                 for rel in record["outputs"]}))  # fmt: skip
+        return out
 
 
 def _bake_on_scheduler(client, waves: list[list[dict]]) -> list[dict]:
@@ -297,17 +339,20 @@ def _bake_on_scheduler(client, waves: list[list[dict]]) -> list[dict]:
     for wave in waves:
         for a in wave:  # the workers check them (removed again if the run fails)
             makedirs(os.path.dirname(a["output"]))
-        sources = [{p: _staged_bytes(p) for p in a["inputs"] if staged(p)} for a in wave]
-        records: list = [None] * len(wave)
-        futures = client.map(_dask_bake, wave, sources, pure=False)
-        for i, (record, files) in completed(client, futures):
-            folder = os.path.dirname(wave[i]["output"])
-            for rel, data in files.items():
-                if hashlib.sha256(data).hexdigest() != record["outputs"].get(rel):
-                    raise OutputError(f"{wave[i]['id']}: {rel} differs from its lock record")
-                write_returned(inside(folder, rel), data)
-            records[i] = record
-        results += records
+        tasks = chunks(wave)
+        sources = [{p: _staged_bytes(p) for a in task for p in a["inputs"] if staged(p)}
+                   for task in tasks]  # fmt: skip
+        records: list = [None] * len(tasks)
+        futures = client.map(_dask_bake, tasks, sources, pure=False)
+        for i, baked in completed(client, futures):  # written as each task returns
+            for asset, (record, files) in zip(tasks[i], baked, strict=True):
+                folder = os.path.dirname(asset["output"])
+                for rel, data in files.items():
+                    if hashlib.sha256(data).hexdigest() != record["outputs"].get(rel):
+                        raise OutputError(f"{asset['id']}: {rel} differs from its lock record")
+                    write_returned(inside(folder, rel), data)
+            records[i] = [record for record, _ in baked]
+        results += [r for task in records for r in task]
     return results
 
 
@@ -458,13 +503,46 @@ def _stamped_asset(scene: Scene, aid: str) -> dict:
     return asset
 
 
+def _out_of_date(asset: dict) -> bool:
+    """make's rule for one asset of a grouped rule: its output is missing or older than one
+    of its inputs or its settings stamp."""
+    try:
+        built = os.stat(asset["output"]).st_mtime_ns
+    except OSError:
+        return True
+    deps = [*asset["inputs"], asset["stamp"]]
+    return any(os.stat(p).st_mtime_ns > built for p in deps if os.path.exists(p))
+
+
+def _bake_stamped(scene: Scene, ids: list[str]) -> dict:
+    """Bake assets ``ids`` from their settings stamps, in this process (what the fragment's
+    recipes run): one id unconditionally (make decided); several — a rule of several maps'
+    assets (:func:`emit_make` with ``maps_per_rule``) — those out of date by make's own rule
+    (:func:`_out_of_date`), so a rule's recipe rebakes exactly what changed; each map
+    decoded once."""
+    from shbake.envmap.environment import decoded_once
+
+    assets = []
+    for aid in dict.fromkeys(ids):
+        asset = _stamped_asset(scene, aid)
+        full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0,
+                    stamp=stamp_path(scene.out_dir, aid))  # fmt: skip
+        resources.declare_output(full["output"])
+        assets.append(full)
+    todo = assets if len(assets) == 1 else [a for a in assets if _out_of_date(a)]
+    with decoded_once():
+        records = {a["id"]: bake_asset(a, measure=False) for a in todo}
+    return {"baked": list(records), "skipped": [a["id"] for a in assets if a["id"] not in records],
+            "records": records, "warnings": []}  # fmt: skip
+
+
 def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
-               only: str | None = None, progress=None) -> dict:  # fmt: skip
+               only: str | list[str] | None = None, progress=None) -> dict:  # fmt: skip
     """Plan ``scene`` and bake what is out of date; the summary (baked, skipped, records,
     ``warnings``: lock records that could not be trusted and were baked again).
 
-    ``only``: bake just this asset id from its stamp (what the make rules run);
-    the lock is then left alone (make's own timestamps track it).
+    ``only``: bake just this asset id (or these ids, :func:`_bake_stamped`) from its stamp
+    (what the make rules run); the lock is then left alone (make's own timestamps track it).
 
     Inputs are never outputs: the scene, its maps and MERL files are the run's inputs
     (:func:`~shbake.batch.scene.load_scene`), the lock and every planned output are
@@ -481,17 +559,13 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
         with session(scheduler) as client, transaction():
             return bake_scene(scene, jobs, client, only, progress)
     if only is not None:
-        asset = _stamped_asset(scene, only)
-        full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0)
-        resources.declare_output(full["output"])
-        rec = bake_asset(full, measure=False)
-        return {"baked": [only], "skipped": [], "records": {only: rec}, "warnings": []}
+        return _bake_stamped(scene, [only] if isinstance(only, str) else list(only))
     lock_file = lock_path(scene)
     resources.declare_output(lock_file)  # read, then replaced: no input may be the lock
     lock = read_lock(lock_file)
     # per-unit plans (measured once), filled by the plan
     units = {k: v for k, v in lock.get("plans", {}).items() if isinstance(v, dict)}
-    plan = plan_scene(scene, cache=units)
+    plan = plan_scene_kept(scene, cache=units)
     declare_outputs(plan)
     resources.outputs_declared()
     base = scene_folder(scene)  # the lock's input paths are relative to it
@@ -512,16 +586,15 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     if scheduler is not None:
         results = _bake_on_scheduler(scheduler, waves)
     elif jobs > 1 and len(todo) > 1:
-        with worker_pool(jobs) as pool:
+        with worker_pool(jobs) as pool:  # one pool: its workers stay warm across waves
             for wave in waves:
-                results += list(pool.map(bake_asset, wave))
+                results += [r for task in pool.map(bake_chunk, chunks(wave)) for r in task]
     else:
-        results = [bake_asset(a) for wave in waves for a in wave]
+        results = [r for wave in waves for task in chunks(wave) for r in bake_chunk(task)]
     records = {a["id"]: previous[a["id"]] for a in plan["assets"]
                if a["id"] in previous and a["id"] not in poisoned}  # fmt: skip
     for r in results:
         records[r["id"]] = r
-    keys = {a["plan_key"] for a in plan["assets"]}
     keep = scene.written_absolute
     new_lock = {
         "scene": os.path.basename(scene.path),
@@ -529,7 +602,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
             aid: _with_inputs(rec, lambda p: stored(p, base, keep))
             for aid, rec in sorted(records.items())
         },  # fmt: skip
-        "plans": {k: units[k] for k in sorted(keys) if k in units},
+        "plans": {k: units[k] for k in sorted(units)},  # the units the plan read
     }
     with atomic_path(lock_file) as tmp, open(tmp, "w") as f:
         json.dump(new_lock, f, indent=1, sort_keys=True)
@@ -595,7 +668,8 @@ def _shbake_words(shbake: str) -> list[str]:
     return words
 
 
-def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> str:
+def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake",
+              maps_per_rule: int = 1) -> str:  # fmt: skip
     """Write the Makefile fragment of ``plan`` to ``path`` and the settings stamps
     (together: one transaction); its text.
 
@@ -611,6 +685,11 @@ def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> st
     Every file name, word and value in it is written by :mod:`shbake.batch.makefile`
     (after :func:`check_makeable`): make and ``sh`` read back exactly the paths and
     names given, and run ``$(SHBAKE)`` with exactly the arguments given, nothing else.
+
+    ``maps_per_rule`` > 1: one rule (GNU make ≥ 4.3 grouped targets, ``&:``) for the assets
+    of that many maps (:func:`chunks`; exports keep a rule each), one process per rule; its
+    recipe names every asset of the rule and rebakes those out of date by make's own rule
+    (:func:`_bake_stamped`), so incremental rebuilds stay exact per asset.
     """
     check_makeable(scene, path, shbake)
     here = os.path.dirname(os.path.abspath(path))
@@ -639,14 +718,23 @@ def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake") -> st
         f"{make_path(frag)} : {prefix}_SHBAKE_CHANGED",
         "endif",
         f"{make_path(frag)} : {make_path(scene_path)}",
-        recipe("plan", scene_path, "--emit-make", frag, "--shbake", shbake, *flags, "--quiet"),
+        recipe("plan", scene_path, "--emit-make", frag, "--shbake", shbake, *flags, *(
+            ["--maps-per-rule", str(maps_per_rule)] if maps_per_rule > 1 else []), "--quiet"),
         "",
     ]
-    for a in plan["assets"]:
-        deps = [named(p) for p in a["inputs"]] + [named(stamp_path(plan["out_dir"], a["id"]))]
+    groups = [[a] for a in plan["assets"]]
+    if maps_per_rule > 1:
+        groups = chunks([a for a in plan["assets"] if a["kind"] != "export"], maps_per_rule)
+        groups += [[a] for a in plan["assets"] if a["kind"] == "export"]
+    for group in groups:
+        deps = [named(p) for a in group for p in a["inputs"]]
+        deps += [named(stamp_path(plan["out_dir"], a["id"])) for a in group]
+        targets = " ".join(make_path(named(a["output"])) for a in group)
+        ids = [w for a in group for w in ("--asset", a["id"])]
         lines += [
-            f"{make_path(named(a['output']))} : {' '.join(make_path(p) for p in deps)}",
-            recipe("bake", scene_path, "--asset", a["id"], *flags, "--quiet"),
+            f"{targets} {'&:' if len(group) > 1 else ':'} "
+            + " ".join(make_path(p) for p in dict.fromkeys(deps)),
+            recipe("bake", scene_path, *ids, *flags, "--quiet"),
             "",
         ]
     text = "\n".join(lines)

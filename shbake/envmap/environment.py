@@ -1,5 +1,6 @@
 """An environment map loaded, validated and ready to integrate."""
 
+import contextlib
 import os
 
 import numpy as np
@@ -72,6 +73,34 @@ class Environment:
         return np.einsum("hwc,hw->c", self.pixels.astype(np.float64), self.quadrature_weights())
 
 
+DECODED_LIMIT = 8
+"""Most maps a :func:`decoded_once` scope keeps (a chunk of a scene's maps)."""
+_decoded: dict | None = None
+
+
+@contextlib.contextmanager
+def decoded_once():
+    """Within the block, :func:`load_environment` decodes each file once: a later call with
+    the same file (path, inode, size and modification time unchanged) and the same policies
+    gets a copy of the first call's result (its own pixels, no warning printed again) — so
+    a scene's assets of one map and their checks share one decode. At most
+    :data:`DECODED_LIMIT` maps are kept (the oldest dropped); nothing outlives the block."""
+    global _decoded
+    outer, _decoded = _decoded, {}
+    try:
+        yield
+    finally:
+        _decoded = outer
+
+
+def _decode_key(path, *policies):
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None  # the decode says what is wrong
+    return (os.path.abspath(path), st.st_ino, st.st_size, st.st_mtime_ns, *policies)
+
+
 def load_environment(
     path: str,
     layout: str | None = None,
@@ -86,6 +115,21 @@ def load_environment(
     → negative policy (``None``: clamp with a warning). See :mod:`shbake.envmap.repair`
     for the policies.
     """
+    key = None
+    if _decoded is not None:  # policies as applied: None is the default of each
+        key = _decode_key(path, colorspace, negative or DEFAULT_NEGATIVE, fix_nonfinite)
+    first = _decoded.get(key) if key is not None else None
+    if first is not None and layout in (None, first.layout):  # detection: the same layout
+        return Environment(first.pixels.copy(), first.layout, dict(first.meta))
+    env = _load_environment(path, layout, colorspace, negative, fix_nonfinite, quiet)
+    if key is not None and key not in _decoded:
+        if len(_decoded) >= DECODED_LIMIT:
+            del _decoded[next(iter(_decoded))]
+        _decoded[key] = Environment(env.pixels.copy(), env.layout, dict(env.meta))
+    return env
+
+
+def _load_environment(path, layout, colorspace, negative, fix_nonfinite, quiet) -> Environment:
     raw, info = read_image(path)
     if info.get("display_referred") and colorspace is None:
         warn(f"{path}: {info['format']} pixels are display-referred, read as linear radiance; "

@@ -1,0 +1,323 @@
+"""Issue 31: the scene layer at scale — cheap checks that stay honest, plan results carried
+to the bake, one decode per map, tasks of several maps.
+
+The cheap checks are compared with the full brute force (every texel, 4096 directions),
+computed here by :func:`shbake.reference.irradiance.brute_force_irradiance`, not by the
+code under test.
+"""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from shbake.batch.project_env import project_environment
+from shbake.envmap import load_environment
+from shbake.evaluation.env_sh import brute_force_reference, check_reference, irradiance_errors
+from shbake.format.asset import read_asset
+from shbake.reference.irradiance import brute_force_irradiance
+from shbake.reference.irradiance_pyramid import IrradiancePyramid
+from shbake.sh.point_sets import fibonacci_sphere
+from tests.helpers import SHARED_MAPS, map_path, write_test_exr
+
+DIFFUSE_SCENE = """[scene]
+out_dir = "out"
+[[environments]]
+map = "maps/*.exr"
+[[materials]]
+name = "plaster"
+kind = "diffuse"
+"""
+
+
+class TestPyramid:
+    @pytest.mark.parametrize("name", ["studio", "sunset"])
+    def test_is_the_brute_force_sum(self, name):
+        """The pyramid reorders the brute-force sum exactly (not an approximation)."""
+        env = load_environment(str(map_path(name)), quiet=True)
+        q = fibonacci_sphere(300)
+        got = IrradiancePyramid(env).irradiance(q)
+        ref = brute_force_irradiance(*env.samples(), q)
+        assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref))
+
+    def test_a_sun_and_a_cube_layout(self, tmp_path):
+        """One texel of 1e5 (a sun) on a cube cross: bins of every size, empty texels."""
+        px = np.full((96, 128, 3), 0.25, np.float32)  # 4:3 cross, 32-texel faces
+        px[40, 50] = 1e5
+        path = write_test_exr(tmp_path / "cross.exr", px)
+        env = load_environment(str(path), layout="cross-h", quiet=True)
+        q = fibonacci_sphere(200)
+        got = IrradiancePyramid(env).irradiance(q)
+        ref = brute_force_irradiance(*env.samples(), q)
+        assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("name", SHARED_MAPS)
+def test_cheap_check_agrees_with_full_brute_force(name, tmp_path):
+    """The scene bake's irradiance check (pyramid, 256 directions) against the full brute
+    force (every texel, 4096 directions): the measured relative RMS errors agree within
+    10 % of the error itself, sun kept and extracted, lmax 2 and 4."""
+    env = load_environment(str(map_path(name)), quiet=True)
+    full = brute_force_reference(env, 4096, names=("irradiance",))
+    for sun in (False, True):
+        for lmax in (2, 4):
+            out = str(tmp_path / f"{sun}{lmax}.h5")
+            project_environment(str(map_path(name)), out, lmax=lmax, irradiance_lmax=lmax,
+                                tangent_irradiance=False, extract_sun=sun,
+                                quiet=True)  # fmt: skip
+            asset = read_asset(out)
+            cheap = irradiance_errors(asset, env, check_reference(env, ["irradiance"]))
+            exact = irradiance_errors(asset, env, full)
+            a, b = cheap["irradiance"]["relative_rms"], exact["irradiance"]["relative_rms"]
+            assert abs(a - b) <= 0.1 * b, (name, sun, lmax, a, b)
+
+
+def diffuse_scene(folder: Path, names=("studio", "sunset")) -> Path:
+    (folder / "maps").mkdir()
+    for n in names:
+        shutil.copy(map_path(n), folder / "maps" / f"{n}.exr")
+    path = folder / "scene.toml"
+    path.write_text(DIFFUSE_SCENE)
+    return path
+
+
+def test_lock_says_how_errors_were_measured_and_no_tangent_is_computed(tmp_path, monkeypatch):
+    """Each record names its error's method; an asset without tangent irradiance computes
+    none (the brute force once computed both for every env_sh asset)."""
+    import shbake.reference.irradiance as reference
+    from shbake.batch.scene import load_scene
+    from shbake.batch.scene_bake import bake_scene
+
+    calls = []
+    real = reference.brute_force_irradiance
+
+    def spy(dirs, omega, radiance, normals, tangent=False):
+        calls.append(tangent)
+        return real(dirs, omega, radiance, normals, tangent)
+
+    monkeypatch.setattr(reference, "brute_force_irradiance", spy)
+    import shbake.evaluation.env_sh as env_sh
+
+    monkeypatch.setattr(env_sh, "brute_force_irradiance", spy)
+    scene = load_scene(str(diffuse_scene(tmp_path)))
+    bake_scene(scene)
+    lock = json.loads((tmp_path / "out" / "scene.lock.json").read_text())
+    assert set(lock["assets"]) == {"env_sh/studio", "env_sh/sunset"}
+    for rec in lock["assets"].values():
+        assert rec["error_method"] == {"irradiance": "direction-set-pyramid"}
+        assert set(rec["measured_error"]) == {"irradiance"}
+    assert True not in calls
+
+
+def test_bake_after_plan_does_not_plan_again(tmp_path, monkeypatch):
+    """``plan`` keeps its per-unit plans; a bake from a cold output folder reuses them."""
+    import shbake.batch.plan as plan
+    from shbake.batch.scene import load_scene
+    from shbake.batch.scene_bake import bake_scene
+
+    scene = load_scene(str(diffuse_scene(tmp_path)))
+    first = plan.plan_scene_kept(scene)
+    measured = []
+    real = plan.plan_env_sh
+    monkeypatch.setattr(plan, "plan_env_sh", lambda *a, **k: measured.append(a) or real(*a, **k))
+    summary = bake_scene(scene)
+    assert measured == []
+    assert sorted(summary["baked"]) == sorted(a["id"] for a in first["assets"])
+
+
+def test_bake_decodes_each_map_once(tmp_path, monkeypatch):
+    """A bake reads each map's pixels once for its assets and their checks."""
+    import shbake.envmap.environment as environment
+    from shbake.batch.scene import load_scene
+    from shbake.batch.scene_bake import bake_scene
+
+    reads = []
+    real = environment.read_image
+    monkeypatch.setattr(environment, "read_image", lambda p: reads.append(p) or real(p))
+    text = DIFFUSE_SCENE + '[[materials]]\nname = "v"\nkind = "glossy"\nroughness = [0.5, 0.9]\n'
+    path = diffuse_scene(tmp_path, ("studio",))
+    path.write_text(text)
+    scene = load_scene(str(path))
+    from shbake.batch.plan import plan_scene_kept
+
+    plan_scene_kept(scene)
+    reads.clear()
+    summary = bake_scene(scene)
+    assert len(summary["baked"]) == 2  # env_sh and a glossy probe, each checked
+    assert len(reads) == 1
+
+
+def test_decoded_once_sees_changed_bytes(tmp_path):
+    """Within a scope a file rewritten (other size or time) is decoded again; each caller
+    gets its own pixels."""
+    from shbake.envmap.environment import decoded_once
+
+    path = tmp_path / "m.exr"
+    write_test_exr(path, np.full((8, 16, 3), 1.0))
+    with decoded_once():
+        a = load_environment(str(path), quiet=True)
+        a.pixels[:] = 7.0
+        b = load_environment(str(path), quiet=True)
+        assert np.all(b.pixels == 1.0)
+        write_test_exr(path, np.full((16, 32, 3), 2.0))
+        c = load_environment(str(path), quiet=True)
+        assert c.shape == (16, 32) and np.all(c.pixels == 2.0)
+
+
+def test_chunks_keep_a_maps_assets_together():
+    from shbake.batch.scene_bake import chunks
+
+    wave = [{"id": f"{k}/m{i}", "kind": k, "inputs": [f"m{i}.exr"]}
+            for i in range(5) for k in ("env_sh", "shexp")]  # fmt: skip
+    wave.append({"id": "brdf_table/x", "kind": "brdf_table", "inputs": []})
+    tasks = chunks(wave, maps=2)
+    assert [len(t) for t in tasks] == [4, 4, 3]
+    assert [a for t in tasks for a in t] == wave
+    for t in tasks:
+        maps = {a["inputs"][0] for a in t if a["inputs"]}
+        assert len(maps) <= 2
+
+
+def _same_asset(a: Path, b: Path) -> None:
+    """Every dataset and attribute equal, but what provenance records of the run."""
+    import h5py
+
+    run_attrs = {"command_line", "source_path"}
+    with h5py.File(a) as fa, h5py.File(b) as fb:
+        items = []
+        fa.visititems(lambda name, obj: items.append(name))
+        for name in [""] + items:
+            oa, ob = fa[name] if name else fa, fb[name] if name else fb
+            assert set(oa.attrs) == set(ob.attrs)
+            for k in set(oa.attrs) - run_attrs:
+                assert np.array_equal(np.asarray(oa.attrs[k]), np.asarray(ob.attrs[k])), (name, k)
+            if isinstance(oa, h5py.Dataset):
+                assert np.array_equal(oa[()], ob[()]), name
+
+
+@pytest.mark.parametrize("command, options", [
+    ("project-env", ["--extract-sun", "--no-tangent-irradiance"]),
+    ("split-sum", ["--size", "32", "--min-size", "16", "--samples", "64"]),
+])  # fmt: skip
+def test_many_maps_in_one_call(command, options, tmp_path):
+    """``--out-dir``/``--jobs``/``--list``: each map's asset is the one-map command's."""
+    import subprocess
+    import sys
+
+    shbake = str(Path(sys.executable).with_name("shbake"))
+    names = ("city", "night", "studio")
+    (tmp_path / "list.txt").write_text(f"{map_path('sunset')} named.h5\n")
+    maps = [str(map_path(n)) for n in names]
+    subprocess.run([shbake, command, *maps, "--list", str(tmp_path / "list.txt"), "--out-dir",
+                    str(tmp_path / "many"), "--jobs", "2", "-q", *options], check=True)  # fmt: skip
+    assert sorted(p.name for p in (tmp_path / "many").iterdir()) == [f"{n}.h5" for n in names]
+    for name, src in [*zip(names, maps, strict=True), ("named", str(map_path("sunset")))]:
+        one = tmp_path / f"one-{name}.h5"
+        subprocess.run([shbake, command, src, "-o", str(one), "-q", *options], check=True)
+        many = tmp_path / ("named.h5" if name == "named" else f"many/{name}.h5")
+        _same_asset(one, many)
+
+
+def test_many_maps_refused_before_any_work(tmp_path):
+    """Two maps that would write one file: one line, non-zero, nothing written."""
+    import subprocess
+    import sys
+
+    shbake = str(Path(sys.executable).with_name("shbake"))
+    (tmp_path / "a").mkdir()
+    shutil.copy(map_path("city"), tmp_path / "a" / "city.exr")
+    done = subprocess.run([shbake, "project-env", str(map_path("city")),
+                           str(tmp_path / "a" / "city.exr"), "--out-dir", str(tmp_path / "o")],
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode != 0
+    assert done.stderr.count("\n") == 1 and "two maps would write" in done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]
+
+
+def test_grouped_make_rules_rebake_exactly_what_changed(tmp_path):
+    """``plan --emit-make --maps-per-rule 2``: one rule (one process) for two maps' assets,
+    the same bytes as ``bake``; a touched map rebakes only its own assets."""
+    import os
+    import subprocess
+    import sys
+
+    shbake = str(Path(sys.executable).with_name("shbake"))
+    path = diffuse_scene(tmp_path, ("studio", "sunset", "night"))
+    run = lambda *a: subprocess.run(a, cwd=tmp_path, check=True, capture_output=True,  # noqa: E731
+                                    text=True)  # fmt: skip
+    run(shbake, "plan", path.name, "--emit-make", "scene.mk", "--shbake", shbake,
+        "--maps-per-rule", "2", "-q")  # fmt: skip
+    fragment = (tmp_path / "scene.mk").read_text()
+    assert fragment.count("&:") == 1 and fragment.count("\t$(SHBAKE) bake") == 2
+    (tmp_path / "Makefile").write_text("include scene.mk\n")
+    run("make", "-j2", "scene-assets")
+    out = tmp_path / "out" / "env_sh"
+    by_make = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert subprocess.run(["make", "-q", "scene-assets"], cwd=tmp_path).returncode == 0
+    later = os.stat(out / "sunset.h5").st_mtime + 100
+    os.utime(tmp_path / "maps" / "studio.exr", (later, later))  # newer: its asset only
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    run("make", "scene-assets")
+    after = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    assert [n for n in sorted(after) if after[n] != before[n]] == ["studio.h5"]
+    shutil.rmtree(tmp_path / "out")
+    run(shbake, "bake", path.name, "-q")
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == by_make
+
+
+def test_two_workers_with_their_own_folders(tmp_path):
+    """A scheduler and two ``dask worker`` processes, each started in a working directory
+    (and ``--local-directory``) of its own, as on two machines: ``bake --scheduler`` writes
+    the same bytes as a local bake, every file written by the client, none in the
+    workers' folders."""
+    import json as json_
+    import subprocess
+    import sys
+    import time
+
+    bin_dir = Path(sys.executable).parent
+    shbake, dask = str(bin_dir / "shbake"), str(bin_dir / "dask")
+    (tmp_path / "scene").mkdir()
+    scene = diffuse_scene(tmp_path / "scene", ("studio", "sunset", "night"))
+    info = tmp_path / "scheduler.json"
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                               "--dashboard-address", ":0", "--scheduler-file", str(info)],
+                              cwd=tmp_path, stderr=subprocess.DEVNULL)]  # fmt: skip
+    try:
+        workers = []
+        for i in range(2):
+            folder = tmp_path / f"worker{i}"
+            folder.mkdir()
+            workers.append(folder)
+            procs.append(subprocess.Popen(
+                [dask, "worker", "--scheduler-file", str(info), "--nthreads", "1",
+                 "--local-directory", str(folder), "--no-dashboard"],
+                cwd=folder, stderr=subprocess.DEVNULL))  # fmt: skip
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            if info.exists():
+                from distributed import Client
+
+                with Client(scheduler_file=str(info), timeout=60) as client:
+                    client.wait_for_workers(2, timeout=120)
+                    address = client.scheduler.address
+                break
+            time.sleep(0.5)
+        done = subprocess.run([shbake, "bake", str(scene), "--scheduler", address, "--json",
+                               "-q"], capture_output=True, text=True)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        assert len(json_.loads(done.stdout)["baked"]) == 3
+        out = tmp_path / "scene" / "out" / "env_sh"
+        by_dask = {p.name: p.read_bytes() for p in out.iterdir()}
+        for folder in workers:
+            assert not [p for p in folder.rglob("*.h5")], folder
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            p.wait(30)
+    shutil.rmtree(tmp_path / "scene" / "out")
+    subprocess.run([shbake, "bake", str(scene), "-q"], check=True)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == by_dask
