@@ -1,5 +1,5 @@
 """Running shbake with stderr on a pseudo-terminal, and reading the progress bars it drew
-(the tests of progress with real totals: issue 32)."""
+(the tests of progress with real totals, issue 32: test_run_reports, test_preview_progress)."""
 
 import fcntl
 import os
