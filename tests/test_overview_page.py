@@ -154,9 +154,9 @@ class TestSummaryTable:
                   for n, e in (("a", 0.03), ("b", 0.2))]  # fmt: skip
         (tmp_path / "probes.json").write_text(json.dumps({"probes": probes, "seconds": 3.0}))
         assert table_rows(Page(render(tmp_path)))[1:] == [
-            ["probes/a.h5", "shexp_probe", "fitted to maps/a.exr", "glossy E0", "3.00%",
+            ["probes/a.h5", "shexp_probe", "fitted to a.exr", "glossy E0", "3.00%",
              "5.00% (--tol)", "pass", "300", "1.50"],
-            ["probes/b.h5", "shexp_probe", "fitted to maps/b.exr", "glossy E0", "20.00%",
+            ["probes/b.h5", "shexp_probe", "fitted to b.exr", "glossy E0", "20.00%",
              "5.00% (--tol)", "FAIL", "500", "1.50"],
         ]  # fmt: skip
 

@@ -178,9 +178,10 @@ def _probe_rows(s: dict, tol: float) -> list[dict]:
     """A ``probe-fit --json`` batch: one row per probe (its headline error, its file's
     bytes; the batch's seconds shared out evenly)."""
     seconds = s["seconds"] / len(s["probes"]) if "seconds" in s else None
-    return [_row(p["output"], p["output"], "shexp_probe", f"fitted to {p['source']}",
-                 p["error"]["quantity"], p["error"]["value"], tol, "--tol",
-                 file_bytes(p["output"]), seconds) for p in s["probes"]]  # fmt: skip
+    return [_row(p["output"], p["output"], "shexp_probe",
+                 "fitted to " + os.path.basename(p["source"]), p["error"]["quantity"],
+                 p["error"]["value"], tol, "--tol", file_bytes(p["output"]), seconds)
+            for p in s["probes"]]  # fmt: skip
 
 
 def _preview_row(s: dict, tol: float) -> dict:
