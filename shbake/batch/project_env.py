@@ -81,7 +81,7 @@ def quality_warnings(asset, summary: dict) -> list[str]:
             hint = f"; try {' or '.join(fixes)}" if fixes else ""
             out.append(
                 f"irradiance rings below zero (min {lowest:.4g} vs mean "
-                f"{float(e.mean()):.4g}){hint}"
+                f"{float(e.mean()):.4g}, the map's radiance unit × sr){hint}"
             )
     errors = summary.get("report", {}).get("error_vs_brute_force", {})
     same = "export" in errors and summary.get("irradiance_lmax", 0) <= 2  # one error, twice
