@@ -193,7 +193,7 @@ def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
 
 
 def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
-    from shbake.batch.export import export_assets, export_error
+    from shbake.batch.export import export_assets
 
     t0 = time.perf_counter()
     folder = os.path.dirname(a["output"])
@@ -208,7 +208,22 @@ def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
     info = {"outputs": [a["output"]] + sorted(files), "bake_seconds": time.perf_counter() - t0}
     if not measure or a["settings"]["target"] == "ktx2":  # ktx2: cube maps, no SH
         return info, {}
-    return info, {"irradiance": export_error(env_sh, env_map, n_dirs=1024)["relative_rms"]}
+    return info, {"irradiance": _export_error(env_map, env_sh)}
+
+
+def _export_error(env_map: str, env_sh: str) -> float:
+    """Relative RMS luminance error of what an engine evaluates from the export of ``env_sh``
+    (9 SH coefficients + lights) against brute force of ``env_map``, in the asset's pose."""
+    from shbake.envmap.turn import turn_matrix
+    from shbake.evaluation.env_sh import brute_force_reference, export_irradiance_errors
+    from shbake.format.asset import read_asset
+    from shbake.format.provenance import reload_source
+
+    asset = read_asset(env_sh)
+    env = reload_source(asset, env_sh, env_map)
+    turn = turn_matrix(float(asset.attrs.get("probe_rotation_deg", 0.0)))
+    ref = brute_force_reference(env, n_dirs=1024)
+    return export_irradiance_errors(asset, env, ref, rotation=turn)["relative_rms"]
 
 
 BAKERS = {"export": _bake_export, "env_sh": _bake_env_sh, "brdf_table": _bake_brdf_table,
