@@ -35,7 +35,8 @@ $(TESTENV): $(RUNTIME)
 # demo prints no advice it does not follow. out/index.html judges every error (overview).
 demo: $(RUNTIME)
 	@mkdir -p $(OUT)
-	$(BIN)/shbake probe-fit data_samples/*.exr --out-dir $(OUT)/probes --jobs 2 --negative clamp
+	$(BIN)/shbake probe-fit data_samples/*.exr --out-dir $(OUT)/probes --jobs 2 --negative clamp \
+	    --json > $(OUT)/probes.json
 	@for m in data_samples/*.exr; do \
 	  n=$$(basename $$m .exr); \
 	  echo "== $$n" >&2; \

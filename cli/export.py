@@ -15,6 +15,7 @@ from shbake_cli.options import (
     json_opt,
     output_opt,
     quiet_opt,
+    report_opt,
     samples_opt,
     usage_errors,
     warn,
@@ -145,6 +146,7 @@ from shbake.sh.windows import WINDOW_METHODS
     help="Map input: also keep the baked env_sh asset here (otherwise none is left).",
 )
 @input_policy_opts
+@report_opt
 @json_opt
 @quiet_opt
 def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_json, quiet, **cube):
@@ -182,17 +184,21 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
         many=out_dir is not None,
         bake=bake,
         keep_asset=cube["keep_asset"],
+        report=cube["report"],
         explicit=explicit,
         progress=BarProgress(quiet),
         **settings,
     )
     written = result["written"]
+    for m in result["measured"]:
+        info(f"{m['input']}: " + headline_line(m["error"]), quiet)
     for summary in result["bakes"]:
         info(bake_line(summary), quiet)
         for w in summary["warnings"]:
             warn(w, quiet)
     if as_json:
-        emit_json({"target": target, "written": written, "bakes": result["bakes"]})
+        emit_json({"target": target, "written": written, "bakes": result["bakes"],
+                   "measured": result["measured"]})  # fmt: skip
     else:
         info(f"wrote {written[0]} ({target})" + also_wrote(written[1:]), quiet)
 

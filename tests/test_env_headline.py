@@ -110,3 +110,22 @@ def test_project_env_export_headline_and_advice(tmp_path, run_cli):
     assert err.splitlines()[0].startswith(f"error {head['value']:.2%} ")
     (advice,) = [w for w in summary["warnings"] if w.startswith("export differs")]
     assert advice.endswith("try --extract-sun or --lights auto"), advice
+
+
+def test_export_asset_report(tmp_path, run_cli):
+    """``export ASSET --report``: the export measures its own error (the L2 cut of an lmax-8
+    asset, no sun taken out), against the independent measurement of the file it wrote."""
+    img = sky_map()
+    sky = write_test_exr(tmp_path / "sky.exr", img)
+    assert run_cli("project-env", sky, "-o", tmp_path / "sky.h5", "--lmax", "8", "-q")[0] == 0
+    out = tmp_path / "sky.json"
+    code, stdout, err = run_cli("export", tmp_path / "sky.h5", "--to", "threejs", "-o", out,
+                                "--report", "--json")  # fmt: skip
+    assert code == 0, err
+    (measured,) = json.loads(stdout)["measured"]
+    head = measured["error"]
+    mine = independent_error(out, img)
+    assert abs(head["value"] - mine) <= 0.1 * mine, (head["value"], mine)
+    assert err.splitlines()[0] == f"{tmp_path / 'sky.h5'}: error {head['value']:.2%} " \
+        f"(relative RMS of luminance vs brute force) of the {head['quantity']}; mean " \
+        f"{head['mean']:.2%}, max {head['max']:.2%} relative"  # fmt: skip

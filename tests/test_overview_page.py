@@ -143,6 +143,23 @@ class TestSummaryTable:
         with pytest.raises(Exception, match="nothing to show"):
             render(tmp_path)
 
+    def test_probe_fit_batch_rows(self, tmp_path):
+        """``probe-fit --json``: one row per probe, its headline error, its bytes, the
+        batch's seconds shared out."""
+        (tmp_path / "probes").mkdir()
+        for name, size in (("a", 300), ("b", 500)):
+            (tmp_path / "probes" / f"{name}.h5").write_bytes(bytes(size))
+        probes = [{"source": f"maps/{n}.exr", "output": f"probes/{n}.h5", "bytes": 1,
+                   "error": {"quantity": "glossy E0", "value": e}}
+                  for n, e in (("a", 0.03), ("b", 0.2))]  # fmt: skip
+        (tmp_path / "probes.json").write_text(json.dumps({"probes": probes, "seconds": 3.0}))
+        assert table_rows(Page(render(tmp_path)))[1:] == [
+            ["probes/a.h5", "shexp_probe", "fitted to a.exr", "glossy E0", "3.00%",
+             "5.00% (--tol)", "pass", "300", "1.50"],
+            ["probes/b.h5", "shexp_probe", "fitted to b.exr", "glossy E0", "20.00%",
+             "5.00% (--tol)", "FAIL", "500", "1.50"],
+        ]  # fmt: skip
+
     def test_scene_lock_rows(self, tmp_path):
         """A scene lock's records: each measured error against the scene's tolerance, its
         outputs' bytes; an export measuring nothing says so; a poisoned record is skipped."""

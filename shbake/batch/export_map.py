@@ -10,8 +10,8 @@ where to keep it.
 
 import os
 
-from shbake.batch.export import check_target_options, export_assets
-from shbake.batch.project_env import check_settings, project_environment
+from shbake.batch.export import check_target_options, export_assets, export_error
+from shbake.batch.project_env import check_settings, headline_error, project_environment
 from shbake.errors import ParameterError
 from shbake.format.asset import is_asset_file
 from shbake.format.atomic import check_output_dir, makedirs, staged, transaction
@@ -43,6 +43,7 @@ def export_inputs(
     many: bool | None = None,
     bake: dict | None = None,
     keep_asset: str | None = None,
+    report: bool = False,
     explicit=(),
     progress=NO_PROGRESS,
     **options,
@@ -54,8 +55,10 @@ def export_inputs(
     policies) and measured against brute force (the ``project-env --report`` error).
 
     The baked asset is an output of the run's transaction, read back by the export and
-    then discarded; ``keep_asset`` (one map input) keeps it there. Returns ``{"written":
-    files, "bakes": [the project-env summary of each map]}``. Settings of
+    then discarded; ``keep_asset`` (one map input) keeps it there. ``report``: an asset
+    input's export is measured too (:func:`shbake.batch.export.export_error`; a map's
+    always is). Returns ``{"written": files, "bakes": [the project-env summary of each
+    map], "measured": [{"input", "error"} of each measured asset input]}``. Settings of
     :data:`MAP_OPTIONS` named in ``explicit`` without a map input, or of
     :data:`TARGET_OPTIONS` the target does not read, raise
     :class:`~shbake.errors.ParameterError` before anything is baked.
@@ -76,12 +79,15 @@ def export_inputs(
                    settings["extract_sun"], settings["window"])  # fmt: skip
     if not one_file:
         check_output_dir(out, "--out-dir")
-    written, bakes = [], []
+    written, bakes, measured = [], [], []
     with transaction() as t:
         for path in inputs:
             if path not in maps:
                 written += export_assets([path], target, out, many=not one_file,
                                          explicit=explicit, **options)  # fmt: skip
+                if report and target != "ktx2":  # ktx2 carries cube maps, no SH
+                    errors = export_error(path, options.get("env_path"))
+                    measured.append({"input": path, "error": headline_error({"export": errors})})
                 continue
             folder = out if not one_file else os.path.dirname(os.path.abspath(out))
             stem = os.path.splitext(os.path.basename(path))[0]
@@ -109,7 +115,7 @@ def export_inputs(
                 summary["outputs"] = [asset, *files]
             written += summary["outputs"]
             bakes.append(summary)
-    return {"written": written, "bakes": bakes}
+    return {"written": written, "bakes": bakes, "measured": measured}
 
 
 __all__ = ["MAP_DEFAULTS", "MAP_OPTIONS", "export_inputs"]

@@ -3,8 +3,9 @@ one page that judges them (:mod:`shbake.preview.overview` renders it).
 
 What the folder holds, all of it untrusted (``docs/SECURITY.md``):
 
-* bake summaries (``project-env --json > NAME.json``, ``export MAP --json``): the asset,
-  its settings, its error against brute force, its bytes and bake seconds, the sun;
+* bake summaries (``project-env --json > NAME.json``): the asset, its settings, its error
+  against brute force, its bytes and bake seconds, the sun or fitted lights;
+* probe batches (``probe-fit --json > NAME.json``): each probe's headline error and bytes;
 * preview summaries (``preview --json > NAME.json``): a contact sheet and its error;
 * scene locks (``scene.lock.json`` in the folder or one folder below it, ``shbake bake``):
   per asset its measured errors, the scene's tolerances, outputs and bake seconds;
@@ -105,13 +106,26 @@ def is_bake(summary) -> bool:
     ints = all(_optional(summary, k, lambda v: isinstance(v, int) and not isinstance(v, bool))
                for k in ("lmax", "irradiance_lmax"))  # fmt: skip
     report = summary.get("report", {})
-    headline = summary.get("error", {"quantity": "", "value": 0.0})
     return (ints and _optional(summary, "bake_seconds", _number)
             and _optional(summary, "sun", _is_sun) and _optional(summary, "lights", _is_lights)
             and isinstance(report, dict)
             and _optional(report, "error_vs_brute_force", _is_errors)
-            and isinstance(headline, dict) and isinstance(headline.get("quantity"), str)
-            and _number(headline.get("value")))  # fmt: skip
+            and _optional(summary, "error", lambda e: e is None or _is_headline(e)))  # fmt: skip
+
+
+def _is_headline(error) -> bool:
+    return (isinstance(error, dict) and isinstance(error.get("quantity"), str)
+            and _number(error.get("value")))  # fmt: skip
+
+
+def is_probe_batch(summary) -> bool:
+    """Whether ``summary`` has the types ``probe-fit --json`` writes: ``probes``, each with
+    its ``source``, ``output`` and headline ``error``; ``seconds`` for the batch."""
+    probes = summary.get("probes") if isinstance(summary, dict) else None
+    return (isinstance(probes, list) and bool(probes) and _optional(summary, "seconds", _number)
+            and all(isinstance(p, dict) and isinstance(p.get("output"), str)
+                    and isinstance(p.get("source"), str) and _is_headline(p.get("error"))
+                    for p in probes))  # fmt: skip
 
 
 def _read_json(path: Path, limit: int, what: str):
@@ -151,13 +165,23 @@ def _bake_rows(stem: str, s: dict, tol: float) -> list[dict]:
     (mean relative, against brute force); one row without an error when it has none."""
     size = file_bytes(s["output"])
     common = (s["output"], s["output"], s.get("kind", "asset"), _bake_setting(s))
-    if "error" in s:
+    if s.get("error") is not None:
         errors = [(s["error"]["quantity"], s["error"]["value"])]
     else:
         found = s.get("report", {}).get("error_vs_brute_force", {})
         errors = [(f"{k}, mean relative", v["mean"]) for k, v in sorted(found.items())]
     errors = errors or [("not measured (no --report)", None)]
     return [_row(*common, q, e, tol, "--tol", size, s.get("bake_seconds")) for q, e in errors]
+
+
+def _probe_rows(s: dict, tol: float) -> list[dict]:
+    """A ``probe-fit --json`` batch: one row per probe (its headline error, its file's
+    bytes; the batch's seconds shared out evenly)."""
+    seconds = s["seconds"] / len(s["probes"]) if "seconds" in s else None
+    return [_row(p["output"], p["output"], "shexp_probe",
+                 "fitted to " + os.path.basename(p["source"]), p["error"]["quantity"],
+                 p["error"]["value"], tol, "--tol", file_bytes(p["output"]), seconds)
+            for p in s["probes"]]  # fmt: skip
 
 
 def _preview_row(s: dict, tol: float) -> dict:
@@ -233,6 +257,8 @@ def gather(folder: str, tol: float = DEFAULT_TOLERANCE) -> dict:
         if is_bake(summary):
             group(path.stem)["bakes"].append(summary)
             rows += _bake_rows(path.stem, summary, tol)
+        elif is_probe_batch(summary):
+            rows += _probe_rows(summary, tol)
         elif is_preview(summary):
             sheets = [p for p in summary.get("outputs", []) if p.endswith("-sheet.png")]
             if sheets:

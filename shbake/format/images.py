@@ -40,7 +40,8 @@ def clamp_to_half(
         out.append(a)
     if count:
         warn(
-            f"{path}: {count} values above the {kind} maximum {limit:g} (peak {peak:.6g}) "
+            f"{path}: {count} values (radiance) above the {kind} maximum {limit:g} (peak "
+            f"{peak:.6g}) "
             f"clamped to {limit:g}; send a sun as a light (--extract-sun) to keep its energy"
         )
     return out
