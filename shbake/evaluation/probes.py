@@ -33,10 +33,13 @@ from shbake.shading.shader import shader
 MATERIALS = {"chrome": 1.0, "dielectric": 0.04}
 ALPHAS = tuple(round(ggx_alpha(r), 6) for r in (0.5, 0.6, 0.7, 0.8, 0.9, 1.0))
 VIEW_YAWS = (0.0, 90.0, 180.0, 270.0)
-HEADLINE_SIZE = 32
+HEADLINE_SIZE = 20
 """Sphere size (pixels per side) of a probe's headline error (:func:`glossy_error`)."""
-HEADLINE_SAMPLES = 1024
-"""Samples per pixel of the headline's ground truth (MIS, :func:`ggx_integrals`)."""
+HEADLINE_SAMPLES = 128
+"""Samples per pixel of the headline's ground truth (MIS, :func:`ggx_integrals`). At 20²
+pixels and 128 samples the headline is within 9 % of itself at 32² and 4096 samples on the
+six sample maps (−9.0 % night … +3.3 % forest; 32² with 1024 samples: within 3.1 %) for
+0.05 s of CPU per probe, about what the fit costs (32² with 1024 samples: 0.8 s)."""
 
 
 def sphere_views(size: int, yaw_deg: float):
