@@ -154,21 +154,34 @@ def export_assets(
     return written
 
 
-def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 2048) -> dict:
+def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 2048,
+                 scene_check: bool = False) -> tuple[dict, dict]:  # fmt: skip
     """The error of what an engine evaluates from any SH export of the ``env_sh`` asset (its
     9 irradiance coefficients and lights) against brute force of its source map (the
     recorded one, or ``env_path``; hash-checked), in the asset's pose, at ``n_dirs``
-    Fibonacci directions: :func:`shbake.evaluation.env_sh.export_irradiance_errors`."""
+    Fibonacci directions (:func:`shbake.evaluation.env_sh.export_irradiance_errors`), and
+    how it was measured (``{"irradiance": method}``). ``scene_check``: the scene bake's
+    reference, as cheap as the bake (:func:`shbake.evaluation.env_sh.check_reference`, its
+    own direction count), instead of the texel-by-texel sum."""
     from shbake.envmap.turn import turn_matrix
-    from shbake.evaluation.env_sh import brute_force_reference, export_irradiance_errors
+    from shbake.evaluation.env_sh import (
+        brute_force_reference,
+        check_reference,
+        export_irradiance_errors,
+    )
     from shbake.format.asset import read_asset
     from shbake.format.provenance import reload_source
 
     asset = read_asset(asset_path, kinds=("env_sh",))
     env = reload_source(asset, asset_path, env_path)
     turn = turn_matrix(float(asset.attrs.get("probe_rotation_deg", 0.0)))
-    ref = brute_force_reference(env, n_dirs=n_dirs)
-    return export_irradiance_errors(asset, env, ref, rotation=turn)
+    if scene_check:
+        ref = check_reference(env, ["irradiance"])
+        methods = ref["methods"]
+    else:
+        ref = brute_force_reference(env, n_dirs=n_dirs, names=("irradiance",))
+        methods = {"irradiance": "brute-force"}
+    return export_irradiance_errors(asset, env, ref, rotation=turn), methods
 
 
 def _export_webgl(assets, out, one_file, frame, rotate_deg, env_path) -> list[str]:

@@ -86,7 +86,7 @@ def export_inputs(
                 written += export_assets([path], target, out, many=not one_file,
                                          explicit=explicit, **options)  # fmt: skip
                 if report and target != "ktx2":  # ktx2 carries cube maps, no SH
-                    errors = export_error(path, options.get("env_path"))
+                    errors, _ = export_error(path, options.get("env_path"))
                     measured.append({"input": path, "error": headline_error({"export": errors})})
                 continue
             folder = out if not one_file else os.path.dirname(os.path.abspath(out))

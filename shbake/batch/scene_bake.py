@@ -200,7 +200,7 @@ def _bake_shrm(a: dict, measure: bool = True) -> tuple[dict, dict]:
 
 
 def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
-    from shbake.batch.export import export_assets
+    from shbake.batch.export import export_assets, export_error
 
     t0 = time.perf_counter()
     folder = os.path.dirname(a["output"])
@@ -215,26 +215,8 @@ def _bake_export(a: dict, measure: bool = True) -> tuple[dict, dict]:
     info = {"outputs": [a["output"]] + sorted(files), "bake_seconds": time.perf_counter() - t0}
     if not measure or a["settings"]["target"] == "ktx2":  # ktx2: cube maps, no SH
         return info, {}
-    error, methods = _export_error(env_map, env_sh)
-    return info | {"error_method": methods}, {"irradiance": error}
-
-
-def _export_error(env_map: str, env_sh: str) -> tuple[float, dict]:
-    """Relative RMS luminance error of what an engine evaluates from the export of ``env_sh``
-    (9 SH coefficients + lights) against the brute-force irradiance of ``env_map`` (the
-    scene check's reference, :func:`~shbake.evaluation.env_sh.check_reference`), in the
-    asset's pose; and how it was measured."""
-    from shbake.envmap.turn import turn_matrix
-    from shbake.evaluation.env_sh import check_reference, export_irradiance_errors
-    from shbake.format.asset import read_asset
-    from shbake.format.provenance import reload_source
-
-    asset = read_asset(env_sh)
-    env = reload_source(asset, env_sh, env_map)
-    turn = turn_matrix(float(asset.attrs.get("probe_rotation_deg", 0.0)))
-    ref = check_reference(env, ["irradiance"])
-    error = export_irradiance_errors(asset, env, ref, rotation=turn)["relative_rms"]
-    return error, ref["methods"]
+    errors, methods = export_error(env_sh, env_map, scene_check=True)
+    return info | {"error_method": methods}, {"irradiance": errors["relative_rms"]}
 
 
 BAKERS = {"export": _bake_export, "env_sh": _bake_env_sh, "brdf_table": _bake_brdf_table,
