@@ -44,6 +44,9 @@ def variants():
         "default (lmax 5/2, 48 normals, 2 polish steps)": FitConfig(),
         "3 sets, lmax 4/2": FitConfig(sets=3, lmax_p=4, normals=64, polish=1),
         "lmax 6/2": FitConfig(lmax_p=6),
+        "first knot 0.15, else default": FitConfig(alpha_min=0.15),
+        "first knot 0.1, else default": FitConfig(alpha_min=0.1),
+        "Fresnel-aware weights (shaded-nv-f0), else default": FitConfig(weights="shaded-nv-f0"),
     }
 
 

@@ -187,13 +187,17 @@ def _directions(angles: np.ndarray, frames: np.ndarray) -> np.ndarray:
 class _Problem:
     """The weighted linear algebra shared by every direction set of one fit."""
 
-    def __init__(self, target: IrradianceTarget, lmax: int):
+    def __init__(self, target: IrradianceTarget, lmax: int, extra_weight=None):
+        """``extra_weight`` (N,): a factor on each normal's residual besides ``1/Y``
+        (``bench/irradiance_lights.py`` reweights toward the mean relative error)."""
         self.target = target
         self.lmax = lmax
         self.bands = fitted_bands(lmax)
         y = target.irradiance @ REC709_LUMINANCE
         self.lum = y
         self.w = 1.0 / np.maximum(y, WEIGHT_FLOOR * max(float(y.max()), 1e-300))
+        if extra_weight is not None:
+            self.w = self.w * extra_weight
         self.Y = real_sh(target.normals, lmax)[:, self.bands]
         self.T = (target.irradiance - target.energy[None, :] / 4.0) * self.w[:, None]
         Yw = self.Y * self.w[:, None]
