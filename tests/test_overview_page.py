@@ -160,6 +160,24 @@ class TestSummaryTable:
              "5.00% (--tol)", "FAIL", "500", "1.50"],
         ]  # fmt: skip
 
+    def test_kind_limits_without_tol(self, tmp_path):
+        """Without --tol an error is judged at the limit its baking command warns at
+        (project-env 2 %, probe-fit 25 %: HEADLINE_WARNING), written out here; 5 % else."""
+        (tmp_path / "probes").mkdir()
+        (tmp_path / "probes" / "a.h5").write_bytes(bytes(300))
+        probes = [{"source": "maps/a.exr", "output": "probes/a.h5", "bytes": 1,
+                   "error": {"quantity": "glossy E0", "value": 0.2}}]  # fmt: skip
+        (tmp_path / "probes.json").write_text(json.dumps({"probes": probes, "seconds": 3.0}))
+        (tmp_path / "sky.h5").write_bytes(bytes(100))
+        (tmp_path / "sky.json").write_text(json.dumps({
+            "kind": "env_sh", "output": "sky.h5", "outputs": ["sky.h5"], "lmax": 2,
+            "error": {"quantity": "irradiance an engine evaluates", "value": 0.03}}))  # fmt: skip
+        with contextlib.chdir(tmp_path):
+            rows = table_rows(Page(overview_page(".", str(tmp_path), "t", None)[0]))[1:]
+        verdicts = {r[0]: (r[5], r[6]) for r in rows}
+        assert verdicts["probes/a.h5"] == ("25.00% (warning limit)", "pass"), rows
+        assert verdicts["sky.h5"] == ("2.00% (warning limit)", "FAIL"), rows
+
     def test_scene_lock_rows(self, tmp_path):
         """A scene lock's records: each measured error against the scene's tolerance, its
         outputs' bytes; an export measuring nothing says so; a poisoned record is skipped."""

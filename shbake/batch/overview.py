@@ -26,6 +26,7 @@ from pathlib import Path
 
 from shbake.batch.scene import LOCK_NAME, asset_output, is_inside
 from shbake.errors import InputError
+from shbake.evaluation.metrics import HEADLINE_WARNING
 from shbake.format.atomic import write_text
 from shbake.preview.overview import render_page
 from shbake.resources import read_bounded
@@ -35,7 +36,18 @@ SUMMARY_MAX_BYTES = 1 << 20
 LOCK_MAX_BYTES = 64 << 20
 """Largest scene lock read (as ``shbake bake`` reads its own)."""
 DEFAULT_TOLERANCE = 0.05
-"""The tolerance of an error whose summary names none (``--tol``): 5 % relative."""
+"""The tolerance of an error that neither its summary, ``--tol`` nor a warning limit of its
+kind (:data:`~shbake.evaluation.metrics.HEADLINE_WARNING`) names: 5 % relative."""
+
+
+def limit_of(kind: str, tol: float | None) -> tuple[float, str]:
+    """The tolerance of an error of an asset ``kind`` (or ``preview of`` one) whose summary
+    names none, and where it comes from: ``tol`` (``--tol``) when given, else the limit at
+    which the command baking that kind warns, else :data:`DEFAULT_TOLERANCE`."""
+    if tol is not None:
+        return tol, "--tol"
+    limit = HEADLINE_WARNING.get(kind.removeprefix("preview of "))
+    return (DEFAULT_TOLERANCE, "default") if limit is None else (limit, "warning limit")
 PREVIEW_NUMBERS = ("roughness", "f0", "relative_rms_error", "mse", "fps", "error_beyond_scale")
 """The preview summary fields the page shows as numbers (finite reals in a summary)."""
 
@@ -160,7 +172,7 @@ def _row(asset, href, kind, setting, quantity, error, tolerance, source, size, s
             "bytes": size, "seconds": seconds}  # fmt: skip
 
 
-def _bake_rows(stem: str, s: dict, tol: float) -> list[dict]:
+def _bake_rows(stem: str, s: dict, tol: float | None) -> list[dict]:
     """A bake summary's rows: its headline error (``error``) else each ``--report`` error
     (mean relative, against brute force); one row without an error when it has none."""
     size = file_bytes(s["output"])
@@ -171,27 +183,30 @@ def _bake_rows(stem: str, s: dict, tol: float) -> list[dict]:
         found = s.get("report", {}).get("error_vs_brute_force", {})
         errors = [(f"{k}, mean relative", v["mean"]) for k, v in sorted(found.items())]
     errors = errors or [("not measured (no --report)", None)]
-    return [_row(*common, q, e, tol, "--tol", size, s.get("bake_seconds")) for q, e in errors]
+    limit = limit_of(common[2], tol)
+    return [_row(*common, q, e, *limit, size, s.get("bake_seconds")) for q, e in errors]
 
 
-def _probe_rows(s: dict, tol: float) -> list[dict]:
+def _probe_rows(s: dict, tol: float | None) -> list[dict]:
     """A ``probe-fit --json`` batch: one row per probe (its headline error, its file's
     bytes; the batch's seconds shared out evenly)."""
     seconds = s["seconds"] / len(s["probes"]) if "seconds" in s else None
     return [_row(p["output"], p["output"], "shexp_probe",
                  "fitted to " + os.path.basename(p["source"]), p["error"]["quantity"],
-                 p["error"]["value"], tol, "--tol", file_bytes(p["output"]), seconds)
+                 p["error"]["value"], *limit_of("shexp_probe", tol), file_bytes(p["output"]),
+                 seconds)
             for p in s["probes"]]  # fmt: skip
 
 
-def _preview_row(s: dict, tol: float) -> dict:
+def _preview_row(s: dict, tol: float | None) -> dict:
     asset = s.get("asset", "?")
     setting = ", ".join(x for x in (
         f"pass {s.get('pass', '?')}", f"{s['size']}²" if "size" in s else "",
         f"roughness {s['roughness']:g}" if "roughness" in s else "") if x)  # fmt: skip
     error = s.get("relative_rms_error")
-    return _row(asset, asset, f"preview of {s.get('kind', 'asset')}", setting,
-                "shaded sphere, relative RMS", error, tol, "--tol", None, None)  # fmt: skip
+    kind = f"preview of {s.get('kind', 'asset')}"
+    return _row(asset, asset, kind, setting, "shaded sphere, relative RMS", error,
+                *limit_of(kind, tol), None, None)  # fmt: skip
 
 
 def _is_record(rec) -> bool:
@@ -203,7 +218,7 @@ def _is_record(rec) -> bool:
             and _optional(rec, "bake_seconds", _number))  # fmt: skip
 
 
-def _lock_rows(lock_path: Path, tol: float) -> list[dict]:
+def _lock_rows(lock_path: Path, tol: float | None) -> list[dict]:
     """The rows of a scene lock: one per measured error of each record (its scene
     tolerance), one per record measuring none; bytes of its outputs that are regular files
     inside the record's folder."""
@@ -230,14 +245,15 @@ def _lock_rows(lock_path: Path, tol: float) -> list[dict]:
         seconds = rec.get("bake_seconds")
         for quantity, error in measured:
             own = quantity in tolerances
-            limit, source = (tolerances[quantity], "scene") if own else (tol, "--tol")
+            limit, source = (tolerances[quantity], "scene") if own else limit_of(common[2], tol)
             rows.append(_row(*common, quantity, error, limit, source, size, seconds))
         if not measured:
-            rows.append(_row(*common, "not measured", None, tol, "--tol", size, seconds))
+            rows.append(_row(*common, "not measured", None, *limit_of(common[2], tol), size,
+                             seconds))
     return rows
 
 
-def gather(folder: str, tol: float = DEFAULT_TOLERANCE) -> dict:
+def gather(folder: str, tol: float | None = None) -> dict:
     """What the page shows of ``folder``: ``rows`` of the summary table, ``groups`` (name →
     its ``previews`` ``(stem, summary)``, ``bakes`` and sheets without a summary) and the
     ``plots``."""
@@ -279,7 +295,7 @@ def gather(folder: str, tol: float = DEFAULT_TOLERANCE) -> dict:
 
 
 def write_overview(folder: str, output: str, title: str = "shbake previews",
-                   tol: float = DEFAULT_TOLERANCE) -> dict:  # fmt: skip
+                   tol: float | None = None) -> dict:  # fmt: skip
     """Write the overview page of ``folder`` to ``output``; returns ``{"cards": n, ...}``
     (``failed``: the rows whose error exceeds their tolerance)."""
     page, counts = overview_page(folder, os.path.dirname(os.path.abspath(output)), title, tol)
@@ -288,7 +304,7 @@ def write_overview(folder: str, output: str, title: str = "shbake previews",
 
 
 def overview_page(folder: str, base: str, title: str,
-                  tol: float = DEFAULT_TOLERANCE) -> tuple[str, dict]:  # fmt: skip
+                  tol: float | None = None) -> tuple[str, dict]:  # fmt: skip
     """The page over ``folder`` for a file in the folder ``base`` (links are relative to it),
     and its counts (``cards``, ``groups``, ``rows``, ``failed``)."""
     found = gather(folder, tol)

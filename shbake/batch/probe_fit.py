@@ -16,6 +16,7 @@ from shbake.bakers.shexp import FitConfig
 from shbake.batch.probe_jobs import ProbeJob, fit_plan, run_dask, run_local, shared_dfg_table
 from shbake.batch.scheduler import session
 from shbake.errors import InputError, ParameterError, ShbakeError
+from shbake.evaluation.metrics import HEADLINE_WARNING
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.resources import read_bounded
 
@@ -115,7 +116,7 @@ def write_set(path: str, results: list[dict], config: FitConfig) -> list[dict]:
 
 
 DEFAULT_CONFIG = FitConfig()
-FIT_ERROR_WARNING = 0.25
+FIT_ERROR_WARNING = HEADLINE_WARNING["shexp_probe"]
 """Headline error of a probe (the relative RMS of luminance of its shading against brute
 force, :func:`shbake.evaluation.probes.glossy_error`) above which probe-fit warns."""
 

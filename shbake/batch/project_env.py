@@ -19,6 +19,7 @@ from shbake.envmap import load_environment
 from shbake.envmap import sun as sun_light
 from shbake.envmap.layouts import latlong_directions
 from shbake.errors import OutputError, ParameterError
+from shbake.evaluation.metrics import HEADLINE_WARNING
 from shbake.format.asset import write_asset
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.env_sh import asset_lights
@@ -30,7 +31,7 @@ from shbake.shading.shader import shader
 
 EXPORTS = ("gltf", "babylon", "threejs")
 """The engines ``--export`` writes beside the asset, as ``shbake export --to TARGET`` would."""
-TRUNCATION_WARNING = 0.02
+TRUNCATION_WARNING = HEADLINE_WARNING["env_sh"]
 """Relative RMS error of luminance against brute force (the headline's measure) above which
 ``--report`` warns about an error, with the options that lower it (:func:`lowering`)."""
 MINIMUM_DIRECTIONS = 4096

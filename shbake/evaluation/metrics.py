@@ -24,6 +24,12 @@ count as much as bright ones), so the two differ on maps with a bright sun.
 
 import numpy as np
 
+HEADLINE_WARNING = {"env_sh": 0.02, "shexp_probe": 0.25}
+"""Headline error (relative RMS of luminance against brute force, of what a consumer
+evaluates) above which the command that bakes an asset kind warns and names what lowers it:
+``project-env --report`` (its exports' 9 coefficients and lights, or the asset) and
+``probe-fit`` (E0 shaded from the probe). The overview judges against these where nothing
+else names a tolerance."""
 TINY = 1e-300
 """Floor of a denominator (an all-black reference)."""
 

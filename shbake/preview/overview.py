@@ -138,10 +138,11 @@ def _group(name: str, group: dict, base: str) -> dict:
 
 
 def render_page(title: str, rows: list[dict], groups: dict, plots: list[str], base: str,
-                tol: float) -> str:  # fmt: skip
+                tol: float | None) -> str:  # fmt: skip
     """The page (links relative to the folder ``base``) over the summary ``rows``, the
     ``groups`` of bakes and previews and the tradeoff ``plots``
-    (:func:`shbake.batch.overview.gather`); ``tol``: the tolerance of rows without their own."""
+    (:func:`shbake.batch.overview.gather`); ``tol``: ``--tol``, the tolerance of rows without
+    their own (else each row's kind's, :func:`shbake.batch.overview.limit_of`)."""
     from markupsafe import Markup
 
     env = _templates()
@@ -149,7 +150,8 @@ def render_page(title: str, rows: list[dict], groups: dict, plots: list[str], ba
     failed = sum(1 for r in rows if r["verdict"] is False)
     return env.get_template("overview.html").render(
         title=title, style=style, csp=content_security_policy(style),
-        rows=[_table_row(r, base) for r in rows], failed=failed, tol=f"{tol:.2%}",
+        rows=[_table_row(r, base) for r in rows], failed=failed,
+        tol=None if tol is None else f"{tol:.2%}",
         scale=f"{ERROR_SCALE:.0%}", plots=[_link(p, base) for p in plots],
         groups=[_group(g, groups[g], base) for g in sorted(groups)],
     )  # fmt: skip
