@@ -258,6 +258,9 @@ PROBE_MATERIAL = {
 """What a glossy probe's :meth:`~shbake.shading.shader.Shader.shade` takes."""
 DFG_INPUT = Texture("dfg", "dfg-lut", (DFG_SIZE, DFG_SIZE, 2), "/dfg",
                     "(A0, A1) over (n·v, sqrt(α)): E = F0 A0 + (1 − F0) A1 terms")  # fmt: skip
+PROBE_MATERIAL_INPUTS = (Uniform("alpha", "GGX width α", "material", ""),
+                  Uniform("f0", "Schlick F0, RGB", "material", ""))  # fmt: skip
+"""The material uniforms of a glossy probe shader (:data:`PROBE_MATERIAL`'s names)."""
 
 
 class ProbeShader(Shader):
@@ -302,8 +305,7 @@ class ShexpShader(ProbeShader):
                 "coefficients of log Q at the half-reflection vector, no DC row"),
         Uniform("knots", "GGX width α of each set", "/knots", "the hat functions' knots"),
         DFG_INPUT,
-        Uniform("alpha", "GGX width α", "material", ""),
-        Uniform("f0", "Schlick F0, RGB", "material", ""),
+        *PROBE_MATERIAL_INPUTS,
     )  # fmt: skip
 
     def shade(self, normals, views, alpha=None, f0=1.0):

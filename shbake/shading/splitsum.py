@@ -12,7 +12,7 @@ import numpy as np
 from shbake.jit import jit, run_blocks
 from shbake.shading.dfg import dfg_at
 from shbake.shading.shader import Texture, Uniform
-from shbake.shading.shexp import DFG_INPUT, ProbeShader
+from shbake.shading.shexp import DFG_INPUT, PROBE_MATERIAL_INPUTS, ProbeShader
 from shbake.texture.octahedral import fetch as oct_fetch
 
 PIXEL_BLOCK = 1024
@@ -88,8 +88,7 @@ class SplitsumShader(ProbeShader):
                 "prefiltered radiance, one octahedral image per level k (S halves per level)"),
         Uniform("level_alpha", "GGX width α of each level", "/level_alpha", "increasing"),
         DFG_INPUT,
-        Uniform("alpha", "GGX width α", "material", ""),
-        Uniform("f0", "Schlick F0, RGB", "material", ""),
+        *PROBE_MATERIAL_INPUTS,
     )  # fmt: skip
 
     def shade(self, normals, views, alpha=None, f0=1.0):
