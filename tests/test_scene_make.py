@@ -409,3 +409,21 @@ def test_outside_out_dir_recipes_carry_the_flag(tmp_path):
     dry = make(layout, "-n", "-W", named(layout.scene, layout.folder), "scene-assets", shell=shell)
     lines = [sh_words(line) for line in dry.stdout.split("\n") if line]
     assert len(lines) == 4 and all(w[-2:] == ["--allow-outside", "--quiet"] for w in lines)
+
+
+@pytest.mark.parametrize("word", ["else", "endif", "ifeq", "include", "export", "define"])
+def test_fragment_named_after_a_make_directive(tmp_path, word):
+    """A fragment (and scene) named after a make directive: its self-remake rules start with
+    ``./`` and make reads them as rules, not directives (found by the property test: a
+    fragment named ``else`` gave "extraneous 'else'. Stop.")."""
+    d = {"folder": "scene", "scene": word, "map_folder": "maps", "map": "sky", "out_dir": "x",
+         "fragment": word, "env": None, "name": "s", "materials": ["a", "b"],
+         "shbake": "shbake"}  # fmt: skip
+    layout = Layout(tmp_path, d)
+    emit_make(load_scene(str(layout.scene)), layout.plan(), str(layout.fragment), layout.shbake)
+    shell = tmp_path / "sh-record"
+    shell.write_text(SHELL_RECORDER)
+    shell.chmod(0o755)
+    dry = make(layout, "-n", "scene-assets", shell=shell)
+    assert dry.returncode == 0, dry.stderr
+    assert len([line for line in dry.stdout.split("\n") if line]) == 3, dry.stdout

@@ -36,12 +36,14 @@ SHBAKE_LINE = r"shbake: (warning|error): .*"
 
 FAMILIES = {  # arguments, exit status, its own lines, its last line
     "project-env": (["project-env", "{m0}", "-o", "{tmp}/e.h5", "--report"], 0,
-                    r"band .*|\s+\d+\s.*|fraction of .*|\S+ vs brute force, relative: .*|wrote .*",
+                    r"error .* vs brute force\) of .*|band .*|\s+\d+\s.*|fraction of .*"
+                    r"|\S+ vs brute force, relative: .*|wrote .*",
                     r"wrote \S+/e\.h5 \(lmax \d+, latlong\)"),
     "brdf-table": (["brdf-table", "phong", "-o", "{tmp}/t.h5", "--size", "8", "--lmax", "2",
                     "--samples", "64"], 0, r"wrote .*|  error: .*", r"  error: f\* rebuilt .*"),
     "probe-fit --jobs 2": (["probe-fit", "{m0}", "{m1}", "--out-dir", "{tmp}/pf", "--jobs", "2",
-                            "--normals", "16", "--views", "8"], 0, r"probe-fit: .*",
+                            "--normals", "16", "--views", "8"], 0,
+                           r"\S+\.exr: error .* vs brute force\) of .*|probe-fit: .*",
                            r"probe-fit: 2 probes in .*"),
     "bake --jobs 2": (["bake", "{tmp}/scene.toml", "--jobs", "2"], 0,
                       r"baked env_sh/m0: .*|bake: .*", r"bake: 1 baked, 0 up to date"),

@@ -5,7 +5,8 @@ Three contexts, one routine each (``shbake plan --emit-make``, docs/SCENES.md
 "Makefile safety"; ``tests/test_scene_make.py`` proves each against GNU make (4.3) and
 ``/bin/sh`` on every printable ASCII character, tab, newline, CR and non-ASCII):
 
-* :func:`make_path` — a file name as one word of a rule (target or prerequisite).
+* :func:`make_path` — a file name as one word of a rule (target or prerequisite);
+  :func:`line_start_path` as the word a line starts with (no directive).
   ``$`` is written ``$$``; space, ``#``, ``:`` and the wildcard characters ``* ? [``
   get a backslash. make has no escape for the rest of :data:`MAKE_REFUSED`
   (``;`` starts a recipe, ``=`` a variable, ``|`` order-only prerequisites, ``%``
@@ -62,6 +63,14 @@ def make_path(path: str) -> str:
         raise MakeNameError(path, "a Makefile cannot name a file that is empty, ends in a "
                             "space or starts with '~' or '-'")  # fmt: skip
     return "".join("$$" if c == "$" else "\\" + c if c in MAKE_ESCAPED else c for c in path)
+
+
+def line_start_path(path: str) -> str:
+    """``path`` as the first word of a rule's line (:func:`make_path`): a relative path
+    gets ``./`` before it, so no file name is read as a directive (a fragment named
+    ``else``, ``endif``, ``include``, ``export``…); make drops a leading ``./`` from the
+    file names of rules, so it names the same file."""
+    return make_path(path) if path.startswith("/") else "./" + make_path(path)
 
 
 def shell_word(word: str, first: bool = False) -> str:

@@ -22,6 +22,7 @@ from contextlib import contextmanager
 from shbake import __version__, resources
 from shbake.batch.makefile import (
     MakeNameError,
+    line_start_path,
     make_path,
     shell_word,
     variable_name,
@@ -697,9 +698,9 @@ def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake",
         f"# written by shbake {__version__}: another version plans again",
         f"ifneq ($(lastword $(shell $(SHBAKE) --version 2>/dev/null)),{__version__})",
         f".PHONY: {prefix}_SHBAKE_CHANGED",
-        f"{make_path(frag)} : {prefix}_SHBAKE_CHANGED",
+        f"{line_start_path(frag)} : {prefix}_SHBAKE_CHANGED",
         "endif",
-        f"{make_path(frag)} : {make_path(scene_path)}",
+        f"{line_start_path(frag)} : {make_path(scene_path)}",
         recipe("plan", scene_path, "--emit-make", frag, "--shbake", shbake, *flags, *(
             ["--maps-per-rule", str(maps_per_rule)] if maps_per_rule > 1 else []), "--quiet"),
         "",
