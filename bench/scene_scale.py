@@ -10,12 +10,14 @@ scene: a diffuse material (``env_sh``) and a glossy GGX one with roughness [0.5,
 
 Per N, side by side in one run, each command a fresh process from a cold output folder:
 
-* ``plan`` then ``bake --jobs 2``; a second ``bake`` (nothing to do); one map's bytes
+* ``plan --jobs 2`` then ``bake --jobs 2``; a second ``bake`` (nothing to do); one map's bytes
   changed, then ``bake`` (its assets only);
-* ``plan --emit-make`` then ``make -j2``; a second ``make`` (nothing to do);
+* ``plan --emit-make`` (``--maps-per-rule 8``) then ``make -j2``; a second ``make``;
 * ``bake --scheduler`` on a 2-worker ``LocalCluster`` (started before the timing);
 * the bare commands doing the same bakes, all maps in one call each with ``--jobs 2``:
-  ``project-env`` at the settings the plan chose, ``probe-fit`` at the plan's fit.
+  ``project-env`` at the settings the plan chose, ``probe-fit`` at the plan's fit,
+  ``split-sum`` at the plan's chain (a shbake before issue 31: ``project-env`` one process
+  per map, no ``split-sum`` row — it took one map a call).
 
 Wall seconds, CPU seconds of the command's process tree (``getrusage(RUSAGE_CHILDREN)``
 around it), peak resident memory of the command's own process (the client) and of its
@@ -170,6 +172,18 @@ def bare_commands(work: Path, maps: list[Path], lock: dict) -> dict:
                 for i, path in enumerate(paths):
                     args = [SHBAKE, "project-env", path, "-o", f"bare-env/{i}.h5", *opts]
                     parts.setdefault("project-env", []).append(run(args, work))
+    splitsum = [r for a, r in lock["assets"].items() if a.startswith("splitsum/")]
+    if splitsum:
+        c = splitsum[0]["settings"]["splitsum"]
+        lst = work / "bare-split.list"
+        lst.write_text("\n".join(str(work / next(iter(r["inputs"]))) for r in splitsum) + "\n")
+        shutil.rmtree(work / "bare-split", ignore_errors=True)
+        args = [SHBAKE, "split-sum", "--list", str(lst), "--out-dir", "bare-split", "--jobs",
+                "2", "--size", str(c["top"]), "--min-size", str(c["min_size"]), "--alphas",
+                ",".join(repr(a) for a in c["alphas"]), "--samples", str(c["samples"]),
+                "--prefilter", c["prefilter"], "-q"]  # fmt: skip
+        if many:
+            parts.setdefault("split-sum", []).append(run(args, work))
     if shexp:
         f = shexp[0]["settings"]["fit"]
         lst = work / "bare-fit.list"
@@ -191,6 +205,12 @@ def bare_commands(work: Path, maps: list[Path], lock: dict) -> dict:
                                for k, ms in parts.items()}}  # fmt: skip
 
 
+def many_maps_per_rule() -> bool:
+    """Whether this shbake's fragments take ``--maps-per-rule`` (issue 31)."""
+    done = subprocess.run([SHBAKE, "plan", "--help"], capture_output=True, text=True)
+    return "--maps-per-rule" in done.stdout
+
+
 def measure(work: Path, n: int, skip: set[str]) -> dict:
     work.mkdir(parents=True, exist_ok=True)
     maps = make_maps(work / "maps", n)
@@ -200,7 +220,9 @@ def measure(work: Path, n: int, skip: set[str]) -> dict:
     out = work / "out"
     res: dict = {"n": n}
     shutil.rmtree(out, ignore_errors=True)
-    res["plan"] = run([SHBAKE, "plan", "scene.toml", "-q"], work)
+    jobs = ["--jobs", "2"] if "--jobs" in subprocess.run(
+        [SHBAKE, "plan", "--help"], capture_output=True, text=True).stdout else []  # fmt: skip
+    res["plan"] = run([SHBAKE, "plan", "scene.toml", *jobs, "-q"], work)
     res["bake"] = run([SHBAKE, "bake", "scene.toml", "--jobs", "2", "-q"], work)
     lock = json.loads((out / "scene.lock.json").read_text())
     res["assets"] = len(lock["assets"])
@@ -228,8 +250,9 @@ def measure(work: Path, n: int, skip: set[str]) -> dict:
                                    for r in lock["assets"].values()})  # fmt: skip
     if "make" not in skip:
         shutil.rmtree(out)
-        res["make_plan"] = run([SHBAKE, "plan", "scene.toml", "--emit-make", "scene.mk",
-                                "--shbake", SHBAKE, "-q"], work)  # fmt: skip
+        grouped = ["--maps-per-rule", "8"] if many_maps_per_rule() else []
+        res["make_plan"] = run([SHBAKE, "plan", "scene.toml", *jobs, "--emit-make", "scene.mk",
+                                "--shbake", SHBAKE, *grouped, "-q"], work)  # fmt: skip
         (work / "Makefile").write_text("include scene.mk\n")
         res["make"] = run(["make", "-j2", "scene-assets"], work)
         res["noop_make"] = run(["make", "-j2", "scene-assets"], work)
@@ -263,7 +286,7 @@ def report(res: dict) -> str:
         wm = max(m["worker_mib"] for m in ms)
         lines.append(f"| {name} | {wall:.1f} | {cpu:.1f} | {n / wall:.1f} | {cm:.0f} | {wm:.0f} |")
 
-    row("`plan`", res["plan"])
+    row("`plan --jobs 2`", res["plan"])
     row("`bake --jobs 2` (cold)", res["bake"])
     row("`plan` + `bake --jobs 2`", res["plan"], res["bake"])
     if "make" in res:
@@ -285,7 +308,9 @@ def report(res: dict) -> str:
     lines.append(f"error methods in the lock: {', '.join(res['error_methods'])}")
     if "bare" in res:
         bare = res["bare"]["wall"]
-        lines.append(f"plan + bake --jobs 2 / bare: {scene / bare:.2f} (acceptance ≤ 1.5)")
+        cpu = (res["plan"]["cpu"] + res["bake"]["cpu"]) / res["bare"]["cpu"]
+        lines.append(f"plan + bake --jobs 2 / bare: {scene / bare:.2f} wall (acceptance ≤ 1.5), "
+                     f"{cpu:.2f} CPU")  # fmt: skip
         if "make" in res:
             mk = res["make_plan"]["wall"] + res["make"]["wall"]
             lines.append(f"plan --emit-make + make -j2 / bare: {mk / bare:.2f} (≤ 2)")

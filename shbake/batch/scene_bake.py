@@ -544,7 +544,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     lock = read_lock(lock_file)
     # per-unit plans (measured once), filled by the plan
     units = {k: v for k, v in lock.get("plans", {}).items() if isinstance(v, dict)}
-    plan = plan_scene_kept(scene, cache=units)
+    plan = plan_scene_kept(scene, cache=units, jobs=1 if scheduler is not None else jobs)
     declare_outputs(plan)
     resources.outputs_declared()
     base = scene_folder(scene)  # the lock's input paths are relative to it
