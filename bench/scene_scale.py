@@ -131,9 +131,12 @@ def run(args, cwd, env=None, cluster: bool = False) -> dict:
     thread.join()
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(map(str, args))} failed ({proc.returncode}):\n{err[-3000:]}")
-    return {"wall": time.perf_counter() - t0, "cpu": _children_cpu() - c0,
-            "client_mib": peak["client"] / 2**20, "worker_mib": peak["worker"] / 2**20,
-            "stdout": out}  # fmt: skip
+    m = {"wall": time.perf_counter() - t0, "cpu": _children_cpu() - c0,
+         "client_mib": peak["client"] / 2**20, "worker_mib": peak["worker"] / 2**20,
+         "stdout": out}  # fmt: skip
+    print(f"  {cwd.name}: {' '.join(map(str, args[1:4]))}…: {m['wall']:.1f} s wall, "
+          f"{m['cpu']:.1f} s CPU", file=sys.stderr, flush=True)  # progress, as it goes
+    return m
 
 
 def bare_commands(work: Path, maps: list[Path], lock: dict) -> dict:
