@@ -135,7 +135,7 @@ def run(args, cwd, env=None, cluster: bool = False) -> dict:
          "client_mib": peak["client"] / 2**20, "worker_mib": peak["worker"] / 2**20,
          "stdout": out}  # fmt: skip
     print(f"  {cwd.name}: {' '.join(map(str, args[1:4]))}…: {m['wall']:.1f} s wall, "
-          f"{m['cpu']:.1f} s CPU", file=sys.stderr, flush=True)  # progress, as it goes
+          f"{m['cpu']:.1f} s CPU", file=sys.stderr, flush=True)  # fmt: skip
     return m
 
 
