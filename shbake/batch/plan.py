@@ -53,6 +53,7 @@ machine) plus the map load and the baker's work, CPU time measured here
 
 import hashlib
 import json
+import os
 from dataclasses import asdict
 
 import numpy as np
@@ -102,13 +103,34 @@ REFERENCE_SAMPLES = 16384
 PLAN_VERSION = 6
 
 
+_HASHED: dict = {}
+
+
 def file_hash(path: str, own_output: bool = False) -> str:
     """SHA-256 of a file's bytes (hex); special files (FIFO, ``/dev/zero``) are refused
     and no more than the file's size is read (:func:`shbake.resources.sha256_of`;
-    ``own_output``: a file the scene's bake wrote, not an input of the run)."""
+    ``own_output``: a file the scene's bake wrote, not an input of the run). A regular file
+    is hashed once per process while its identity and times are unchanged (device, inode,
+    size, modification and change times: rewriting or replacing it changes them), so a
+    plan and the bake after it in one process read each map once."""
+    import stat
+
     from shbake import resources
 
-    return resources.sha256_of(path, own_output)
+    try:
+        st = os.stat(path)
+    except OSError:
+        st = None
+    key = None
+    if st is not None and stat.S_ISREG(st.st_mode):
+        key = (os.path.abspath(path), own_output, st.st_dev, st.st_ino, st.st_size,
+               st.st_mtime_ns, st.st_ctime_ns)  # fmt: skip
+        if key in _HASHED:
+            return _HASHED[key]
+    digest = resources.sha256_of(path, own_output)
+    if key is not None:
+        _HASHED[key] = digest
+    return digest
 
 
 def _digest(obj) -> str:
