@@ -251,6 +251,8 @@ def measure(work: Path, n: int, skip: set[str]) -> dict:
     }  # fmt: skip
     res["error_methods"] = sorted({json.dumps(r.get("error_method"))
                                    for r in lock["assets"].values()})  # fmt: skip
+    if "bare" not in skip:
+        res["bare"] = bare_commands(work, maps, lock)
     if "make" not in skip:
         shutil.rmtree(out)
         grouped = ["--maps-per-rule", "8"] if many_maps_per_rule() else []
@@ -267,8 +269,6 @@ def measure(work: Path, n: int, skip: set[str]) -> dict:
                           dashboard_address=":0") as cluster:  # fmt: skip
             res["dask"] = run([SHBAKE, "bake", "scene.toml", "--scheduler",
                                cluster.scheduler_address, "-q"], work, cluster=True)  # fmt: skip
-    if "bare" not in skip:
-        res["bare"] = bare_commands(work, maps, lock)
     for v in res.values():
         if isinstance(v, dict):
             v.pop("stdout", None)
