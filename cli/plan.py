@@ -46,10 +46,12 @@ def scene_errors():
 @click.option("--maps-per-rule", type=click.IntRange(1, 1024), default=1, show_default=True,
               help="Fragment rules bake the assets of this many maps in one process (GNU "
               "make 4.3 grouped targets); each rule rebakes only its out-of-date assets.")
+@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
+              help="Worker processes measuring the maps' plans (8 maps a task).")
 @allow_outside_opt
 @json_opt
 @quiet_opt
-def plan(scene, emit, shbake_cmd, maps_per_rule, allow_outside, as_json, quiet):
+def plan(scene, emit, shbake_cmd, maps_per_rule, jobs, allow_outside, as_json, quiet):
     """Decide which assets SCENE (a TOML scene file) needs and at which settings.
 
     Prints asset, settings, predicted error (tolerance), predicted seconds and
@@ -60,7 +62,7 @@ def plan(scene, emit, shbake_cmd, maps_per_rule, allow_outside, as_json, quiet):
         if emit:  # before planning: names a Makefile cannot hold, an unwritable fragment
             check_makeable(sc, emit, shbake_cmd)
             check_output_path(emit, "--emit-make")
-        result = plan_scene_kept(sc)
+        result = plan_scene_kept(sc, jobs=jobs)
         if emit:
             emit_make(sc, result, emit, shbake_cmd, maps_per_rule)
     if emit:

@@ -190,6 +190,7 @@ class TestRangesAreUsageErrors:
         ("project-env", "--jobs"): R(1, 4 * CPUS, True),
         ("split-sum", "--jobs"): R(1, 4 * CPUS, True),
         ("plan", "--maps-per-rule"): R(1, 1024, True),
+        ("plan", "--jobs"): R(1, 64, True),
         ("tradeoff", "--tol"): R(0.0, 1.0, False, True, True),
         ("tradeoff", "--samples"): R(16, 1 << 20, True),
     }

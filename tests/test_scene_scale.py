@@ -321,3 +321,32 @@ def test_two_workers_with_their_own_folders(tmp_path):
     shutil.rmtree(tmp_path / "scene" / "out")
     subprocess.run([shbake, "bake", str(scene), "-q"], check=True)
     assert {p.name: p.read_bytes() for p in out.iterdir()} == by_dask
+
+
+def test_file_hash_sees_a_rewritten_file(tmp_path):
+    """The per-process hash memo never serves old bytes: a file rewritten in place (same
+    size) or replaced is hashed again (against hashlib here)."""
+    import hashlib
+    import os
+
+    from shbake.batch.plan import file_hash
+
+    path = tmp_path / "m.bin"
+    for data in (b"a" * 64, b"b" * 64, b"c" * 65):
+        path.write_bytes(data)
+        assert file_hash(str(path)) == hashlib.sha256(data).hexdigest()
+    other = tmp_path / "n.bin"
+    other.write_bytes(b"d" * 65)
+    os.replace(other, path)
+    assert file_hash(str(path)) == hashlib.sha256(b"d" * 65).hexdigest()
+
+
+def test_lock_text_is_the_lock():
+    """One line per record, and json reads back exactly the lock."""
+    from shbake.batch.scene_bake import lock_text
+
+    lock = {"scene": "s.toml", "assets": {"b/x": {"z": [1.5, None], "a": {"k": "é"}},
+                                          "a/y": {}}, "plans": {}}  # fmt: skip
+    text = lock_text(lock)
+    assert json.loads(text) == lock
+    assert text.splitlines()[2].startswith('  "a/y"') and len(text.splitlines()) == 8

@@ -136,7 +136,7 @@ class TestConnectBeforePlanning:
         def never(*args, **kwargs):
             raise AssertionError("planned before connecting")
 
-        monkeypatch.setattr(scene_bake, "plan_scene", never)
+        monkeypatch.setattr(scene_bake, "plan_scene_kept", never)
         monkeypatch.setattr(probe_fit, "make_jobs", never)
         monkeypatch.setattr(scheduler, "CONNECT_SECONDS", 1.0)
         scene = write_scene(tmp_path, 1)
