@@ -184,3 +184,22 @@ class TestPng:
         refl_png, refl_exr = (read_oiio(d / f"reflection.{e}")[0] for e in ("png", "exr"))
         assert refl_png.shape == refl_exr.shape == (48, 8, 3)
         assert f"; also {len(names)} files in {d}/" in err, err
+
+
+class TestBrdfTableReportTimes:
+    def test_estimates_are_anchored_to_the_measured_bake(self, run_cli, tmp_path):
+        """Issue 32: ``--report`` predicted 305 s for a 67 s bake (per-view projection time
+        × views, without the refinement the bake does). Each setting's estimate is now the
+        measured bake's seconds scaled by its measured cost relative to the chosen one, so
+        the chosen setting's estimate is the bake's own time."""
+        args = ["-o", tmp_path / "t.h5", "--size", "16", "--lmax", "4", "--samples", "64"]
+        code, out, err = run_cli("brdf-table", "phong", *args, "--report", "--json")
+        assert code == 0, err
+        summary = json.loads(out)
+        rows = summary["report"]
+        chosen_lmax = next(r for r in rows["lmax"] if r["lmax"] == 4)
+        chosen_res = next(r for r in rows["resolution"] if r["resolution"] == 16)
+        assert chosen_lmax["est_table_seconds"] == pytest.approx(summary["seconds"], rel=1e-12)
+        assert chosen_res["est_table_seconds"] == pytest.approx(summary["seconds"], rel=1e-12)
+        estimates = [r["est_table_seconds"] for r in rows["lmax"] + rows["resolution"]]
+        assert all(np.isfinite(e) and e > 0 for e in estimates), estimates

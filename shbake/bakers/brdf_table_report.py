@@ -12,7 +12,10 @@ Three independent error sources, each against a brute-force or converged value:
   their times are scaled to the table's sample count.
 * samples — the table's own refinement history (error estimate per power-of-two of points).
 
-Times are measured: per-view cost on the probe views, scaled to the table.
+Times are predictions anchored to the measured bake: the bake's own seconds, scaled by
+each setting's measured cost relative to the chosen setting's (per-view projection cost
+for ``lmax``, a whole table at the study's samples for the resolution), so the chosen
+setting's estimate is the bake's time and its neighbours' carry the measured ratio.
 """
 
 import time
@@ -62,9 +65,11 @@ def product_energy(brdf: BRDF, views: np.ndarray, n_theta: int = 1024) -> np.nda
 
 
 def settings_report(
-    brdf: BRDF, lmax: int, resolution: tuple[int, int], samples: int, history: list
-) -> dict:
-    """Error and time of the chosen settings and their neighbours (see module docstring)."""
+    brdf: BRDF, lmax: int, resolution: tuple[int, int], samples: int, history: list,
+    bake_seconds: float,
+) -> dict:  # fmt: skip
+    """Error and time of the chosen settings and their neighbours (see module docstring);
+    ``bake_seconds``: what the table of the chosen settings took."""
     views = probe_views()
     energy = product_energy(brdf, views)
     h, w = resolution
@@ -79,9 +84,12 @@ def settings_report(
             {
                 "lmax": l,
                 "truncation_rel_l2": float(np.mean(rel[energy > 0])) if np.any(energy > 0) else 0.0,
-                "est_table_seconds": dt * h * w / 4,
+                "per_view_seconds": dt,
             }
         )
+    chosen = next(r["per_view_seconds"] for r in by_lmax if r["lmax"] == lmax)
+    for r in by_lmax:
+        r["est_table_seconds"] = bake_seconds * r.pop("per_view_seconds") / chosen
     test_views = probe_views(64, seed=11)
     study = min(samples, RESOLUTION_STUDY_SAMPLES)
     direct, _ = project_views(brdf, test_views, lmax, samples=study)
@@ -89,9 +97,12 @@ def settings_report(
     for r in sorted(set(RESOLUTION_STUDY) | {h}):
         t0 = time.perf_counter()
         table, _ = tabulate(brdf, lmax, (r, r), samples=study)
-        dt = (time.perf_counter() - t0) * samples / study
+        dt = time.perf_counter() - t0
         err = SQRT_4PI * float(np.max(np.abs(fetch(table, test_views) - direct)))
-        by_res.append({"resolution": r, "lookup_error": err, "est_table_seconds": dt})
+        by_res.append({"resolution": r, "lookup_error": err, "table_seconds": dt})
+    chosen = next(r["table_seconds"] for r in by_res if r["resolution"] == h)
+    for r in by_res:
+        r["est_table_seconds"] = bake_seconds * r.pop("table_seconds") / chosen
     return {"lmax": by_lmax, "resolution": by_res, "samples": history}
 
 

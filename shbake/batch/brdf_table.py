@@ -157,8 +157,9 @@ def bake_brdf_table(
     }
     if report:
         summary["report"] = settings_report(
-            brdf, lmax, size, samples if tol is None else convs[0].samples, convs[0].history
-        )
+            brdf, lmax, size, samples if tol is None else convs[0].samples, convs[0].history,
+            summary["seconds"],
+        )  # fmt: skip
     write_asset(output, asset)
     if exr_dir is not None:
         makedirs(exr_dir)
