@@ -116,9 +116,10 @@ def run_many_maps(command, maps, map_list, out_dir, n_jobs, settings, as_json, q
     them: one line, each map's warnings, ``--json`` the per-map summaries."""
     import time
 
-    from shbake.batch.project_many import many_outputs, run_many
+    from shbake.batch.map_list import map_outputs
+    from shbake.batch.project_many import run_many
 
-    pairs = many_outputs(maps, map_list, out_dir or ".")
+    pairs = map_outputs(maps, map_list, out_dir or ".")
     t0 = time.perf_counter()
     done = run_many(command, pairs, settings, n_jobs)
     seconds = time.perf_counter() - t0

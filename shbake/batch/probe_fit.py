@@ -1,4 +1,4 @@
-"""``probe-fit`` as one library call: maps (or a probe list) → SH-exp probes, in batch.
+"""``probe-fit`` as one library call: maps (or a map list) → SH-exp probes, in batch.
 
 Outputs: one ``shexp_probe`` file per map into ``out_dir`` (or the list's
 named outputs), or all probes in one ``shexp_probe_set`` file (``output``),
@@ -13,63 +13,24 @@ from dataclasses import replace
 from pathlib import Path
 
 from shbake.bakers.shexp import FitConfig
+from shbake.batch.map_list import map_entries, map_outputs
 from shbake.batch.probe_jobs import ProbeJob, fit_plan, run_dask, run_local, shared_dfg_table
 from shbake.batch.scheduler import session
-from shbake.errors import InputError, ParameterError, ShbakeError
+from shbake.errors import InputError, ParameterError
 from shbake.evaluation.metrics import HEADLINE_WARNING
-from shbake.format.atomic import check_output_dir, check_output_path, makedirs
-from shbake.resources import read_bounded
-
-PROBE_LIST_MAX_BYTES = 16 << 20
-"""Largest probe list read (bytes)."""
-
-
-def read_probe_list(path: str) -> list[tuple[str, str | None]]:
-    """Lines ``MAP [OUTPUT]``; blank lines and ``#`` comments skipped; relative paths
-    are relative to the list's folder."""
-    base = Path(path).parent
-    try:
-        raw = read_bounded(path, PROBE_LIST_MAX_BYTES, "probe list (--list)")
-        lines = raw.decode("utf-8").splitlines()
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: the probe list is not UTF-8 text (byte {e.start})") from None
-    except ShbakeError:  # refused before opening: already one line naming the path
-        raise
-    except OSError as e:
-        raise InputError(f"{path}: cannot read the probe list ({e.strerror})") from None
-    out = []
-    for n, line in enumerate(lines, 1):
-        parts = line.split("#", 1)[0].split()
-        if not parts:
-            continue
-        if len(parts) > 2:
-            raise InputError(f"{path}:{n}: expected 'MAP [OUTPUT]', got {line.strip()!r}")
-        out.append((str(base / parts[0]), str(base / parts[1]) if len(parts) == 2 else None))
-    return out
+from shbake.format.atomic import check_output_path
 
 
 def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, output=None):
-    """One :class:`ProbeJob` per map; with ``output`` (a set file) the jobs write nothing."""
-    entries = [(m, None) for m in maps] + (read_probe_list(probe_list) if probe_list else [])
-    if not entries:
-        raise ParameterError("give maps as arguments or a --list file")
+    """One :class:`ProbeJob` per map (:func:`~shbake.batch.map_list.map_outputs`); with
+    ``output`` (a set file) the jobs write nothing."""
     if output is not None:
+        entries = map_entries(maps, probe_list)
         check_output_path(output, "-o/--output")
         return [ProbeJob(os.path.abspath(src), None, config, negative, fix_nonfinite)
                 for src, _ in entries]  # fmt: skip
-    jobs, seen = [], set()
-    for src, out in entries:
-        if out is None:
-            check_output_dir(out_dir, "--out-dir")
-            makedirs(out_dir)
-            out = os.path.join(out_dir, Path(src).stem + ".h5")
-        out = os.path.abspath(out)
-        if out in seen:
-            raise ParameterError(f"two probes would write {out}; name outputs in a --list file")
-        seen.add(out)
-        check_output_path(out)
-        jobs.append(ProbeJob(os.path.abspath(src), out, config, negative, fix_nonfinite))
-    return jobs
+    return [ProbeJob(src, out, config, negative, fix_nonfinite)
+            for src, out in map_outputs(maps, probe_list, out_dir)]  # fmt: skip
 
 
 def settings_study(job: ProbeJob, config: FitConfig, report: bool, tol):

@@ -3,7 +3,7 @@
 A build that bakes thousands of probes should not start an interpreter per map (its
 start-up costs more than a map's projection). :func:`run_many` takes the maps as
 arguments and/or a list file (lines ``MAP [OUTPUT]``,
-:func:`shbake.batch.probe_fit.read_probe_list`), writes ``OUT_DIR/STEM.h5`` (or the list's
+:func:`shbake.batch.map_list.read_map_list`), writes ``OUT_DIR/STEM.h5`` (or the list's
 named output) for each, and runs them here or in a pool of spawned workers
 (:func:`shbake.batch.probe_jobs.worker_pool`), a few maps per task. Every output is
 checked before any work (two maps may not write one file, no output may be a map) and
@@ -15,44 +15,15 @@ relative to the output).
 
 import os
 from contextlib import nullcontext
-from pathlib import Path
 
 from shbake.errors import ParameterError
 from shbake.format.atomic import (
-    check_output_dir,
-    check_output_path,
     detached,
     makedirs,
-    refuse_same_file,
 )
 
 TASK_MAPS = 8
 """Maps per worker task (amortises the task's scheduling and the result's transfer)."""
-
-
-def many_outputs(maps, map_list, out_dir: str) -> list[tuple[str, str]]:
-    """``(map, output)`` pairs, absolute: each map's output ``OUT_DIR/STEM.h5`` unless the
-    list names one; refused before any work: no map, two maps writing one file, an output
-    that is a map, an output path that cannot be written."""
-    from shbake.batch.probe_fit import read_probe_list
-
-    entries = [(m, None) for m in maps] + (read_probe_list(map_list) if map_list else [])
-    if not entries:
-        raise ParameterError("give maps as arguments or a --list file")
-    pairs, seen = [], set()
-    for src, out in entries:
-        if out is None:
-            check_output_dir(out_dir, "--out-dir")
-            makedirs(out_dir)  # the run's own: removed again if it fails
-            out = os.path.join(out_dir, Path(src).stem + ".h5")
-        out = os.path.abspath(out)
-        if out in seen:
-            raise ParameterError(f"two maps would write {out}; name outputs in a --list file")
-        seen.add(out)
-        check_output_path(out)
-        pairs.append((os.path.abspath(src), out))
-    refuse_same_file([o for _, o in pairs], [s for s, _ in pairs])
-    return pairs
 
 
 def _project_task(command: str, pairs: list[tuple[str, str]], settings: dict) -> list[dict]:
