@@ -110,6 +110,7 @@ def main(argv=None) -> int:
     finally:
         _end_start_up()
         end_run()
+        set_memory_budget(None)  # --max-memory is this run's, not the process's
         if script:
             exit_quietly_on_signal()
     if script:
