@@ -70,13 +70,17 @@ chromium:
 	  apt-get update -q && apt-get install -y -q --no-install-recommends chromium; \
 	else echo "chromium not found: run 'apt-get install chromium' (as root) for the rendered engine tests" >&2; fi
 
+# tests/warm_kernels.py first: the numba kernels compiled once, two halves in parallel, into the
+# on-disk cache both pytest workers then read (from an empty cache each worker compiled them all).
 test: $(TESTENV) engines chromium
+	$(BIN)/python -m tests.warm_kernels
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 test-extremes: $(TESTENV)
 	$(BIN)/python -m pytest -q -n 2 -m extremes tests/test_extremes.py
 
 test-all: $(TESTENV) engines chromium
+	$(BIN)/python -m tests.warm_kernels
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup -m ''
 
 bench: $(TESTENV)
