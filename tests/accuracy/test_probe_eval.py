@@ -16,7 +16,7 @@ from shbake.batch.probe_eval import COMPARISONS, evaluate_maps, win_table
 from shbake.evaluation.probes import ALPHAS
 from tests.helpers import map_path
 
-RESULTS = Path(__file__).resolve().parent.parent / "bench" / "results" / "probe_eval.json"
+RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results" / "probe_eval.json"
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ from shbake.batch.plan import SHEXP_DIELECTRIC_ALPHA, plan_scene
 from shbake.batch.scene import load_scene
 from tests.helpers import map_path
 
-RESULTS = Path(__file__).resolve().parent.parent / "bench" / "results" / "probe_eval.json"
+RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results" / "probe_eval.json"
 
 
 def test_default_fit_fits_in_1_2_kb():
