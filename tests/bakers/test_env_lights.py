@@ -29,7 +29,7 @@ from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.shader import shader
 from tests.helpers import map_path, write_test_exr
 
-ENGINES = os.path.join(os.path.dirname(__file__), "engines")
+ENGINES = os.path.join(os.path.dirname(__file__), "..", "engines")
 LIGHTS = np.array([[0.3, 0.8, -0.52], [-0.7, 0.2, 0.68]])
 LIGHTS /= np.linalg.norm(LIGHTS, axis=1, keepdims=True)
 
