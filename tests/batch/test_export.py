@@ -29,7 +29,7 @@ from shbake.sh.windows import fibonacci_sphere
 from tests.helpers import run_node
 
 SHARED = os.environ.get(
-    "SHBAKE_SHARED", os.path.join(os.path.dirname(__file__), "..", "..", "shared")
+    "SHBAKE_SHARED", os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared")
 )
 MAPS = sorted(glob.glob(os.path.join(SHARED, "hdri", "*.exr")))
 N_DIRS = 300

@@ -212,7 +212,7 @@ class TestCli:
         assert not (tmp_path / "r.md").exists()
 
 
-RESULTS = Path(__file__).resolve().parent.parent / "bench" / "results" / "probe_eval_shrm.json"
+RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results" / "probe_eval_shrm.json"
 
 
 @pytest.fixture(scope="module")
