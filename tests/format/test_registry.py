@@ -13,7 +13,7 @@ from shbake.format import registry
 from shbake.format.asset import Asset, read_asset, write_asset
 from tests.assets_examples import CORRUPTIONS, corrupt, example, write_map
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
