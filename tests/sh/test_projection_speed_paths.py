@@ -23,7 +23,7 @@ from shbake.sh.rotation import SHRotation
 from tests.helpers import SHARED_MAPS, map_path
 from tests.references import ducc0_project
 
-BEFORE = np.load(Path(__file__).parent / "data" / "projection_before.npz")
+BEFORE = np.load(Path(__file__).parents[1] / "data" / "projection_before.npz")
 RANDOM_MAPS = ("random37x75", "random20x42", "random33x64")
 
 
