@@ -20,7 +20,7 @@ from shbake.format.asset import LINKS_MAX, read_asset, write_asset
 from tests.assets_examples import example, write_map
 from tests.faults import PREVIEW_OF_KIND, assert_failed, shbake, unchanged
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 SH = "/lighting/sh"
 SH_SHAPE = (16, 3)
 """``/lighting/sh`` of the example env_sh asset (lmax 3, RGB, float64)."""

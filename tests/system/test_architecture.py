@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parent.parent / "shbake"
+PACKAGE = Path(__file__).resolve().parents[2] / "shbake"
 
 ALLOWED = {
     # stage: the shbake stages it may import (besides itself and the base modules)
