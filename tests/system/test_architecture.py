@@ -301,3 +301,88 @@ class TestTestImports:
         path = tmp_path / "x.py"
         path.write_text("def f():\n    from tests.test_faults import snapshot\n")
         assert imported_modules(path) == ["tests.test_faults"]
+
+
+TESTS = PACKAGE.parent / "tests"
+CROSS_CUTTING = {
+    "cli": "one file per command module of cli/ (test_<command>.py mirrors cli/<command>.py)",
+    "system": "properties of the whole tool: faults, full disk, teardown, hostile assets, "
+    "golden files, README, architecture, start-up, engine and WebGL rendering",
+    "accuracy": "reported error figures against independent measurements (headline errors, "
+    "the shared maps, the probe evaluation)",
+}
+"""Test folders that do not mirror a package of shbake/, and what each holds
+(docs/ARCHITECTURE.md, "Tests")."""
+
+
+def test_files() -> list[Path]:
+    """Every ``test_*.py`` under tests/ (the node packages under tests/engines excluded)."""
+    return sorted(
+        p for p in TESTS.rglob("test_*.py") if "engines" not in p.relative_to(TESTS).parts
+    )
+
+
+def mirrored_module(test: Path) -> str | None:
+    """What ``tests/<folder>/test_<name>.py`` names: ``shbake/<folder>/<m>.py`` (or the package
+    ``<m>/``) where ``<name>`` is ``<m>`` or ``<m>_<aspect>``; ``tests/core/`` names the modules
+    of the package root, ``tests/cli/`` those of cli/. None when nothing matches."""
+    rel = test.relative_to(TESTS)
+    folder = {"core": PACKAGE, "cli": CLI}.get(rel.parts[0], PACKAGE.joinpath(*rel.parts[:-1]))
+    name = rel.stem.removeprefix("test_")
+    words = name.split("_")
+    for n in range(len(words), 0, -1):
+        module = "_".join(words[:n])
+        for candidate in (folder / f"{module}.py", folder / module / "__init__.py"):
+            if candidate.is_file():
+                return str(candidate.relative_to(PACKAGE.parent))
+    return None
+
+
+class TestTestLayout:
+    """Tests mirror the package (``tests/<package>/test_<module>.py``, docs/ARCHITECTURE.md):
+    a reader finds a module's tests by its path, and a test file by the module it tests."""
+
+    def test_no_flat_test_file(self):
+        assert sorted(p.name for p in TESTS.glob("test_*.py")) == []
+
+    def test_every_test_file_names_its_module(self):
+        bad = [
+            str(p.relative_to(TESTS))
+            for p in test_files()
+            if p.relative_to(TESTS).parts[0] not in set(CROSS_CUTTING) - {"cli"}
+            and mirrored_module(p) is None
+        ]
+        assert bad == [], bad
+
+    def test_mirror_finder(self):
+        assert mirrored_module(TESTS / "sh" / "test_basis_evaluate.py") == "shbake/sh/basis.py"
+        assert mirrored_module(TESTS / "format" / "test_exports.py") == (
+            "shbake/format/exports/__init__.py"
+        )
+        assert mirrored_module(TESTS / "core" / "test_jit.py") == "shbake/jit.py"
+        assert mirrored_module(TESTS / "cli" / "test_split_sum.py") == "cli/split_sum.py"
+        assert mirrored_module(TESTS / "sh" / "test_nothing.py") is None
+
+    def test_every_test_folder_is_a_package(self):
+        """Basenames repeat across folders (``tests/sh/test_basis.py``, ``tests/cli/…``):
+        each folder is a package, so its modules import as ``tests.<folder>.<module>`` the
+        same way under ``pytest`` and ``python -m pytest`` (rootdir-based "prepend" import)."""
+        folders = {p.parent for p in test_files()} | {TESTS}
+        bad = [str(f.relative_to(PACKAGE.parent)) for f in sorted(folders)
+               if not (f / "__init__.py").is_file()]  # fmt: skip
+        assert bad == [], bad
+
+    def test_collection_does_not_depend_on_the_working_directory(self):
+        """``python -m pytest`` puts the current folder on ``sys.path``, plain ``pytest`` does
+        not: no test file or helper may lean on either (no relative import, no ``sys.path``
+        edit), so both collect the same set (checked statically: collecting twice costs 20 s)."""
+        bad = []
+        for path in sorted(TESTS.rglob("*.py")):
+            if "engines" in path.relative_to(TESTS).parts:
+                continue
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.ImportFrom) and node.level > 0:
+                    bad.append(f"{path.relative_to(TESTS)}:{node.lineno} relative import")
+                if isinstance(node, ast.Attribute) and ast.unparse(node) == "sys.path":
+                    bad.append(f"{path.relative_to(TESTS)}:{node.lineno} sys.path")
+        assert bad == [], bad
