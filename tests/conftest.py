@@ -16,7 +16,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from shbake_cli.main import main  # noqa: E402
 
-from tests.helpers import GOLDEN  # noqa: E402
+from shbake.format.images import write_exr  # noqa: E402
+from tests.helpers import GOLDEN, smooth_map  # noqa: E402
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -54,6 +55,18 @@ def engine_browser(tmp_path_factory):
     browser = EngineBrowser(str(tmp_path_factory.getbasetemp()))
     yield browser
     browser.close()
+
+
+@pytest.fixture(scope="module")
+def probe_maps(tmp_path_factory):
+    """Four small smooth maps (32 × 64 EXR, scaled 1 … 4), for the probe commands."""
+    d = tmp_path_factory.mktemp("maps")
+    paths = []
+    for i in range(4):
+        path = d / f"m{i}.exr"
+        write_exr(str(path), smooth_map(32) * (1 + i))
+        paths.append(str(path))
+    return paths
 
 
 @pytest.fixture

@@ -315,7 +315,7 @@ CROSS_CUTTING = {
 (docs/ARCHITECTURE.md, "Tests")."""
 
 
-def test_files() -> list[Path]:
+def all_test_files() -> list[Path]:
     """Every ``test_*.py`` under tests/ (the node packages under tests/engines excluded)."""
     return sorted(
         p for p in TESTS.rglob("test_*.py") if "engines" not in p.relative_to(TESTS).parts
@@ -348,7 +348,7 @@ class TestTestLayout:
     def test_every_test_file_names_its_module(self):
         bad = [
             str(p.relative_to(TESTS))
-            for p in test_files()
+            for p in all_test_files()
             if p.relative_to(TESTS).parts[0] not in set(CROSS_CUTTING) - {"cli"}
             and mirrored_module(p) is None
         ]
@@ -367,7 +367,7 @@ class TestTestLayout:
         """Basenames repeat across folders (``tests/sh/test_basis.py``, ``tests/cli/…``):
         each folder is a package, so its modules import as ``tests.<folder>.<module>`` the
         same way under ``pytest`` and ``python -m pytest`` (rootdir-based "prepend" import)."""
-        folders = {p.parent for p in test_files()} | {TESTS}
+        folders = {p.parent for p in all_test_files()} | {TESTS}
         bad = [str(f.relative_to(PACKAGE.parent)) for f in sorted(folders)
                if not (f / "__init__.py").is_file()]  # fmt: skip
         assert bad == [], bad
