@@ -1,17 +1,15 @@
-"""BRDF models and tables against independent values (SPEC §5).
+"""BRDF tables (:mod:`shbake.brdf.tabulate`) against independent values (SPEC §5).
 
-Oracles: plain-numpy transcriptions of the papers' formulas, GGX's ``∫ D cosθ = 1``,
-directional albedo by a dense Gauss–Legendre hemisphere quadrature (not the
-tabulation's MIS rules), the Lambert table from the Funk–Hecke kernel, and a
-MERL file written from an analytic model.
+Oracles: directional albedo by a dense Gauss–Legendre hemisphere quadrature (not the
+tabulation's MIS rules), plain hemisphere quadratures of the projection, the Lambert table
+from the Funk–Hecke kernel, and a MERL file written from an analytic model. The models
+themselves: ``tests/brdf/test_model.py``.
 """
 
 import numpy as np
 import pytest
 
 from shbake.brdf import make_brdf
-from shbake.brdf.merl import half_diff_grid
-from shbake.brdf.model import MODELS
 from shbake.brdf.tabulate import (
     SQRT_4PI,
     _integrate,
@@ -19,22 +17,12 @@ from shbake.brdf.tabulate import (
     project_views,
     tabulate,
 )
-from shbake.errors import InputError, ParameterError
 from shbake.jit import run_blocks
 from shbake.sh.basis import real_sh, recurrence_tables
 from shbake.sh.kernels import lambert_kernel
 from shbake.sh.point_sets import gauss_legendre_unit
-from tests.helpers import write_merl
+from tests.helpers import hemi
 from tests.references import albedo_quadrature
-
-RNG = np.random.default_rng(3)
-
-
-def hemi(n, rng=RNG):
-    d = rng.normal(size=(n, 3))
-    d[:, 2] = np.abs(d[:, 2]) + 1e-3
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
-
 
 FURNACE_MODELS = {
     "lambert": {"rho": 0.7},
@@ -60,18 +48,6 @@ def furnace_views():
     phi = rng.uniform(0, 2 * np.pi, 10)
     g = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], 1)
     return np.concatenate([v, g])
-
-
-@pytest.fixture(scope="module")
-def merl_file(tmp_path_factory):
-    """A MERL file tabulating an isotropic GGX (α 0.4, coloured F0)."""
-    ggx = make_brdf("ggx", F0="0.9,0.5,0.2", alpha=0.4)
-    s, v = half_diff_grid()
-    vals = ggx.evaluate(s, v)
-    vals[(s[..., 2] <= 0) | (v[..., 2] <= 0)] = -1.0  # MERL marks missing data negative
-    path = tmp_path_factory.mktemp("merl") / "ggx04.binary"
-    write_merl(path, np.moveaxis(vals, -1, 0).clip(0))
-    return path, ggx
 
 
 class TestWhiteFurnace:
@@ -221,170 +197,6 @@ class TestLambertTable:
             / np.pi
         )
         np.testing.assert_allclose(table, np.broadcast_to(expect, table.shape), atol=1e-6)
-
-
-class TestModelFormulas:
-    """Each kernel against a direct numpy transcription of its paper's formula."""
-
-    def setup_method(self):
-        self.s, self.v = hemi(200), hemi(200)
-        h = self.s + self.v
-        self.h = h / np.linalg.norm(h, axis=1, keepdims=True)
-
-    def test_ashikhmin_shirley_eq4_eq5(self):
-        nu, nv, rs, rd = 24.0, 8.0, 0.6, 0.3
-        b = make_brdf("ashikhmin-shirley", nu=nu, nv=nv, Rs=rs, Rd=rd)
-        s, v, h = self.s, self.v, self.h
-        kh = np.sum(s * h, 1)
-        e = (nu * h[:, 0] ** 2 + nv * h[:, 1] ** 2) / (1 - h[:, 2] ** 2)
-        F = rs + (1 - rs) * (1 - kh) ** 5
-        spec = (
-            np.sqrt((nu + 1) * (nv + 1))
-            / (8 * np.pi)
-            * h[:, 2] ** e
-            / (kh * np.maximum(s[:, 2], v[:, 2]))
-            * F
-        )
-        diff = (
-            28
-            * rd
-            / (23 * np.pi)
-            * (1 - rs)
-            * (1 - (1 - s[:, 2] / 2) ** 5)
-            * (1 - (1 - v[:, 2] / 2) ** 5)
-        )
-        np.testing.assert_allclose(b.evaluate(s, v)[:, 0], spec + diff, rtol=1e-12)
-
-    def test_ggx_walter_eq33_smith(self):
-        a = 0.35
-        b = make_brdf("ggx", F0=1.0, alpha=a)
-        s, v, h = self.s, self.v, self.h
-        cos2 = h[:, 2] ** 2
-        D = a * a / (np.pi * (cos2 * (a * a - 1) + 1) ** 2)
-
-        def G1(w):
-            t2 = (1 - w[:, 2] ** 2) / w[:, 2] ** 2
-            return 2 / (1 + np.sqrt(1 + a * a * t2))
-
-        f = D * G1(s) * G1(v) / (4 * s[:, 2] * v[:, 2])
-        np.testing.assert_allclose(b.evaluate(s, v)[:, 0], f, rtol=1e-10)
-
-    def test_ggx_distribution_normalised(self):
-        # ∫ D(h) cosθ_h dω_h = 1, anisotropic, by a dense polar grid
-        from shbake.brdf.ggx import ggx_d
-
-        x, w = np.polynomial.legendre.leggauss(2000)
-        th = 0.25 * np.pi * (x + 1)
-        wt = 0.25 * np.pi * w * np.sin(th) * np.cos(th)
-        phi = 2 * np.pi * (np.arange(512) + 0.5) / 512
-        tot = 0.0
-        for t, ww in zip(th, wt, strict=True):
-            tot += (
-                ww
-                * 2
-                * np.pi
-                / 512
-                * sum(
-                    ggx_d(0.2, 0.5, np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t))
-                    for p in phi[::1]
-                )
-            )
-        assert tot == pytest.approx(1.0, abs=2e-4)
-
-    def test_phong_normal_incidence_albedo_is_rho_s(self):
-        b = make_brdf("phong", rho_s=0.8, n=200)
-        assert albedo_quadrature(b, np.array([0, 0, 1.0]))[0] == pytest.approx(0.8, abs=1e-5)
-
-    @pytest.mark.parametrize(
-        "name", ["lambert", "phong", "blinn-phong", "ashikhmin-shirley", "ward", "ggx"]
-    )
-    def test_reciprocity(self, name):
-        b = make_brdf(name)
-        np.testing.assert_allclose(
-            b.evaluate(self.s, self.v), b.evaluate(self.v, self.s), rtol=1e-10
-        )
-
-
-class TestBrdfEvalPdf:
-    """``brdf_eval_pdf`` (value and lobe density sharing one power term) returns exactly
-    what ``brdf_eval`` and ``lobe_pdf`` give apart, for every analytic model."""
-
-    @pytest.mark.parametrize("name", [m for m in MODELS if m != "merl"])
-    def test_bit_identical_to_the_two_calls(self, name):
-        from shbake.brdf.dispatch import brdf_eval, brdf_eval_pdf, lobe_pdf
-
-        b = make_brdf(name)
-        model, prm, data = b.spec.model_id, b.packed, b.data
-        fused, apart = np.empty(3), np.empty(3)
-        rng = np.random.default_rng(4)
-        for s, v in zip(hemi(200, rng), hemi(200, rng), strict=True):
-            p = brdf_eval_pdf(model, prm, data, *s, *v, fused)
-            brdf_eval(model, prm, data, *s, *v, apart)
-            assert p == lobe_pdf(model, prm, *s, *v)
-            assert np.array_equal(fused, apart)
-
-
-class TestLobeSampleOnLine:
-    """``lobe_sample_on_line`` after ``lobe_line`` (a sample's per-line part computed once)
-    gives exactly ``lobe_sample``, for every analytic model."""
-
-    @pytest.mark.parametrize("name", [m for m in MODELS if m != "merl"])
-    def test_bit_identical_to_lobe_sample(self, name):
-        from shbake.brdf.dispatch import lobe_line, lobe_sample, lobe_sample_on_line
-
-        b = make_brdf(name)
-        model, prm = b.spec.model_id, b.packed
-        rng = np.random.default_rng(5)
-        for v, (ur, ua) in zip(hemi(100, rng), rng.random((100, 2)), strict=True):
-            la, lb = lobe_line(model, prm, ua)
-            assert lobe_sample_on_line(model, prm, *v, ur, la, lb) == lobe_sample(
-                model, prm, *v, ur, ua
-            )
-
-
-class TestMerl:
-    def test_round_trip_of_analytic_model(self, merl_file):
-        path, ggx = merl_file
-        merl = make_brdf("merl", merl_path=str(path))
-        s, v = hemi(2000), hemi(2000)
-        ok = (s[:, 2] > 0.2) & (v[:, 2] > 0.2)
-        a, m = ggx.evaluate(s[ok], v[ok]), merl.evaluate(s[ok], v[ok])
-        rel = np.abs(m - a) / np.maximum(a, 1e-3)
-        assert np.median(rel) < 0.01 and np.percentile(rel, 95) < 0.05
-
-    def test_truncated_file_refused(self, merl_file, tmp_path):
-        bad = tmp_path / "bad.binary"
-        bad.write_bytes(merl_file[0].read_bytes()[:1000])
-        with pytest.raises(InputError, match="truncated"):
-            make_brdf("merl", merl_path=str(bad))
-
-
-class TestParameters:
-    def test_unknown_model_lists_allowed(self):
-        with pytest.raises(ParameterError, match="allowed: lambert, phong"):
-            make_brdf("cook")
-
-    def test_unknown_parameter_lists_allowed(self):
-        with pytest.raises(ParameterError, match=r"allowed: nu, nv, Rs, Rd"):
-            make_brdf("ashikhmin-shirley", n=3)
-
-    @pytest.mark.parametrize(
-        "name,kw",
-        [
-            ("ggx", {"alpha": 0}),
-            ("phong", {"n": -1}),
-            ("lambert", {"rho": 1.5}),
-            ("ward", {"alpha_x": "nan"}),
-            ("ggx", {"F0": "1,2"}),
-        ],
-    )
-    def test_out_of_range_refused(self, name, kw):
-        with pytest.raises(ParameterError):
-            make_brdf(name, **kw)
-
-    def test_energy_breaking_refused(self):
-        with pytest.raises(ParameterError, match="energy"):
-            make_brdf("phong", rho_d=0.6, rho_s=0.6)
 
 
 class TestExtremes:
