@@ -1,5 +1,6 @@
 """Shared fixtures: the plan cache, the CLI runner, random coefficients, golden files (see
-helpers.py); the ``--update-golden`` option."""
+helpers.py), the small maps of the probe tests and the sunny asset of the export tests; the
+``--update-golden`` option. Fixtures one folder alone uses sit in that folder's conftest.py."""
 
 import os
 
@@ -16,7 +17,11 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from shbake_cli.main import main  # noqa: E402
 
+from shbake.bakers.env_sh import bake_env_sh  # noqa: E402
+from shbake.envmap import load_environment  # noqa: E402
+from shbake.format.asset import write_asset  # noqa: E402
 from shbake.format.images import write_exr  # noqa: E402
+from tests.export_checks import SHARED  # noqa: E402
 from tests.helpers import GOLDEN, smooth_map  # noqa: E402
 
 
@@ -67,6 +72,21 @@ def probe_maps(tmp_path_factory):
         write_exr(str(path), smooth_map(32) * (1 + i))
         paths.append(str(path))
     return paths
+
+
+@pytest.fixture(scope="module")
+def sky_asset(tmp_path_factory):
+    """The esplanade map baked to SH (lmax 2) with its sun extracted: what the export tests
+    export (format/exports, batch/test_export.py)."""
+    d = tmp_path_factory.mktemp("eng")
+    path = os.path.join(SHARED, "hdri", "esplanade.exr")
+    env = load_environment(path, quiet=True)
+    asset, _ = bake_env_sh(
+        env, lmax=2, sun=True, provenance={"input_abspath": os.path.abspath(path)}
+    )
+    h5 = str(d / "s.h5")
+    write_asset(h5, asset)
+    return {"h5": h5, "dir": d, "env": env}
 
 
 @pytest.fixture
