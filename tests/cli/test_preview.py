@@ -1,5 +1,5 @@
-"""``shbake preview`` end to end: glossy probes shaded close to the brute-force reference
-(``--diff``), the fitted α range and the source map guarded.
+"""``shbake preview`` end to end: glossy probes and SHRM assets shaded close to the brute-force
+reference (``--diff``), the fitted α range and the source map guarded.
 
 ``preview --diff`` shows progress with its real total (issue 32, Deliver 4): the brute-force
 reference is integrated in blocks of pixels and counted against the number of pixels the
@@ -93,3 +93,17 @@ class TestGlossyPreview:
         code, _, err = run_cli("preview", tmp_path / "m0.h5", "-o", src, "--diff", "--size", "16")
         assert code == 1 and src.read_bytes() == before
         assert "is the source map" in err or "would destroy the input" in err
+
+
+class TestPreviewPass:
+    def test_shrm_pass_and_diff(self, run_cli, tmp_path):
+        out = tmp_path / "m.h5"
+        src = str(map_path("city"))
+        rc, _, err = run_cli("shrm", src, "-o", out, "-p", "sigma=0.4", "--face-size", "16", "-q")
+        assert rc == 0, err
+        rc, stdout, err = run_cli("preview", out, "-o", tmp_path / "p.exr", "--size", "32",
+                                  "--diff", "--source", src, "--json", "-q")  # fmt: skip
+        assert rc == 0, err
+        summary = json.loads(stdout)
+        assert summary["pass"] == "shrm" and summary["modes"]["eq12"]["fps"] > 0
+        assert summary["relative_rms_error"] < 0.05
