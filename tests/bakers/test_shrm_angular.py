@@ -6,9 +6,7 @@ close to the full hemisphere.
 import numpy as np
 
 from shbake.bakers.shrm import bake_shrm
-from shbake.brdf.reflection import (
-    make_reflection_brdf,
-)
+from shbake.brdf.reflection import make_reflection_brdf
 from shbake.sh.basis import real_sh
 from shbake.texture.cube import cube_directions
 from tests.shrm_cases import rel_rms, small_env

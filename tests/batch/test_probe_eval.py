@@ -1,4 +1,4 @@
-"""The GGX SHRM column of ``probe-eval`` (issue 13, item 7).
+"""The GGX SHRM column of ``probe-eval`` (issue 13, item 7; :mod:`shbake.batch.probe_eval`).
 
 The SHRM probe is checked against the independent ground truth of the
 evaluation (:func:`shbake.reference.ggx.ggx_integrals`, MIS Monte Carlo of the
@@ -6,18 +6,15 @@ GGX BRDF against the map's pixels): its error falls as ``F``, ``P`` grow. The
 order selection's shortfall at ε = 0.01 is measured (the captured energy is
 monotone in ``F`` and ``P``, so the value at the caps bounds every choice), and
 the report carries the three families (SH-exp, split-sum, SHRM) with ``n/a``
-where a probe does not cover a width.
+where a probe does not cover a width. The command: ``tests/cli/test_probe_eval.py``; the
+reported figures: ``tests/accuracy/test_probe_eval_shrm.py``.
 """
-
-import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from shbake.batch.probe_eval import (
     ShrmProbe,
-    evaluate_maps,
     evaluation_alphas,
     ggx_shrm_coefficients,
     markdown_report,
@@ -35,7 +32,7 @@ from shbake.envmap.environment import Environment
 from shbake.errors import ParameterError
 from shbake.evaluation.probes import ALPHAS, sphere_views
 from shbake.reference.ggx import ggx_integrals
-from tests.helpers import map_path, write_test_exr
+from tests.helpers import map_path
 
 
 @pytest.fixture(scope="module")
@@ -171,98 +168,3 @@ class TestReport:
         assert f"| shrm | {2 * shrm_cube_bytes(64, 16)} |" in text
         assert "| 0.0625 | 0.25 | 64, 16 | 0.9400 | 64, 16 | 0.5900 | no (capped) |" in text
         assert "shrm vs splitsum_plain" in text and "**2/2 (100.0 %)**" in text
-
-
-class TestCli:
-    @pytest.mark.slow
-    def test_shrm_column_with_shortfall_reported(self, tmp_path, run_cli):
-        """One low roughness (r 0.3, α 0.09: outside SH-exp's fitted range, so no fit), tiny
-        sphere and faces: the SHRM and both split-sums are evaluated in all 8 cases, SH-exp
-        has no column, the SHRM's shortfall at ε = 0.01 is printed, the JSON carries its
-        orders and bytes (≈ 30 s idle: the split-sum prefilter and ρ̂ to the caps)."""
-        from tests.helpers import smooth_map
-
-        src = write_test_exr(tmp_path / "m.exr", smooth_map(32))
-        code, out, err = run_cli("probe-eval", src, "--size", "8", "--samples", "64",
-                                 "--roughness", "0.3", "--face-size", "8", "--json",
-                                 "-o", tmp_path / "r.md")  # fmt: skip
-        assert code == 0, err
-        summary = json.loads(out)
-        assert summary["alphas"] == [0.09]
-        assert set(summary["totals"]) == {"shrm vs splitsum_plain", "shrm vs splitsum_filtered"}
-        assert summary["totals"]["shrm vs splitsum_plain"][1] == 8
-        (row,) = summary["shrm"]["orders"]
-        assert not row["E1"]["reached"] and (row["E1"]["F"], row["E1"]["P"]) == (64, 16)
-        assert "shbake: warning: SHRM at α 0.09" in err and "not reachable" in err
-        nbytes = sum(shrm_cube_bytes(8, row[t]["P"]) for t in ("E0", "E1"))
-        assert summary["bytes"]["shrm"] == nbytes and "shexp_v2" not in summary["bytes"]
-        text = (tmp_path / "r.md").read_text()
-        assert "GGX SHRM" in text and "SH-exp" not in text and "no (capped)" in text
-
-    def test_roughness_out_of_range_is_a_usage_error(self, tmp_path, run_cli):
-        code, _, err = run_cli("probe-eval", tmp_path / "m.exr", "--roughness", "0.05")
-        assert code == 2 and "--roughness" in err
-
-    def test_bad_eps_one_line(self, tmp_path, run_cli):
-        from tests.helpers import smooth_map
-
-        src = write_test_exr(tmp_path / "m.exr", smooth_map(16))
-        code, _, err = run_cli("probe-eval", src, "--eps", "0", "-o", tmp_path / "r.md")
-        assert code == 2 and "eps" in err and len(err.strip().splitlines()) == 1
-        assert not (tmp_path / "r.md").exists()
-
-
-RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results" / "probe_eval_shrm.json"
-
-
-@pytest.fixture(scope="module")
-def three_way():
-    return json.loads(RESULTS.read_text())
-
-
-class TestReportedThreeWay:
-    """The figures docs/BENCHMARKS.md reports from ``bench/probe_eval.py --roughness 0.25 0.4
-    0.5`` (``bench/results/probe_eval_shrm.json``)."""
-
-    def test_cases(self, three_way):
-        assert sorted(three_way["maps"]) == ["city", "esplanade", "forest", "night", "studio",
-                                             "sunset"]  # fmt: skip
-        assert three_way["alphas"] == [0.0625, 0.16, 0.25]
-        assert three_way["size"] == 32 and three_way["truth_samples"] == 4096
-        for rows in three_way["maps"].values():
-            assert len(rows) == 3 * 2 * 4
-            for r in rows:
-                assert (r["mse"]["shexp_v2"] is None) == (r["alpha"] < 0.2)
-                assert r["mse"]["shrm"] is not None and r["mse"]["splitsum_plain"] is not None
-
-    def test_shrm_beats_split_sum_in_90_percent_at_r_025_and_04(self, three_way):
-        low = {"maps": {k: [r for r in rows if r["alpha"] in (0.0625, 0.16)]
-                        for k, rows in three_way["maps"].items()}}  # fmt: skip
-        for baseline in ("splitsum_plain", "splitsum_filtered"):
-            wins, cases = win_table(low, "shrm", baseline)["total"]
-            assert cases == 96 and wins == 95 and wins / cases >= 0.90
-        assert win_table(three_way, "shrm", "shexp_v2")["total"] == (48, 48)
-
-    def test_orders_and_bytes(self, three_way):
-        s = three_way["shrm"]
-        assert s["eps"] == 0.01 and s["face_size"] == 64
-        got = {row["alpha"]: (row["E0"]["F"], row["E0"]["P"], row["E0"]["reached"],
-                              row["E1"]["F"], row["E1"]["P"], row["E1"]["reached"])
-               for row in s["orders"]}  # fmt: skip
-        assert got == {0.0625: (64, 16, False, 64, 16, False), 0.16: (64, 16, False, 64, 16, False),
-                       0.25: (32, 12, True, 64, 16, False)}  # fmt: skip
-        nbytes = sum(shrm_cube_bytes(64, row[t]["P"]) for row in s["orders"] for t in ("E0", "E1"))
-        assert three_way["bytes"]["shrm"] == nbytes == 475_987_968
-        assert three_way["bytes"]["splitsum_plain"] == 4 * 3 * (128**2 + 64**2 + 32**2)
-
-
-@pytest.mark.slow
-def test_recomputed_shrm_column_is_the_reported_one(three_way):
-    """city at r 0.4 from scratch (about 3 minutes on one core): the SHRM's MSE in every
-    case is the committed one (it depends on the map, α and the orders only)."""
-    fresh = evaluate_maps([str(map_path("city"))], three_way["size"], three_way["truth_samples"],
-                          roughness=[0.4])  # fmt: skip
-    old = [r for r in three_way["maps"]["city"] if r["alpha"] == 0.16]
-    for o, n in zip(old, fresh["maps"]["city"], strict=True):
-        assert (o["material"], o["yaw"]) == (n["material"], n["yaw"])
-        assert n["mse"]["shrm"] == pytest.approx(o["mse"]["shrm"], rel=1e-5)

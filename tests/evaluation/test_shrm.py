@@ -5,9 +5,7 @@ against brute-force shading.
 import pytest
 
 from shbake.bakers.shrm import bake_shrm
-from shbake.brdf.reflection import (
-    make_reflection_brdf,
-)
+from shbake.brdf.reflection import make_reflection_brdf
 from tests.shrm_cases import small_env
 
 

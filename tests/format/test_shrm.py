@@ -3,9 +3,7 @@
 import numpy as np
 
 from shbake.bakers.shrm import bake_shrm
-from shbake.brdf.reflection import (
-    make_reflection_brdf,
-)
+from shbake.brdf.reflection import make_reflection_brdf
 from tests.shrm_cases import small_env
 
 
