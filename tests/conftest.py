@@ -1,6 +1,6 @@
 """Shared fixtures: the plan cache, the CLI runner, random coefficients, golden files (see
-helpers.py), the small maps of the probe tests and the sunny asset of the export tests; the
-``--update-golden`` option. Fixtures one folder alone uses sit in that folder's conftest.py."""
+helpers.py), the small maps of the probe tests, the sunny asset of the export tests, a white dome;
+the ``--update-golden`` option. Fixtures one folder alone uses sit in that folder's conftest.py."""
 
 import os
 
@@ -22,7 +22,7 @@ from shbake.envmap import load_environment  # noqa: E402
 from shbake.format.asset import write_asset  # noqa: E402
 from shbake.format.images import write_exr  # noqa: E402
 from tests.export_checks import SHARED  # noqa: E402
-from tests.helpers import GOLDEN, smooth_map  # noqa: E402
+from tests.helpers import GOLDEN, smooth_map, write_test_exr  # noqa: E402
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -87,6 +87,14 @@ def sky_asset(tmp_path_factory):
     h5 = str(d / "s.h5")
     write_asset(h5, asset)
     return {"h5": h5, "dir": d, "env": env}
+
+
+@pytest.fixture
+def dome_asset(run_cli, tmp_path):
+    """A white dome (1 everywhere, 32 × 64) baked by ``project-env``: shades to the albedo."""
+    src = write_test_exr(tmp_path / "dome.exr", np.ones((32, 64, 3)))
+    assert run_cli("project-env", src, "-o", tmp_path / "dome.h5", "-q")[0] == 0
+    return tmp_path / "dome.h5"
 
 
 @pytest.fixture
