@@ -8,11 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from shbake.batch.probe_eval import (
-    evaluate_maps,
-    shrm_cube_bytes,
-    win_table,
-)
+from shbake.batch.probe_eval import evaluate_maps, shrm_cube_bytes, win_table
 from tests.helpers import map_path
 
 RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results" / "probe_eval_shrm.json"

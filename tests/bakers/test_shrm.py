@@ -13,10 +13,7 @@ import pytest
 
 from shbake.bakers.shrm import bake_shrm, shrm_from_directions
 from shbake.brdf import make_brdf
-from shbake.brdf.reflection import (
-    brdf_coefficients,
-    make_reflection_brdf,
-)
+from shbake.brdf.reflection import brdf_coefficients, make_reflection_brdf
 from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import n_coeffs
 from shbake.preview.sphere import sphere_geometry

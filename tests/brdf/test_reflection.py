@@ -8,12 +8,7 @@ import pytest
 from scipy import integrate, special
 
 from shbake.bakers.shrm import auto_face_size
-from shbake.brdf.reflection import (
-    F_LIMIT,
-    brdf_coefficients,
-    make_reflection_brdf,
-    select_orders,
-)
+from shbake.brdf.reflection import F_LIMIT, brdf_coefficients, make_reflection_brdf, select_orders
 from shbake.errors import ParameterError
 
 

@@ -10,13 +10,7 @@ import numpy as np
 import pytest
 
 from shbake.brdf import make_brdf
-from shbake.brdf.tabulate import (
-    SQRT_4PI,
-    _integrate,
-    clenshaw_curtis_unit,
-    project_views,
-    tabulate,
-)
+from shbake.brdf.tabulate import SQRT_4PI, _integrate, clenshaw_curtis_unit, project_views, tabulate
 from shbake.jit import run_blocks
 from shbake.sh.basis import real_sh, recurrence_tables
 from shbake.sh.kernels import lambert_kernel

@@ -8,11 +8,7 @@ import os
 import numpy as np
 import pytest
 
-from shbake.brdf.reflection import (
-    F_LIMIT,
-    brdf_coefficients,
-    make_reflection_brdf,
-)
+from shbake.brdf.reflection import F_LIMIT, brdf_coefficients, make_reflection_brdf
 from tests.helpers import map_path, write_test_exr
 
 
