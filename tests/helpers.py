@@ -27,7 +27,7 @@ ENGINES_DIR = str(ROOT / "tests" / "engines")
 SHARED_MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
 GOLDEN = ROOT / "tests" / "data" / "golden"
 """Golden files: outputs of the release before a change, compared byte for byte
-(``tests/test_golden.py``; rewritten only by ``pytest --update-golden``)."""
+(``tests/system/test_golden.py``; rewritten only by ``pytest --update-golden``)."""
 
 
 def map_path(name: str) -> Path:

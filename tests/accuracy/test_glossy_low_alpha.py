@@ -1,6 +1,6 @@
 """SH-exp at the low-roughness end (issue 33): the default fit, the eq. 15 bound, the planner.
 
-The 288-case figures are asserted by ``tests/test_probe_eval.py`` from
+The 288-case figures are asserted by ``tests/accuracy/test_probe_eval.py`` from
 ``bench/results/probe_eval.json``; here: the default's size, that eq. 15's Fresnel tail
 alone (with the exact ``E0``) loses to the plain split-sum where the default still loses,
 and that the planner sends those dielectrics to the split-sum with the reason.

@@ -8,7 +8,7 @@ blend of the knots) define it, and integrates the GGX lobe (``D G1(v) G1(l) / (4
 separable Smith, SPEC §4) over every texel of the map, 2×2 points per texel with exact
 lat-long solid angles, at the normals of a 41² grid over the visible disc: no MIS, no point set and
 no shader of shbake's. (The SH basis is :func:`shbake.sh.basis.real_sh`, as in
-``tests/test_brdf_headline.py``.)
+``tests/accuracy/test_brdf_table_headline.py``.)
 """
 
 import json

@@ -1,7 +1,7 @@
 """``shbake overview``: no markup, URL or script from data (issue 27).
 
 Oracle: Python's own HTML parser (:mod:`html.parser`) reading what a browser would build
-from the page. What the page shows and its layout: ``tests/test_overview_page.py``.
+from the page. What the page shows and its layout: ``tests/preview/test_overview.py``.
 """
 
 import base64

@@ -14,7 +14,7 @@ class TestProbeEvalCli:
     def test_report_and_json(self, probe_maps, tmp_path, run_cli):
         """probe-eval on a small map: every comparison counted over 2 × 6 × 4 cases, the
         Markdown report written, the four probes' bytes reported (the SHRM column:
-        tests/test_probe_eval_shrm.py)."""
+        tests/batch/test_probe_eval.py)."""
         code, out, err = run_cli("probe-eval", probe_maps[0], "--size", "8", "--samples", "64",
                                  "-o", tmp_path / "eval.md", "--json", "--no-shrm")  # fmt: skip
         assert code == 0, err

@@ -7,7 +7,7 @@ random maps of odd and non-multiple-of-4 widths. The new kernels fold four
 columns and two rows and block the sums differently, so the summation order
 changed: agreement is asserted to 1e-12 of each channel's largest coefficient.
 ducc0 is the independent implementation (SPEC §5 conversion, in
-``tests/test_projection.py``).
+``tests/sh/test_projection.py``).
 """
 
 from pathlib import Path

@@ -15,7 +15,7 @@ from shbake.format.exports.source import load_source
 class TestBabylonEnv:
     """babylon.write_env: Babylon's .env layout (``environmentTextureTools``), read here as
     ``GetEnvInfo``/``CreateRadianceImageDataArrayBufferViews`` read it; the rendering is
-    checked in Babylon itself by ``tests/test_engine_render.py``."""
+    checked in Babylon itself by ``tests/system/test_engine_render.py``."""
 
     @staticmethod
     def _read(path: str) -> tuple[dict, bytes]:

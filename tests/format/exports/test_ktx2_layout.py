@@ -1,6 +1,6 @@
 """The KTX2 writer's byte layout against rules of the KTX 2.0 specification.
 
-The engines' reader (ktx-parse, tests/test_exports.py) accepts any level
+The engines' reader (ktx-parse, tests/format/exports/test_ktx2.py) accepts any level
 offset; libktx's ``ktx validate`` does not (error 4004 when the mip padding
 is not exactly ``lcm(texel block size, 4)``, spec §3.9.7). The rules are
 written here from the specification, not from the writer.
