@@ -338,6 +338,17 @@ def mirrored_module(test: Path) -> str | None:
     return None
 
 
+def path_dependent_lines(path: Path) -> list[str]:
+    """``"LINE what"`` for each relative import and each use of ``sys.path`` in a file."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.level > 0:
+            found.append(f"{node.lineno} relative import")
+        if isinstance(node, ast.Attribute) and ast.unparse(node) == "sys.path":
+            found.append(f"{node.lineno} sys.path")
+    return sorted(found, key=lambda line: int(line.split()[0]))
+
+
 class TestTestLayout:
     """Tests mirror the package (``tests/<package>/test_<module>.py``, docs/ARCHITECTURE.md):
     a reader finds a module's tests by its path, and a test file by the module it tests."""
@@ -376,13 +387,15 @@ class TestTestLayout:
         """``python -m pytest`` puts the current folder on ``sys.path``, plain ``pytest`` does
         not: no test file or helper may lean on either (no relative import, no ``sys.path``
         edit), so both collect the same set (checked statically: collecting twice costs 20 s)."""
-        bad = []
-        for path in sorted(TESTS.rglob("*.py")):
-            if "engines" in path.relative_to(TESTS).parts:
-                continue
-            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-                if isinstance(node, ast.ImportFrom) and node.level > 0:
-                    bad.append(f"{path.relative_to(TESTS)}:{node.lineno} relative import")
-                if isinstance(node, ast.Attribute) and ast.unparse(node) == "sys.path":
-                    bad.append(f"{path.relative_to(TESTS)}:{node.lineno} sys.path")
+        bad = [
+            f"{path.relative_to(TESTS)}:{line}"
+            for path in sorted(TESTS.rglob("*.py"))
+            if "engines" not in path.relative_to(TESTS).parts
+            for line in path_dependent_lines(path)
+        ]
         assert bad == [], bad
+
+    def test_finder_finds_a_relative_import_and_sys_path(self, tmp_path):
+        path = tmp_path / "t.py"
+        path.write_text("import sys\nfrom . import helpers\nsys.path.insert(0, 'x')\n")
+        assert path_dependent_lines(path) == ["2 relative import", "3 sys.path"]
