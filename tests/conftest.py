@@ -74,10 +74,10 @@ def probe_maps(tmp_path_factory):
     return paths
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def sky_asset(tmp_path_factory):
     """The esplanade map baked to SH (lmax 2) with its sun extracted: what the export tests
-    export (format/exports, batch/test_export.py)."""
+    export (format/exports, batch/test_export.py; baked once, as when they were one file)."""
     d = tmp_path_factory.mktemp("eng")
     path = os.path.join(SHARED, "hdri", "esplanade.exr")
     env = load_environment(path, quiet=True)
