@@ -10,9 +10,10 @@ from tests.assets_examples import example, write_map
 from tests.faults import TMPFS_SIZE, can_mount
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def ws(tmp_path_factory):
-    """A workspace: a tiny map, an env_sh asset of it, old outputs, a probe and a table."""
+    """A workspace: a tiny map, an env_sh asset of it, old outputs, a probe and a table (read
+    only; built once for the fault files, as when they were one file)."""
     root = tmp_path_factory.mktemp("faults")
     m = write_map(root / "map.exr")
     write_map(root / "other.exr", seed=3)
