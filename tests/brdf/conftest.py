@@ -8,9 +8,9 @@ from shbake.brdf.merl import half_diff_grid
 from tests.helpers import write_merl
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def merl_file(tmp_path_factory):
-    """A MERL file tabulating an isotropic GGX (α 0.4, coloured F0)."""
+    """A MERL file tabulating an isotropic GGX (α 0.4, coloured F0); written once."""
     ggx = make_brdf("ggx", F0="0.9,0.5,0.2", alpha=0.4)
     s, v = half_diff_grid()
     vals = ggx.evaluate(s, v)
