@@ -55,14 +55,14 @@ demo: $(RUNTIME)
 	$(BIN)/shbake overview $(OUT) -o $(OUT)/index.html --title "shbake demo: the six sample maps"
 	@echo "demo: open $(OUT)/index.html (assets, previews and contact sheets in $(OUT)/)" >&2
 
-# Real engine code for tests/test_exports.py and tests/test_engine_render.py, pinned by
+# Real engine code for tests/format/exports/ and tests/system/test_engine_render.py, pinned by
 # tests/engines/package-lock.json (npm ci runs no install script: puppeteer-core downloads no browser).
 engines: $(ENGINES)/node_modules/.package-lock.json
 $(ENGINES)/node_modules/.package-lock.json: $(ENGINES)/package.json $(ENGINES)/package-lock.json
 	@if command -v npm >/dev/null 2>&1; then npm ci --prefix $(ENGINES) --no-audit --no-fund --ignore-scripts; \
-	else echo "npm not found: tests/test_exports.py will skip the engine checks" >&2; fi
+	else echo "npm not found: the engine checks in tests/format/exports/ will skip" >&2; fi
 
-# Debian's chromium for the rendered engine tests (tests/test_engine_render.py): installed when
+# Debian's chromium for the rendered engine tests (tests/system/test_engine_render.py): installed when
 # missing and run as root (CI); otherwise one line says what to install (those tests then skip).
 chromium:
 	@if [ -x /usr/bin/chromium ]; then :; \
@@ -77,7 +77,7 @@ test: $(TESTENV) engines chromium
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 test-extremes: $(TESTENV)
-	$(BIN)/python -m pytest -q -n 2 -m extremes tests/test_extremes.py
+	$(BIN)/python -m pytest -q -n 2 -m extremes tests/system/test_extremes.py
 
 test-all: $(TESTENV) engines chromium
 	$(BIN)/python -m tests.warm_kernels
@@ -96,6 +96,6 @@ lint: $(TESTENV)
 clean:
 	rm -rf $(VENV) $(OUT) build *.egg-info
 
-# docs/FORMAT.md: regenerate the per-kind tables from the registry (tests/test_registry.py checks)
+# docs/FORMAT.md: regenerate the per-kind tables from the registry (tests/format/test_registry.py checks)
 format-doc: $(RUNTIME)
 	$(BIN)/python -m shbake.format.registry docs/FORMAT.md

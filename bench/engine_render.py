@@ -3,7 +3,7 @@
 For each map: an env_sh asset (lmax 2), its exports at the targets' defaults (three.js
 ``threejs`` + ``threejs-pmrem``; Babylon.js ``babylon`` as ``.env`` and ``.gltf``; Filament
 ``filament``), rendered by the engines in headless Chromium (tests/engines/harness.mjs)
-exactly as ``tests/test_engine_render.py`` does, and compared with the brute-force
+exactly as ``tests/system/test_engine_render.py`` does, and compared with the brute-force
 references of that module: the diffuse max relative error against shbake's asset; the
 median and 95th-percentile luminance relative error of each glossy sphere; the byte size
 of each export. Prints Markdown tables.

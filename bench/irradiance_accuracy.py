@@ -3,7 +3,7 @@
 For lmax 2 and 8, with and without --extract-sun: mean and max luminance
 relative error over 2048 spherical-Fibonacci directions (SPEC §5 brute
 force with exact texel solid angles). Prints a Markdown table and, with
---json, the figures the tests assert (tests/test_shared_maps.py).
+--json, the figures the tests assert (tests/accuracy/test_shared_maps.py).
 
     .venv/bin/python bench/irradiance_accuracy.py
 """

@@ -3,7 +3,7 @@
 Issue 14 asks that the KTX2 files load with libktx. libktx has no wheel and
 no Debian package (pyktx on PyPI is a 25 kB source package that links
 against an installed libktx), so ``make test`` reads the files with
-ktx-parse, the parser three.js vendors (tests/test_exports.py). This script
+ktx-parse, the parser three.js vendors (tests/format/exports/test_ktx2.py). This script
 is the libktx check, run by hand where a libktx build exists:
 
     # once: libktx and pyktx from a KTX-Software checkout (v4.4 or later)

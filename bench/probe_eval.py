@@ -14,8 +14,8 @@ six α × 4 views per map) with one process per map (``--jobs`` at a time,
 numba on one thread each) and writes ``bench/results/probe_eval.json`` (every
 case) and ``bench/results/probe_eval.md`` (win rates per α and material, bytes
 per probe, the per-map table and every case). ``SHBAKE_TRUTH_CACHE=DIR`` keeps
-the ground truths there (they do not depend on the probes) for re-runs. ``tests/test_probe_eval.py``
-asserts the figures of the JSON.
+the ground truths there (they do not depend on the probes) for re-runs.
+``tests/accuracy/test_probe_eval.py`` asserts the figures of the JSON.
 """
 
 import argparse

@@ -5,7 +5,7 @@ lmax 2, 8, 30. Every implementation integrates the same nodes with the same
 Fejér weights (ducc0 gets them as ``ringfactor``, reads the interleaved
 image with ``pixstride=3``, one call per channel, in float32, its fastest
 mode); the coefficients agree to 1e-6 relative here (float32 in ducc0) and to
-1e-12 with float64 input in ``tests/test_projection_speed_paths.py``.
+1e-12 with float64 input in ``tests/sh/test_projection_speed_paths.py``.
 
 1 thread: ``SHBAKE_THREADS=1``, ducc0 ``nthreads=1``, the previous shbake with
 ``numba.set_num_threads(1)``; CPU time of the thread. 2 threads: wall time.

@@ -1,6 +1,6 @@
 """What each GLSL pass costs: frame time at 1920×1080, texture memory, fetches and ALU per pixel.
 
-For one shared map (default forest) the assets of ``tests/test_webgl_shaders.py`` (same
+For one shared map (default forest) the assets of ``tests/system/test_webgl_shaders.py`` (same
 settings) are exported with ``--to webgl`` and every pass is drawn in headless Chromium
 (``tests/engines/harness.mjs``) into a 1920×1080 float32 target that the sphere fills (every
 pixel runs the pass), ``--frames`` frames after a warm-up frame, each finished by a
@@ -98,7 +98,8 @@ def counts(pass_name: str, u: dict) -> tuple[int, int]:
 
 
 def bake(name: str, d: Path) -> dict:
-    """The assets of tests/test_webgl_shaders.py for map ``name``, exported: pass → folder."""
+    """The assets of tests/system/test_webgl_shaders.py for map ``name``, exported: pass →
+    folder."""
     env = load_environment(str(map_path(name)), quiet=True)
     asset, _ = bake_env_sh(env, lmax=4, irradiance_lmax=4, sun=True)
     h5 = {"env": d / "env.h5", "splitsum": d / "splitsum.h5", "shexp": d / f"{name}.h5"}

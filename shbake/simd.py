@@ -27,7 +27,7 @@ from here and calls them like functions::
 
 Like every kernel they are check-free: no bounds checks, the caller validated the
 arrays. Their numba side is registered through :func:`shbake.jit.on_numba_load`, so
-importing this module does not import numba. Tested one by one in ``tests/test_simd.py``
+importing this module does not import numba. Tested one by one in ``tests/core/test_simd.py``
 (compiled and interpreted against numpy).
 """
 

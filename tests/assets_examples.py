@@ -1,6 +1,6 @@
 """One valid, small asset of every registered kind, built by the kinds' own builders, and
 the corrupt variants of them that readers must refuse (:data:`CORRUPTIONS`), shared by
-tests/test_registry.py, tests/test_faults.py and tests/test_hostile_assets.py."""
+tests/format/test_registry.py, tests/system/faults/ and tests/system/test_hostile_assets.py."""
 
 from pathlib import Path
 from types import SimpleNamespace

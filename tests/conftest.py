@@ -1,5 +1,6 @@
 """Shared fixtures: the plan cache, the CLI runner, random coefficients, golden files (see
-helpers.py); the ``--update-golden`` option."""
+helpers.py), the small maps of the probe tests, the sunny asset of the export tests, a white dome;
+the ``--update-golden`` option. Fixtures one folder alone uses sit in that folder's conftest.py."""
 
 import os
 
@@ -16,7 +17,12 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from shbake_cli.main import main  # noqa: E402
 
-from tests.helpers import GOLDEN  # noqa: E402
+from shbake.bakers.env_sh import bake_env_sh  # noqa: E402
+from shbake.envmap import load_environment  # noqa: E402
+from shbake.format.asset import write_asset  # noqa: E402
+from shbake.format.images import write_exr  # noqa: E402
+from tests.export_checks import SHARED  # noqa: E402
+from tests.helpers import GOLDEN, smooth_map, write_test_exr  # noqa: E402
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -54,6 +60,41 @@ def engine_browser(tmp_path_factory):
     browser = EngineBrowser(str(tmp_path_factory.getbasetemp()))
     yield browser
     browser.close()
+
+
+@pytest.fixture(scope="module")
+def probe_maps(tmp_path_factory):
+    """Four small smooth maps (32 × 64 EXR, scaled 1 … 4), for the probe commands."""
+    d = tmp_path_factory.mktemp("maps")
+    paths = []
+    for i in range(4):
+        path = d / f"m{i}.exr"
+        write_exr(str(path), smooth_map(32) * (1 + i))
+        paths.append(str(path))
+    return paths
+
+
+@pytest.fixture(scope="session")
+def sky_asset(tmp_path_factory):
+    """The esplanade map baked to SH (lmax 2) with its sun extracted: what the export tests
+    export (format/exports, batch/test_export.py; baked once, as when they were one file)."""
+    d = tmp_path_factory.mktemp("eng")
+    path = os.path.join(SHARED, "hdri", "esplanade.exr")
+    env = load_environment(path, quiet=True)
+    asset, _ = bake_env_sh(
+        env, lmax=2, sun=True, provenance={"input_abspath": os.path.abspath(path)}
+    )
+    h5 = str(d / "s.h5")
+    write_asset(h5, asset)
+    return {"h5": h5, "dir": d, "env": env}
+
+
+@pytest.fixture
+def dome_asset(run_cli, tmp_path):
+    """A white dome (1 everywhere, 32 × 64) baked by ``project-env``: shades to the albedo."""
+    src = write_test_exr(tmp_path / "dome.exr", np.ones((32, 64, 3)))
+    assert run_cli("project-env", src, "-o", tmp_path / "dome.h5", "-q")[0] == 0
+    return tmp_path / "dome.h5"
 
 
 @pytest.fixture

@@ -27,7 +27,7 @@ ENGINES_DIR = str(ROOT / "tests" / "engines")
 SHARED_MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
 GOLDEN = ROOT / "tests" / "data" / "golden"
 """Golden files: outputs of the release before a change, compared byte for byte
-(``tests/test_golden.py``; rewritten only by ``pytest --update-golden``)."""
+(``tests/system/test_golden.py``; rewritten only by ``pytest --update-golden``)."""
 
 
 def map_path(name: str) -> Path:
@@ -138,3 +138,14 @@ def ktx2_levels(path) -> list[np.ndarray]:
         off, length, _ = struct.unpack_from("<3Q", data, 80 + 24 * i)
         out.append(np.frombuffer(data[off : off + length], dtype).astype(np.float32))
     return out
+
+
+RNG = np.random.default_rng(3)
+"""The stream :func:`hemi` draws from when given none (shared: draws depend on test order)."""
+
+
+def hemi(n, rng=RNG):
+    """``n`` random unit directions of the upper hemisphere (``z ≥ 1e-3`` before normalising)."""
+    d = rng.normal(size=(n, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 1e-3
+    return d / np.linalg.norm(d, axis=1, keepdims=True)

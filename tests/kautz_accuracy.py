@@ -1,6 +1,6 @@
 """Relative RMS error of the kautz pass vs brute force: AS (24,8), three maps, lmax 2–8.
 
-Shared by tests/test_kautz_pass.py (asserts the figures) and bench/brdf_table.py
+Shared by tests/shading/test_brdf_table.py (asserts the figures) and bench/brdf_table.py
 (writes them to docs/BENCHMARKS.md). Settings: env lighting projected at
 lmax 8 (no sun extraction), 64² tables at 1024 samples, 48² sphere.
 """

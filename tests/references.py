@@ -4,8 +4,11 @@
 import ducc0
 import numpy as np
 
+from shbake.envmap.layouts import latlong_directions, latlong_solid_angles
+from shbake.reference.irradiance import brute_force_irradiance
 from shbake.sh.projection import fejer_row_weights
 from shbake.sh.rotation import SHRotation
+from tests.helpers import synth_latlong
 
 
 def ducc0_project(img, lmax):
@@ -60,3 +63,16 @@ def albedo_quadrature(brdf, v, n_theta=384, rows=64):
         weight = (wt[i : i + rows, None] * np.full(n_phi, 2 * np.pi / n_phi)).reshape(-1)
         total = total + weight @ (brdf.evaluate(s, v) * s[:, 2:3])
     return total
+
+
+QUERIES = np.array([[0, 0, 1.0], [0, 1.0, 0], [0.6, -0.48, 0.64], [-1.0, 0, 0]])
+"""Four normals (or tangents) the irradiance checks query: the poles, the equator, a generic one."""
+
+
+def brute_force_of_synthetic_map(coeffs, h, tangent):
+    """Brute-force (tangent) irradiance at :data:`QUERIES` of the ``h × 2h`` lat-long map whose
+    pixels are ``Σ c_i y_i`` (:func:`tests.helpers.synth_latlong`)."""
+    img = synth_latlong(coeffs, h)
+    d = latlong_directions(h, 2 * h).reshape(-1, 3)
+    w = latlong_solid_angles(h, 2 * h).ravel()
+    return brute_force_irradiance(d, w, img.reshape(-1, 3), QUERIES, tangent=tangent)

@@ -1,4 +1,4 @@
-"""The assets the WebGL shader tests render (tests/test_webgl_shaders.py), shared with
+"""The assets the WebGL shader tests render (tests/system/test_webgl_shaders.py), shared with
 bench/shader_cost.py: small split-sum, SH-exp, SHRM and Kautz bakes and the glossy
 materials they are drawn with."""
 

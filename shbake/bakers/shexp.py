@@ -57,7 +57,7 @@ DIELECTRIC_F0 = 0.04
 SAMPLE_BYTES = 512
 """Working bytes per fit sample besides the quadrature entries: tiled views and normals,
 ``α``, weights, ``E0`` targets and their log, fitted values (tracemalloc:
-``tests/test_faults.py::TestProbeFitMemory``)."""
+``tests/system/faults/test_memory.py::TestProbeFitMemory``)."""
 WEIGHTINGS = WEIGHTS  # the name cli/probe_fit.py imports until its grammar pass
 FIT_TARGETS = ("quadrature", "sh")
 SETS_LIMIT = 8
@@ -169,7 +169,7 @@ class FitConfig:
         Gram matrices ``n² × alpha_count × 3`` three times and the normal matrices
         ``3 (K n)²`` twice; per map texel ``maps ×`` the filtered pyramid (4/3 of the
         texels × 3) twice. An upper bound of the measured peak
-        (``tests/test_faults.py::TestProbeFitMemory``).
+        (``tests/system/faults/test_memory.py::TestProbeFitMemory``).
         """
         pairs = self.normals * self.views
         t = pairs * self.alpha_count

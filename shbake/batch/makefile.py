@@ -2,7 +2,7 @@
 form GNU make and ``/bin/sh`` read back as exactly that string — or refused.
 
 Three contexts, one routine each (``shbake plan --emit-make``, docs/SCENES.md
-"Makefile safety"; ``tests/test_scene_make.py`` proves each against GNU make (4.3) and
+"Makefile safety"; ``tests/batch/test_makefile.py`` proves each against GNU make (4.3) and
 ``/bin/sh`` on every printable ASCII character, tab, newline, CR and non-ASCII):
 
 * :func:`make_path` — a file name as one word of a rule (target or prerequisite);

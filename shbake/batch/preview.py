@@ -65,7 +65,7 @@ OPTIONS_OF_KIND = {
 PIXEL_BYTES = 256
 """Working memory per pixel of the ``size``² image, one pass: sphere geometry, the
 float64 image, masks, tone mapping and the contact sheet (tracemalloc peaks of 192-212 B
-at 256²-768², ``tests/test_faults.py::TestPreviewMemory``)."""
+at 256²-768², ``tests/system/faults/test_memory.py::TestPreviewMemory``)."""
 REFERENCE_PIXEL_BYTES = 96
 """Added per pixel by a second image (``--diff``): the reference and the signed error."""
 COEFF_PIXEL_BYTES = 48

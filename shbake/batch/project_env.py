@@ -44,7 +44,7 @@ their half-float and tone-mapped copies."""
 REPORT_TEXEL_BYTES = 192
 """Working memory per texel of the source map for ``--report``: the brute-force sweep's
 samples and weighted copies, and the float64 squares of the truncation report (tracemalloc
-peak 149 B at 512x1024, ``tests/test_faults.py::TestProjectEnvMemory``)."""
+peak 149 B at 512x1024, ``tests/system/faults/test_memory.py::TestProjectEnvMemory``)."""
 
 
 def project_memory(texels: int, map_size: int | None, report: bool) -> int:

@@ -20,7 +20,7 @@ EXPORT_COEFFS = 9
 CHECK_DIRECTIONS = 256
 """Fibonacci directions of a scene bake's irradiance check (:func:`check_reference`): its
 relative RMS error agrees with 4096 directions' within 1.1 % of the error itself on the
-shared maps (lmax 2 and 4, sun kept and extracted; ``tests/test_scene.py``)."""
+shared maps (lmax 2 and 4, sun kept and extracted; ``tests/batch/test_scene.py``)."""
 IRRADIANCE_NAMES = ("irradiance", "tangent_irradiance")
 
 

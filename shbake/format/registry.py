@@ -8,7 +8,7 @@ before writing; :func:`shbake.format.asset.read_asset` validates a file
 against it from the HDF5 metadata *before* loading anything, loads only the
 declared datasets, and checks their values' finiteness. ``docs/FORMAT.md``
 carries one MUST/MAY section per kind rendered by :func:`markdown`
-(``tests/test_registry.py`` fails when they drift).
+(``tests/format/test_registry.py`` fails when they drift).
 
 Shape patterns
 --------------
@@ -28,7 +28,7 @@ Adding a kind
 -------------
 One ``register(Kind(...))`` in the kind's module under ``shbake/format/`` (its builder and
 typed reader live there too), that module's name in :data:`KIND_MODULES`, one example in
-``tests/assets_examples.py`` (``tests/test_registry.py`` fails for a kind without one),
+``tests/assets_examples.py`` (``tests/format/test_registry.py`` fails for a kind without one),
 then ``make format-doc`` writes its FORMAT.md section.
 """
 

@@ -4,7 +4,7 @@
 ``E_t(t) = (1/π²) Σ_p L_p sqrt(1 - (t·ω_p)²) Ω_p`` with the texel-centre
 directions ``ω_p`` and exact cell solid angles ``Ω_p`` of SPEC §3 — no SH
 anywhere. Cost ``O(texels × query directions)``; converges at second order
-in the texel size (shown in ``tests/test_reference.py``).
+in the texel size (shown in ``tests/reference/test_irradiance.py``).
 """
 
 import numpy as np

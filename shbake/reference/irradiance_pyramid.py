@@ -12,7 +12,7 @@ centres). A bin whose cone clears the horizon (``|n·c_b| > sin ρ_b``: every te
 ``n·ω_p`` of one sign) adds ``max(0, n·m_b)``; a bin the horizon crosses is opened (its four
 children), down to the finest bins, whose texels are summed one by one as the brute force
 does. The result is the brute-force sum reordered (equal to rounding, ~1e-13 relative:
-``tests/test_reference.py``); the work per query is proportional to the texels along the
+``tests/reference/test_irradiance.py``); the work per query is proportional to the texels along the
 horizon (≈ 4 % of them at 512 × 256) instead of all texels.
 
 Only Lambert irradiance has this identity: Kajiya–Kay's ``sqrt(1 − (t·ω)²)`` is not linear

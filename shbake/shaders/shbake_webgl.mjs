@@ -2,7 +2,7 @@
 // DIR/shbake.json, its KTX2 textures and GLSL files, and draws the asset's passes on a unit
 // sphere seen orthographically (the geometry of `shbake preview`, shbake/preview/sphere.py,
 // turned by a camera rotation). Raw WebGL2, no dependency. docs/SHADERS.md describes the
-// files; the viewer (DIR/index.html) and the rendered tests (tests/test_webgl_shaders.py)
+// files; the viewer (DIR/index.html) and the rendered tests (tests/system/test_webgl_shaders.py)
 // both draw through drawPass.
 
 const HEADER = `#version 300 es

@@ -25,7 +25,7 @@ same inputs). Each technique's module in :mod:`shbake.shading` defines one subcl
     ``export --to webgl`` ships with the asset.
 
 The preview, the evaluation, ``probe-eval`` and the scene bake's error checks reach the
-shaders through :func:`shader` and :data:`SHADERS` only (``tests/test_architecture.py``).
+shaders through :func:`shader` and :data:`SHADERS` only (``tests/system/test_architecture.py``).
 """
 
 from dataclasses import dataclass

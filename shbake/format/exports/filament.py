@@ -1,7 +1,7 @@
 """Filament export: cmgen's ``sh.txt``, KTX1 IBL and skybox cube maps with the SH in their metadata.
 
 Derived from Filament's own source (``docs/EXPORTS.md``) and rendered by Filament 1.53.4 in
-a browser by ``tests/test_engine_render.py``:
+a browser by ``tests/system/test_engine_render.py``:
 
 * ``IndirectLight::Builder::irradiance(3, sh)`` and the shader's
   ``irradianceSH(n) = sh0 + sh1 y + sh2 z + sh3 x + sh4 yx + sh5 yz + sh6 (3z²−1)

@@ -3,7 +3,7 @@
 The extension's text (KhronosGroup/glTF ``extensions/2.0/Vendor/EXT_lights_image_based/README.md``)
 defines no SH basis, sign or normalisation; Babylon.js is its implementation,
 so the numbers are written for what Babylon computes (``docs/EXPORTS.md``,
-each step checked in Babylon's own code by ``tests/test_exports.py``):
+each step checked in Babylon's own code by ``tests/format/exports/test_gltf.py``):
 
 * ``irradianceCoefficients[i] = s_i E_i / intensity²`` with ``s = (+,−,+,+,−,−,+,+,+)``:
   Babylon's basis carries the Condon–Shortley sign (``SH3ylmBasisConstants``

@@ -6,7 +6,7 @@ libktx installed; Debian has no libktx package and nothing may be downloaded at
 run time, so this is a small writer of uncompressed KTX2 (no supercompression),
 checked against an independent reader: ``ktx-parse`` (Don McCurdy), the KTX2
 parser three.js vendors (``three/examples/jsm/libs/ktx-parse.module.js``),
-run under node by ``tests/test_exports.py`` and ``tests/test_webgl_shaders.py``;
+run under node by ``tests/format/exports/test_ktx2.py`` and ``tests/system/test_webgl_shaders.py``;
 libktx itself (pyktx, ``ktx validate``) by hand with ``bench/ktx2_libktx.py``.
 
 Layout written (KTX 2.0 spec §3): identifier, header (``vkFormat`` of

@@ -1,6 +1,6 @@
 """three.js export: an ``ObjectLoader`` JSON scene, ``LightProbe`` + ``DirectionalLight`` sun.
 
-three.js conventions (``docs/EXPORTS.md``; checked by ``tests/test_exports.py``
+three.js conventions (``docs/EXPORTS.md``; checked by ``tests/format/exports/test_threejs.py``
 with three's own ``ObjectLoader``, ``SphericalHarmonics3.getIrradianceAt``):
 
 * ``LightProbe.sh`` holds **radiance** SH (``src/lights/LightProbe.js``;

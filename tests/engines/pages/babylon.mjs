@@ -1,5 +1,5 @@
 // Babylon.js page (tests/engines/harness.mjs): loads shbake's --to babylon exports with the snippets of
-// docs/EXPORTS.md (between the markers, verbatim; tests/test_engine_render.py checks) and renders a
+// docs/EXPORTS.md (between the markers, verbatim; tests/system/test_engine_render.py checks) and renders a
 // unit sphere into a float render target (image processing off: no tone mapping, no output gamma),
 // then once more with a material writing the interpolated world normal. Babylon's scene is
 // left-handed: as its glTF loader does for glTF content (root node mirrored in x), shbake's world

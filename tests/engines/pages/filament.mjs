@@ -1,5 +1,5 @@
 // Filament page (tests/engines/harness.mjs): loads shbake's --to filament IBL with the snippet of
-// docs/EXPORTS.md (between the markers, verbatim; tests/test_engine_render.py checks) and renders
+// docs/EXPORTS.md (between the markers, verbatim; tests/system/test_engine_render.py checks) and renders
 // a unit sphere (a glTF through gltfio's ubershaders: Filament's web build draws glTF materials)
 // into a half-float drawing buffer (WebGL2 drawingBufferStorage RGBA16F), post-processing off (no
 // tone mapping, no output transform) and exposure 1, then once more with an unlit sphere whose

@@ -1,5 +1,5 @@
 // three.js page (tests/engines/harness.mjs): loads shbake's --to threejs export with the snippet of
-// docs/EXPORTS.md (between the markers, verbatim; tests/test_engine_render.py checks) and renders
+// docs/EXPORTS.md (between the markers, verbatim; tests/system/test_engine_render.py checks) and renders
 // a unit sphere into a float render target, tone mapping and output encoding off, then once more
 // with a material writing the interpolated world normal.
 import * as THREE from "three";

@@ -1,4 +1,4 @@
-// shbake's own GLSL passes (tests/test_webgl_shaders.py, bench/shader_cost.py): loads an
+// shbake's own GLSL passes (tests/system/test_webgl_shaders.py, bench/shader_cost.py): loads an
 // `export --to webgl` folder with the loader it carries (DIR/shbake_webgl.mjs) and draws each
 // requested pass with the preview's camera (identity: orthographic from +Z) into a float32
 // render target of `size`² pixels, returned as images; or, with `timing` (frames), into a

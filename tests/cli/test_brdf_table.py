@@ -1,0 +1,131 @@
+"""``shbake brdf-table`` end to end: the table asset and its images, byte-identical reruns, bad
+input in one line and no file, and the kautz preview of the table with ``--diff``.
+"""
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+
+from tests.helpers import map_path
+
+
+class TestBrdfTableCli:
+    def test_table_asset_and_images(self, run_cli, tmp_path):
+        out = tmp_path / "t.h5"
+        code, stdout, err = run_cli(
+            "brdf-table",
+            "ashikhmin-shirley",
+            "-p",
+            "nu=24",
+            "-p",
+            "nv=8",
+            "-p",
+            "Rs=0.9,0.8,0.5",
+            "--lmax",
+            2,
+            "--size",
+            16,
+            "--samples",
+            256,
+            "--vary",
+            "nu=10:40:3",
+            "--exr-dir",
+            tmp_path / "img",
+            "-o",
+            out,
+            "--json",
+            "-q",
+        )
+        assert code == 0, err
+        summary = json.loads(stdout)
+        with h5py.File(out) as f:
+            assert f.attrs["kind"] == "brdf_table"
+            t = f["/table"]
+            assert t.shape == (3, 3, 16, 16, 9) and t.dtype == np.float32
+            assert json.loads(t.attrs["axes"]) == ["channel", "nu", "row", "col", "coeff"]
+            assert np.all(np.isfinite(t[()]))
+            assert "bake_seconds" in t.attrs and t.attrs["error_estimate"] > 0
+            np.testing.assert_allclose(f["/axes/nu"][()], [10, 25, 40])
+        assert summary["shape"] == [3, 3, 16, 16, 9]
+        for l in range(3):
+            assert (tmp_path / "img" / f"band{l}.exr").exists()
+        assert (tmp_path / "img" / "sheet.png").exists()
+
+    def test_reproducible_is_byte_identical(self, run_cli, tmp_path):
+        args = [
+            "brdf-table",
+            "ggx",
+            "-p",
+            "alpha=0.4",
+            "--lmax",
+            2,
+            "--size",
+            8,
+            "--samples",
+            128,
+            "--reproducible",
+            "-q",
+        ]
+        assert run_cli(*args, "-o", tmp_path / "a.h5")[0] == 0
+        first = (tmp_path / "a.h5").read_bytes()
+        assert run_cli(*args, "-o", tmp_path / "a.h5")[0] == 0
+        assert (tmp_path / "a.h5").read_bytes() == first
+
+    @pytest.mark.parametrize(
+        "args,match,code",
+        [
+            (["cook"], "'cook' is not one of 'lambert', 'phong'", 2),
+            (["ggx", "-p", "beta=1"], "allowed: F0, alpha_x, alpha_y, correlated, alpha", 2),
+            (["ggx", "-p", "alpha=2"], "outside", 2),
+            (["phong", "-p", "rho_d=0.7", "-p", "rho_s=0.7"], "energy", 2),
+            (["ggx", "--lmax", 17], "17 is not in the range 0<=x<=16", 2),
+            (["ggx", "--vary", "alpha=0:1"], "NAME=lo:hi:N", 2),
+            (["ggx", "--size", "1"], "sides must be in", 2),
+            (["merl"], "needs a MERL", 1),
+        ],
+    )
+    def test_bad_input_one_line_no_file(self, run_cli, tmp_path, args, match, code):
+        out = tmp_path / "x.h5"
+        got, _, err = run_cli("brdf-table", *args, "-o", out)
+        assert got == code and match in err and err.count("\n") == 1, err
+        assert list(tmp_path.iterdir()) == []
+
+    def test_preview_kautz_with_diff(self, run_cli, tmp_path):
+        env, table = tmp_path / "e.h5", tmp_path / "t.h5"
+        assert run_cli("project-env", map_path("forest"), "--lmax", 4, "-o", env, "-q")[0] == 0
+        assert (
+            run_cli(
+                "brdf-table",
+                "ggx",
+                "-p",
+                "alpha=0.5",
+                "--size",
+                16,
+                "--samples",
+                256,
+                "-o",
+                table,
+                "-q",
+            )[0]
+            == 0
+        )
+        code, stdout, err = run_cli(
+            "preview",
+            env,
+            "--pass",
+            "kautz",
+            "--table",
+            table,
+            "--size",
+            24,
+            "--diff",
+            "-o",
+            tmp_path / "k.exr",
+            "--json",
+        )
+        assert code == 0, err
+        s = json.loads(stdout)
+        assert set(s["modes"]) == {"full", "fixed_light", "fixed_view"}
+        assert s["relative_rms_error"] < 0.1
