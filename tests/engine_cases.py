@@ -1,4 +1,4 @@
-"""The engine render cases shared by tests/test_engine_render.py and bench/engine_render.py:
+"""The engine render cases shared by tests/system/test_engine_render.py and bench/engine_render.py:
 the views, materials and cube chains, how each engine page is rendered, and the brute-force
 references and error measures the renders are compared with (that test module's docstring)."""
 
@@ -394,7 +394,7 @@ def diffuse_error(render: dict, src, clamped: bool = True) -> float:
     """Max relative error of the rendered white Lambert sphere against ``E(n)/π`` of the asset.
 
     Per direction ``max |engine − shbake| / Σ_i |E_i y_i(n)|/π`` (the size of the terms
-    summed, as ``tests/test_exports.py``: ``E(n)`` itself nears 0 where they cancel, studio).
+    summed, as ``tests/export_checks.py``: ``E(n)`` itself nears 0 where they cancel, studio).
     ``clamped``: the engine shows no negative light where the SH truncation makes ``E < 0``
     (Filament ``light_indirect.fs`` ``Irradiance_SphericalHarmonics`` ``max(…, 0)``; Babylon
     ``pbrBlockFinalColorComposition.js:45`` ``max(finalColor, 0)``), so shbake's is clamped

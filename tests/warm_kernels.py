@@ -30,6 +30,8 @@ CHAINS = {
         "brdf-table ashikhmin-shirley -p nu=24 -p nv=8 --size 8 --tol 1e-2 -o as.h5",
         "shrm sky.exr -o shrm.h5 --brdf microfacet -p sigma=0.2",
         "preview shrm.h5 --pass shrm -o shrm.exr --diff --size 16",
+        "project-env sky.exr -o sky.h5 --lmax 4",
+        "preview sky.h5 --pass kautz --table as.h5 -o kautz.exr --diff --size 16",
     ],
     "env": [
         "project-env sky.exr -o sky.h5 --lmax 8 --extract-sun --report --export threejs",
