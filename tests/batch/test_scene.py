@@ -221,6 +221,10 @@ class TestIrradianceTruncation:
             assert err[L] == pytest.approx(rel.max(), rel=1e-6)
 
 
+ONE_BAKE = pytest.mark.xdist_group("two-maps-baked")
+"""The tests that read :func:`baked`, kept on one xdist worker so the scene is baked once."""
+
+
 @pytest.fixture(scope="module")
 def baked(tmp_path_factory):
     """The two-map scene planned and baked with --jobs 2 (module-wide: tests read it)."""
@@ -232,6 +236,7 @@ def baked(tmp_path_factory):
 
 
 class TestPlan:
+    @ONE_BAKE
     def test_assets_per_material_kind(self, baked):
         _, _, scene, summary = baked
         plan = plan_scene(scene)
@@ -246,6 +251,7 @@ class TestPlan:
             for k, v in a["predicted_error"].items():
                 assert v <= a["tolerances"][k]
 
+    @ONE_BAKE
     def test_measured_errors_within_tolerance(self, baked):
         _, _, _, summary = baked
         for rec in summary["records"].values():
@@ -256,6 +262,7 @@ class TestPlan:
             if rec["id"].startswith("export/threejs/"):  # what the engine evaluates, measured
                 assert 0 < rec["measured_error"]["irradiance"] < 1, rec
 
+    @ONE_BAKE
     def test_shrm_for_glossy_non_ggx(self, baked):
         _, _, scene, summary = baked
         plan = plan_scene(scene)
@@ -293,6 +300,7 @@ class TestPlan:
         assert c["settings"]["params"] == {"alpha": 0.25, "F0": 0.5}
         assert max(a["predicted_error"]["shrm"], c["predicted_error"]["shrm"]) <= 0.03
 
+    @ONE_BAKE
     def test_plan_json(self, baked, run_cli):
         _, path, _, _ = baked
         code, out, _ = run_cli("plan", path, "--json", "--quiet")
@@ -302,6 +310,7 @@ class TestPlan:
 
 
 class TestPipelines:
+    @ONE_BAKE
     def test_make_jobs_and_dask_identical_and_incremental(self, baked, tmp_path):
         folder, path, scene, _ = baked
         out = Path(scene.out_dir)
@@ -372,6 +381,7 @@ class TestPortableState:
     """Issue 32: the lock, the settings stamps and the fragment name paths relative to the
     scene's folder (docs/SCENES.md), so a scene folder moves with its outputs."""
 
+    @ONE_BAKE
     def test_copied_folder_bakes_nothing(self, baked, tmp_path):
         folder, path, scene, _ = baked
         assert bake_scene(load_scene(str(path)))["baked"] == []  # up to date where it is

@@ -15,6 +15,8 @@ from shbake_cli.main import main
 
 from tests.helpers import GOLDEN
 
+pytestmark = pytest.mark.xdist_group("golden")  # one worker runs the commands once
+
 MAP = "esplanade-64x32.exr"
 FACES = tuple(f"_{i}_{f}" for i in range(2) for f in range(6))
 COMMANDS = (

@@ -17,7 +17,10 @@ from tests.export_checks import SMALL, TOL
 from tests.export_checks import relative_error as _rel
 from tests.helpers import run_node
 
-pytestmark = pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed")
+pytestmark = [
+    pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed"),
+    pytest.mark.xdist_group("exports-baked"),  # one worker bakes the folder's 18 assets
+]
 
 
 class TestBabylonGltf:
