@@ -111,6 +111,35 @@ def test_lock_says_how_errors_were_measured_and_no_tangent_is_computed(tmp_path,
     assert not any(calls), "tangent irradiance was summed for assets that have none"
 
 
+def test_env_sh_check_measures_the_written_asset_without_reading_it_back(tmp_path, monkeypatch):
+    """The env_sh check takes the asset from memory (reading each file back cost a quarter of
+    an env_sh bake): no asset is read during the bake, and each lock error equals the one
+    measured afresh from the file on disk (the map turned by a probe pose included)."""
+    import shbake.format.asset as asset_module
+    from shbake.batch.scene import load_scene
+    from shbake.batch.scene_bake import bake_scene
+    from shbake.envmap.turn import turn_matrix
+
+    path = diffuse_scene(tmp_path)
+    path.write_text(DIFFUSE_SCENE.replace('"maps/*.exr"', '"maps/*.exr"\nrotation_deg = 30.0'))
+    reads = []
+    real = asset_module.read_asset
+    monkeypatch.setattr(
+        asset_module, "read_asset", lambda *a, **k: reads.append(a) or real(*a, **k)
+    )
+    bake_scene(load_scene(str(path)))
+    assert reads == []
+    lock = json.loads((tmp_path / "out" / "scene.lock.json").read_text())
+    for aid, rec in lock["assets"].items():
+        name = aid.split("/")[-1]
+        asset = real(str(tmp_path / "out" / aid) + ".h5")
+        env = load_environment(str(map_path(name)), quiet=True)
+        ref = check_reference(env, ["irradiance"])
+        turn = turn_matrix(rec["settings"]["pose"]["rotation_deg"])
+        fresh = irradiance_errors(asset, env, ref, rotation=turn)["irradiance"]["relative_rms"]
+        assert rec["measured_error"]["irradiance"] == fresh, aid
+
+
 def test_bake_after_plan_does_not_plan_again(tmp_path, monkeypatch):
     """``plan`` keeps its per-unit plans; a bake from a cold output folder reuses them."""
     import shbake.batch.plan as plan
