@@ -140,6 +140,31 @@ def test_env_sh_check_measures_the_written_asset_without_reading_it_back(tmp_pat
         assert rec["measured_error"]["irradiance"] == fresh, aid
 
 
+def test_workers_plan_each_map_content_once(tmp_path, monkeypatch):
+    """``plan --jobs``: a map linked or copied under other names is planned once, not once
+    per worker task it falls in (a 10,000-probe scene of links to a few maps)."""
+    import contextlib
+
+    import shbake.batch.plan as plan
+    import shbake.batch.probe_jobs as probe_jobs
+    from shbake.batch.scene import load_scene
+
+    path = diffuse_scene(tmp_path)
+    (tmp_path / "maps" / "again.exr").symlink_to(tmp_path / "maps" / "studio.exr")
+    shutil.copy(map_path("studio"), tmp_path / "maps" / "copy.exr")
+    monkeypatch.setattr(plan, "PLAN_POOL_MAPS", 1)
+    monkeypatch.setattr(plan, "PLAN_TASK_MAPS", 1)
+    # the workers' tasks run here, in order, so that their measurements can be counted
+    here = type("Pool", (), {"map": map})
+    monkeypatch.setattr(probe_jobs, "worker_pool", lambda jobs: contextlib.nullcontext(here))
+    measured = []
+    real = plan.plan_env_sh
+    monkeypatch.setattr(plan, "plan_env_sh", lambda *a, **k: measured.append(a[0]) or real(*a, **k))
+    result = plan.plan_scene_kept(load_scene(str(path)), jobs=2)
+    assert len(result["assets"]) == 4
+    assert len(measured) == 2, measured  # studio (or a link or copy of it) and sunset
+
+
 def test_bake_after_plan_does_not_plan_again(tmp_path, monkeypatch):
     """``plan`` keeps its per-unit plans; a bake from a cold output folder reuses them."""
     import shbake.batch.plan as plan
