@@ -165,6 +165,29 @@ def test_workers_plan_each_map_content_once(tmp_path, monkeypatch):
     assert len(measured) == 2, measured  # studio (or a link or copy of it) and sunset
 
 
+def test_stamps_compared_by_value_without_indenting(tmp_path, monkeypatch):
+    """A bake with nothing to do writes no stamp and indents no JSON (the pure-Python encoder
+    was ~1 s of a 2000-asset no-op bake); a stamp whose value differs, if only in a number's
+    type, is written again with the text the first bake wrote."""
+    import shbake.batch.scene_bake as scene_bake
+    from shbake.batch.scene import load_scene
+
+    scene = load_scene(str(diffuse_scene(tmp_path)))
+    scene_bake.bake_scene(scene)
+    stamp = tmp_path / "out" / ".stamps" / "env_sh" / "studio.json"
+    text = stamp.read_text()
+    lmax = json.loads(text)["settings"]["lmax"]
+    assert isinstance(lmax, int)
+    stamp.write_text(text.replace(f'"lmax": {lmax}', f'"lmax": {lmax}.0'))
+    indented = []
+    real = scene_bake.settings_text
+    monkeypatch.setattr(scene_bake, "settings_text", lambda a: indented.append(a) or real(a))
+    summary = scene_bake.bake_scene(scene)
+    assert summary["baked"] == []
+    assert [a["id"] for a in indented] == ["env_sh/studio"]
+    assert stamp.read_text() == text
+
+
 def test_bake_after_plan_does_not_plan_again(tmp_path, monkeypatch):
     """``plan`` keeps its per-unit plans; a bake from a cold output folder reuses them."""
     import shbake.batch.plan as plan

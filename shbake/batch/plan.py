@@ -590,8 +590,10 @@ def _plan_in_workers(scene: Scene, units: dict, jobs: int) -> None:
 
     from shbake.batch.probe_jobs import worker_pool
 
+    if jobs <= 1:
+        return
     envs = _distinct_contents(scene.environments)
-    if jobs <= 1 or len(envs) < PLAN_POOL_MAPS or len(units) >= len(envs):
+    if len(envs) < PLAN_POOL_MAPS or len(units) >= len(envs):
         return
     recipe_overheads(recipe_classes(scene))  # measured here once, before workers read it
     per_map = tuple(m for m in scene.materials if m.kind not in ("anisotropic", "measured"))
