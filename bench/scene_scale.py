@@ -13,7 +13,8 @@ Per N, side by side in one run, each command a fresh process from a cold output 
 * ``plan --jobs 2`` then ``bake --jobs 2``; a second ``bake`` (nothing to do); one map's bytes
   changed, then ``bake`` (its assets only);
 * ``plan --emit-make`` (``--maps-per-rule 8``) then ``make -j2``; a second ``make``;
-* ``bake --scheduler`` on a 2-worker ``LocalCluster`` (started before the timing);
+* ``bake --scheduler`` on a 2-worker ``LocalCluster`` (started before the timing; the
+  nanny's ``MALLOC_TRIM_THRESHOLD_`` unset, as docs/SCENES.md recommends);
 * the bare commands doing the same bakes, all maps in one call each with ``--jobs 2``:
   ``project-env`` at the settings the plan chose, ``probe-fit`` at the plan's fit,
   ``split-sum`` at the plan's chain (a shbake before issue 31: ``project-env`` one process
@@ -262,8 +263,12 @@ def measure(work: Path, n: int, skip: set[str]) -> dict:
         res["make"] = run(["make", "-j2", "scene-assets"], work)
         res["noop_make"] = run(["make", "-j2", "scene-assets"], work)
     if "dask" not in skip:
+        import dask
         from distributed import LocalCluster
 
+        # the nanny's MALLOC_TRIM_THRESHOLD_ costs shbake's workers ~30 % CPU (docs/SCENES.md)
+        nanny = {"pre-spawn-environ": {"MALLOC_TRIM_THRESHOLD_": None}}
+        dask.config.update(dask.config.config, {"distributed": {"nanny": nanny}})
         shutil.rmtree(out)
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                           dashboard_address=":0") as cluster:  # fmt: skip
