@@ -13,7 +13,8 @@ Per N, side by side in one run, each command a fresh process from a cold output 
 * ``plan --jobs 2`` then ``bake --jobs 2``; a second ``bake`` (nothing to do); one map's bytes
   changed, then ``bake`` (its assets only);
 * ``plan --emit-make`` (``--maps-per-rule 8``) then ``make -j2``; a second ``make``;
-* ``bake --scheduler`` on a 2-worker ``LocalCluster`` (started before the timing);
+* ``bake --scheduler`` on a 2-worker ``LocalCluster`` (started before the timing; the
+  nanny's ``MALLOC_TRIM_THRESHOLD_`` unset, as docs/SCENES.md recommends);
 * the bare commands doing the same bakes, all maps in one call each with ``--jobs 2``:
   ``project-env`` at the settings the plan chose, ``probe-fit`` at the plan's fit,
   ``split-sum`` at the plan's chain (a shbake before issue 31: ``project-env`` one process
@@ -262,8 +263,12 @@ def measure(work: Path, n: int, skip: set[str]) -> dict:
         res["make"] = run(["make", "-j2", "scene-assets"], work)
         res["noop_make"] = run(["make", "-j2", "scene-assets"], work)
     if "dask" not in skip:
+        import dask
         from distributed import LocalCluster
 
+        # the nanny's MALLOC_TRIM_THRESHOLD_ costs shbake's workers ~30 % CPU (docs/SCENES.md)
+        nanny = {"pre-spawn-environ": {"MALLOC_TRIM_THRESHOLD_": None}}
+        dask.config.update(dask.config.config, {"distributed": {"nanny": nanny}})
         shutil.rmtree(out)
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                           dashboard_address=":0") as cluster:  # fmt: skip
@@ -330,17 +335,20 @@ def plot(results: list[dict], path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    ns = [r["n"] for r in results]
     fig, ax = plt.subplots(figsize=(6, 4))
     series = {"plan + bake --jobs 2": lambda r: r["plan"]["wall"] + r["bake"]["wall"],
               "plan + make -j2": lambda r: r["plan"]["wall"] + r["make"]["wall"],
               "bake --scheduler (Dask, 2 workers)": lambda r: r["dask"]["wall"],
               "bare commands --jobs 2": lambda r: r["bare"]["wall"]}  # fmt: skip
     for name, f in series.items():
-        try:
-            ax.loglog(ns, [f(r) for r in results], "o-", label=name)
-        except KeyError:
-            continue
+        points = []
+        for r in results:  # a run with --skip leaves its N out of that series only
+            try:
+                points.append((r["n"], f(r)))
+            except KeyError:
+                continue
+        if points:
+            ax.loglog(*zip(*points, strict=True), "o-", label=name)
     ax.set_xlabel("probes (512×256 maps)")
     ax.set_ylabel("wall seconds (2 cores)")
     ax.legend()

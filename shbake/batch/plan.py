@@ -582,15 +582,18 @@ def _plan_task(scene: Scene, cache: dict) -> dict:
 
 def _plan_in_workers(scene: Scene, units: dict, jobs: int) -> None:
     """Measure the per-map units of ``scene`` in ``jobs`` worker processes,
-    :data:`PLAN_TASK_MAPS` maps a task, into ``units`` (the main pass then finds them all);
-    nothing below :data:`PLAN_POOL_MAPS` maps or when ``units`` already holds about one per
-    map (a re-plan after a few changed maps does its few here)."""
+    :data:`PLAN_TASK_MAPS` distinct maps a task (:func:`_distinct_contents`), into ``units``
+    (the main pass then finds them all); nothing below :data:`PLAN_POOL_MAPS` maps or when
+    ``units`` already holds about one per map (a re-plan after a few changed maps does its
+    few here)."""
     from dataclasses import replace
 
     from shbake.batch.probe_jobs import worker_pool
 
-    envs = scene.environments
-    if jobs <= 1 or len(envs) < PLAN_POOL_MAPS or len(units) >= len(envs):
+    if jobs <= 1:
+        return
+    envs = _distinct_contents(scene.environments)
+    if len(envs) < PLAN_POOL_MAPS or len(units) >= len(envs):
         return
     recipe_overheads(recipe_classes(scene))  # measured here once, before workers read it
     per_map = tuple(m for m in scene.materials if m.kind not in ("anisotropic", "measured"))
@@ -600,6 +603,17 @@ def _plan_in_workers(scene: Scene, units: dict, jobs: int) -> None:
     with worker_pool(jobs) as pool:
         for measured in pool.map(_plan_task, tasks, [known] * len(tasks)):
             units.update(measured)
+
+
+def _distinct_contents(envs) -> list:
+    """One probe of ``envs`` per map content and per-probe tolerances, in order: the units
+    of probes that share both are the same (their keys name the map's bytes, not its path),
+    so copies of a map or links to it are measured once, not once per task they fall in."""
+    first: dict = {}
+    for e in envs:
+        tolerances = json.dumps(e.tolerances, sort_keys=True, default=str)
+        first.setdefault((file_hash(e.map), tolerances), e)
+    return list(first.values())
 
 
 def plan_scene_kept(scene: Scene, cache: dict | None = None, jobs: int = 1) -> dict:

@@ -160,7 +160,13 @@ def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh:
     return irradiance_lmax
 
 
-def project_environment(
+def project_environment(env_path: str, output: str, **settings) -> dict:
+    """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the summary
+    (:func:`project_environment_asset`, whose keyword ``settings`` it takes)."""
+    return project_environment_asset(env_path, output, **settings)[1]
+
+
+def project_environment_asset(
     env_path: str,
     output: str,
     lmax: int = 2,
@@ -187,8 +193,10 @@ def project_environment(
     progress=NO_PROGRESS,
     pose: dict | None = None,
     measure_export: bool = False,
-) -> dict:
-    """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the summary.
+) -> tuple:
+    """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the asset as
+    written (in memory: a scene's check measures it without reading the file back) and the
+    summary.
 
     ``pose``: a scene probe's ``{"position": [x, y, z], "rotation_deg": θ}``, recorded in
     the asset (``probe_position``, ``probe_rotation_deg``); the SH are turned by ``θ``
@@ -303,4 +311,4 @@ def project_environment(
     elif summary.get("lights"):
         summary["lights"]["lights"] = lights_found
     summary["warnings"] = quality_warnings(asset, summary)
-    return summary
+    return asset, summary

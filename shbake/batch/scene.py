@@ -357,6 +357,7 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
     if not envs:
         chk.fail("environments", "a scene needs at least one [[environments]] entry")
     environments = []
+    names: set[str] = set()  # the environments' names so far (a glob of 10,000 maps: no scan)
     for i, env in enumerate(envs):
         key = f"environments[{i}]"
         chk.table(env, key, ENV_KEYS)
@@ -387,8 +388,9 @@ def load_scene(path: str, allow_outside: bool = False) -> Scene:
             map_stem = os.path.splitext(os.path.basename(m))[0]
             name = chk.name(f"{key}.name", env["name"] if len(found) == 1 and "name" in env
                             else map_stem)  # fmt: skip
-            if any(e.name == name for e in environments):
+            if name in names:
                 chk.fail(f"{key}.name", f"duplicate environment name {name!r}")
+            names.add(name)
             resources.note_input(m)
             if os.path.isabs(env["map"]):
                 written_absolute.add(os.path.abspath(m))
@@ -516,7 +518,11 @@ def stamp_path(out_dir: str, aid: str) -> str:
     return os.path.join(out_dir, STAMP_DIR, *aid.split("/")) + ".json"
 
 
+def settings_value(asset: dict) -> dict:
+    """What decides an asset's bytes (kind, settings, inputs' hashes): its stamp's value."""
+    return {k: asset[k] for k in ("id", "kind", "output", "inputs", "input_hashes", "settings")}
+
+
 def settings_text(asset: dict) -> str:
-    """What decides an asset's bytes (kind, settings, inputs' hashes): its stamp file's text."""
-    keep = {k: asset[k] for k in ("id", "kind", "output", "inputs", "input_hashes", "settings")}
-    return json.dumps(keep, sort_keys=True, indent=1) + "\n"
+    """An asset's stamp file's text: :func:`settings_value` as indented JSON."""
+    return json.dumps(settings_value(asset), sort_keys=True, indent=1) + "\n"

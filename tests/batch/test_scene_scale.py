@@ -111,6 +111,83 @@ def test_lock_says_how_errors_were_measured_and_no_tangent_is_computed(tmp_path,
     assert not any(calls), "tangent irradiance was summed for assets that have none"
 
 
+def test_env_sh_check_measures_the_written_asset_without_reading_it_back(tmp_path, monkeypatch):
+    """The env_sh check takes the asset from memory (reading each file back cost a quarter of
+    an env_sh bake): no asset is read during the bake, and each lock error equals the one
+    measured afresh from the file on disk (the map turned by a probe pose included)."""
+    import shbake.format.asset as asset_module
+    from shbake.batch.scene import load_scene
+    from shbake.batch.scene_bake import bake_scene
+    from shbake.envmap.turn import turn_matrix
+
+    path = diffuse_scene(tmp_path)
+    path.write_text(DIFFUSE_SCENE.replace('"maps/*.exr"', '"maps/*.exr"\nrotation_deg = 30.0'))
+    reads = []
+    real = asset_module.read_asset
+    monkeypatch.setattr(
+        asset_module, "read_asset", lambda *a, **k: reads.append(a) or real(*a, **k)
+    )
+    bake_scene(load_scene(str(path)))
+    assert reads == []
+    lock = json.loads((tmp_path / "out" / "scene.lock.json").read_text())
+    for aid, rec in lock["assets"].items():
+        name = aid.split("/")[-1]
+        asset = real(str(tmp_path / "out" / aid) + ".h5")
+        env = load_environment(str(map_path(name)), quiet=True)
+        ref = check_reference(env, ["irradiance"])
+        turn = turn_matrix(rec["settings"]["pose"]["rotation_deg"])
+        fresh = irradiance_errors(asset, env, ref, rotation=turn)["irradiance"]["relative_rms"]
+        assert rec["measured_error"]["irradiance"] == fresh, aid
+
+
+def test_workers_plan_each_map_content_once(tmp_path, monkeypatch):
+    """``plan --jobs``: a map linked or copied under other names is planned once, not once
+    per worker task it falls in (a 10,000-probe scene of links to a few maps)."""
+    import contextlib
+
+    import shbake.batch.plan as plan
+    import shbake.batch.probe_jobs as probe_jobs
+    from shbake.batch.scene import load_scene
+
+    path = diffuse_scene(tmp_path)
+    (tmp_path / "maps" / "again.exr").symlink_to(tmp_path / "maps" / "studio.exr")
+    shutil.copy(map_path("studio"), tmp_path / "maps" / "copy.exr")
+    monkeypatch.setattr(plan, "PLAN_POOL_MAPS", 1)
+    monkeypatch.setattr(plan, "PLAN_TASK_MAPS", 1)
+    # the workers' tasks run here, in order, so that their measurements can be counted
+    here = type("Pool", (), {"map": map})
+    monkeypatch.setattr(probe_jobs, "worker_pool", lambda jobs: contextlib.nullcontext(here))
+    measured = []
+    real = plan.plan_env_sh
+    monkeypatch.setattr(plan, "plan_env_sh", lambda *a, **k: measured.append(a[0]) or real(*a, **k))
+    result = plan.plan_scene_kept(load_scene(str(path)), jobs=2)
+    assert len(result["assets"]) == 4
+    assert len(measured) == 2, measured  # studio (or a link or copy of it) and sunset
+
+
+def test_stamps_compared_by_value_without_indenting(tmp_path, monkeypatch):
+    """A bake with nothing to do writes no stamp and indents no JSON (the pure-Python encoder
+    was ~1 s of a 2000-asset no-op bake); a stamp whose value differs, if only in a number's
+    type, is written again with the text the first bake wrote."""
+    import shbake.batch.scene_bake as scene_bake
+    from shbake.batch.scene import load_scene
+
+    scene = load_scene(str(diffuse_scene(tmp_path)))
+    scene_bake.bake_scene(scene)
+    stamp = tmp_path / "out" / ".stamps" / "env_sh" / "studio.json"
+    text = stamp.read_text()
+    lmax = json.loads(text)["settings"]["lmax"]
+    assert isinstance(lmax, int)
+    stamp.write_text(text.replace(f'"lmax": {lmax}', f'"lmax": {lmax}.0'))
+    indented = []
+    real = scene_bake.settings_text
+    monkeypatch.setattr(scene_bake, "settings_text", lambda a: indented.append(a) or real(a))
+    summary = scene_bake.bake_scene(scene)
+    assert summary["baked"] == []
+    assert [a["id"] for a in indented] == ["env_sh/studio"]
+    assert stamp.read_text() == text
+
+
 def test_bake_after_plan_does_not_plan_again(tmp_path, monkeypatch):
     """``plan`` keeps its per-unit plans; a bake from a cold output folder reuses them."""
     import shbake.batch.plan as plan
