@@ -148,11 +148,15 @@ def _bilinear_latlong(img, u, v, out):
 
 
 @jit
-def _sub_direction(frames, rot, size, k, face, row, col, q):
-    """Unit direction of sub-texel ``q`` (row-major ``k × k`` grid) of texel ``(row, col)`` on
-    face ``face`` of a ``size``² cube (faces ``frames``), turned by ``rot`` (row vector ``d R``)."""
-    s = 2.0 * ((col + ((q % k) + 0.5) / k) / size) - 1.0
-    t = 2.0 * ((row + ((q // k) + 0.5) / k) / size) - 1.0
+def _sub_coordinate(i, k, size, j):
+    """Face coordinate in [-1, 1] of sub-texel ``j`` (of ``k``) of texel ``i`` along an axis."""
+    return 2.0 * ((i + (j + 0.5) / k) / size) - 1.0
+
+
+@jit
+def _face_direction(frames, rot, face, s, t):
+    """Unit direction at face coordinates ``(s, t)`` of face ``face`` (faces ``frames``),
+    turned by ``rot`` (row vector ``d R``)."""
     F = frames[face]
     x = F[0, 0] * s + F[0, 1] * t + F[0, 2]
     y = F[1, 0] * s + F[1, 1] * t + F[1, 2]
@@ -168,25 +172,32 @@ def _sub_direction(frames, rot, size, k, face, row, col, q):
 
 @jit
 def _sub_directions(frames, rot, size, k, out, b0, b1):
-    # out (6 size², k², 3): every sub-texel direction of texels b0 … b1
+    # out (6 size², k², 3): every sub-texel direction (row-major k × k grid) of texels b0 … b1
     for m in range(b0, b1):
         face, rc = m // (size * size), m % (size * size)
         for q in range(k * k):
-            d = _sub_direction(frames, rot, size, k, face, rc // size, rc % size, q)
-            out[m, q, 0], out[m, q, 1], out[m, q, 2] = d
+            s = _sub_coordinate(rc % size, k, size, q % k)
+            t = _sub_coordinate(rc // size, k, size, q // k)
+            out[m, q, 0], out[m, q, 1], out[m, q, 2] = _face_direction(frames, rot, face, s, t)
 
 
 @jit
 def _resample_latlong(img, frames, rot, size, k, out, b0, b1):
-    # out (6 size², 3): box average of the k² bilinear lat-long fetches of each texel
+    # out (6 size², 3): box average of the k² bilinear lat-long fetches of each texel, in the
+    # row-major order of _sub_directions; a texel's k column and k row coordinates made once
     tmp = np.zeros(3)
+    ss = np.empty(k)
+    ts = np.empty(k)
     for m in range(b0, b1):
         face, rc = m // (size * size), m % (size * size)
+        for j in range(k):
+            ss[j] = _sub_coordinate(rc % size, k, size, j)
+            ts[j] = _sub_coordinate(rc // size, k, size, j)
         acc0 = 0.0
         acc1 = 0.0
         acc2 = 0.0
         for q in range(k * k):
-            dx, dy, dz = _sub_direction(frames, rot, size, k, face, rc // size, rc % size, q)
+            dx, dy, dz = _face_direction(frames, rot, face, ss[q % k], ts[q // k])
             u = math.atan2(dx, -dz) / (2.0 * math.pi)
             u = u - math.floor(u)
             v = math.acos(min(1.0, max(-1.0, dy))) / math.pi

@@ -89,9 +89,25 @@ class SplitSumConfig:
 
 
 @jit
-def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, out, b0, b1):
-    n = square.shape[0]
+def _lobe_samples(alpha, square, out):
+    """``out[k] = (cos θ_h, sin θ_h cos φ, sin θ_h sin φ, D(h)/4)`` of the ``k``-th GGX half
+    vector (width ``α``, in its normal's tangent frame, ``n = v``) drawn from ``square[k]``:
+    what every texel of a level shares, computed once per level."""
     a2 = alpha * alpha
+    for k in range(square.shape[0]):
+        phi = 2.0 * np.pi * square[k, 1]
+        u = square[k, 0]
+        ct = np.sqrt(half_vector_cos2(a2, u))
+        st = np.sqrt(max(0.0, 1.0 - ct * ct))
+        out[k, 0] = ct
+        out[k, 1] = st * np.cos(phi)
+        out[k, 2] = st * np.sin(phi)
+        out[k, 3] = ggx_d_iso(a2, ct) / 4.0  # D(h) (n·h) / (4 v·h), n = v
+
+
+@jit
+def _prefilter(size, lobe, pixels, height, width, filtered, offsets, out, b0, b1):
+    n = lobe.shape[0]
     levels = offsets.shape[0] - 1
     log2_omega = np.empty(height)
     for row in range(height):
@@ -103,11 +119,7 @@ def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, ou
             acc0 = acc1 = acc2 = 0.0
             wsum = 0.0
             for k in range(n):
-                phi = 2.0 * np.pi * square[k, 1]
-                u = square[k, 0]
-                ct = np.sqrt(half_vector_cos2(a2, u))
-                st = np.sqrt(max(0.0, 1.0 - ct * ct))
-                hx_, hy_ = st * np.cos(phi), st * np.sin(phi)
+                ct, hx_, hy_ = lobe[k, 0], lobe[k, 1], lobe[k, 2]
                 hx = hx_ * tx + hy_ * bx + ct * nx
                 hy = hx_ * ty + hy_ * by + ct * ny
                 hz = hx_ * tz + hy_ * bz + ct * nz
@@ -117,8 +129,7 @@ def _prefilter(size, alpha, square, pixels, height, width, filtered, offsets, ou
                 if nl <= 0.0:
                     continue
                 if filtered:
-                    pdf = ggx_d_iso(a2, ct) / 4.0  # D(h) (n·h) / (4 v·h), n = v
-                    j = filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets,
+                    j = filtered_texel(lx, ly, lz, lobe[k, 3], n, height, width, levels, offsets,
                                        log2_omega)  # fmt: skip
                 else:
                     j = latlong_texel(lx, ly, lz, height, width)
@@ -159,10 +170,12 @@ def prefilter_chain(pixels, config: SplitSumConfig) -> list[np.ndarray]:
     else:
         offsets = level_offsets((h, w), 1)
     square = fibonacci_square(config.samples)
+    lobe = np.empty((square.shape[0], 4))
     out_levels = []
     for size, a in zip(config.sizes, config.alphas, strict=True):
+        _lobe_samples(float(a), square, lobe)
         out = np.empty((size, size, 3))
-        run_blocks(_prefilter, size, size * size * square.shape[0] * 60.0, size, float(a),
-                   square, flat, h, w, config.prefilter == "filtered", offsets, out)  # fmt: skip
+        run_blocks(_prefilter, size, size * size * square.shape[0] * 60.0, size, lobe, flat,
+                   h, w, config.prefilter == "filtered", offsets, out)  # fmt: skip
         out_levels.append(out.astype(np.float32))
     return out_levels

@@ -471,15 +471,19 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
             for k in range(pc.size):
                 m = _piece_nodes(A_BASE, pw[k])
                 pm[k] = m + (m % 2)
+    # Integer arguments below are int64 variables, never literals (``0``, ``R_BASE``, a
+    # ``-1`` start): numba compiles a callee once per literal argument value, and each such
+    # copy of ``_fill`` (which inlines every BRDF model) cost ~1 s of cold compile.
+    zero = np.int64(0)
     for g in range(rules):
         for k in range(R_BASE + 1):
-            nrow[g] = _add_rows(g, k, R_BASE, 0 if k % 2 == 1 else -1, tv, rx[g], rj[g], rk[g],
-                                rb[g], tc[g], tf[g], nrow[g])  # fmt: skip
+            nrow[g] = _add_rows(g, k, R_BASE << lr[g], 0 if k % 2 == 1 else -1, tv, rx[g], rj[g],
+                                rk[g], rb[g], tc[g], tf[g], nrow[g])  # fmt: skip
         gp = (no_pieces, no_pieces, pm[:0]) if g == 0 else (pc, pw, pm)
-        nline[g] = _add_lines(g, model, prm, vx, vy, vz, 0, gp[0], gp[1], gp[2],
-                              lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0)  # fmt: skip
-        _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g], 0, nrow[g],
-              lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0, nline[g], 0,
+        nline[g] = _add_lines(g, model, prm, vx, vy, vz, la[g], gp[0], gp[1], gp[2],
+                              lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], zero)  # fmt: skip
+        _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g], zero,
+              nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], zero, nline[g], la[g],
               tc[g], tf[g], y, f)  # fmt: skip
     q = np.empty((rules, n, 3))
     qr = np.empty((rules, n, 3))
@@ -507,7 +511,7 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
         if est <= tol:
             break
         # the axis with the largest embedded difference whose doubling fits max_samples
-        best, best_g, best_ax = -1.0, -1, -1
+        best, best_g, best_ax = -1.0, zero - 1, -1
         for g in range(rules):
             grow_a = 2 * nline[g] + (0 if g == 0 else pc.size)
             for ax in range(2):
@@ -534,7 +538,7 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
                 nrow[g] = _add_rows(g, k, m, lr[g], tv, rx[g], rj[g], rk[g], rb[g], tc[g], tf[g],
                                     nrow[g])  # fmt: skip
             _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g],
-                  r0, nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], 0, nline[g], la[g],
+                  r0, nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], zero, nline[g], la[g],
                   tc[g], tf[g], y, f)  # fmt: skip
         else:  # azimuthal doubling: last level's new lines join the coarse rule
             la[g] += 1
@@ -548,7 +552,7 @@ def _view_nested(model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, ccw, c
             nline[g] = _add_lines(g, model, prm, vx, vy, vz, la[g], gp[0], gp[1], gp[2],
                                   lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], j0)  # fmt: skip
             _fill(g, model, prm, data, has_lobe, vx, vy, vz, lmax, qmm, a, b, rx[g], rj[g],
-                  0, nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], j0, nline[g], la[g],
+                  zero, nrow[g], lc[g], ls[g], lu0[g], lu1[g], lw[g], lborn[g], j0, nline[g], la[g],
                   tc[g], tf[g], y, f)  # fmt: skip
     for i in range(n):
         for c in range(3):

@@ -29,6 +29,10 @@ THUMBNAIL_WIDTH = 256
 """Largest width in texels of the source map's thumbnail (block means)."""
 FONT_PT = 10
 """Every label's size in points (9 for tick labels): readable at the page's scale."""
+TITLE_Y = 1.0
+"""Panel titles at the top of their (axis-less) panels, as matplotlib's automatic placement
+puts them there, given explicitly: the automatic placement measures every tick of the
+hidden axes at each draw (about a quarter of a sheet's time; same bytes)."""
 
 
 def signed_relative_error(result: np.ndarray, reference: np.ndarray, mask) -> np.ndarray:
@@ -63,7 +67,7 @@ def thumbnail(pixels: np.ndarray, width: int = THUMBNAIL_WIDTH) -> np.ndarray:
 def _panel(ax, rgb, mask, label):
     img = np.where(mask[..., None], rgb, BACKGROUND)
     ax.imshow(img, interpolation="nearest")
-    ax.set_title(label, fontsize=FONT_PT)
+    ax.set_title(label, fontsize=FONT_PT, y=TITLE_Y)
     ax.set_axis_off()
 
 
@@ -110,7 +114,7 @@ def write_contact_sheet(
         axes[2].set_facecolor(BACKGROUND)
         beyond = beyond_scale(result, reference, mask)
         axes[2].set_title(f"signed error ({beyond:.1%} beyond ±{ERROR_SCALE:.0%})",
-                          fontsize=FONT_PT)  # fmt: skip
+                          fontsize=FONT_PT, y=TITLE_Y)  # fmt: skip
         axes[2].set_axis_off()
         bar = fig.colorbar(im, ax=axes[2], fraction=0.046, pad=0.04, extend="both",
                            ticks=np.linspace(-ERROR_SCALE, ERROR_SCALE, 5),
@@ -122,7 +126,7 @@ def write_contact_sheet(
     if source is not None:
         ax = fig.add_subplot(grid[1, :])
         ax.imshow(tonemap(thumbnail(source), None, display), interpolation="nearest")
-        ax.set_title("source map (its own exposure)", fontsize=FONT_PT)
+        ax.set_title("source map (its own exposure)", fontsize=FONT_PT, y=TITLE_Y)
         ax.set_axis_off()
     shown_as = f"exposure ×{exposure:.3g}, {display} display transform, sRGB"
     fig.suptitle("\n".join(x for x in (title, subtitle, shown_as) if x), fontsize=FONT_PT)
