@@ -4,8 +4,10 @@ engines read (ktx-parse under node; the nine polynomials Filament and Unity sum)
 
 import glob
 import os
+import shutil
 
 import numpy as np
+import pytest
 
 from shbake.sh.basis import real_sh
 from tests.helpers import run_node
@@ -14,6 +16,12 @@ SHARED = os.environ.get(
     "SHBAKE_SHARED", os.path.join(os.path.dirname(__file__), "..", "..", "shared")
 )
 MAPS = sorted(glob.glob(os.path.join(SHARED, "hdri", "*.exr")))
+BAKED_FOR_NODE = [
+    pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed"),
+    pytest.mark.xdist_group("exports-baked"),  # one worker bakes the 18 assets of `baked`
+]
+"""The marks of the test modules that read the ``baked`` fixture (format/exports/conftest.py)
+with an engine's own code under node."""
 N_DIRS = 300
 TOL = 1e-4
 SMALL = {

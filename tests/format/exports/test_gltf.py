@@ -13,14 +13,11 @@ import pytest
 
 from shbake.batch.export import export_assets
 from shbake.format.exports.source import load_source, shbake_irradiance
-from tests.export_checks import SMALL, TOL
+from tests.export_checks import BAKED_FOR_NODE, SMALL, TOL
 from tests.export_checks import relative_error as _rel
 from tests.helpers import run_node
 
-pytestmark = [
-    pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed"),
-    pytest.mark.xdist_group("exports-baked"),  # one worker bakes the folder's 18 assets
-]
+pytestmark = BAKED_FOR_NODE
 
 
 class TestBabylonGltf:

@@ -14,14 +14,11 @@ from shbake.batch.export import export_assets
 from shbake.conventions import REC709_LUMINANCE
 from shbake.evaluation.env_sh import brute_force_reference
 from shbake.format.exports.source import load_source, shbake_irradiance
-from tests.export_checks import N_DIRS, TOL
+from tests.export_checks import BAKED_FOR_NODE, N_DIRS, TOL
 from tests.export_checks import relative_error as _rel
 from tests.helpers import run_node
 
-pytestmark = [
-    pytest.mark.skipif(shutil.which("node") is None, reason="node is not installed"),
-    pytest.mark.xdist_group("exports-baked"),  # one worker bakes the folder's 18 assets
-]
+pytestmark = BAKED_FOR_NODE
 
 
 class TestThreejs:
@@ -45,7 +42,6 @@ class TestThreejs:
         [("y-up", 0.0, [1.5, 2.0, -3.0]), ("z-up", 90.0, [1.5, 3.0, 2.0])],
     )
     def test_probe_position_reaches_three(self, sky_asset, dirs_file, frame, rotate, want):
-        import shutil
 
         import h5py
 
