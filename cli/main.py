@@ -20,7 +20,7 @@ import sys
 import click
 from shbake_cli.guard import guarded_invoke, run
 
-from shbake import __version__
+from shbake import __version__, messages
 from shbake.errors import ParameterError
 from shbake.resources import end_run, parse_size, set_memory_budget, start_run
 from shbake.signals import exit_quietly_on_signal
@@ -110,6 +110,7 @@ def main(argv=None) -> int:
     finally:
         _end_start_up()
         end_run()
+        messages.end_run()
         set_memory_budget(None)  # --max-memory is this run's, not the process's
         if script:
             exit_quietly_on_signal()

@@ -45,6 +45,13 @@ def start_run(quiet: bool = False) -> None:
     _run["warnings"] = []
 
 
+def end_run() -> None:
+    """A command run ends: warnings print again. ``-q`` is that run's, not the process's: an
+    in-process run (a test, a program calling ``shbake_cli.main.main``) left it set, and
+    every later library warning in the process went unprinted."""
+    start_run(quiet=False)
+
+
 def record(message: str) -> None:
     """Remember a warning of this run (printed or not) for its ``--json`` summary."""
     if message not in _run["warnings"]:
