@@ -159,23 +159,12 @@ def load_source(
         if "probe_position" in asset.attrs
         else None
     )
-    if asset.kind == "splitsum_probe":
-        return ExportSource(
-            name=os.path.splitext(os.path.basename(path))[0],
-            irradiance9=None,
-            lighting9=None,
-            rotation=R,
-            frame=frame,
-            env_path=env_path,
-            attrs=asset.attrs,
-            asset_path=path,
-            position=position,
-            map_rotation=turned,
-        )
-    if "/irradiance/sh" not in asset or asset["/irradiance/sh"].shape[0] < 9:
-        raise InputError(f"{path}: exports need /irradiance/sh with irradiance lmax >= 2")
-    E = rotate(np.asarray(asset["/irradiance/sh"][:9], dtype=np.float64), R)
-    L = rotate(np.asarray(asset["/lighting/sh"][:9], dtype=np.float64), R)
+    E = L = None  # a split-sum probe carries no SH
+    if asset.kind != "splitsum_probe":
+        if "/irradiance/sh" not in asset or asset["/irradiance/sh"].shape[0] < 9:
+            raise InputError(f"{path}: exports need /irradiance/sh with irradiance lmax >= 2")
+        E = rotate(np.asarray(asset["/irradiance/sh"][:9], dtype=np.float64), R)
+        L = rotate(np.asarray(asset["/lighting/sh"][:9], dtype=np.float64), R)
     src = ExportSource(
         name=os.path.splitext(os.path.basename(path))[0],
         irradiance9=E,
@@ -188,6 +177,8 @@ def load_source(
         position=position,
         map_rotation=turned,
     )
+    if asset.kind == "splitsum_probe":
+        return src
     if "/sun/direction" in asset:
         d = R @ np.asarray(asset["/sun/direction"], dtype=np.float64)
         src.sun_direction = d / np.linalg.norm(d)
