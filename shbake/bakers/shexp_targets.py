@@ -28,7 +28,7 @@ from shbake.envmap.importance import (
     level_offsets,
     pyramid_levels,
 )
-from shbake.envmap.layouts import latlong_texel, row_solid_angle
+from shbake.envmap.layouts import latlong_texel, log2_row_solid_angles
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.reference.ggx import check_alpha
@@ -88,9 +88,7 @@ def _plan_rows(views, normals, alphas, square, height, width, offsets, index, we
                b0, b1):  # fmt: skip
     n = square.shape[0]
     levels = offsets.shape[0] - 1
-    log2_omega = np.empty(height)
-    for row in range(height):
-        log2_omega[row] = np.log2(row_solid_angle(row, height, width))
+    log2_omega = log2_row_solid_angles(height, width)
     for t in range(b0, b1):
         prm = np.zeros(6)
         prm[3] = prm[4] = alphas[t]

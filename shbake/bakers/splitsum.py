@@ -32,7 +32,7 @@ from shbake.brdf.ggx import ggx_d_iso, half_vector_cos2
 from shbake.brdf.sampling import tangent_frame
 from shbake.conventions import check_samples
 from shbake.envmap.importance import latlong_flat, latlong_pyramid, level_offsets, pyramid_levels
-from shbake.envmap.layouts import latlong_texel, row_solid_angle
+from shbake.envmap.layouts import latlong_texel, log2_row_solid_angles
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.reference.ggx import check_alpha
@@ -109,9 +109,7 @@ def _lobe_samples(alpha, square, out):
 def _prefilter(size, lobe, pixels, height, width, filtered, offsets, out, b0, b1):
     n = lobe.shape[0]
     levels = offsets.shape[0] - 1
-    log2_omega = np.empty(height)
-    for row in range(height):
-        log2_omega[row] = np.log2(row_solid_angle(row, height, width))
+    log2_omega = log2_row_solid_angles(height, width)
     for row in range(b0, b1):
         for col in range(size):
             nx, ny, nz = oct_decode((col + 0.5) / size, (row + 0.5) / size)

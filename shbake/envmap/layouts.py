@@ -122,6 +122,17 @@ def row_solid_angle(row, height, width):
     return (np.cos(np.pi * row / height) - np.cos(np.pi * (row + 1) / height)) * 2.0 * np.pi / width
 
 
+@jit
+def log2_row_solid_angles(height, width):
+    """``log2`` of :func:`row_solid_angle` for every row, ``(H,)``: the level-0 texel size
+    filtered importance sampling compares a sample's solid angle with (Křivánek & Colbert
+    2008), in the kernels that pick a pyramid level per sample."""
+    out = np.empty(height)
+    for row in range(height):
+        out[row] = np.log2(row_solid_angle(row, height, width))
+    return out
+
+
 def latlong_row_solid_angles(height: int, width: int) -> np.ndarray:
     """Exact solid angle of one cell of each lat-long row, ``(H,)`` (:func:`row_solid_angle`).
 
