@@ -176,16 +176,6 @@ def inner_pixels(normal: np.ndarray) -> np.ndarray:
     return inner
 
 
-def normal_derivative(normal: np.ndarray) -> np.ndarray:
-    """``max_k(|∂x n_k| + |∂y n_k|)`` per pixel ``(V, H, W)`` from forward differences of the
-    rendered normal: three's ``getGeometryRoughness`` (``lights_physical_fragment``),
-    which adds it to the material's roughness."""
-    n = normal[..., :3]
-    dx = np.abs(np.diff(n, axis=2, append=n[:, :, -1:]))
-    dy = np.abs(np.diff(n, axis=1, append=n[:, -1:]))
-    return (dx + dy).max(-1)
-
-
 def reflect(rays: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """Mirror directions of the view rays about unit ``normals``."""
     return rays - 2.0 * (rays * normals).sum(-1, keepdims=True) * normals

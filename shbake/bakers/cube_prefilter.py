@@ -16,7 +16,8 @@ glTF-IBL-Sampler (``lib/source/shaders/filter.frag``, ``computeLod``) and
 Filament (``libs/ibl/src/CubemapIBL.cpp``, ``roughnessFilter``) do; it removes
 the bright specks a sun gives at ``α`` 0.2–0.4 with point sampling.
 
-Level 0 is the mirror map (``α = 0``): the source resampled, no lobe.
+Level 0 is the mirror map (``α = 0``): the source resampled at :func:`mirror_supersample`
+sub-texels, no lobe.
 Roughness ↔ LOD (``lod_fraction f = i / (n-1)``, perceptual roughness ``r``,
 ``α = r²``, shbake.conventions):
 
@@ -241,6 +242,21 @@ def mirror_cube(
         run_blocks(_sub_directions, texels, texels * k * k * 20.0, frames, rot, size, k, d)
         out[:] = _nearest_cube_input(env, d).mean(axis=1)
     return out.reshape(6, size, size, 3)
+
+
+def mirror_supersample(env: Environment, size: int) -> int:
+    """Sub-texels per side that a mirror level of ``size``² faces needs to see every texel of
+    ``env``: ``⌈W / 4 size⌉`` for a lat-long map ``W`` wide (a face spans a quarter of the
+    equator), ``⌈N / size⌉`` for a cube of ``N``² faces; 1 when the cube already samples the
+    map more finely than its texels. A texel averages more sub-texels than that only by
+    blurring the map: a mirror read bilinearly from 256² faces of a 512×256 map is 15.7 %
+    from the map read bilinearly at the 95th percentile of 40 000 directions on forest with
+    1 sub-texel, 20.1 % with 4×4 and 20.3 % with the 8×8 of a 512² cube halved."""
+    if env.layout == "latlong":
+        across = env.pixels.shape[1] / 4.0
+    else:
+        across = env.pixels.shape[1]
+    return max(1, math.ceil(across / size))
 
 
 def _nearest_cube_input(env: Environment, d: np.ndarray) -> np.ndarray:
@@ -494,7 +510,7 @@ def prefilter_chain(
         r = roughness_of_level(i, n_levels, mapping, size)
         n = size >> i
         if i == 0 or r == 0.0:
-            lvl = pyramid[int(round(math.log2(src // n)))]
+            lvl = mirror_cube(env, n, mirror_supersample(env, n), rotation)
         else:
             lvl = prefilter_level(pyramid, n, ggx_alpha(r), level_samples(samples, i), fis)
         levels.append(lvl)

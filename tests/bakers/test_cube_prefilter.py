@@ -22,6 +22,30 @@ def _fireflies(img: np.ndarray) -> np.ndarray:
     return y > 4.0 * np.median(win, axis=-1)
 
 
+class TestMirrorSupersample:
+    """mirror_supersample: a mirror level samples the map as finely as its texels, no finer."""
+
+    def test_sub_texels_per_side(self):
+        from shbake.bakers.cube_prefilter import mirror_supersample
+
+        env = load_environment(os.path.join(SHARED, "hdri", "forest.exr"), quiet=True)
+        # a face spans a quarter of the 512 columns: 128 map texels across
+        assert [mirror_supersample(env, n) for n in (16, 32, 100, 128, 256)] == [8, 4, 2, 1, 1]
+
+    def test_level0_is_the_map_read_bilinearly(self):
+        """Where the cube is finer than the map, level 0 holds the map read bilinearly at each
+        texel's direction (test-side lat-long bilinear), not a box filter of sub-texels."""
+        from shbake.bakers.cube_prefilter import cube_directions, prefilter_chain
+        from tests.engine_browser import latlong_bilinear
+
+        env = load_environment(os.path.join(SHARED, "hdri", "forest.exr"), quiet=True)
+        levels, roughness = prefilter_chain(env, size=128, floor=128)
+        d, _ = cube_directions(128)
+        want = latlong_bilinear(env.pixels, d.reshape(-1, 3)).reshape(levels[0].shape)
+        assert roughness == [0.0]
+        np.testing.assert_allclose(levels[0], want, rtol=1e-12, atol=1e-12)
+
+
 class TestFireflies:
     """prefilter_level with filtered importance sampling: no speck the converged reference lacks."""
 

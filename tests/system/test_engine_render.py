@@ -208,7 +208,7 @@ class TestThree:
         )  # fmt: skip
         errors = glossy_errors(three_expected(baked["env"], renders, three["pick"]))
         print(f"\nthree.js with fault {fault}: {errors}")
-        assert not glossy_within(errors)
+        assert not glossy_within(errors, limits_of("three.js", baked["name"]))
 
 
 class TestBabylon:
@@ -291,7 +291,7 @@ class TestBabylon:
             babylon_expected(baked["env"], babylon["src"], render, r["white"], babylon["pick"])
         )
         print(f"\nBabylon.js with fault {fault}: {errors}")
-        assert not glossy_within(errors)
+        assert not glossy_within(errors, limits_of("Babylon.js", baked["name"]))
 
 
 class TestFilament:
@@ -379,4 +379,4 @@ class TestFilament:
         white = filament["renders"]["white"]
         errors = glossy_errors(filament_expected(baked["env"], render, white, filament["pick"]))
         print(f"\nFilament with fault {fault}: {errors}")
-        assert not glossy_within(errors, FILAMENT_LIMITS)
+        assert not glossy_within(errors, limits_of("Filament", baked["name"], FILAMENT_LIMITS))

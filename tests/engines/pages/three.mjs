@@ -30,10 +30,16 @@ async function loadShbakePMREM(renderer, url) {
 }
 // END snippet three.js
 
+// The normal pass also writes, as 1 + alpha, the geometry roughness three adds to every
+// material's roughness: lights_physical_fragment's getGeometryRoughness of the view-space
+// normal (normal_vertex, normal_fragment_begin), with this GPU's own derivatives.
 const NORMAL_MATERIAL = new THREE.ShaderMaterial({
-  vertexShader: "out vec3 vN; void main() { vN = mat3(modelMatrix) * normal; "
+  vertexShader: "out vec3 vN; out vec3 vV; void main() { vN = mat3(modelMatrix) * normal; "
+    + "vV = normalize(normalMatrix * normal); "
     + "gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0); }",
-  fragmentShader: "in vec3 vN; void main() { gl_FragColor = vec4(normalize(vN), 1.0); }",
+  fragmentShader: "in vec3 vN; in vec3 vV; void main() { vec3 v = normalize(vV); "
+    + "vec3 dxy = max(abs(dFdx(v)), abs(dFdy(v))); "
+    + "gl_FragColor = vec4(normalize(vN), 1.0 + max(max(dxy.x, dxy.y), dxy.z)); }",
 });
 
 function material(m) {
