@@ -176,6 +176,18 @@ def inner_pixels(normal: np.ndarray) -> np.ndarray:
     return inner
 
 
+def quad_derivatives(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``dFdx``, ``dFdy`` of an image ``(V, H, W, C)`` (``H``, ``W`` even) as a GPU takes
+    them on 2×2 pixel quads, "fine": the difference across the quad's two columns in each
+    of its rows, and across its two rows in each column. SwiftShader's (three's page writes
+    its own ``getGeometryRoughness`` from them: :class:`TestHarness`)."""
+    v, h, w, c = image.shape
+    q = image.reshape(v, h // 2, 2, w // 2, 2, c)
+    dx = np.repeat(q[:, :, :, :, 1:] - q[:, :, :, :, :1], 2, axis=4)
+    dy = np.repeat(q[:, :, 1:] - q[:, :, :1], 2, axis=2)
+    return dx.reshape(image.shape), dy.reshape(image.shape)
+
+
 def reflect(rays: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """Mirror directions of the view rays about unit ``normals``."""
     return rays - 2.0 * (rays * normals).sum(-1, keepdims=True) * normals
