@@ -220,12 +220,13 @@ MEASURED_LIMITS = {
   are summed exactly, :func:`shbake.bakers.cube_prefilter.split_hot_texels`), but the
   engines read them trilinearly: bilinear across the 8² level's 11° texels at r 0.6, where
   a lamp's highlight changes faster than that, and linear in lod between levels, which
-  for such a lamp is not the lobe between them (2026-11-27, three.js r 0.3 4.2 % / 16 %,
-  r 0.6 4.0 % / 34 %; Filament r 0.3 6.4 % / 19 %, r 0.6 3.3 % / 23 %; Babylon.js, whose
-  levels are closer in roughness, within the issue's bounds). Filament's mirror (below)
+  for such a lamp is not the lobe between them (brute-force levels read so: 3.8 % / 9.2 %
+  at r 0.3, 3.3 % / 23 % at r 0.6; 2026-11-27, three.js r 0.3 4.2 % / 16 %,
+  r 0.6 4.0 % / 34 %; Filament r 0.3 6.4 % / 19 %, r 0.6 3.3 % / 23 %; Babylon.js within
+  the issue's bounds). Filament's mirror (below)
   reads the 128² level, where each lamp spreads over a 0.7° texel.
 * Filament's mirror: its roughness floor reads the 128² level (:data:`FILAMENT_LIMITS`);
-  esplanade's sun, 29 856 in a few texels, makes that blur 11.9 % / 116 %.
+  esplanade's sun, 29 856 in a few texels, makes that blur 11.3 % / 113 %.
 """
 
 
