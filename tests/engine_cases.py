@@ -224,13 +224,16 @@ MEASURED_LIMITS = {
   forest, 0.8 / 11.6 % night, 4.1 / 73 % studio, 0.5 / 8.6 % sunset
   (``bench/engine_lod_floor.py``); rendered: 1.0 / 22.9, 6.2 / 60.8, 5.4 / 45.0,
   1.2 / 20.6, 8.2 / 294, 0.8 / 12.6 % (2026-11-27).
-* studio: a few lamps of a few map texels, up to 3730 against a 0.1–1 room. The chain's
-  GGX filter (filtered importance sampling, 512·2^(i−1) samples at level i, as cmgen and
-  glTF-IBL-Sampler filter) spreads each lamp over a sample's footprint: its level 3 (32²,
-  r 0.29) is 5.7 % median / 61 % p95 from brute force even with 2048 samples; and the
-  engines blend two levels linearly in lod, which for such a lamp is not the lobe between
-  them (an ideal chain read with three's rule: 7.5 % / 19.9 % at r 0.3, 2.9 % / 18.6 % at
-  r 0.6).
+* studio: a few lamps of a few map texels, up to 3482 against a 0.1–1 room. The chain's
+  levels match brute force (level 3, 32² at r 0.29: 0.08 % median / 1.9 % p95; the lamps
+  are summed exactly, :func:`shbake.bakers.cube_prefilter.split_hot_texels`), but the
+  engines read them trilinearly: bilinear across the 8² level's 11° texels at r 0.6, where
+  a lamp's highlight changes faster than that, and linear in lod between levels, which
+  for such a lamp is not the lobe between them (brute-force levels read so: 3.8 % / 9.2 %
+  at r 0.3, 3.3 % / 23 % at r 0.6; 2026-11-27, three.js r 0.3 4.2 % / 16 %,
+  r 0.6 4.0 % / 34 %; Filament r 0.3 6.4 % / 19 %, r 0.6 3.3 % / 23 %; Babylon.js within
+  the issue's bounds). Filament's mirror (below)
+  reads the 128² level.
 * Filament's mirror reads the 128² level (its roughness floor, :data:`FILAMENT_MIN_ROUGHNESS`,
   and gltfio's specular anti-aliasing, :data:`FILAMENT_SPECULAR_AA`): 13–14 % p95 on city and
   forest, but esplanade's sun (29 856 in a few texels), night's lamps and studio's are spread
