@@ -423,6 +423,28 @@ def test_file_hash_sees_a_rewritten_file(tmp_path):
     assert file_hash(str(path)) == hashlib.sha256(b"d" * 65).hexdigest()
 
 
+def test_file_hash_reads_a_file_once_by_every_name(tmp_path, monkeypatch):
+    """Links (symbolic and hard) to one file are one file: read once (10,000 probes on six
+    maps hash six files), each name still recorded as an input of the run."""
+    import hashlib
+    import os
+
+    from shbake import resources
+    from shbake.batch.plan import file_hash
+
+    path = tmp_path / "m.bin"
+    path.write_bytes(b"map bytes")
+    (tmp_path / "soft.bin").symlink_to("m.bin")
+    os.link(path, tmp_path / "hard.bin")
+    reads, noted = [], []
+    real_sha, real_note = resources.sha256_of, resources.note_input
+    monkeypatch.setattr(resources, "sha256_of", lambda p, o: reads.append(p) or real_sha(p, o))
+    monkeypatch.setattr(resources, "note_input", lambda p: noted.append(p) or real_note(p))
+    names = [str(tmp_path / n) for n in ("m.bin", "soft.bin", "hard.bin")]
+    assert {file_hash(n) for n in names} == {hashlib.sha256(b"map bytes").hexdigest()}
+    assert reads == names[:1] and noted == names
+
+
 def test_lock_text_is_the_lock():
     """One line per record, and json reads back exactly the lock."""
     from shbake.batch.scene_bake import lock_text
