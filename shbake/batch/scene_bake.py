@@ -49,6 +49,7 @@ from shbake.format.atomic import (
     check_output_path,
     collected,
     detached,
+    listed_once,
     makedirs,
     staged,
     transaction,
@@ -344,10 +345,12 @@ def chunks(wave: list[dict], maps: int = CHUNK_MAPS) -> list[list[dict]]:
 
 def bake_chunk(assets: list[dict]) -> list[dict]:
     """Bake ``assets`` (:func:`bake_asset`, in order), each map decoded once for all of them
-    and their checks (:func:`shbake.envmap.environment.decoded_once`); their records."""
+    and their checks (:func:`shbake.envmap.environment.decoded_once`), each output folder
+    listed once for stale temporaries (:func:`shbake.format.atomic.listed_once`); their
+    records."""
     from shbake.envmap.environment import decoded_once
 
-    with decoded_once():
+    with decoded_once(), listed_once():
         return [bake_asset(a) for a in assets]
 
 

@@ -41,6 +41,8 @@ TAG = ".shbake-"
 
 _here = threading.local()
 """Each thread's running transaction (``_here.active``): a Dask worker runs tasks in threads."""
+_shared_listings: dict | None = None
+"""The folder listings that the transactions begun inside :func:`listed_once` share."""
 _open: list = []
 _lock = threading.RLock()
 _counter = 0
@@ -255,7 +257,9 @@ class Transaction:
         self.staged: dict[str, str] = {}
         self.folders: dict[str, str] = {}
         self.created: list[str] = []
-        self.listings: dict[str, dict[str, list[tuple[str, int]]]] = {}
+        self.listings: dict[str, dict[str, list[tuple[str, int]]]] = (
+            {} if _shared_listings is None else _shared_listings
+        )
         self.done = False
 
     def makedirs(self, folder: str) -> None:
@@ -495,6 +499,24 @@ def _tracked(t):
         with _lock:
             if t in _open:
                 _open.remove(t)
+
+
+@contextmanager
+def listed_once():
+    """Run a block whose transactions (each output of a batch committed on its own,
+    :func:`detached`) share their folder listings: each target folder is listed once for
+    the block, not once per output (a scene bake's task of many assets in one folder). A
+    temporary that appears in a listed folder during the block, of a process that then
+    dies, is left to the next run. Nested blocks join the outer one."""
+    global _shared_listings
+    if _shared_listings is not None:
+        yield
+        return
+    _shared_listings = {}
+    try:
+        yield
+    finally:
+        _shared_listings = None
 
 
 @contextmanager

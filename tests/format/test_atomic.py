@@ -76,3 +76,20 @@ def test_temporaries_by_target_match_their_names(tmp_path):
         expected = sorted((n, int(m.group(1))) for n in names if (m := pattern.match(n)))
         assert sorted(found.get(target, [])) == expected, target
     assert set(found) <= set(targets)
+
+
+def test_outputs_committed_on_their_own_share_listings_in_listed_once(tmp_path, monkeypatch):
+    """A scene task commits each asset in a transaction of its own: inside
+    ``listed_once`` the folder is listed once for all of them (was once per asset), and a
+    dead process's temporary of the last one is still removed."""
+    last = tmp_path / f"f{FILES_PER_FOLDER - 1}.txt"
+    dead = tmp_path / f".{last.name}.shbake-{dead_pid()}-1.tmp.txt"
+    dead.write_text("partial")
+    calls = count_listings(monkeypatch)
+    with atomic.listed_once():
+        for i in range(FILES_PER_FOLDER):
+            with atomic.detached():
+                atomic.write_text(str(tmp_path / f"f{i}.txt"), str(i))
+            assert (tmp_path / f"f{i}.txt").read_text() == str(i)  # committed at once
+    assert calls.get(str(tmp_path)) == 1
+    assert not dead.exists()
