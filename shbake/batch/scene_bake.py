@@ -455,7 +455,10 @@ def _poisoned(asset: dict, rec) -> bool:
     base = os.path.dirname(asset["output"])
     for rel, digest in rec["outputs"].items():
         path = os.path.join(base, rel)
-        if not isinstance(digest, str) or os.path.isabs(rel) or not is_inside(path, base):
+        # a plain name is in the folder unless it is a link (refused below): no realpath
+        plain = rel not in ("", ".", "..") and os.sep not in rel
+        if not isinstance(digest, str) or os.path.isabs(rel) or not (
+                plain or is_inside(path, base)):  # fmt: skip
             return True
         try:
             mode = os.lstat(path).st_mode
