@@ -1,10 +1,12 @@
 """Issue 31: the scene layer against the bare commands at N probes (512×256 maps).
 
     .venv/bin/python bench/scene_scale.py [--n 100 --n 1000 …] [--work DIR] [--plot FILE]
-                                          [--skip make,dask,bare]
+                                          [--skip make,dask,bare] [--links]
 
 Maps: the six shared maps (``../shared/hdri``, 512×256) rolled by distinct column shifts
-(a different file per probe, never two with the same bytes), written as half EXR. The
+(a different file per probe, never two with the same bytes), written as half EXR; with
+``--links``, symbolic links to the six maps themselves (probe ``i`` on map ``i mod 6``: the
+10,000-probe scene of the issue, whose bake is six maps' work and copies). The
 scene: a diffuse material (``env_sh``) and a glossy GGX one with roughness [0.5, 0.9] and
 ``glossy_probe = 0.3`` (one SH-exp probe per map), the issue's acceptance scene.
 
@@ -63,6 +65,19 @@ name = "varnish"
 kind = "glossy"
 roughness = [0.5, 0.9]
 """
+
+
+def link_maps(folder: Path, n: int) -> list[Path]:
+    """``n`` symbolic links to the six shared maps, in turn."""
+    folder.mkdir(parents=True, exist_ok=True)
+    sources = sorted(SHARED.glob("*.exr"))
+    out = []
+    for i in range(n):
+        path = folder / f"p{i:05d}.exr"
+        out.append(path)
+        if not path.is_symlink():
+            path.symlink_to(sources[i % len(sources)])
+    return out
 
 
 def make_maps(folder: Path, n: int) -> list[Path]:
@@ -215,9 +230,9 @@ def many_maps_per_rule() -> bool:
     return "--maps-per-rule" in done.stdout
 
 
-def measure(work: Path, n: int, skip: set[str]) -> dict:
+def measure(work: Path, n: int, skip: set[str], links: bool = False) -> dict:
     work.mkdir(parents=True, exist_ok=True)
-    maps = make_maps(work / "maps", n)
+    maps = (link_maps if links else make_maps)(work / "maps", n)
     for extra in sorted((work / "maps").glob("p*.exr"))[n:]:
         extra.unlink()
     (work / "scene.toml").write_text(SCENE)
@@ -234,19 +249,30 @@ def measure(work: Path, n: int, skip: set[str]) -> dict:
     again = json.loads(res["noop_bake"]["stdout"])
     res["noop_baked"] = len(again["baked"])
     one = maps[0]
-    saved = one.read_bytes()
-    shutil.copy(maps[1], one)  # other bytes: its assets only are out of date
+    if links:  # another map's bytes through the link (never written through: shared maps)
+        saved = os.readlink(one)
+        one.unlink()
+        one.symlink_to(os.readlink(maps[1]))
+    else:
+        saved = one.read_bytes()
+        shutil.copy(maps[1], one)  # other bytes: its assets only are out of date
     changed = run([SHBAKE, "bake", "scene.toml", "--json", "-q"], work)
     res["one_map_baked"] = json.loads(changed["stdout"])["baked"]
-    one.write_bytes(saved)
+    if links:
+        one.unlink()
+        one.symlink_to(saved)
+    else:
+        one.write_bytes(saved)
     run([SHBAKE, "bake", "scene.toml", "-q"], work)
+    baked = {a: r for a, r in lock["assets"].items() if "copy_of" not in r}  # not copies
+    res["copies"] = len(lock["assets"]) - len(baked)
     res["check_seconds"] = {
         kind: float(np.mean([r["seconds_with_check"] - r["bake_seconds"]
-                             for a, r in lock["assets"].items() if a.startswith(kind + "/")]))
+                             for a, r in baked.items() if a.startswith(kind + "/")]))
         for kind in ("env_sh", "shexp")
     }  # fmt: skip
     res["bake_seconds"] = {
-        kind: float(np.mean([r["bake_seconds"] for a, r in lock["assets"].items()
+        kind: float(np.mean([r["bake_seconds"] for a, r in baked.items()
                              if a.startswith(kind + "/")]))
         for kind in ("env_sh", "shexp")
     }  # fmt: skip
@@ -283,7 +309,8 @@ def measure(work: Path, n: int, skip: set[str]) -> dict:
 def report(res: dict) -> str:
     n = res["n"]
     scene = res["plan"]["wall"] + res["bake"]["wall"]
-    lines = [f"## N = {n} probes ({res['assets']} assets)", "",
+    lines = [f"## N = {n} probes ({res['assets']} assets, {res.get('copies', 0)} written from "
+             "the bake of the same map bytes)", "",
              "| run | wall s | CPU s | probes/s | client MiB | worker MiB |",
              "|---|---|---|---|---|---|"]  # fmt: skip
 
@@ -305,7 +332,9 @@ def report(res: dict) -> str:
         for k, ms in res["bare"]["parts"].items():
             row(f"bare `{k}` --jobs 2", *ms)
         row("bare commands, total", res["bare"])
-    lines += ["", f"no-op `bake`: {res['noop_bake']['wall']:.2f} s ({res['noop_baked']} baked)"]
+    noop = res["noop_bake"]
+    lines += ["", f"no-op `bake`: {noop['wall']:.2f} s wall, {noop['cpu']:.2f} s CPU, client "
+              f"{noop['client_mib']:.0f} MiB ({res['noop_baked']} baked)"]  # fmt: skip
     if "noop_make" in res:
         lines.append(f"no-op `make -j2`: {res['noop_make']['wall']:.2f} s")
     lines.append(f"one map's bytes changed, `bake` rebaked: {res['one_map_baked']}")
@@ -364,13 +393,15 @@ def main():
     p.add_argument("--plot", default=None)
     p.add_argument("--json", default=None)
     p.add_argument("--skip", default="")
+    p.add_argument("--links", action="store_true", help="maps: links to the six shared maps")
     a = p.parse_args()
     work = Path(a.work or tempfile.mkdtemp(prefix="scene-scale-"))
     skip = set(filter(None, a.skip.split(",")))
     results = []
     print(f"load average at start: {os.getloadavg()[0]:.2f}; work folder {work}")
     for n in a.n or [100]:
-        results.append(measure(work / f"n{n}", n, skip))
+        folder = work / (f"n{n}-links" if a.links else f"n{n}")
+        results.append(measure(folder, n, skip, a.links))
         print(report(results[-1]), flush=True)
     if a.json:
         Path(a.json).write_text(json.dumps(results, indent=1))

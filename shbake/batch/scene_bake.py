@@ -10,6 +10,7 @@ plan key, inputs and output hash match ``scene.lock.json``, bakes the rest
 and rewrites the lock (atomically).
 """
 
+import functools
 import hashlib
 import json
 import os
@@ -49,6 +50,7 @@ from shbake.format.atomic import (
     check_output_path,
     collected,
     detached,
+    listed_once,
     makedirs,
     staged,
     transaction,
@@ -226,6 +228,69 @@ BAKERS = {"export": _bake_export, "env_sh": _bake_env_sh, "brdf_table": _bake_br
           "shexp": _bake_shexp, "shrm": _bake_shrm,
           "splitsum": _bake_splitsum}  # fmt: skip
 
+COPIED_KINDS = ("env_sh", "shexp", "splitsum", "shrm")
+"""Kinds whose asset is one file made from one map and its settings alone: probes whose maps
+have the same bytes and whose settings are the same but for their position are baked once
+(:func:`same_work`)."""
+
+
+def _work_key(a: dict) -> str:
+    """What an asset of :data:`COPIED_KINDS` is made from: its kind, its plan key (the map's
+    bytes and the tolerances) and its settings, the probe's position left out (recorded
+    only: no baker uses it)."""
+    settings = dict(a["settings"])
+    if "pose" in settings:
+        settings["pose"] = {k: v for k, v in settings["pose"].items() if k != "position"}
+    return json.dumps([a["kind"], a["plan_key"], a["input_hashes"], settings], sort_keys=True)
+
+
+def same_work(wave: list[dict]) -> tuple[list[dict], dict[str, list[dict]]]:
+    """``wave`` split into the assets to bake and, by the id of each asset baked, the assets
+    that are the same work (:func:`_work_key`: maps with the same bytes — copies, links —
+    and the same settings), written from its bake (:func:`_copy_baked`)."""
+    first: dict[str, dict] = {}
+    bake, copies = [], {}
+    for a in wave:
+        f = first.setdefault(_work_key(a), a) if a["kind"] in COPIED_KINDS else a
+        if f is a:
+            bake.append(a)
+        else:
+            copies.setdefault(f["id"], []).append(a)
+    return bake, copies
+
+
+def _copy_baked(a: dict, measure: bool = True) -> tuple[dict, dict]:
+    """Asset ``a`` written from the bake of the same work (:func:`same_work`;
+    ``a["copy_of"]``: that asset's output and lock record), read back as written, its
+    provenance saying ``a``'s own map and position as ``a``'s own bake would (the same
+    bytes, ``tests/batch/test_scene_scale.py``); its measured error is that bake's."""
+    import numpy as np
+
+    from shbake.format.asset import Asset, write_asset
+
+    t0 = time.perf_counter()
+    first = a["copy_of"]
+    path = staged(first["output"]) or first["output"]  # what this run staged, or its file
+    baked = _baked_asset(file_hash(path, own_output=True), path)
+    attrs = dict(baked.attrs, source_path=os.path.abspath(a["inputs"][0]))
+    if "pose" in a["settings"]:  # as shbake.envmap.turn.apply_pose records it
+        attrs["probe_position"] = np.asarray(a["settings"]["pose"]["position"], np.float64)
+    with _committed():
+        write_asset(a["output"], Asset(baked.kind, attrs, baked.datasets, baked.dataset_attrs))
+    info = {"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0,
+            "error_method": first["error_method"]}  # fmt: skip
+    return info, first["measured_error"]
+
+
+@functools.lru_cache(maxsize=16)
+def _baked_asset(digest: str, path: str):
+    """The asset in the file ``path`` whose SHA-256 is ``digest``, read once for all its
+    copies in a task (:func:`_copy_baked`; ~20 ms a read, about what writing a copy costs);
+    the caller must not change it."""
+    from shbake.format.asset import read_asset
+
+    return read_asset(path)
+
 
 _WARM: set[str] = set()
 
@@ -234,11 +299,14 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
     """Bake one planned asset; its lock record (outputs' hashes, measured error, seconds).
 
     ``measure``: also measure its error against the references (what the lock records).
-    The folders it creates for its output are removed again if it fails.
+    An asset with ``copy_of`` (:func:`same_work`) is written from that bake, its record
+    naming it (``copy_of``: its id). The folders it creates for its output are removed
+    again if it fails.
     """
+    baker = _copy_baked if "copy_of" in asset else BAKERS[asset["kind"]]
     with detached(), transaction() as folders:
         folders.makedirs(os.path.dirname(asset["output"]))
-        if measure and asset["kind"] not in _WARM:
+        if measure and baker is not _copy_baked and asset["kind"] not in _WARM:
             # the first asset of a kind in this process is baked (and checked) once into a
             # scratch folder so that the times recorded are warm (numba cache loads, the
             # check's pyramid geometry excluded), as the plan predicts
@@ -249,7 +317,7 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
                 BAKERS[asset["kind"]](scratch, measure)  # its check's first call too
             _WARM.add(asset["kind"])
         t0 = time.perf_counter()
-        info, errors = BAKERS[asset["kind"]](asset, measure)
+        info, errors = baker(asset, measure)
         wall = time.perf_counter() - t0
     folder = os.path.dirname(asset["output"])  # read back from a collector's scratch (Dask)
     outputs = {os.path.relpath(p, folder): file_hash(staged(p) or p, own_output=True)
@@ -267,7 +335,7 @@ def bake_asset(asset: dict, measure: bool = True) -> dict:
         "predicted_seconds": asset["predicted_seconds"],
         "bake_seconds": info["bake_seconds"],
         "seconds_with_check": wall,
-    }
+    } | ({"copy_of": asset["copy_of"]["id"]} if "copy_of" in asset else {})
 
 
 CHUNK_MAPS = 8
@@ -289,10 +357,12 @@ def chunks(wave: list[dict], maps: int = CHUNK_MAPS) -> list[list[dict]]:
 
 def bake_chunk(assets: list[dict]) -> list[dict]:
     """Bake ``assets`` (:func:`bake_asset`, in order), each map decoded once for all of them
-    and their checks (:func:`shbake.envmap.environment.decoded_once`); their records."""
+    and their checks (:func:`shbake.envmap.environment.decoded_once`), each output folder
+    listed once for stale temporaries (:func:`shbake.format.atomic.listed_once`); their
+    records."""
     from shbake.envmap.environment import decoded_once
 
-    with decoded_once():
+    with decoded_once(), listed_once():
         return [bake_asset(a) for a in assets]
 
 
@@ -314,31 +384,52 @@ def _dask_bake(assets: list[dict], sources: dict[str, bytes]) -> list[tuple[dict
         return out
 
 
-def _bake_on_scheduler(client, waves: list[list[dict]]) -> list[dict]:
-    """Bake ``waves`` on Dask, a wave after the other; each output is written here, in this
-    run's transaction, as its task completes (the whole run is then committed together
-    with the lock, or not at all); records in wave order."""
+def _bake_on_scheduler(client, wave: list[dict]) -> list[dict]:
+    """Bake ``wave`` on Dask; each output is written here, in this run's transaction, as its
+    task completes (the whole run is then committed together with the lock, or not at
+    all); records in the wave's order."""
     from shbake.batch.scheduler import completed, inside, write_returned
 
-    results = []
-    for wave in waves:
-        for a in wave:  # the workers check them (removed again if the run fails)
-            makedirs(os.path.dirname(a["output"]))
-        tasks = chunks(wave)
-        sources = [{p: _staged_bytes(p) for a in task for p in a["inputs"] if staged(p)}
-                   for task in tasks]  # fmt: skip
-        records: list = [None] * len(tasks)
-        futures = client.map(_dask_bake, tasks, sources, pure=False)
-        for i, baked in completed(client, futures):  # written as each task returns
-            for asset, (record, files) in zip(tasks[i], baked, strict=True):
-                folder = os.path.dirname(asset["output"])
-                for rel, data in files.items():
-                    if hashlib.sha256(data).hexdigest() != record["outputs"].get(rel):
-                        raise OutputError(f"{asset['id']}: {rel} differs from its lock record")
-                    write_returned(inside(folder, rel), data)
-            records[i] = [record for record, _ in baked]
-        results += [r for task in records for r in task]
-    return results
+    for a in wave:  # the workers check them (removed again if the run fails)
+        makedirs(os.path.dirname(a["output"]))
+    tasks = chunks(wave)
+    sources = [{p: _staged_bytes(p) for a in task for p in _read_outputs(a) if staged(p)}
+               for task in tasks]  # fmt: skip
+    records: list = [None] * len(tasks)
+    futures = client.map(_dask_bake, tasks, sources, pure=False)
+    for i, baked in completed(client, futures):  # written as each task returns
+        for asset, (record, files) in zip(tasks[i], baked, strict=True):
+            folder = os.path.dirname(asset["output"])
+            for rel, data in files.items():
+                if hashlib.sha256(data).hexdigest() != record["outputs"].get(rel):
+                    raise OutputError(f"{asset['id']}: {rel} differs from its lock record")
+                write_returned(inside(folder, rel), data)
+        records[i] = [record for record, _ in baked]
+    return [r for task in records for r in task]
+
+
+def _read_outputs(asset: dict) -> list[str]:
+    """The files ``asset``'s bake reads that the run may have written: its inputs (an
+    export's ``env_sh`` asset) and the asset it is a copy of."""
+    return asset["inputs"] + ([asset["copy_of"]["output"]] if "copy_of" in asset else [])
+
+
+COPIED_RECORD = ("id", "measured_error", "error_method")
+"""What a copy's record takes from the record of the bake it copies (:func:`_copy_baked`)."""
+
+
+def _bake_waves(todo: list[dict], bake_wave) -> list[dict]:
+    """Bake ``todo`` with ``bake_wave`` (a wave's assets → their records), in waves: the
+    assets of distinct work (:func:`same_work`), then their copies, then the exports
+    (which read the ``env_sh`` assets); the records."""
+    first, copies = same_work([a for a in todo if a["kind"] != "export"])
+    results = bake_wave(first)
+    outputs = {a["id"]: a["output"] for a in first}
+    copy_of = {r["id"]: {"output": outputs[r["id"]]} | {k: r[k] for k in COPIED_RECORD}
+               for r in results if r["id"] in copies}  # fmt: skip
+    wave = [dict(a, copy_of=copy_of[aid]) for aid, same in copies.items() for a in same]
+    results += bake_wave(wave) if wave else []
+    return results + bake_wave([a for a in todo if a["kind"] == "export"])
 
 
 def _staged_bytes(path: str) -> bytes:
@@ -364,7 +455,10 @@ def _poisoned(asset: dict, rec) -> bool:
     base = os.path.dirname(asset["output"])
     for rel, digest in rec["outputs"].items():
         path = os.path.join(base, rel)
-        if not isinstance(digest, str) or os.path.isabs(rel) or not is_inside(path, base):
+        # a plain name is in the folder unless it is a link (refused below): no realpath
+        plain = rel not in ("", ".", "..") and os.sep not in rel
+        if not isinstance(digest, str) or os.path.isabs(rel) or not (
+                plain or is_inside(path, base)):  # fmt: skip
             return True
         try:
             mode = os.lstat(path).st_mode
@@ -593,19 +687,17 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     ids = {a["id"] for a in todo}
     todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
              and a["settings"]["env_sh"] in ids]  # fmt: skip
-    # two waves: exports read the env_sh assets of the first
-    waves = [[a for a in todo if a["kind"] != "export"], [a for a in todo if a["kind"] == "export"]]
     makedirs(scene.out_dir)
     write_stamps(plan, scene)  # before the assets: make then finds each newer than its stamp
-    results = []
     if scheduler is not None:
-        results = _bake_on_scheduler(scheduler, waves)
+        results = _bake_waves(todo, lambda wave: _bake_on_scheduler(scheduler, wave))
     elif jobs > 1 and len(todo) > 1:
         with worker_pool(jobs) as pool:  # one pool: its workers stay warm across waves
-            for wave in waves:
-                results += [r for task in pool.map(bake_chunk, chunks(wave)) for r in task]
+            results = _bake_waves(todo, lambda wave: [
+                r for task in pool.map(bake_chunk, chunks(wave)) for r in task])  # fmt: skip
     else:
-        results = [r for wave in waves for task in chunks(wave) for r in bake_chunk(task)]
+        results = _bake_waves(todo, lambda wave: [
+            r for task in chunks(wave) for r in bake_chunk(task)])  # fmt: skip
     records = {a["id"]: previous[a["id"]] for a in plan["assets"]
                if a["id"] in previous and a["id"] not in poisoned}  # fmt: skip
     for r in results:

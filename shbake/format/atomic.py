@@ -41,13 +41,15 @@ TAG = ".shbake-"
 
 _here = threading.local()
 """Each thread's running transaction (``_here.active``): a Dask worker runs tasks in threads."""
+_shared_listings: dict | None = None
+"""The folder listings that the transactions begun inside :func:`listed_once` share."""
 _open: list = []
 _lock = threading.RLock()
 _counter = 0
 
 
-def _temp_re(base: str):
-    return re.compile(rf"^\.{re.escape(base)}{re.escape(TAG)}(\d+)-(\d+)\.tmp")
+_TEMP_TAIL = re.compile(rf"{re.escape(TAG)}(\d+)-(\d+)\.tmp")
+"""What follows a target's name in the name of its temporary (:data:`TAG`)."""
 
 
 def pid_alive(pid: int) -> bool:
@@ -63,27 +65,57 @@ def pid_alive(pid: int) -> bool:
     return True
 
 
-def remove_stale(path: str) -> list[str]:
-    """Remove temporaries of ``path`` left by processes that no longer exist; return them."""
-    folder = os.path.dirname(os.path.abspath(path))
-    pattern = _temp_re(os.path.basename(path))
-    removed = []
+def temporaries_by_target(folder: str) -> dict[str, list[tuple[str, int]]]:
+    """The shbake temporaries in ``folder`` (one listing), by the name of the target each
+    stands for: ``{target name: [(temporary name, pid), ...]}``. A name that reads as the
+    temporary of more than one target (a target named like a temporary) is listed under
+    each. ``{}`` where the folder cannot be listed."""
     try:
         names = os.listdir(folder)
     except OSError:
-        return removed
+        return {}
+    found: dict[str, list[tuple[str, int]]] = {}
     for name in names:
-        m = pattern.match(name)
-        if m and int(m.group(1)) != os.getpid() and not pid_alive(int(m.group(1))):
-            stale = os.path.join(folder, name)
-            try:
-                if os.path.isdir(stale) and not os.path.islink(stale):
-                    shutil.rmtree(stale)  # a staged folder (Transaction.stage_folder)
-                else:
-                    os.remove(stale)
-                removed.append(name)
-            except OSError:
-                pass
+        at = name.find(TAG, 1) if name.startswith(".") else -1
+        while at > 0:
+            m = _TEMP_TAIL.match(name, at)
+            if m:
+                found.setdefault(name[1:at], []).append((name, int(m.group(1))))
+            at = name.find(TAG, at + 1)
+    return found
+
+
+def remove_stale(path: str, listings: dict | None = None) -> list[str]:
+    """Remove temporaries of ``path`` left by processes that no longer exist (never this
+    process's or a live one's); return their names. ``listings`` keeps each folder's
+    :func:`temporaries_by_target` between calls (a transaction lists each target folder
+    once, not once per staged file); without it the folder is listed now."""
+    folder, base = os.path.split(os.path.abspath(path))
+    with _lock:
+        if listings is None or folder not in listings:
+            listing = temporaries_by_target(folder)
+            if listings is not None:
+                listings[folder] = listing
+        else:
+            listing = listings[folder]
+        candidates = listing.pop(base, [])
+    removed, kept = [], []
+    for name, pid in candidates:
+        if pid == os.getpid() or pid_alive(pid):
+            kept.append((name, pid))
+            continue
+        stale = os.path.join(folder, name)
+        try:
+            if os.path.isdir(stale) and not os.path.islink(stale):
+                shutil.rmtree(stale)  # a staged folder (Transaction.stage_folder)
+            else:
+                os.remove(stale)
+            removed.append(name)
+        except OSError:
+            kept.append((name, pid))
+    if kept:
+        with _lock:
+            listing.setdefault(base, []).extend(kept)
     return removed
 
 
@@ -215,12 +247,19 @@ def _create_file(path: str) -> None:
 
 
 class Transaction:
-    """The outputs of one run: staged temporaries, and folders created for them."""
+    """The outputs of one run: staged temporaries, and folders created for them.
+
+    ``staged`` and ``folders`` map each target to its temporary (in staging order);
+    ``listings`` holds the temporaries found in each target folder, listed once per
+    transaction (:func:`remove_stale`), so staging N files costs O(N), not O(N²)."""
 
     def __init__(self):
-        self.staged: list[tuple[str, str]] = []
-        self.folders: list[tuple[str, str]] = []
+        self.staged: dict[str, str] = {}
+        self.folders: dict[str, str] = {}
         self.created: list[str] = []
+        self.listings: dict[str, dict[str, list[tuple[str, int]]]] = (
+            {} if _shared_listings is None else _shared_listings
+        )
         self.done = False
 
     def makedirs(self, folder: str) -> None:
@@ -231,10 +270,8 @@ class Transaction:
         while not os.path.exists(probe):
             missing.append(probe)
             probe = os.path.dirname(probe)
-        with _lock:
-            outputs = {final for _, final in self.staged}
         for d in missing:
-            if d in outputs:
+            if d in self.staged:
                 raise OutputError(f"{d}: is an output file of this run; it cannot also be "
                                   "an output folder")  # fmt: skip
         for d in reversed(missing):
@@ -276,27 +313,27 @@ class Transaction:
         abort does not remove (removing a temporary not yet made is a no-op)."""
         global _counter
         with _lock:
-            if any(final == path for _, final in getattr(self, registry)):
+            if path in getattr(self, registry):
                 raise OutputError(f"{path}: written twice by one run")
             _counter += 1
             n = _counter
-        remove_stale(path)
+        remove_stale(path, self.listings)
         folder, base = os.path.split(path)
         tmp = os.path.join(folder, f".{base}{TAG}{os.getpid()}-{n}.tmp{suffix}")
         with _lock:
-            getattr(self, registry).append((tmp, path))
+            getattr(self, registry)[path] = tmp
         try:
             make(tmp)
         except OSError as e:
             with _lock:
-                getattr(self, registry).remove((tmp, path))
+                del getattr(self, registry)[path]
             raise OutputError(os_error_message(e, path)) from None
         return tmp
 
     def discard(self, tmp: str) -> None:
         """Remove one staged temporary (its writer failed)."""
         with _lock:
-            self.staged = [(t, f) for t, f in self.staged if t != tmp]
+            self.staged = {f: t for f, t in self.staged.items() if t != tmp}
         _unlink(tmp)
 
     def commit(self) -> list[str]:
@@ -304,36 +341,36 @@ class Transaction:
         with _lock:
             signals.raise_if_interrupted()
             done = []
-            for tmp, final in self.staged:
+            for final, tmp in list(self.staged.items()):
                 try:
                     os.chmod(tmp, 0o644)
                     os.replace(tmp, final)
-                except OSError as e:
-                    self.staged = [(t, f) for t, f in self.staged if f not in done]
+                except OSError as e:  # the files not yet moved stay staged, for abort
                     raise OutputError(os_error_message(e, final)) from None
+                del self.staged[final]
                 done.append(final)
-            for tmp, final in self.folders:
+            for final, tmp in self.folders.items():
                 try:
                     _replace_folder(tmp, final)
                 except OSError as e:
                     raise OutputError(os_error_message(e, final)) from None
                 done.append(final)
-            self.staged, self.folders, self.created, self.done = [], [], [], True
+            self.staged, self.folders, self.created, self.done = {}, {}, [], True
             return done
 
     def abort(self) -> None:
         """Remove every temporary and every folder this run created (if empty)."""
         with _lock:
-            for tmp, _ in self.staged:
+            for tmp in self.staged.values():
                 _unlink(tmp)
-            for tmp, _ in self.folders:
+            for tmp in self.folders.values():
                 shutil.rmtree(tmp, ignore_errors=True)
             for d in reversed(self.created):
                 try:
                     os.rmdir(d)
                 except OSError:
                     pass
-            self.staged, self.folders, self.created, self.done = [], [], [], True
+            self.staged, self.folders, self.created, self.done = {}, {}, [], True
 
 
 def _replace_folder(tmp: str, final: str) -> None:
@@ -369,13 +406,13 @@ class Collector(Transaction):
         global _counter
         path = os.path.abspath(os.fspath(path))
         with _lock:
-            if any(final == path for _, final in self.staged):
+            if path in self.staged:
                 raise OutputError(f"{path}: written twice by one run")
             _counter += 1
             n = _counter
         tmp = os.path.join(self.folder, f"{n}.tmp{os.path.splitext(path)[1]}")
         with _lock:  # registered first, as in Transaction.stage
-            self.staged.append((tmp, path))
+            self.staged[path] = tmp
         os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
         return tmp
 
@@ -393,7 +430,7 @@ class Collector(Transaction):
         """The bytes staged for ``path`` (inside the :func:`collected` block)."""
         target = os.path.abspath(os.fspath(path))
         with _lock:
-            tmp = next((t for t, final in self.staged if final == target), None)
+            tmp = self.staged.get(target)
         if tmp is None:
             raise OutputError(f"{path}: not written by this run")
         with open(tmp, "rb") as f:
@@ -433,10 +470,7 @@ def staged(path: str) -> str | None:
         return None
     target = os.path.abspath(os.fspath(path))
     with _lock:
-        for tmp, final in t.staged:
-            if final == target:
-                return tmp
-    return None
+        return t.staged.get(target)
 
 
 def active() -> Transaction | None:
@@ -465,6 +499,24 @@ def _tracked(t):
         with _lock:
             if t in _open:
                 _open.remove(t)
+
+
+@contextmanager
+def listed_once():
+    """Run a block whose transactions (each output of a batch committed on its own,
+    :func:`detached`) share their folder listings: each target folder is listed once for
+    the block, not once per output (a scene bake's task of many assets in one folder). A
+    temporary that appears in a listed folder during the block, of a process that then
+    dies, is left to the next run. Nested blocks join the outer one."""
+    global _shared_listings
+    if _shared_listings is not None:
+        yield
+        return
+    _shared_listings = {}
+    try:
+        yield
+    finally:
+        _shared_listings = None
 
 
 @contextmanager

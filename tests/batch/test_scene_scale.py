@@ -348,7 +348,8 @@ def test_two_workers_with_their_own_folders(tmp_path):
     """A scheduler and two ``dask worker`` processes, each started in a working directory
     (and ``--local-directory``) of its own, as on two machines: ``bake --scheduler`` writes
     the same bytes as a local bake, every file written by the client, none in the
-    workers' folders."""
+    workers' folders; a probe on a link to another's map is written from that bake on a
+    worker that has only the bytes the client sent (:func:`scene_bake.same_work`)."""
     import json as json_
     import subprocess
     import sys
@@ -358,6 +359,7 @@ def test_two_workers_with_their_own_folders(tmp_path):
     shbake, dask = str(bin_dir / "shbake"), str(bin_dir / "dask")
     (tmp_path / "scene").mkdir()
     scene = diffuse_scene(tmp_path / "scene", ("studio", "sunset", "night"))
+    (tmp_path / "scene" / "maps" / "linked.exr").symlink_to("studio.exr")
     info = tmp_path / "scheduler.json"
     procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
                                "--dashboard-address", ":0", "--scheduler-file", str(info)],
@@ -385,7 +387,10 @@ def test_two_workers_with_their_own_folders(tmp_path):
         done = subprocess.run([shbake, "bake", str(scene), "--scheduler", address, "--json",
                                "-q"], capture_output=True, text=True)  # fmt: skip
         assert done.returncode == 0, done.stderr
-        assert len(json_.loads(done.stdout)["baked"]) == 3
+        assert len(json_.loads(done.stdout)["baked"]) == 4
+        lock = json_.loads((tmp_path / "scene" / "out" / "scene.lock.json").read_text())
+        copies = {a: r["copy_of"] for a, r in lock["assets"].items() if "copy_of" in r}
+        assert copies == {"env_sh/studio": "env_sh/linked"}  # the glob's order: linked first
         out = tmp_path / "scene" / "out" / "env_sh"
         by_dask = {p.name: p.read_bytes() for p in out.iterdir()}
         for folder in workers:
@@ -418,6 +423,28 @@ def test_file_hash_sees_a_rewritten_file(tmp_path):
     assert file_hash(str(path)) == hashlib.sha256(b"d" * 65).hexdigest()
 
 
+def test_file_hash_reads_a_file_once_by_every_name(tmp_path, monkeypatch):
+    """Links (symbolic and hard) to one file are one file: read once (10,000 probes on six
+    maps hash six files), each name still recorded as an input of the run."""
+    import hashlib
+    import os
+
+    from shbake import resources
+    from shbake.batch.plan import file_hash
+
+    path = tmp_path / "m.bin"
+    path.write_bytes(b"map bytes")
+    (tmp_path / "soft.bin").symlink_to("m.bin")
+    os.link(path, tmp_path / "hard.bin")
+    reads, noted = [], []
+    real_sha, real_note = resources.sha256_of, resources.note_input
+    monkeypatch.setattr(resources, "sha256_of", lambda p, o: reads.append(p) or real_sha(p, o))
+    monkeypatch.setattr(resources, "note_input", lambda p: noted.append(p) or real_note(p))
+    names = [str(tmp_path / n) for n in ("m.bin", "soft.bin", "hard.bin")]
+    assert {file_hash(n) for n in names} == {hashlib.sha256(b"map bytes").hexdigest()}
+    assert reads == names[:1] and noted == names
+
+
 def test_lock_text_is_the_lock():
     """One line per record, and json reads back exactly the lock."""
     from shbake.batch.scene_bake import lock_text
@@ -427,3 +454,81 @@ def test_lock_text_is_the_lock():
     text = lock_text(lock)
     assert json.loads(text) == lock
     assert text.splitlines()[2].startswith('  "a/y"') and len(text.splitlines()) == 8
+
+
+PROBE_SCENE = """[scene]
+out_dir = "out"
+[tolerances]
+glossy_probe = 0.3
+{environments}
+[[materials]]
+name = "plaster"
+kind = "diffuse"
+[[materials]]
+name = "varnish"
+kind = "glossy"
+roughness = [0.5, 0.9]
+"""
+
+
+def probe_scene(folder: Path, probes: dict[str, list[float]], pixels) -> Path:
+    """A scene of one probe per ``name → position``: ``maps/NAME.exr``, the first a file of
+    ``pixels``, the others symbolic links to it; diffuse + glossy (env_sh + a glossy probe)."""
+    (folder / "maps").mkdir(parents=True)
+    entries = []
+    for i, (name, position) in enumerate(probes.items()):
+        if i == 0:
+            write_test_exr(folder / "maps" / f"{name}.exr", pixels)
+        else:
+            (folder / "maps" / f"{name}.exr").symlink_to(f"{next(iter(probes))}.exr")
+        entries.append(f'[[environments]]\nmap = "maps/{name}.exr"\nposition = {position}\n')
+    path = folder / "scene.toml"
+    path.write_text(PROBE_SCENE.format(environments="".join(entries)))
+    return path
+
+
+def test_same_map_bytes_and_settings_baked_once(tmp_path, monkeypatch):
+    """Two probes on links to one map (other positions): each asset kind's baker runs once,
+    the other probe's assets are written from its bake, and every output has the bytes of a
+    scene of that probe alone; the copy's lock record is complete, names what it copies,
+    and its error is the one its own bake measures."""
+    from collections import defaultdict
+
+    from shbake.batch import plan, scene_bake
+    from shbake.batch.scene import load_scene
+
+    # predicted recipe times are not compared: no fresh processes to time them in
+    monkeypatch.setattr(plan, "recipe_overheads", lambda classes: defaultdict(float))
+    rng = np.random.default_rng(5)
+    pixels = rng.uniform(0.1, 2.0, (32, 64, 3)).astype(np.float32)
+    both = probe_scene(tmp_path / "both", {"a": [1.0, 2.0, 3.0], "b": [4.0, 5.0, 6.0]}, pixels)
+    alone = {n: probe_scene(tmp_path / n, {n: p}, pixels)
+             for n, p in (("a", [1.0, 2.0, 3.0]), ("b", [4.0, 5.0, 6.0]))}  # fmt: skip
+    single = {n: scene_bake.bake_scene(load_scene(str(p))) for n, p in alone.items()}
+    baked = []
+
+    def counted(baker):
+        return lambda a, measure=True: baked.append(a["output"]) or baker(a, measure)
+
+    for kind, baker in scene_bake.BAKERS.items():
+        monkeypatch.setitem(scene_bake.BAKERS, kind, counted(baker))
+    summary = scene_bake.bake_scene(load_scene(str(both)))
+    out = tmp_path / "both" / "out"
+    kinds = sorted(aid.split("/")[0] for aid in summary["baked"] if aid.endswith("/a"))
+    assert len(kinds) == 2 and sorted(summary["baked"]) == sorted(
+        f"{k}/{n}" for k in kinds for n in "ab")  # fmt: skip
+    assert sorted(p for p in baked if p.startswith(str(out))) == sorted(
+        str(out / k / "a.h5") for k in kinds)  # fmt: skip
+    for n in "ab":
+        for k in kinds:
+            own = tmp_path / n / "out" / k / f"{n}.h5"
+            assert (out / k / f"{n}.h5").read_bytes() == own.read_bytes(), (k, n)
+    lock = json.loads((out / "scene.lock.json").read_text())["assets"]
+    for k in kinds:
+        copy, own = lock[f"{k}/b"], single["b"]["records"][f"{k}/b"]
+        assert copy["copy_of"] == f"{k}/a" and "copy_of" not in lock[f"{k}/a"]
+        assert copy["measured_error"] == own["measured_error"]
+        assert copy["error_method"] == own["error_method"]
+        assert copy["inputs"] == {"maps/b.exr": own["inputs"][next(iter(own["inputs"]))]}
+        assert copy["outputs"] == {"b.h5": own["outputs"]["b.h5"]}
+    assert scene_bake.bake_scene(load_scene(str(both)))["baked"] == []

@@ -183,7 +183,7 @@ class TestCollected:
             with atomic.transaction() as t:
                 atomic.write_text(str(tmp_path / name), name)
                 both_inside.wait(timeout=30)
-                seen[name] = (t, atomic.active(), [f for _, f in t.staged])
+                seen[name] = (t, atomic.active(), list(t.staged))
 
         threads = [threading.Thread(target=task, args=(n,)) for n in ("a", "b")]
         for th in threads:
