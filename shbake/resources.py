@@ -156,9 +156,12 @@ def outputs_declared() -> None:
     _reading_back = True
 
 
-def inputs() -> list[str]:
-    """Every input file this process has read (absolute paths, first-read order)."""
-    return list(_inputs)
+def same_input(path) -> str | None:
+    """The input this process read that ``path`` is (the same file through links or another
+    spelling: one look-up by identity), or ``None``."""
+    ident = _identity(os.path.abspath(os.fspath(path)))
+    seen = _by_identity.get(ident) if ident is not None else None
+    return seen[1] if seen is not None and seen[0] == "input" else None
 
 
 def end_run() -> None:

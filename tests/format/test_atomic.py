@@ -93,3 +93,37 @@ def test_outputs_committed_on_their_own_share_listings_in_listed_once(tmp_path, 
             assert (tmp_path / f"f{i}.txt").read_text() == str(i)  # committed at once
     assert calls.get(str(tmp_path)) == 1
     assert not dead.exists()
+
+
+class TestRefuseSameFile:
+    """refuse_same_file: an output that is an input (a link, another spelling) is refused
+    with one line, at one ``stat`` per path (old code: a ``samefile`` per pair)."""
+
+    def test_a_link_to_an_input_is_refused(self, tmp_path):
+        import pytest
+
+        from shbake.errors import OutputError
+
+        src = tmp_path / "map.exr"
+        src.write_bytes(b"x")
+        (tmp_path / "out.h5").symlink_to(src)
+        with pytest.raises(OutputError, match="is the input"):
+            atomic.refuse_same_file([str(tmp_path / "new.h5"), str(tmp_path / "out.h5")],
+                                    [str(src)])  # fmt: skip
+
+    def test_one_stat_per_path(self, tmp_path, monkeypatch):
+        ins, outs = [], []
+        for i in range(FILES_PER_FOLDER):
+            for group, name in ((ins, f"m{i}.exr"), (outs, f"a{i}.h5")):
+                (tmp_path / name).write_bytes(b"x")
+                group.append(str(tmp_path / name))
+        calls = []
+        real = os.stat
+
+        def counted(path, *a, **k):
+            calls.append(path)
+            return real(path, *a, **k)
+
+        monkeypatch.setattr(os, "stat", counted)
+        atomic.refuse_same_file(outs, ins)
+        assert len(calls) == 2 * FILES_PER_FOLDER
