@@ -13,6 +13,19 @@ TIMEOUT = 120
 """Seconds any subprocess case may take (a hang fails the test instead of the suite)."""
 
 
+def dead_pid() -> int:
+    """A process id that does not exist."""
+    pid = 4_000_000
+    while True:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return pid
+        except PermissionError:
+            pass
+        pid -= 1
+
+
 def shbake(*args, timeout=TIMEOUT, stdout=subprocess.PIPE, env=None, preexec=None):
     """Run ``shbake ARGS`` in a subprocess; ``(status, stdout, stderr)``."""
     full_env = dict(os.environ, NUMBA_NUM_THREADS="1", **(env or {}))

@@ -6,7 +6,7 @@ import os
 import re
 
 from shbake.format import atomic
-from tests.system.faults.test_signals import dead_pid
+from tests.faults import dead_pid
 
 FILES_PER_FOLDER = 40
 

@@ -13,21 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.faults import TIMEOUT, assert_failed, unchanged
-
-
-def dead_pid() -> int:
-    """A process id that does not exist."""
-    pid = 4_000_000
-    while True:
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return pid
-        except PermissionError:
-            pass
-        pid -= 1
-
+from tests.faults import TIMEOUT, assert_failed, dead_pid, unchanged
 
 LONG_TABLE = ["brdf-table", "phong", "--size", "256", "--lmax", "8", "--samples", "4096"]
 
