@@ -442,6 +442,7 @@ defaults): ``normalFiltering`` (``shaders/src/surface_shading_parameters``…
 ``getRoughnessPixelParams``) raises ``α²`` by ``min(2 · 0.15 (|∂x n|² + |∂y n|²), 0.2)`` of
 the world geometric normal before the roughness floor."""
 
+
 def white_ktx1(d, sizes: list[int]) -> str:
     """A test-side Filament IBL of a unit-radiance environment: KTX 1.1, R11F_G11F_B10F texels
     1.0 (R, G: exponent 15 mantissa 0 = 0x3C0; B 0x1E0) on every level, ``sh`` metadata of
