@@ -296,7 +296,7 @@ class TestBabylon:
         else:
             files["gammaSpace"] = True
         if levels is None:
-            cubes = {**BABYLON_CUBES, "samples": 128}
+            cubes = {**BABYLON_CUBES, "size": 256, "samples": 128}  # the fault dominates
             files["gltf"] = export_assets([baked["h5"]], "babylon", out, mapping=mapping, **cubes)[
                 0
             ]
