@@ -18,7 +18,7 @@ pixels, pixel sample and error definition as ``tests/system/test_engine_render.p
 sphere is ray-traced here; derivatives are taken on 2×2 pixel quads,
 :func:`tests.engine_browser.quad_derivatives`, the rule the rendered-engine tests check).
 
-    .venv/bin/python bench/engine_lod_floor.py [--engine three|filament] [--maps city …]
+    .venv/bin/python bench/engine_lod_floor.py [--engine three|filament|babylon] [--maps city …]
 
 Prints one Markdown row per map: median / 95th percentile of the luminance relative error
 for the mirror (r 0), r 0.3 and r 0.6 metal spheres.
@@ -33,8 +33,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the tests package, as pytest sees it
 
-from shbake.bakers.cube_prefilter import reference_radiance, roughness_of_level  # noqa: E402
+from shbake.bakers.cube_prefilter import (  # noqa: E402
+    BABYLON_MIN_ALPHA,
+    reference_radiance,
+    roughness_of_level,
+)
 from shbake.envmap import load_environment  # noqa: E402
+from shbake.reference.irradiance import brute_force_irradiance  # noqa: E402
 from tests.engine_browser import (  # noqa: E402
     latlong_bilinear,
     pixel_rays,
@@ -78,26 +83,36 @@ def sphere_pixels(view) -> tuple[np.ndarray, ...]:
     return rays[inner], n[inner], g[inner], kernel[inner]
 
 
-def drawn_roughness(engine: str, r_material: float, g, kernel):
-    """The perceptual roughness the engine reads the chain at, and the weight of ``n`` in its
-    lookup direction (three ``r⁴``, Filament ``α²``)."""
+BABYLON_CHAIN = (512, 7)
+"""Babylon's chain in the tests: 512² to 8² faces (``--size 512``), seven levels."""
+
+
+def lookups(engine: str, r_material: float, refl, n, g, kernel, levels: int):
+    """``(lookup directions, α of the reference, lod read)`` of a sphere of perceptual
+    roughness ``r_material`` as ``engine`` draws it."""
+    if engine == "babylon":  # pbrIBLFunctions getLodFromAlphaG; MINIMUMVARIANCE; no R' mix
+        size, _ = BABYLON_CHAIN
+        alpha = np.full(len(refl), r_material**2 + BABYLON_MIN_ALPHA)
+        lod = (levels - 1) / np.log2(size) * np.log2(size * alpha)
+        return refl, alpha, np.clip(lod, 0.0, levels - 1.0)
     if engine == "three":
         r = np.minimum(np.maximum(r_material, THREE_MIN_ROUGHNESS) + g, 1.0)
-        return r, r**4
-    filtered = np.minimum(r_material**4 + kernel, 1.0) ** 0.25
-    r = np.maximum(filtered, FILAMENT_MIN_ROUGHNESS)
-    return r, r**4
+    else:
+        filtered = np.minimum(r_material**4 + kernel, 1.0) ** 0.25
+        r = np.maximum(filtered, FILAMENT_MIN_ROUGHNESS)
+    look = refl + (n - refl) * (r**4)[:, None]  # three r⁴, Filament α²: the same
+    look /= np.linalg.norm(look, axis=-1, keepdims=True)
+    return look, r**2, np.minimum((levels - 1) * r * (2.0 - r), levels - 1.0)
 
 
-def ideal_blend(env, look: np.ndarray, r: np.ndarray, levels: int) -> np.ndarray:
-    """Exact levels blended linearly at the lod ``(levels − 1) r (2 − r)``."""
-    lod = np.minimum((levels - 1) * r * (2.0 - r), levels - 1.0)
+def ideal_blend(env, look, lod, levels: int, mapping: str, size: int) -> np.ndarray:
+    """Exact levels (the chain's roughness per level, ``mapping``) blended linearly at ``lod``."""
     i0 = np.minimum(np.floor(lod).astype(int), levels - 2)
     f = (lod - i0)[:, None]
-    out = np.empty((len(r), 3))
+    out = np.empty((len(lod), 3))
     for i in np.unique(i0):
         m = i0 == i
-        below, above = (roughness_of_level(k, levels, "filament") for k in (i, i + 1))
+        below, above = (roughness_of_level(k, levels, mapping, size) for k in (i, i + 1))
         if below == 0.0:
             lo = latlong_bilinear(env.pixels, look[m])
         else:
@@ -114,21 +129,35 @@ def map_row(engine: str, name: str, levels: int) -> str:
     keep = np.sort(rng.choice(len(rays), min(REFERENCE_PIXELS, len(rays)), replace=False))
     rays, n, g, kernel = rays[keep], n[keep], g[keep], kernel[keep]
     refl = reflect(rays, n)
+    mapping, size = ("babylon", BABYLON_CHAIN[0]) if engine == "babylon" else ("filament", 0)
+    e_over_pi = brute_force_irradiance(*env.samples(), n) / np.pi
     cells = []
     for r_material in (0.0, 0.3, 0.6):
-        r, toward_n = drawn_roughness(engine, r_material, g, kernel)
-        look = refl + (n - refl) * toward_n[:, None]
-        look /= np.linalg.norm(look, axis=-1, keepdims=True)
-        e = luminance_error(ideal_blend(env, look, r, levels), reference_radiance(env, look, r**2))
+        look, alpha, lod = lookups(engine, r_material, refl, n, g, kernel, levels)
+        if r_material == 0.0 and engine == "babylon":  # its mirror reads level 0: the map
+            want = latlong_bilinear(env.pixels, look)
+        else:
+            want = reference_radiance(env, look, alpha)
+        got = ideal_blend(env, look, lod, levels, mapping, size)
+        if engine == "babylon":  # mix(prefiltered, E/π, α): pbrBlockReflection, as the tests
+            got, want = (
+                (1.0 - alpha)[:, None] * v + (alpha[:, None] * e_over_pi) for v in (got, want)
+            )
+        e = luminance_error(got, want)
         cells.append(f"{np.median(e):.1%} / {np.percentile(e, 95):.1%}")
     return f"| {name} | " + " | ".join(cells) + " |"
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--engine", default="three", choices=("three", "filament"))
+    ap.add_argument("--engine", default="three", choices=("three", "filament", "babylon"))
     ap.add_argument("--maps", nargs="+", default=list(MAPS), choices=MAPS)
-    ap.add_argument("--levels", type=int, default=7, help="chain levels (7: 256² to 4²)")
+    ap.add_argument(
+        "--levels",
+        type=int,
+        default=7,
+        help="chain levels (7: 256² to 4² for three and Filament, 512² to 8² Babylon)",
+    )
     args = ap.parse_args()
     print(f"{args.engine} lod rule, ideal {args.levels}-level chain, {SIZE}² pixels, "
           f"{len(VIEWS)} views")  # fmt: skip

@@ -232,7 +232,9 @@ MEASURED_LIMITS = {
   for such a lamp is not the lobe between them (brute-force levels read so: 3.8 % / 9.2 %
   at r 0.3, 3.3 % / 23 % at r 0.6). Rendered 2026-11-27 (median / p95): three.js r 0.3
   8.2 / 20.5 %, r 0.6 4.1 / 35.0 %; Filament r 0.6 3.2 / 22.6 % (r 0.3 within the bound,
-  4.8 / 12.4 %); Babylon.js (512² faces) r 0.3 6.4 / 20.6 % (4.2 / 13.4 % from 256²).
+  4.8 / 12.4 %); Babylon.js (512² faces) r 0.3 6.4 / 20.6 %, at the floor of Babylon's lod
+  rule for that chain (6.5 / 19.2 %, ``bench/engine_lod_floor.py --engine babylon``; 4.2 /
+  13.4 % from 256², where forest's mirror misses).
 * Filament's mirror reads the 128² level (its roughness floor, :data:`FILAMENT_MIN_ROUGHNESS`,
   and gltfio's specular anti-aliasing, :data:`FILAMENT_SPECULAR_AA`): 13–14 % p95 on city and
   forest, 6.6 % on sunset, but not on esplanade (sun of 29 856 in a few texels), night and
