@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/scene_scale.py [--n 100 --n 1000 …] [--work DIR] [--plot FILE]
                                           [--skip make,dask,bare] [--links]
+                                          [--maps-per-rule N]
 
 Maps: the six shared maps (``../shared/hdri``, 512×256) rolled by distinct column shifts
 (a different file per probe, never two with the same bytes), written as half EXR; with
@@ -14,7 +15,8 @@ Per N, side by side in one run, each command a fresh process from a cold output 
 
 * ``plan --jobs 2`` then ``bake --jobs 2``; a second ``bake`` (nothing to do); one map's bytes
   changed, then ``bake`` (its assets only);
-* ``plan --emit-make`` (``--maps-per-rule 8``) then ``make -j2``; a second ``make``;
+* ``plan --emit-make`` (``--maps-per-rule``, 8 unless given) then ``make -j2``; a second
+  ``make``;
 * ``bake --scheduler`` on a 2-worker ``LocalCluster`` (started before the timing; the
   nanny's ``MALLOC_TRIM_THRESHOLD_`` unset, as docs/SCENES.md recommends);
 * the bare commands doing the same bakes, all maps in one call each with ``--jobs 2``:
@@ -109,11 +111,26 @@ def _children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
+def _cluster_cpu() -> dict:
+    """CPU seconds so far of this process (a LocalCluster's scheduler, started here) and of
+    its live descendants (the cluster's nannies and workers; no command is running)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    workers = 0.0
+    for c in psutil.Process().children(recursive=True):
+        try:
+            t = c.cpu_times()
+            workers += t.user + t.system
+        except psutil.Error:
+            pass
+    return {"scheduler": r.ru_utime + r.ru_stime, "workers": workers}
+
+
 def run(args, cwd, env=None, cluster: bool = False) -> dict:
     """Run ``args``; wall s, CPU s of the tree, peak RSS (MiB) of the process and of its
     largest descendant (``cluster``: of this process's other descendants, the Dask
     workers of a LocalCluster started here)."""
     c0, t0 = _children_cpu(), time.perf_counter()
+    cluster_cpu0 = _cluster_cpu() if cluster else None
     proc = subprocess.Popen(args, cwd=cwd, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)  # fmt: skip
     peak = {"client": 0, "worker": 0}
@@ -150,6 +167,8 @@ def run(args, cwd, env=None, cluster: bool = False) -> dict:
     m = {"wall": time.perf_counter() - t0, "cpu": _children_cpu() - c0,
          "client_mib": peak["client"] / 2**20, "worker_mib": peak["worker"] / 2**20,
          "stdout": out}  # fmt: skip
+    if cluster:  # the scheduler runs in this process, the workers are its other children
+        m["cluster_cpu"] = {k: v - cluster_cpu0[k] for k, v in _cluster_cpu().items()}
     print(f"  {cwd.name}: {' '.join(map(str, args[1:4]))}…: {m['wall']:.1f} s wall, "
           f"{m['cpu']:.1f} s CPU", file=sys.stderr, flush=True)  # fmt: skip
     return m
@@ -230,14 +249,16 @@ def many_maps_per_rule() -> bool:
     return "--maps-per-rule" in done.stdout
 
 
-def measure(work: Path, n: int, skip: set[str], links: bool = False) -> dict:
+def measure(
+    work: Path, n: int, skip: set[str], links: bool = False, maps_per_rule: int = 8
+) -> dict:
     work.mkdir(parents=True, exist_ok=True)
     maps = (link_maps if links else make_maps)(work / "maps", n)
     for extra in sorted((work / "maps").glob("p*.exr"))[n:]:
         extra.unlink()
     (work / "scene.toml").write_text(SCENE)
     out = work / "out"
-    res: dict = {"n": n}
+    res: dict = {"n": n, "maps_per_rule": maps_per_rule}
     shutil.rmtree(out, ignore_errors=True)
     jobs = ["--jobs", "2"] if "--jobs" in subprocess.run(
         [SHBAKE, "plan", "--help"], capture_output=True, text=True).stdout else []  # fmt: skip
@@ -282,7 +303,7 @@ def measure(work: Path, n: int, skip: set[str], links: bool = False) -> dict:
         res["bare"] = bare_commands(work, maps, lock)
     if "make" not in skip:
         shutil.rmtree(out)
-        grouped = ["--maps-per-rule", "8"] if many_maps_per_rule() else []
+        grouped = ["--maps-per-rule", str(maps_per_rule)] if many_maps_per_rule() else []
         res["make_plan"] = run([SHBAKE, "plan", "scene.toml", *jobs, "--emit-make", "scene.mk",
                                 "--shbake", SHBAKE, *grouped, "-q"], work)  # fmt: skip
         (work / "Makefile").write_text("include scene.mk\n")
@@ -325,7 +346,8 @@ def report(res: dict) -> str:
     row("`bake --jobs 2` (cold)", res["bake"])
     row("`plan` + `bake --jobs 2`", res["plan"], res["bake"])
     if "make" in res:  # the fragment's plan found the units `plan` kept: count a cold plan
-        row("`plan` + `make -j2` (grouped rules)", res["plan"], res["make"])
+        per_rule = res.get("maps_per_rule", 8)
+        row(f"`plan` + `make -j2` ({per_rule} maps a rule)", res["plan"], res["make"])
     if "dask" in res:
         row("`bake --scheduler` LocalCluster(2)", res["dask"])
     if "bare" in res:
@@ -352,8 +374,14 @@ def report(res: dict) -> str:
             mk = res["plan"]["wall"] + res["make"]["wall"]
             lines.append(f"plan + make -j2 / bare: {mk / bare:.2f} (≤ 2)")
     if "dask" in res:
-        lines.append(f"Dask / bake --jobs 2: {res['dask']['wall'] / res['bake']['wall']:.2f} "
-                     "(≤ 1.2)")  # fmt: skip
+        d = res["dask"]
+        lines.append(f"Dask / bake --jobs 2: {d['wall'] / res['bake']['wall']:.2f} wall (≤ 1.2)")
+        if "cluster_cpu" in d:
+            c = d["cluster_cpu"]
+            total = d["cpu"] + c["workers"] + c["scheduler"]
+            lines.append(f"Dask CPU: client {d['cpu']:.1f} s, workers {c['workers']:.1f} s, "
+                         f"scheduler (with this script's sampling) {c['scheduler']:.1f} s; "
+                         f"{total / res['bake']['cpu']:.2f}× `bake --jobs 2`'s CPU")  # fmt: skip
     lines.append(f"end-to-end rate (plan + bake --jobs 2): {n / scene:.1f} probes/s (≥ 25)")
     return "\n".join(lines)
 
@@ -394,6 +422,7 @@ def main():
     p.add_argument("--json", default=None)
     p.add_argument("--skip", default="")
     p.add_argument("--links", action="store_true", help="maps: links to the six shared maps")
+    p.add_argument("--maps-per-rule", type=int, default=8, help="the fragment's rules")
     a = p.parse_args()
     work = Path(a.work or tempfile.mkdtemp(prefix="scene-scale-"))
     skip = set(filter(None, a.skip.split(",")))
@@ -401,7 +430,7 @@ def main():
     print(f"load average at start: {os.getloadavg()[0]:.2f}; work folder {work}")
     for n in a.n or [100]:
         folder = work / (f"n{n}-links" if a.links else f"n{n}")
-        results.append(measure(folder, n, skip, a.links))
+        results.append(measure(folder, n, skip, a.links, a.maps_per_rule))
         print(report(results[-1]), flush=True)
     if a.json:
         Path(a.json).write_text(json.dumps(results, indent=1))
