@@ -7,6 +7,10 @@ process: wall seconds of the write, and the growth of the process's peak residen
 (``ru_maxrss``) during it. Both methods are checked to give the same bytes.
 
     python bench/asset_write.py ASSET.h5 [ASSET.h5 ...]
+    python bench/asset_write.py --cpu ASSET.h5 [ASSET.h5 ...]
+
+``--cpu``: process CPU time of one ``write_asset`` of each asset (read back first), the
+median of 5 batches of 60 writes in this process (issue 31: the low-level writer).
 """
 
 import os
@@ -62,8 +66,31 @@ def main(paths):
               f"{row['image'][1] / mib:.1f} |")  # fmt: skip
 
 
+def cpu_per_write(paths, batches: int = 5, writes: int = 60):
+    """Print the CPU milliseconds of one ``write_asset`` of each asset at ``paths``."""
+    from shbake.format.asset import read_asset, write_asset
+
+    print("| asset | kind | write_asset CPU ms (median of batches) |")
+    print("|---|---|---:|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, path in enumerate(paths):
+            asset = read_asset(path)
+            out = os.path.join(tmp, f"{i}.h5")
+            write_asset(out, asset)  # first write: imports, caches
+            per = []
+            for _ in range(batches):
+                t0 = time.process_time()
+                for _ in range(writes):
+                    write_asset(out, asset)
+                per.append((time.process_time() - t0) / writes)
+            median = sorted(per)[batches // 2]
+            print(f"| {os.path.basename(path)} | {asset.kind} | {median * 1e3:.2f} |")
+
+
 if __name__ == "__main__":
-    if sys.argv[1] == "--one":
+    if sys.argv[1] == "--cpu":
+        cpu_per_write(sys.argv[2:])
+    elif sys.argv[1] == "--one":
         seconds, grown = measure(*sys.argv[2:5])
         print(seconds, grown)
     else:

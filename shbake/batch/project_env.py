@@ -195,8 +195,10 @@ def project_environment_asset(
     measure_export: bool = False,
 ) -> tuple:
     """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the asset as
-    written (in memory: a scene's check measures it without reading the file back) and the
-    summary.
+    written, the summary, and the environment it was baked from: the map as read with the
+    policies the asset records, its pixels unturned (a ``pose`` turns the SH) and its sun
+    not extracted — what :func:`shbake.format.provenance.reload_source` reads back — so a
+    scene's check measures the asset against the map without reading either again.
 
     ``pose``: a scene probe's ``{"position": [x, y, z], "rotation_deg": θ}``, recorded in
     the asset (``probe_position``, ``probe_rotation_deg``); the SH are turned by ``θ``
@@ -212,8 +214,9 @@ def project_environment_asset(
     ``lights``/``light_tol``: directional lights fitted with the SH to the irradiance
     (:func:`shbake.bakers.env_sh.bake_env_sh`).
     """
-    irradiance_lmax = check_settings(lmax, irradiance_lmax, irradiance_sh, exports, lights,
-                                     light_tol, extract_sun, window)
+    irradiance_lmax = check_settings(
+        lmax, irradiance_lmax, irradiance_sh, exports, lights, light_tol, extract_sun, window
+    )
     check_output_path(output)
     if exr_dir is not None:
         check_output_dir(exr_dir, "--exr-dir")
@@ -311,4 +314,4 @@ def project_environment_asset(
     elif summary.get("lights"):
         summary["lights"]["lights"] = lights_found
     summary["warnings"] = quality_warnings(asset, summary)
-    return asset, summary
+    return asset, summary, environment

@@ -73,17 +73,17 @@ def _committed():
 
 def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     """An env_sh asset; measured: its irradiance against the pyramid brute force
-    (:func:`shbake.evaluation.env_sh.check_reference`), the asset as written taken from
-    memory (its values are the file's: every dataset is stored in its own dtype)."""
+    (:func:`shbake.evaluation.env_sh.check_reference`) of the map the bake decoded (its
+    pixels as the asset's recorded policies read them, unturned), the asset as written taken
+    from memory (its values are the file's: every dataset is stored in its own dtype)."""
     from shbake.batch.project_env import project_environment_asset
     from shbake.envmap.turn import turn_matrix
     from shbake.evaluation.env_sh import check_reference, irradiance_errors
-    from shbake.format.provenance import reload_source
 
     s = a["settings"]
     t0 = time.perf_counter()
     with _committed():
-        asset, summary = project_environment_asset(
+        asset, summary, env = project_environment_asset(
             a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
             irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
             extract_sun=s["extract_sun"], lights=s.get("lights"), quiet=True,
@@ -93,7 +93,6 @@ def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
     outputs = summary["outputs"]
     if not measure:
         return {"outputs": outputs, "bake_seconds": seconds}, {}
-    env = reload_source(asset, a["output"], a["inputs"][0])  # the map as baked, unturned
     names = [n for n, on in (("irradiance", s["irradiance"]), ("tangent_irradiance", s["tangent"]))
              if on]  # fmt: skip
     ref = check_reference(env, names)
