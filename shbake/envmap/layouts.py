@@ -242,8 +242,8 @@ def latlong_cell_by_table(dx, dy, dz, height, width, cells):
     bucket's edge ``cos(π e/H)``, the one on ``d_y``'s side. The column: bucket the
     pseudo-angle ``p = 1 − b/(|a|+|b|)`` (``a ≥ 0``) or ``3 + b/(|a|+|b|)``,
     ``(a, b) = (d_x, −d_z)``, which increases with the azimuth ``φ = atan2(a, b)`` over
-    ``[0, 2π]``; of the two columns beside the bucket's edge ``φ_e`` (modulo ``W``), the
-    one on the side given by the sign of ``cos φ_e a − sin φ_e b = |(a, b)| sin(φ − φ_e)``.
+    ``[0, 2π]``; of the two columns beside the bucket's edge ``φ_e``, the one on the side
+    given by the sign of ``cos φ_e a − sin φ_e b = |(a, b)| sin(φ − φ_e)``.
     Every other edge being farther than :data:`CELL_MARGIN` from the bucket, the cell is
     sure when both comparisons clear that margin (and ``|a| + |b|`` is not denormal).
     """
@@ -258,8 +258,7 @@ def latlong_cell_by_table(dx, dy, dz, height, width, cells):
     p = 1.0 - t if a >= 0.0 else 3.0 + t
     ec = cells.col_edge[min(max(int(p * (0.25 * cols)), 0), cols - 1)]
     x = cells.col_cos[max(ec, 0)] * a - cells.col_sin[max(ec, 0)] * b
-    c = ec - (x <= 0.0)
-    c = c + width if c < 0 else (c - width if c >= width else c)
+    c = min(max(ec - (x <= 0.0), 0), width - 1)  # bucket 0 starts at φ = 0, the last ends at 2π
     sure = ((er >= 0) & (ec >= 0) & (r >= 0) & (r < height) & (abs(dy - top) > CELL_MARGIN)
             & (s > 1e-150) & (abs(x) > CELL_MARGIN * s))  # fmt: skip
     return min(max(r, 0), height - 1), c, sure
