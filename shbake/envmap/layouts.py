@@ -182,20 +182,21 @@ and :func:`latlong_texel` decides."""
 class LatlongCells(NamedTuple):
     """Tables of :func:`latlong_cell_by_table` for one lat-long shape (:func:`latlong_cells`).
 
-    ``row_top[r] = cos(π r/H)``, ``r = 0 … H``, the top edge of row ``r``;
-    ``col_cos[c], col_sin[c] = cos φ_c, sin φ_c``, ``φ_c = 2π c/W``, ``c = 0 … W``, the
-    left edge of column ``c``. ``row_edge[i]`` (``ROW_BUCKETS · H`` buckets of
-    ``1 − d_y`` over ``[0, 2]``) and ``col_edge[i]`` (``COL_BUCKETS · W`` buckets of the
-    pseudo-angle over ``[0, 4]``): the one edge the directions of bucket ``i`` may lie on
-    either side of, every other edge being more than :data:`CELL_MARGIN` away; −1 where
-    there is none (a bucket across two rows near a pole).
+    Per bucket of ``1 − d_y`` (``ROW_BUCKETS · H`` over ``[0, 2]``) the one row edge
+    ``e`` its directions may lie on either side of, every other edge being more than
+    :data:`CELL_MARGIN` away (``row_edge``; −1 where there is none: a bucket across two
+    rows near a pole), and that edge's ``cos(π e/H)`` (``row_edge_y``); per bucket of the
+    pseudo-angle (``COL_BUCKETS · W`` over ``[0, 4]``) the one column edge ``e``
+    (``col_edge``) and its ``cos φ_e``, ``sin φ_e``, ``φ_e = 2π e/W`` (``col_edge_cos``,
+    ``col_edge_sin``). Values per bucket, not per edge: the look-ups of one direction do
+    not wait for each other.
     """
 
-    row_top: np.ndarray
     row_edge: np.ndarray
-    col_cos: np.ndarray
-    col_sin: np.ndarray
+    row_edge_y: np.ndarray
     col_edge: np.ndarray
+    col_edge_cos: np.ndarray
+    col_edge_sin: np.ndarray
 
 
 def _bucket_edges(lo, hi, edges, stop):
@@ -215,7 +216,6 @@ def latlong_cells(height: int, width: int) -> LatlongCells:
     edges correctly rounded to within an ulp, each bucket's edge chosen over its range
     widened by :data:`CELL_SLOP` (then turned into ``θ`` for rows, ``φ`` for columns)."""
     theta_edges = np.pi * np.arange(height + 1) / height
-    top = np.cos(theta_edges)
     rows = ROW_BUCKETS * height
     y = np.clip(2.0 * np.arange(rows + 1) / rows + np.array([[-CELL_SLOP], [CELL_SLOP]]), 0, 2)
     theta = np.arccos(1.0 - y)  # bucket i: 1 − d_y in [y[0, i], y[1, i + 1]]
@@ -227,7 +227,9 @@ def latlong_cells(height: int, width: int) -> LatlongCells:
     phi = np.where(p < 2.0, np.arctan2(1.0 - np.abs(t), t),
                    2.0 * np.pi + np.arctan2(np.abs(t) - 1.0, t))  # fmt: skip
     col_edge = _bucket_edges(phi[0, :-1], phi[1, 1:], phi_edges, 2.0 * np.pi)
-    return LatlongCells(top, row_edge, np.cos(phi_edges), np.sin(phi_edges), col_edge)
+    rb, cb = np.maximum(row_edge, 0), np.maximum(col_edge, 0)
+    return LatlongCells(row_edge, np.cos(theta_edges)[rb], col_edge, np.cos(phi_edges)[cb],
+                        np.sin(phi_edges)[cb])  # fmt: skip
 
 
 @jit
@@ -249,15 +251,16 @@ def latlong_cell_by_table(dx, dy, dz, height, width, cells):
     """
     inline_into_callers()
     rows, cols = cells.row_edge.shape[0], cells.col_edge.shape[0]
-    er = cells.row_edge[min(max(int((1.0 - dy) * (0.5 * rows)), 0), rows - 1)]
-    top = cells.row_top[max(er, 0)]
+    i = min(max(int((1.0 - dy) * (0.5 * rows)), 0), rows - 1)
+    er, top = cells.row_edge[i], cells.row_edge_y[i]
     r = er - (dy > top)
     a, b = dx, -dz
     s = abs(a) + abs(b)
     t = b / max(s, 1e-300)
     p = 1.0 - t if a >= 0.0 else 3.0 + t
-    ec = cells.col_edge[min(max(int(p * (0.25 * cols)), 0), cols - 1)]
-    x = cells.col_cos[max(ec, 0)] * a - cells.col_sin[max(ec, 0)] * b
+    i = min(max(int(p * (0.25 * cols)), 0), cols - 1)
+    ec = cells.col_edge[i]
+    x = cells.col_edge_cos[i] * a - cells.col_edge_sin[i] * b
     c = min(max(ec - (x <= 0.0), 0), width - 1)  # bucket 0 starts at φ = 0, the last ends at 2π
     sure = ((er >= 0) & (ec >= 0) & (r >= 0) & (r < height) & (abs(dy - top) > CELL_MARGIN)
             & (s > 1e-150) & (abs(x) > CELL_MARGIN * s))  # fmt: skip
