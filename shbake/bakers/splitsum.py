@@ -39,7 +39,7 @@ from shbake.envmap.layouts import (
     log2_row_solid_angles,
 )
 from shbake.errors import ParameterError
-from shbake.jit import jit, run_blocks
+from shbake.jit import jit, run_blocks, thread_budget
 from shbake.reference.ggx import check_alpha
 from shbake.resources import check_memory
 from shbake.sh.point_sets import fibonacci_square
@@ -192,13 +192,18 @@ LEVEL_TEXEL_BYTES = 36
 """Bytes per texel of a level: the float64 level ``(size, size, 3)`` and its float32 copy."""
 MAP_TEXEL_BYTES = 64
 """Bytes per source-map texel: the flat float64 copy and (``filtered``) its pyramid."""
+SAMPLE_BYTES = 16
+"""Scratch bytes per sample, in each thread: a texel's sample index and ``N·L``
+(:func:`_texel_samples`)."""
 
 
 def chain_memory(config: SplitSumConfig, shape: tuple[int, int]) -> int:
     """Estimated peak bytes of :func:`prefilter_chain` for a map of ``shape``: every level
-    is kept (:data:`LEVEL_TEXEL_BYTES` per texel) beside the prepared map."""
+    is kept (:data:`LEVEL_TEXEL_BYTES` per texel) beside the prepared map, and each thread
+    has its scratch (:data:`SAMPLE_BYTES` per sample)."""
     levels = sum(s * s for s in config.sizes) * LEVEL_TEXEL_BYTES
-    return int(levels + int(shape[0]) * int(shape[1]) * MAP_TEXEL_BYTES)
+    scratch = config.samples * SAMPLE_BYTES * thread_budget()
+    return int(levels + int(shape[0]) * int(shape[1]) * MAP_TEXEL_BYTES + scratch)
 
 
 def prefilter_chain(pixels, config: SplitSumConfig) -> list[np.ndarray]:
