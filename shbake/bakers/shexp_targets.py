@@ -77,8 +77,15 @@ def filtered_texel(lx, ly, lz, pdf, n, height, width, levels, offsets, log2_omeg
     is ``log2 Ω_texel`` per row.
     """
     j = latlong_texel(lx, ly, lz, height, width)
-    row, col = j // width, j % width
-    lod = -0.5 * (np.log2(n * pdf) + log2_omega[row])
+    return pyramid_texel(j // width, j % width, np.log2(n * pdf), width, levels, offsets,
+                         log2_omega)  # fmt: skip
+
+
+@jit
+def pyramid_texel(row, col, log2_density, width, levels, offsets, log2_omega):
+    """:func:`filtered_texel` from the level-0 cell ``(row, col)`` the sample lands in and
+    ``log2_density = log2(n p)``."""
+    lod = -0.5 * (log2_density + log2_omega[row])
     k = min(max(int(np.floor(lod + LOD_BIAS)), 0), levels - 1)
     return offsets[k] + (row >> k) * (width >> k) + (col >> k)
 

@@ -20,11 +20,14 @@ cube edges; shbake uses the texel-cell rule of GPUs instead (half a texel
 apart).
 """
 
+from typing import NamedTuple
+
 import numpy as np
 
 from shbake.conventions import CUBE_FACES
 from shbake.errors import LayoutError
 from shbake.jit import jit
+from shbake.simd import inline_into_callers
 
 LAYOUTS = ("latlong", "cube-strip", "cross-h", "cross-v")
 
@@ -157,6 +160,111 @@ def latlong_texel(dx, dy, dz, height, width):
     col = min(int(u * width), width - 1)
     row = min(int(v * height), height - 1)
     return row * width + col
+
+
+CELL_MARGIN = 1e-9
+"""How far a direction must be from the edge :func:`latlong_cell_by_table` compares it
+with (in ``cos θ`` from a row edge, in ``sin`` of the azimuth from a column edge) for the
+comparison to decide; nearer, :func:`latlong_texel` decides. Its own rounding moves an
+edge by under 1e-14 rad (``acos``, ``atan2`` within an ulp, then three roundings of
+``u`` and ``v``), the tables' by under 1e-15: five orders of margin."""
+CELL_SLOP = 1e-12
+"""Widening of each bucket of :class:`LatlongCells` when its edge is chosen: ``1 − d_y``
+and the pseudo-angle of :func:`latlong_cell_by_table` are rounded by under 1e-15, so a
+direction that lands in a bucket is inside its widened range."""
+ROW_BUCKETS, COL_BUCKETS = 8, 4
+"""Buckets per row (over ``cos θ``) and per column (over the pseudo-angle) of
+:class:`LatlongCells`. A column spans 3.1 to 6.3 buckets, a row at least two but within
+``sin θ < 0.08`` of the poles (0.3 % of the sphere), where a bucket may hold two edges
+and :func:`latlong_texel` decides."""
+
+
+class LatlongCells(NamedTuple):
+    """Tables of :func:`latlong_cell_by_table` for one lat-long shape (:func:`latlong_cells`).
+
+    Per bucket of ``1 − d_y`` (``ROW_BUCKETS · H`` over ``[0, 2]``) the one row edge
+    ``e`` its directions may lie on either side of, every other edge being more than
+    :data:`CELL_MARGIN` away (``row_edge``; −1 where there is none: a bucket across two
+    rows near a pole), and that edge's ``cos(π e/H)`` (``row_edge_y``); per bucket of the
+    pseudo-angle (``COL_BUCKETS · W`` over ``[0, 4]``) the one column edge ``e``
+    (``col_edge``) and its ``cos φ_e``, ``sin φ_e``, ``φ_e = 2π e/W`` (``col_edge_cos``,
+    ``col_edge_sin``). Values per bucket, not per edge: the look-ups of one direction do
+    not wait for each other.
+    """
+
+    row_edge: np.ndarray
+    row_edge_y: np.ndarray
+    col_edge: np.ndarray
+    col_edge_cos: np.ndarray
+    col_edge_sin: np.ndarray
+
+
+def _bucket_edges(lo, hi, edges, stop):
+    """For each ``[lo, hi]`` (increasing coordinate), the nearest of the increasing
+    ``edges`` to its middle if every other edge is more than :data:`CELL_MARGIN` outside it,
+    else −1; ``stop``: the coordinate's range, outside which there is no edge."""
+    e = np.clip(np.searchsorted(edges, 0.5 * (lo + hi)), 1, edges.size - 1)
+    e = np.where(0.5 * (lo + hi) - edges[e - 1] < edges[e] - 0.5 * (lo + hi), e - 1, e)
+    below = np.where(e > 0, edges[np.maximum(e - 1, 0)], -stop)
+    above = np.where(e < edges.size - 1, edges[np.minimum(e + 1, edges.size - 1)], 2 * stop)
+    ok = (below + CELL_MARGIN < lo) & (hi < above - CELL_MARGIN)
+    return np.where(ok, e, -1).astype(np.int32)
+
+
+def latlong_cells(height: int, width: int) -> LatlongCells:
+    """The tables of :func:`latlong_cell_by_table` for a ``width × height`` lat-long map:
+    edges correctly rounded to within an ulp, each bucket's edge chosen over its range
+    widened by :data:`CELL_SLOP` (then turned into ``θ`` for rows, ``φ`` for columns)."""
+    theta_edges = np.pi * np.arange(height + 1) / height
+    rows = ROW_BUCKETS * height
+    y = np.clip(2.0 * np.arange(rows + 1) / rows + np.array([[-CELL_SLOP], [CELL_SLOP]]), 0, 2)
+    theta = np.arccos(1.0 - y)  # bucket i: 1 − d_y in [y[0, i], y[1, i + 1]]
+    row_edge = _bucket_edges(theta[0, :-1], theta[1, 1:], theta_edges, np.pi)
+    phi_edges = 2.0 * np.pi * np.arange(width + 1) / width
+    cols = COL_BUCKETS * width
+    p = np.clip(4.0 * np.arange(cols + 1) / cols + np.array([[-CELL_SLOP], [CELL_SLOP]]), 0, 4)
+    t = np.where(p < 2.0, 1.0 - p, p - 3.0)  # the inverse of the pseudo-angle
+    phi = np.where(p < 2.0, np.arctan2(1.0 - np.abs(t), t),
+                   2.0 * np.pi + np.arctan2(np.abs(t) - 1.0, t))  # fmt: skip
+    col_edge = _bucket_edges(phi[0, :-1], phi[1, 1:], phi_edges, 2.0 * np.pi)
+    rb, cb = np.maximum(row_edge, 0), np.maximum(col_edge, 0)
+    return LatlongCells(row_edge, np.cos(theta_edges)[rb], col_edge, np.cos(phi_edges)[cb],
+                        np.sin(phi_edges)[cb])  # fmt: skip
+
+
+@jit
+def latlong_cell_by_table(dx, dy, dz, height, width, cells):
+    """``(row, col, sure)``: the lat-long cell of world direction ``d`` found with the
+    tables, and whether it is proven to be :func:`latlong_texel`'s (``row * W + col``).
+    Branch-free, so that a loop over directions vectorises; inlined into its callers
+    (passing the tables to a call would count references). Row and column are in range
+    when not sure.
+
+    The row: bucket ``1 − d_y`` (:class:`LatlongCells`); of the two rows beside the
+    bucket's edge ``cos(π e/H)``, the one on ``d_y``'s side. The column: bucket the
+    pseudo-angle ``p = 1 − b/(|a|+|b|)`` (``a ≥ 0``) or ``3 + b/(|a|+|b|)``,
+    ``(a, b) = (d_x, −d_z)``, which increases with the azimuth ``φ = atan2(a, b)`` over
+    ``[0, 2π]``; of the two columns beside the bucket's edge ``φ_e``, the one on the side
+    given by the sign of ``cos φ_e a − sin φ_e b = |(a, b)| sin(φ − φ_e)``.
+    Every other edge being farther than :data:`CELL_MARGIN` from the bucket, the cell is
+    sure when both comparisons clear that margin (and ``|a| + |b|`` is not denormal).
+    """
+    inline_into_callers()
+    rows, cols = cells.row_edge.shape[0], cells.col_edge.shape[0]
+    i = min(max(int((1.0 - dy) * (0.5 * rows)), 0), rows - 1)
+    er, top = cells.row_edge[i], cells.row_edge_y[i]
+    r = er - (dy > top)
+    a, b = dx, -dz
+    s = abs(a) + abs(b)
+    t = b / max(s, 1e-300)
+    p = 1.0 - t if a >= 0.0 else 3.0 + t
+    i = min(max(int(p * (0.25 * cols)), 0), cols - 1)
+    ec = cells.col_edge[i]
+    x = cells.col_edge_cos[i] * a - cells.col_edge_sin[i] * b
+    c = min(max(ec - (x <= 0.0), 0), width - 1)  # bucket 0 starts at φ = 0, the last ends at 2π
+    sure = ((er >= 0) & (ec >= 0) & (r >= 0) & (r < height) & (abs(dy - top) > CELL_MARGIN)
+            & (s > 1e-150) & (abs(x) > CELL_MARGIN * s))  # fmt: skip
+    return min(max(r, 0), height - 1), c, sure
 
 
 @jit

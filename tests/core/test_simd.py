@@ -1,6 +1,8 @@
 """The kernel intrinsics of ``shbake/simd.py``, each compiled in a small kernel and
 interpreted, against numpy (values) or the LLVM IR numba generated (attributes, hints)."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from shbake.simd import (
     LANES,
     aligned_empty,
     clock_ticks,
+    disjoint_arrays,
     inline_into_callers,
     prefetch,
     stream_fence,
@@ -161,6 +164,13 @@ def _lane_sums(a, out):
         out[k] = vsum(vload(a, k * LANES))
 
 
+@jit(cache=False)
+def _look_up(table, keys, out):
+    disjoint_arrays()
+    for i in range(keys.size):
+        out[i] = table[keys[i]] * 2.0
+
+
 class TestAttributesAndHints:
     """Each intrinsic lowers to the LLVM construct its docstring names."""
 
@@ -177,6 +187,21 @@ class TestAttributesAndHints:
         _cubes(a, out)
         np.testing.assert_array_equal(out, a * a * a)
         assert _cube.py_func(3.0) == 27.0
+
+    def test_disjoint_arrays_marks_data_pointers_noalias_and_keeps_values(self):
+        table, keys, out = np.arange(5.0), np.array([4, 0, 2, 2]), np.empty(4)
+        ir = _llvm_ir(_look_up, table, keys, out)
+        define = next(
+            line for line in ir.splitlines() if line.startswith("define") and "%arg." in line
+        )
+        params = {m[2]: m[1] for m in re.finditer(r"(?:ptr|\*)([^,%]*)%(arg\.\w+\.\d)\b", define)}
+        for name in ("table", "keys", "out"):  # data pointers, not the reference counts
+            assert "noalias" in params[f"arg.{name}.4"]
+            assert "noalias" not in params[f"arg.{name}.0"] + params[f"arg.{name}.1"]
+        _look_up(table, keys, out)
+        np.testing.assert_array_equal(out, [8.0, 0.0, 4.0, 4.0])
+        _look_up.py_func(table, keys, out)
+        np.testing.assert_array_equal(out, [8.0, 0.0, 4.0, 4.0])
 
     def test_stream_store_is_nontemporal_and_fenced(self):
         ir = _llvm_ir(_streamed_copy, np.ones(4), np.empty(4))
