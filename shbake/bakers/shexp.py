@@ -39,6 +39,7 @@ right-hand side is built once per configuration (:class:`FitPlan`). Shaded by
 :mod:`shbake.shading.shexp`.
 """
 
+import base64
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -307,6 +308,48 @@ class ShexpProbe:
     q: np.ndarray
     knots: np.ndarray
     stats: dict
+
+    def to_record(self) -> dict:
+        """The probe as JSON values, every float64 kept exactly (little-endian bytes in
+        base64): what a scene's plan keeps of its fit for the bake (:meth:`from_record`)."""
+        return {k: base64.b64encode(np.asarray(getattr(self, k), "<f8").tobytes()).decode()
+                for k in ("p", "q", "knots")} | {"stats": self.stats}  # fmt: skip
+
+    @classmethod
+    def from_record(cls, record, config: "FitConfig") -> "ShexpProbe | None":
+        """The probe :meth:`to_record` wrote for a fit at ``config``; ``None`` when
+        ``record`` is not one (it comes from a lock or cache file: untrusted) — wrong
+        shapes, non-finite coefficients, stats that are not :meth:`FitPlan.fit_targets`'."""
+        if not isinstance(record, dict) or record.keys() != {"p", "q", "knots", "stats"}:
+            return None
+        K = config.sets
+        shapes = {"p": (K, n_coeffs(config.lmax_p), 3), "q": (K, n_coeffs(config.lmax_q) - 1, 3),
+                  "knots": (K,)}  # fmt: skip
+        arrays = {}
+        for k, shape in shapes.items():
+            try:
+                raw = base64.b64decode(record[k], validate=True)
+            except (TypeError, ValueError):
+                return None
+            if len(raw) != 8 * int(np.prod(shape)):
+                return None
+            arrays[k] = np.frombuffer(raw, "<f8").astype(np.float64).reshape(shape)
+            if not np.all(np.isfinite(arrays[k])):
+                return None
+        stats = record["stats"]
+        if not (isinstance(stats, dict) and stats.keys() == set(FIT_STATS)
+                and all(isinstance(stats[k], kind) and not isinstance(stats[k], bool)
+                        for k, kind in FIT_STATS.items())):  # fmt: skip
+            return None
+        by_alpha = stats["shaded_relative_rms_by_alpha"]
+        if len(by_alpha) != config.alpha_count or not all(type(x) is float for x in by_alpha):
+            return None
+        return cls(arrays["p"], arrays["q"], arrays["knots"], dict(stats))
+
+
+FIT_STATS = {"log_rms": float, "shaded_relative_rms": float, "shaded_relative_rms_by_alpha": list,
+             "floored_targets": int, "targets": int, "polish_steps": int}  # fmt: skip
+"""The keys and types of a fit's ``stats`` (:meth:`FitPlan.fit_targets`)."""
 
 
 class FitPlan:

@@ -38,8 +38,8 @@ Error models (cheap, each measured, never assumed):
   samples vs :data:`REFERENCE_SAMPLES`), and bilinear look-up error of a
   table at each candidate size against direct projection; relative to
   ``‖f*(·, v)‖``, mean over :func:`~shbake.bakers.brdf_table_report.probe_views`.
-* SH-exp: the fit's RMS log residual on the map downsampled to
-  :data:`FIT_PREDICT_HEIGHT` rows (said in the plan's ``note``).
+* SH-exp: the RMS log residual of the fit the bake writes (:func:`plan_shexp`: the
+  plan fits the map and keeps the probe for the bake).
 * split-sum: no error model in shbake (its approximation error is not a
   quadrature error); the plan says so instead of predicting one.
 * SHRM: the BRDF energy the orders ``F``, ``P`` leave out (RH02 §5.1,
@@ -95,12 +95,11 @@ SHEXP_DIELECTRIC_ALPHA = 0.49
 more than 10 % of the 24 shared-map cases per α (α 0.25: 17/24 wins, 0.36: 19/24, 0.49:
 23/24; docs/BENCHMARKS.md): eq. 15's Fresnel tail ``E1 ≈ E0 A1/A0`` is the limit — with
 the exact ``E0`` it wins 17/24 and 18/24 at 0.25 and 0.36."""
-FIT_PREDICT_HEIGHT = 32
 TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
 REFERENCE_SAMPLES = 16384
-PLAN_VERSION = 6
+PLAN_VERSION = 7
 
 
 _HASHED: dict = {}
@@ -154,13 +153,6 @@ def irradiance_truncation(coeffs: np.ndarray, kernel) -> np.ndarray:
 
 
 _timed = cpu_timed
-
-
-def _downsample(pixels: np.ndarray, height: int) -> np.ndarray:
-    f = max(1, pixels.shape[0] // height)
-    h, w = pixels.shape[0] // f * f, pixels.shape[1] // f * f
-    p = pixels[:h, :w].reshape(h // f, f, w // f, f, -1).mean(axis=(1, 3))
-    return np.ascontiguousarray(p, dtype=np.float32)
 
 
 def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
@@ -306,26 +298,28 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
 
 def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
     """An SH-exp probe over perceptual roughness ``[lo, hi]`` (α = r²): the paper's fit
-    (one set, 4 α samples, 256 samples per target); the error from a fit on the map
-    downsampled to :data:`FIT_PREDICT_HEIGHT` rows, the time from the fit of the map itself
-    with its plan (built here once per machine into the plan cache, as the bake loads it),
-    once per map shape and configuration (:func:`~shbake.batch.plan_costs.shape_seconds`)."""
+    (one set, 4 α samples, 256 samples per target) of the map itself — the bake's fit, with
+    the plan it loads (built here once per machine into the plan cache) — whose RMS log
+    residual is the error; the probe is kept in the unit (``fit``,
+    :meth:`~shbake.bakers.shexp.ShexpProbe.to_record`) for the bake to write
+    (:func:`shbake.batch.scene_bake.bake_scene`). The time: that fit, once per map shape and
+    configuration (:func:`~shbake.batch.plan_costs.shape_seconds`)."""
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
 
     a_lo, a_hi = ggx_alpha(lo), ggx_alpha(hi)
     config = FitConfig.paper(alpha_min=a_lo, alpha_max=a_hi,
                              alpha_count=4 if a_hi > a_lo else 1, samples=256)  # fmt: skip
-    small = _downsample(env.pixels, FIT_PREDICT_HEIGHT)
-    probe = fit_plan(config, small.shape[:2]).fit(small)  # one plan for every map
-    full = fit_plan(config, env.shape)  # the bake's plan, now in the plan cache
+    plan = fit_plan(config, env.shape)
+    probe = plan.fit_many([env.pixels])[0]  # the call the bake makes: the same bits
     shared_dfg_table()
-    t_fit = shape_seconds("shexp", (config, env.shape), full.fit, env.pixels)
+    t_fit = shape_seconds("shexp", (config, env.shape), plan.fit, env.pixels)
     return {
         "settings": {"fit": config.as_dict()},
         "predicted_error": {"glossy_probe": float(probe.stats["log_rms"])},
         "work_seconds": t_fit,
         "bytes": 12 * config.n_params,
-        "note": f"error: fit on the map downsampled to {small.shape[0]} rows",
+        "note": "error: the fit's RMS log residual (the bake writes this fit)",
+        "fit": probe.to_record(),
     }
 
 

@@ -142,7 +142,10 @@ def _posed_env(a: dict, turn_pixels: bool):
 
 
 def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
-    from shbake.bakers.shexp import FitConfig
+    """An SH-exp probe; ``a["planned_fit"]`` (:func:`_with_planned_fit`): the plan's fit of
+    the same map at the same settings, written as it is when it is one (else fitted here);
+    measured: the fit's RMS log residual."""
+    from shbake.bakers.shexp import FitConfig, ShexpProbe
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
     from shbake.format.asset import write_asset
     from shbake.format.shexp import build_shexp_asset
@@ -152,7 +155,9 @@ def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
     if env.layout != "latlong":
         raise ParameterError(f"{a['inputs'][0]}: SH-exp probes take lat-long maps (2:1)")
     config = FitConfig(**a["settings"]["fit"])
-    probe = fit_plan(config, env.shape).fit_many([env.pixels])[0]
+    probe = ShexpProbe.from_record(a.get("planned_fit"), config)  # the plan's fit, same bits
+    if probe is None:
+        probe = fit_plan(config, env.shape).fit_many([env.pixels])[0]
     with _committed():
         write_asset(a["output"], build_shexp_asset(probe, config, shared_dfg_table(), env.meta))
     return ({"outputs": [a["output"]], "bake_seconds": time.perf_counter() - t0,
@@ -686,6 +691,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     ids = {a["id"] for a in todo}
     todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
              and a["settings"]["env_sh"] in ids]  # fmt: skip
+    todo = [_with_planned_fit(a, units) for a in todo]
     makedirs(scene.out_dir)
     write_stamps(plan, scene)  # before the assets: make then finds each newer than its stamp
     if scheduler is not None:
@@ -722,6 +728,18 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     return {"baked": [r["id"] for r in results],
             "skipped": [a["id"] for a in plan["assets"] if a["id"] not in done],
             "records": records, "lock": lock_file, "warnings": warnings}  # fmt: skip
+
+
+def _with_planned_fit(asset: dict, units: dict) -> dict:
+    """``asset`` with its plan unit's SH-exp fit (``planned_fit``,
+    :func:`shbake.batch.plan.plan_shexp`): the fit of the same map bytes at the same
+    settings, made by the call the bake makes, so the bake writes it instead of fitting
+    again. Not for a turned probe (the plan fits the map unturned) nor for other kinds.
+    The unit may come from the lock or the plan cache: :meth:`ShexpProbe.from_record`
+    checks it, and the bake fits when it is not a fit of these settings."""
+    turned = float(asset["settings"].get("pose", {}).get("rotation_deg", 0.0)) % 360.0 != 0.0
+    fit = units.get(asset["plan_key"], {}).get("fit") if asset["kind"] == "shexp" else None
+    return asset if fit is None or turned else dict(asset, planned_fit=fit)
 
 
 def check_makeable(scene: Scene, fragment: str, shbake: str = "shbake") -> None:

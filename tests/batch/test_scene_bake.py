@@ -4,6 +4,7 @@ and check compute."""
 import json
 import shutil
 
+import numpy as np
 import pytest
 
 from shbake.batch.scene import load_scene
@@ -54,3 +55,116 @@ def test_env_sh_check_measures_the_map_the_bake_decoded(tmp_path, monkeypatch):
         fresh = irradiance_errors(asset, env, ref, rotation=turn_matrix(30.0))
         assert rec["settings"]["pose"]["rotation_deg"] == pytest.approx(30.0)
         assert rec["measured_error"] == {"irradiance": fresh["irradiance"]["relative_rms"]}, aid
+
+
+GLOSSY_SCENE = """[scene]
+out_dir = "out"
+[tolerances]
+glossy_probe = 0.99
+[[environments]]
+map = "maps/*.exr"
+[[materials]]
+name = "varnish"
+kind = "glossy"
+roughness = [0.5, 0.9]
+"""
+
+
+class TestPlannedFit:
+    """``bake_scene`` writes the SH-exp fit its plan made (issue 31: the bake fitted each map
+    a second time)."""
+
+    def _scene(self, folder, text=GLOSSY_SCENE):
+        (folder / "maps").mkdir(parents=True)
+        for name in ("studio", "sunset"):
+            shutil.copy(map_path(name), folder / "maps" / f"{name}.exr")
+        (folder / "scene.toml").write_text(text)
+        return load_scene(str(folder / "scene.toml"))
+
+    def test_same_bytes_as_fitting_in_the_bake_and_no_second_fit(self, tmp_path, monkeypatch):
+        from shbake.bakers.shexp import FitPlan
+        from shbake.batch import scene_bake
+        from shbake.batch.plan import plan_scene_kept
+
+        planned = self._scene(tmp_path / "planned")
+        plan = plan_scene_kept(planned)
+        ids = sorted(a["id"] for a in plan["assets"])
+        assert ids == ["shexp/studio", "shexp/sunset"]
+
+        def refuse(self, maps):
+            raise AssertionError("the bake fitted the map again")
+
+        with monkeypatch.context() as m:
+            m.setattr(FitPlan, "fit_many", refuse)
+            bake_scene(planned)
+        fitted = self._scene(tmp_path / "fitted")
+        with monkeypatch.context() as m:  # the bake fits each map itself
+            m.setattr(scene_bake, "_with_planned_fit", lambda asset, units: asset)
+            bake_scene(fitted)
+        lock = json.loads((tmp_path / "planned" / "out" / "scene.lock.json").read_text())
+        for a in plan["assets"]:
+            aid = a["id"]
+            got = (tmp_path / "planned" / "out" / f"{aid}.h5").read_bytes()
+            assert got == (tmp_path / "fitted" / "out" / f"{aid}.h5").read_bytes(), aid
+            # predicted and measured: the same fit's residual
+            assert lock["assets"][aid]["measured_error"] == a["predicted_error"], aid
+
+    def test_a_turned_probe_and_other_kinds_are_fitted_in_the_bake(self):
+        from shbake.batch.scene_bake import _with_planned_fit
+
+        units = {"k": {"fit": {"p": "x"}}}
+        shexp = {"kind": "shexp", "plan_key": "k", "settings": {}}
+        assert _with_planned_fit(shexp, units)["planned_fit"] == {"p": "x"}
+        for rotation, planned in ((0.0, True), (360.0, True), (30.0, False)):
+            a = dict(shexp, settings={"pose": {"position": [0, 0, 0], "rotation_deg": rotation}})
+            assert ("planned_fit" in _with_planned_fit(a, units)) is planned, rotation
+        assert "planned_fit" not in _with_planned_fit(dict(shexp, kind="splitsum"), units)
+        assert "planned_fit" not in _with_planned_fit(dict(shexp, plan_key="other"), units)
+
+
+class TestProbeRecord:
+    """``ShexpProbe.to_record`` / ``from_record``: exact, and untrusted records refused."""
+
+    @pytest.fixture(scope="class")
+    def fitted(self):
+        from shbake.bakers.shexp import FitConfig
+        from shbake.batch.probe_jobs import fit_plan
+        from shbake.envmap import load_environment
+
+        config = FitConfig.paper(alpha_min=0.25, alpha_max=0.81, samples=256)
+        env = load_environment(str(map_path("sunset")), quiet=True)
+        return config, fit_plan(config, env.shape).fit(env.pixels)
+
+    def test_round_trip_is_exact(self, fitted):
+        from shbake.bakers.shexp import ShexpProbe
+
+        config, probe = fitted
+        back = ShexpProbe.from_record(json.loads(json.dumps(probe.to_record())), config)
+        for k in ("p", "q", "knots"):
+            assert np.array_equal(getattr(back, k), getattr(probe, k)), k
+        assert back.stats == probe.stats
+
+    @pytest.mark.parametrize("spoil", ["short", "base64", "nan", "key", "stats", "bool", "alpha"])
+    def test_not_a_record_of_this_fit(self, fitted, spoil):
+        import base64
+
+        from shbake.bakers.shexp import ShexpProbe
+
+        config, probe = fitted
+        rec = json.loads(json.dumps(probe.to_record()))
+        if spoil == "short":
+            rec["p"] = base64.b64encode(base64.b64decode(rec["p"])[:-8]).decode()
+        elif spoil == "base64":
+            rec["q"] = "not base64!"
+        elif spoil == "nan":
+            rec["knots"] = base64.b64encode(np.full(config.sets, np.nan).tobytes()).decode()
+        elif spoil == "key":
+            rec["extra"] = 1
+        elif spoil == "stats":
+            rec["stats"]["log_rms"] = "0.1"
+        elif spoil == "bool":
+            rec["stats"]["targets"] = True
+        else:
+            rec["stats"]["shaded_relative_rms_by_alpha"].append(0.1)
+        assert ShexpProbe.from_record(rec, config) is None
+        assert ShexpProbe.from_record(None, config) is None
