@@ -1,6 +1,7 @@
 """An environment map loaded, validated and ready to integrate."""
 
 import contextlib
+import functools
 import os
 
 import numpy as np
@@ -46,15 +47,14 @@ class Environment:
         return self.pixels.shape[0], self.pixels.shape[1]
 
     def texels(self):
-        """``(dirs (H,W,3), solid_angles (H,W), mask (H,W))`` — exact cell geometry."""
-        return texels(self.layout, *self.shape)
+        """``(dirs (H,W,3), solid_angles (H,W), mask (H,W))`` — exact cell geometry, read-only
+        (:func:`texel_geometry`: built once per layout and shape)."""
+        return texel_geometry(self.layout, *self.shape)
 
     def quadrature_weights(self) -> np.ndarray:
-        """Weights the projection uses, ``(H, W)``: Fejér for lat-long, solid angles for cubes."""
-        h, w = self.shape
-        if self.layout == "latlong":
-            return np.repeat(fejer_row_weights(h, w)[:, None], w, axis=1)
-        return self.texels()[1]
+        """Weights the projection uses, ``(H, W)``: Fejér for lat-long, solid angles for cubes
+        (read-only, :func:`quadrature_weights`)."""
+        return quadrature_weights(self.layout, *self.shape)
 
     def samples(self):
         """Valid texels as flat arrays ``(dirs (N,3), solid_angles (N,), radiance (N,3))``."""
@@ -68,9 +68,39 @@ class Environment:
         dirs, omega, mask = self.texels()
         return project_samples(dirs[mask], omega[mask], self.pixels[mask], lmax)
 
-    def total_energy(self) -> np.ndarray:
-        """``∫ L dω`` per channel with the projection's weights (radiance × sr)."""
-        return np.einsum("hwc,hw->c", self.pixels.astype(np.float64), self.quadrature_weights())
+    def total_energy(self, pixels64: np.ndarray | None = None) -> np.ndarray:
+        """``∫ L dω`` per channel with the projection's weights (radiance × sr); ``pixels64``:
+        the pixels as float64 when the caller has them (no second copy)."""
+        px = self.pixels.astype(np.float64) if pixels64 is None else pixels64
+        return np.einsum("hwc,hw->c", px, self.quadrature_weights())
+
+
+GEOMETRY_SHAPES = 4
+"""Layouts and shapes whose texel geometry a process keeps (:func:`texel_geometry`)."""
+
+
+def _read_only(*arrays):
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+@functools.lru_cache(maxsize=GEOMETRY_SHAPES)
+def texel_geometry(layout: str, height: int, width: int):
+    """:func:`~shbake.envmap.layouts.texels` of ``layout`` and shape, once per process:
+    ``(dirs (H,W,3), solid_angles (H,W), mask (H,W))``, read-only (shared by every map of
+    that shape)."""
+    return _read_only(*texels(layout, height, width))
+
+
+@functools.lru_cache(maxsize=GEOMETRY_SHAPES)
+def quadrature_weights(layout: str, height: int, width: int) -> np.ndarray:
+    """The projection's weight of every texel, ``(H, W)``, read-only: Fejér row weights
+    (:func:`~shbake.sh.projection.fejer_row_weights`) for lat-long, the exact solid angles
+    for cube layouts."""
+    if layout == "latlong":
+        return _read_only(np.repeat(fejer_row_weights(height, width)[:, None], width, axis=1))[0]
+    return texel_geometry(layout, height, width)[1]
 
 
 DECODED_LIMIT = 8
