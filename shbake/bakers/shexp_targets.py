@@ -44,25 +44,45 @@ def _add_point_lights(views, normals, alphas, dirs, energy, out, b0, b1):
 
     Isotropic GGX needs only ``n·h`` and ``n·l``, so no tangent frame is built: ``D`` and
     ``Λ`` (:mod:`shbake.brdf.ggx`) get the equivalent local vectors ``(sin θ, 0, cos θ)``,
-    and ``G1(v)/(4 n·v)`` is hoisted out of the light loop.
+    and ``G1(v)/(4 n·v)`` is hoisted out of the light loop. The lights above ``n``'s
+    horizon, their ``n·l`` and ``G1(l)`` depend on ``(n, α)`` only: kept from one target to
+    the next while those repeat (the fit's targets run through the views of each normal),
+    so a target loops over its visible lights alone, in light order (the same sums).
     """
+    n_lights = dirs.shape[0]
+    seen = np.empty(n_lights, np.int64)  # visible lights of the current (n, α), in order
+    seen_nl = np.empty(n_lights)
+    seen_g1l = np.empty(n_lights)
+    n_seen = 0
+    last_n = np.full(3, np.nan)  # no (n, α) yet: NaN equals nothing
+    last_a = np.nan
     for t in range(b0, b1):
         vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
         a = alphas[t]
+        if not (nx == last_n[0] and ny == last_n[1] and nz == last_n[2] and a == last_a):
+            last_n[0], last_n[1], last_n[2], last_a = nx, ny, nz, a
+            n_seen = 0
+            for k in range(n_lights):
+                nl = nx * dirs[k, 0] + ny * dirs[k, 1] + nz * dirs[k, 2]
+                if nl <= 0.0:
+                    continue
+                seen[n_seen] = k
+                seen_nl[n_seen] = nl
+                seen_g1l[n_seen] = 1.0 / (
+                    1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nl * nl)), 0.0, nl)
+                )
+                n_seen += 1
         nv = nx * vx + ny * vy + nz * vz
         front = 1.0 / ((1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nv * nv)), 0.0, nv))
                        * 4.0 * nv)  # fmt: skip
-        for k in range(dirs.shape[0]):
-            lx, ly, lz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
-            nl = nx * lx + ny * ly + nz * lz
-            if nl <= 0.0:
-                continue
-            hn = np.sqrt(max(2.0 + 2.0 * (vx * lx + vy * ly + vz * lz), 1e-300))
-            nh = min(1.0, (nv + nl) / hn)
+        for i in range(n_seen):
+            k = seen[i]
+            hn = np.sqrt(max(2.0 + 2.0 * (vx * dirs[k, 0] + vy * dirs[k, 1] + vz * dirs[k, 2]),
+                             1e-300))  # fmt: skip
+            nh = min(1.0, (nv + seen_nl[i]) / hn)
             d = ggx_d(a, a, np.sqrt(max(0.0, 1.0 - nh * nh)), 0.0, nh)
-            g1l = 1.0 / (1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nl * nl)), 0.0, nl))
-            w = front * d * g1l
+            w = front * d * seen_g1l[i]
             for c in range(3):
                 out[t, c] += w * energy[k, c]
 
