@@ -158,6 +158,17 @@ def _gather_many(offsets, index, weight, stacked, out, b0, b1):
     ``(B, T, 3)``; each entry read once for all maps, sums per map in entry order,
     so a map's result does not depend on which maps share its pass."""
     n_maps = stacked.shape[1]
+    if n_maps == 1:  # the same sums in registers (a probe of its own)
+        for t in range(b0, b1):
+            r = g = b = 0.0
+            for k in range(offsets[t], offsets[t + 1]):
+                j = index[k]
+                w = weight[k]
+                r += w * stacked[j, 0, 0]
+                g += w * stacked[j, 0, 1]
+                b += w * stacked[j, 0, 2]
+            out[0, t, 0], out[0, t, 1], out[0, t, 2] = r, g, b
+        return
     acc = np.empty((n_maps, 3))  # once per call, not per target (as prange hoisted it)
     for t in range(b0, b1):
         acc[:] = 0.0

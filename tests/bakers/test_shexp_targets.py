@@ -113,3 +113,27 @@ class TestPointLights:
         for b0, b1 in ((0, 3), (3, 12), (12, views.shape[0])):
             _add_point_lights(views, normals, alphas, dirs, energy, split, b0, b1)
         assert split.tobytes() == whole.tobytes()
+
+
+class TestGather:
+    def test_e0_is_the_weighted_sum_plus_the_lights(self):
+        """``E0`` of one map is each target's entries' ``w · pyramid texel`` (float32 products
+        summed in float64, in numpy) plus the bright texels' exact term; a map fitted alone
+        (the single-map gather) gets the bits it gets among others."""
+        from shbake.bakers.shexp_targets import QuadraturePlan
+        from shbake.sh.point_sets import fibonacci_sphere
+
+        normals = np.repeat(fibonacci_sphere(8), 4, axis=0)
+        views = np.roll(normals, 1, axis=1) * 0.6 + normals * 0.8
+        views /= np.linalg.norm(views, axis=1, keepdims=True)
+        alphas = np.tile([0.2, 0.4, 0.6, 0.9], 8)
+        plan = QuadraturePlan.build(views, normals, alphas, 64, (32, 64))
+        img = smooth_map(32, sun=[400.0, 300.0, 200.0])
+        pyramid, dirs, energy = plan._prepare(img)
+        assert dirs.shape[0] > 0  # the sun is a point light
+        terms = (plan.weight[:, None] * pyramid[plan.index]).astype(np.float64)
+        gathered = np.add.reduceat(terms, plan.offsets[:-1], axis=0)
+        want = gathered + _point_lights_numpy(views, normals, alphas, dirs, energy)
+        got = plan.e0(img)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+        assert plan.e0_many([0.5 * img, img])[1].tobytes() == got.tobytes()
