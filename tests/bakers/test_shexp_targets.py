@@ -93,25 +93,30 @@ class TestPointLights:
         return views, norms, alphas, dirs, energy
 
     def test_matches_numpy(self):
-        from shbake.bakers.shexp_targets import _add_point_lights
+        from shbake.bakers.shexp_targets import _add_point_lights, pair_groups
 
         views, normals, alphas, dirs, energy = self._targets()
+        order, starts = pair_groups(views, normals)
+        assert starts.shape[0] - 1 == 30  # 6 normals × 5 views, each at its α
         start = np.random.default_rng(1).random((views.shape[0], 3))
         out = start.copy()
-        _add_point_lights(views, normals, alphas, dirs, energy, out, 0, views.shape[0])
+        _add_point_lights(views, normals, alphas, dirs, energy, order, starts, out, 0,
+                          starts.shape[0] - 1)  # fmt: skip
         want = start + _point_lights_numpy(views, normals, alphas, dirs, energy)
         np.testing.assert_allclose(out, want, rtol=1e-12, atol=0)
 
     def test_blocks_give_the_same_bits(self):
         """A block starting in the middle of a normal's views gives what one pass gives."""
-        from shbake.bakers.shexp_targets import _add_point_lights
+        from shbake.bakers.shexp_targets import _add_point_lights, pair_groups
 
         views, normals, alphas, dirs, energy = self._targets()
+        order, starts = pair_groups(views, normals)
+        args = (views, normals, alphas, dirs, energy, order, starts)
         whole = np.zeros((views.shape[0], 3))
-        _add_point_lights(views, normals, alphas, dirs, energy, whole, 0, views.shape[0])
+        _add_point_lights(*args, whole, 0, starts.shape[0] - 1)
         split = np.zeros_like(whole)
-        for b0, b1 in ((0, 3), (3, 12), (12, views.shape[0])):
-            _add_point_lights(views, normals, alphas, dirs, energy, split, b0, b1)
+        for b0, b1 in ((0, 2), (2, 7), (7, starts.shape[0] - 1)):
+            _add_point_lights(*args, split, b0, b1)
         assert split.tobytes() == whole.tobytes()
 
 
