@@ -76,7 +76,12 @@ class Environment:
 
 
 GEOMETRY_SHAPES = 4
-"""Layouts and shapes whose texel geometry a process keeps (:func:`texel_geometry`)."""
+"""Layouts and shapes whose texel geometry and weights a process keeps
+(:func:`texel_geometry`, :func:`quadrature_weights`)."""
+GEOMETRY_KEPT_TEXELS = 1 << 21
+"""Largest map (texels) whose geometry is kept: ~70 MB of directions, solid angles and
+mask (a 2048 × 1024 lat-long map); a larger map's is built on each call, so that what a
+process keeps stays bounded whatever maps it reads."""
 
 
 def _read_only(*arrays):
@@ -85,15 +90,27 @@ def _read_only(*arrays):
     return arrays
 
 
-@functools.lru_cache(maxsize=GEOMETRY_SHAPES)
+def _kept_when_small(build):
+    """``build(layout, height, width)`` once per process and shape (at most
+    :data:`GEOMETRY_SHAPES` kept) for maps of up to :data:`GEOMETRY_KEPT_TEXELS` texels; on
+    every call for larger ones."""
+    kept = functools.lru_cache(maxsize=GEOMETRY_SHAPES)(build)
+
+    @functools.wraps(build)
+    def get(layout: str, height: int, width: int):
+        return (kept if height * width <= GEOMETRY_KEPT_TEXELS else build)(layout, height, width)
+
+    return get
+
+
+@_kept_when_small
 def texel_geometry(layout: str, height: int, width: int):
-    """:func:`~shbake.envmap.layouts.texels` of ``layout`` and shape, once per process:
-    ``(dirs (H,W,3), solid_angles (H,W), mask (H,W))``, read-only (shared by every map of
-    that shape)."""
+    """:func:`~shbake.envmap.layouts.texels` of ``layout`` and shape: ``(dirs (H,W,3),
+    solid_angles (H,W), mask (H,W))``, read-only (shared by every map of that shape)."""
     return _read_only(*texels(layout, height, width))
 
 
-@functools.lru_cache(maxsize=GEOMETRY_SHAPES)
+@_kept_when_small
 def quadrature_weights(layout: str, height: int, width: int) -> np.ndarray:
     """The projection's weight of every texel, ``(H, W)``, read-only: Fejér row weights
     (:func:`~shbake.sh.projection.fejer_row_weights`) for lat-long, the exact solid angles

@@ -109,3 +109,13 @@ class TestTexelGeometry:
         assert w.tobytes() == np.repeat(fejer_row_weights(32, 64)[:, None], 64, 1).tobytes()
         with pytest.raises(ValueError):
             env.texels()[1][0, 0] = 1.0
+
+    def test_large_maps_not_kept(self, monkeypatch):
+        from shbake.envmap import environment
+
+        monkeypatch.setattr(environment, "GEOMETRY_KEPT_TEXELS", 16 * 32 - 1)
+        env = Environment(np.ones((16, 32, 3), np.float32), "latlong")
+        first, second = env.texels(), env.texels()
+        assert first[0] is not second[0] and not first[0].flags.writeable
+        assert first[0].tobytes() == texels("latlong", 16, 32)[0].tobytes()
+        assert env.quadrature_weights() is not env.quadrature_weights()
