@@ -223,7 +223,10 @@ class Design:
         self.n_p = n_p
         self.pairs = self.Y.shape[0]
         self.iu = np.triu_indices(self.Y.shape[1])
-        self.YY = np.ascontiguousarray(self.Y[:, self.iu[0]] * self.Y[:, self.iu[1]])
+        # products Y_i Y_j of the upper triangle, one row per (i, j): row-major, the layout
+        # BLAS multiplies fastest by the weights (the same sums as the pairs-major copy)
+        yt = self.Y.T
+        self.YY_t = yt[self.iu[0]] * yt[self.iu[1]]  # (n(n+1)/2, M)
 
     @property
     def n_params(self) -> int:
@@ -246,7 +249,7 @@ class Design:
         K, n, n_a = self.H.shape[1], self.Y.shape[1], self.H.shape[0]
         c = w.shape[1]
         wm = w.reshape(n_a, self.pairs, c).transpose(1, 0, 2).reshape(self.pairs, n_a * c)
-        tri = (self.YY.T @ wm).reshape(-1, n_a, c)  # (n(n+1)/2, N_α, C)
+        tri = (self.YY_t @ wm).reshape(-1, n_a, c)  # (n(n+1)/2, N_α, C)
         g = np.empty((n, n, n_a, c))
         g[self.iu] = tri
         g[self.iu[1], self.iu[0]] = tri

@@ -14,6 +14,7 @@ lamps), whose few samples would make every target noisy, are taken out of the
 pyramid and added exactly as point lights at their centres.
 """
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,32 +40,80 @@ LOD_BIAS = 1.0
 
 
 @jit
-def _add_point_lights(views, normals, alphas, dirs, energy, out, b0, b1):
+def _add_point_lights(views, normals, alphas, dirs, energy, order, group_start, out, b0, b1):
     """``out += Σ_k f_DV(v, n, l_k) (n·l_k) E_k = Σ_k G1(v) D(h) G1(l) / (4 n·v) E_k``.
 
     Isotropic GGX needs only ``n·h`` and ``n·l``, so no tangent frame is built: ``D`` and
     ``Λ`` (:mod:`shbake.brdf.ggx`) get the equivalent local vectors ``(sin θ, 0, cos θ)``,
-    and ``G1(v)/(4 n·v)`` is hoisted out of the light loop.
+    and ``G1(v)/(4 n·v)`` is hoisted out of the light loop. Targets come in groups of one
+    ``(v, n)`` (:func:`pair_groups`: ``order[group_start[g]:group_start[g + 1]]``, groups of
+    one normal in a row; blocks ``[b0, b1)`` are groups): the lights above ``n``'s horizon
+    and their ``n·l`` are found once per normal, ``n·h`` and ``sin θh`` once per group, and
+    ``G1(l)`` once per normal and ``α`` (kept while a group's ``α`` repeat the previous
+    group's); each target sums its visible lights in light order, as the plain loop does.
     """
-    for t in range(b0, b1):
-        vx, vy, vz = views[t, 0], views[t, 1], views[t, 2]
-        nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
-        a = alphas[t]
+    n_lights = dirs.shape[0]
+    seen = np.empty(n_lights, np.int64)  # visible lights of the current normal, in order
+    seen_nl = np.empty(n_lights)
+    seen_nh = np.empty(n_lights)
+    seen_sin_h = np.empty(n_lights)
+    most = 0
+    for g in range(b0, b1):
+        most = max(most, group_start[g + 1] - group_start[g])
+    g1l = np.empty((most, n_lights))  # G1(l) of the group's i-th α
+    g1l_alpha = np.full(most, np.nan)  # the α each row holds (NaN: none; equals nothing)
+    n_seen = 0
+    last_n = np.full(3, np.nan)
+    for g in range(b0, b1):
+        first = order[group_start[g]]
+        vx, vy, vz = views[first, 0], views[first, 1], views[first, 2]
+        nx, ny, nz = normals[first, 0], normals[first, 1], normals[first, 2]
+        if not (nx == last_n[0] and ny == last_n[1] and nz == last_n[2]):
+            last_n[0], last_n[1], last_n[2] = nx, ny, nz
+            g1l_alpha[:] = np.nan
+            n_seen = 0
+            for k in range(n_lights):
+                nl = nx * dirs[k, 0] + ny * dirs[k, 1] + nz * dirs[k, 2]
+                if nl > 0.0:
+                    seen[n_seen] = k
+                    seen_nl[n_seen] = nl
+                    n_seen += 1
         nv = nx * vx + ny * vy + nz * vz
-        front = 1.0 / ((1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nv * nv)), 0.0, nv))
-                       * 4.0 * nv)  # fmt: skip
-        for k in range(dirs.shape[0]):
-            lx, ly, lz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
-            nl = nx * lx + ny * ly + nz * lz
-            if nl <= 0.0:
-                continue
-            hn = np.sqrt(max(2.0 + 2.0 * (vx * lx + vy * ly + vz * lz), 1e-300))
-            nh = min(1.0, (nv + nl) / hn)
-            d = ggx_d(a, a, np.sqrt(max(0.0, 1.0 - nh * nh)), 0.0, nh)
-            g1l = 1.0 / (1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nl * nl)), 0.0, nl))
-            w = front * d * g1l
-            for c in range(3):
-                out[t, c] += w * energy[k, c]
+        for i in range(n_seen):
+            k = seen[i]
+            hn = np.sqrt(max(2.0 + 2.0 * (vx * dirs[k, 0] + vy * dirs[k, 1] + vz * dirs[k, 2]),
+                             1e-300))  # fmt: skip
+            nh = min(1.0, (nv + seen_nl[i]) / hn)
+            seen_nh[i] = nh
+            seen_sin_h[i] = np.sqrt(max(0.0, 1.0 - nh * nh))
+        for slot in range(group_start[g + 1] - group_start[g]):
+            t = order[group_start[g] + slot]
+            a = alphas[t]
+            if not a == g1l_alpha[slot]:
+                g1l_alpha[slot] = a
+                for i in range(n_seen):
+                    nl = seen_nl[i]
+                    g1l[slot, i] = 1.0 / (
+                        1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nl * nl)), 0.0, nl)
+                    )
+            front = 1.0 / ((1.0 + smith_lambda(a, a, np.sqrt(max(0.0, 1.0 - nv * nv)), 0.0,
+                                               nv)) * 4.0 * nv)  # fmt: skip
+            for i in range(n_seen):
+                k = seen[i]
+                w = front * ggx_d(a, a, seen_sin_h[i], 0.0, seen_nh[i]) * g1l[slot, i]
+                for c in range(3):
+                    out[t, c] += w * energy[k, c]
+
+
+def pair_groups(views, normals):
+    """Targets grouped by ``(v, n)``: ``(order, group_start)``, ``order`` the targets sorted
+    by normal, then view (stable), and group ``g`` ``order[group_start[g]:group_start[g+1]]``
+    (its targets differ in ``α`` only) — what :func:`_add_point_lights` walks."""
+    keys = np.concatenate([normals, views], axis=1)
+    order = np.lexsort(keys.T[::-1])
+    ordered = keys[order]
+    change = np.flatnonzero(np.any(ordered[1:] != ordered[:-1], axis=1)) + 1
+    return order, np.concatenate([[0], change, [keys.shape[0]]]).astype(np.int64)
 
 
 @jit
@@ -145,6 +194,17 @@ def _gather_many(offsets, index, weight, stacked, out, b0, b1):
     ``(B, T, 3)``; each entry read once for all maps, sums per map in entry order,
     so a map's result does not depend on which maps share its pass."""
     n_maps = stacked.shape[1]
+    if n_maps == 1:  # the same sums in registers (a probe of its own)
+        for t in range(b0, b1):
+            r = g = b = 0.0
+            for k in range(offsets[t], offsets[t + 1]):
+                j = index[k]
+                w = weight[k]
+                r += w * stacked[j, 0, 0]
+                g += w * stacked[j, 0, 1]
+                b += w * stacked[j, 0, 2]
+            out[0, t, 0], out[0, t, 1], out[0, t, 2] = r, g, b
+        return
     acc = np.empty((n_maps, 3))  # once per call, not per target (as prange hoisted it)
     for t in range(b0, b1):
         acc[:] = 0.0
@@ -198,6 +258,11 @@ class QuadraturePlan:
                    index, weight, offsets, flat_index, flat_weight)  # fmt: skip
         return cls(tuple(shape), levels, offsets, flat_index, flat_weight, v, n, a)
 
+    @functools.cached_property
+    def pair_groups(self):
+        """:func:`pair_groups` of the plan's targets (once per plan)."""
+        return pair_groups(self.views, self.normals)
+
     def _prepare(self, pixels):
         """The map's pyramid without its bright texels, and those as point lights."""
         flat, h, w = latlong_flat(pixels)
@@ -224,6 +289,8 @@ class QuadraturePlan:
                    self.offsets, self.index, self.weight, stacked, out)  # fmt: skip
         for b, (_, dirs, energy) in enumerate(prepared):
             if dirs.shape[0]:
-                run_blocks(_add_point_lights, n_targets, n_targets * dirs.shape[0] * 60.0,
-                           self.views, self.normals, self.alphas, dirs, energy, out[b])  # fmt: skip
+                order, starts = self.pair_groups
+                run_blocks(_add_point_lights, starts.shape[0] - 1, n_targets * dirs.shape[0] * 40.0,
+                           self.views, self.normals, self.alphas, dirs, energy, order, starts,
+                           out[b])  # fmt: skip
         return list(out)

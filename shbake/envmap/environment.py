@@ -1,6 +1,7 @@
 """An environment map loaded, validated and ready to integrate."""
 
 import contextlib
+import functools
 import os
 
 import numpy as np
@@ -46,15 +47,14 @@ class Environment:
         return self.pixels.shape[0], self.pixels.shape[1]
 
     def texels(self):
-        """``(dirs (H,W,3), solid_angles (H,W), mask (H,W))`` — exact cell geometry."""
-        return texels(self.layout, *self.shape)
+        """``(dirs (H,W,3), solid_angles (H,W), mask (H,W))`` — exact cell geometry, read-only
+        (:func:`texel_geometry`: built once per layout and shape)."""
+        return texel_geometry(self.layout, *self.shape)
 
     def quadrature_weights(self) -> np.ndarray:
-        """Weights the projection uses, ``(H, W)``: Fejér for lat-long, solid angles for cubes."""
-        h, w = self.shape
-        if self.layout == "latlong":
-            return np.repeat(fejer_row_weights(h, w)[:, None], w, axis=1)
-        return self.texels()[1]
+        """Weights the projection uses, ``(H, W)``: Fejér for lat-long, solid angles for cubes
+        (read-only, :func:`quadrature_weights`)."""
+        return quadrature_weights(self.layout, *self.shape)
 
     def samples(self):
         """Valid texels as flat arrays ``(dirs (N,3), solid_angles (N,), radiance (N,3))``."""
@@ -68,9 +68,56 @@ class Environment:
         dirs, omega, mask = self.texels()
         return project_samples(dirs[mask], omega[mask], self.pixels[mask], lmax)
 
-    def total_energy(self) -> np.ndarray:
-        """``∫ L dω`` per channel with the projection's weights (radiance × sr)."""
-        return np.einsum("hwc,hw->c", self.pixels.astype(np.float64), self.quadrature_weights())
+    def total_energy(self, pixels64: np.ndarray | None = None) -> np.ndarray:
+        """``∫ L dω`` per channel with the projection's weights (radiance × sr); ``pixels64``:
+        the pixels as float64 when the caller has them (no second copy)."""
+        px = self.pixels.astype(np.float64) if pixels64 is None else pixels64
+        return np.einsum("hwc,hw->c", px, self.quadrature_weights())
+
+
+GEOMETRY_SHAPES = 4
+"""Layouts and shapes whose texel geometry and weights a process keeps
+(:func:`texel_geometry`, :func:`quadrature_weights`)."""
+GEOMETRY_KEPT_TEXELS = 1 << 21
+"""Largest map (texels) whose geometry is kept: ~70 MB of directions, solid angles and
+mask (a 2048 × 1024 lat-long map); a larger map's is built on each call, so that what a
+process keeps stays bounded whatever maps it reads."""
+
+
+def _read_only(*arrays):
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+def _kept_when_small(build):
+    """``build(layout, height, width)`` once per process and shape (at most
+    :data:`GEOMETRY_SHAPES` kept) for maps of up to :data:`GEOMETRY_KEPT_TEXELS` texels; on
+    every call for larger ones."""
+    kept = functools.lru_cache(maxsize=GEOMETRY_SHAPES)(build)
+
+    @functools.wraps(build)
+    def get(layout: str, height: int, width: int):
+        return (kept if height * width <= GEOMETRY_KEPT_TEXELS else build)(layout, height, width)
+
+    return get
+
+
+@_kept_when_small
+def texel_geometry(layout: str, height: int, width: int):
+    """:func:`~shbake.envmap.layouts.texels` of ``layout`` and shape: ``(dirs (H,W,3),
+    solid_angles (H,W), mask (H,W))``, read-only (shared by every map of that shape)."""
+    return _read_only(*texels(layout, height, width))
+
+
+@_kept_when_small
+def quadrature_weights(layout: str, height: int, width: int) -> np.ndarray:
+    """The projection's weight of every texel, ``(H, W)``, read-only: Fejér row weights
+    (:func:`~shbake.sh.projection.fejer_row_weights`) for lat-long, the exact solid angles
+    for cube layouts."""
+    if layout == "latlong":
+        return _read_only(np.repeat(fejer_row_weights(height, width)[:, None], width, axis=1))[0]
+    return texel_geometry(layout, height, width)[1]
 
 
 DECODED_LIMIT = 8

@@ -54,6 +54,14 @@ def _cap_and_background(dirs, mask, px, d0, radius_deg: float):
     return mask & (cosang >= cos_r), background
 
 
+def _excess(px, cap, background):
+    """``max(L − B, 0)`` per channel on the texels of ``cap``, 0 elsewhere (float64, the
+    map's shape): computed on the cap's texels only."""
+    excess = np.zeros(px.shape)
+    excess[cap] = np.maximum(px[cap] - background, 0.0)
+    return excess
+
+
 def remove_lights(
     env: Environment, directions: np.ndarray, irradiance: np.ndarray, radius_deg: float = 10.0
 ) -> tuple[Environment, dict]:
@@ -82,7 +90,7 @@ def remove_lights(
     for k in np.argsort(-(wanted @ REC709_LUMINANCE), kind="stable"):
         cap, background = _cap_and_background(dirs, mask, px, np.asarray(directions[k]),
                                                radius_deg)  # fmt: skip
-        excess = np.where(cap[:, :, None], np.maximum(px - background, 0.0), 0.0)
+        excess = _excess(px, cap, background)
         available = np.einsum("hwc,hw->c", excess, weights)
         share = np.where(available > 0.0, np.minimum(1.0, wanted[k] / np.where(
             available > 0.0, available, 1.0)), 0.0)  # fmt: skip
@@ -128,19 +136,20 @@ def extract_sun(
     cap, background = _cap_and_background(dirs, mask, px, d0, radius_deg)
     bg_lum = float(background @ REC709_LUMINANCE)
     contrast = peak / max(bg_lum, 1e-12)
-    total = env.total_energy()
     report = {"peak_luminance": peak, "background": background, "contrast": contrast}
     if peak <= 0.0 or contrast < min_contrast:
         report["extracted"] = False
         return None, env, report
-    excess = np.where(cap[:, :, None], np.maximum(px - background, 0.0), 0.0)
+    total = env.total_energy(px)
+    excess = _excess(px, cap, background)
     ex_lum = excess @ REC709_LUMINANCE
     gave = ex_lum > 0.0
     energy = np.einsum("hwc,hw->c", excess, weights)
     direction = np.einsum("hw,hwk->k", ex_lum * weights, dirs)
     direction /= np.linalg.norm(direction)
     solid_angle = float(omega[gave].sum())
-    residual = (px - excess).astype(np.float32)
+    residual = env.pixels.astype(np.float32)  # L − 0 off the cap: the pixels themselves
+    residual[cap] = px[cap] - excess[cap]
     sun = Sun(direction, solid_angle, energy / solid_angle)
     report.update(
         extracted=True,

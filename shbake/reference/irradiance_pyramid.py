@@ -94,14 +94,18 @@ def _children(b, k, level_offset, level_rows):
 
 
 @jit
-def _build_sums(lw, dirs, texel_start, level_offset, level_rows, moment):
-    """Check-free: ``moment[b, c] = Σ_{p∈b} lw[p, c] dirs[p]`` (bins, 3 channels, 3) over the
-    finest bins' texels, then each coarser bin the sum of its four children."""
+def _build_sums(pixels, index, solid_angles, dirs, texel_start, level_offset, level_rows, lw,
+                moment):  # fmt: skip
+    """Check-free: ``lw[p, c] = pixels[index[p], c] Ω_p`` (float64) of each texel ``p`` in
+    bin order (``pixels`` flat ``(texels, 3)``, the map's own order), and ``moment[b, c] =
+    Σ_{p∈b} lw[p, c] dirs[p]`` (bins, 3 channels, 3) over the finest bins' texels, then each
+    coarser bin the sum of its four children."""
     n_levels = level_offset.shape[0]
     finest = level_offset[n_levels - 1]
     for f in range(texel_start.shape[0] - 1):
         for p in range(texel_start[f], texel_start[f + 1]):
             for c in range(3):
+                lw[p, c] = np.float64(pixels[index[p], c]) * solid_angles[p]
                 for j in range(3):
                     moment[finest + f, c, j] += lw[p, c] * dirs[p, j]
     for k in range(n_levels - 2, -1, -1):
@@ -223,10 +227,10 @@ class IrradiancePyramid:
     def __init__(self, env):
         self.geometry = g = pyramid_geometry(env.layout, env.shape)
         flat = env.pixels.reshape(-1, env.pixels.shape[-1])
-        self.lw = flat[g.index].astype(np.float64) * g.solid_angles[:, None]
+        self.lw = np.empty((g.dirs.shape[0], 3))  # texels' L Ω in bin order (float64)
         self.moment = np.zeros((g.bins, 3, 3))
-        _build_sums(self.lw, g.dirs, g.texel_start, g.level_offset, g.level_rows,
-                    self.moment)  # fmt: skip
+        _build_sums(flat, g.index, g.solid_angles, g.dirs, g.texel_start, g.level_offset,
+                    g.level_rows, self.lw, self.moment)  # fmt: skip
 
     def irradiance(self, normals) -> np.ndarray:
         """Lambert irradiance ``(..., 3)`` at unit ``normals (..., 3)``: the brute-force sum."""
