@@ -18,18 +18,17 @@ ENGINES := tests/engines
 
 # Two venv states: the runtime packages alone (make demo), then the test extras on top
 # (make test: pytest, mitsuba, drjit, ducc0, hypothesis, ruff, ~1 GB). Either order works;
-# a changed setup.cfg or lock reinstalls both. --no-compile: a module's bytecode is written
-# when it is first imported (and the thousands never imported are not compiled): on a clean
-# clone the two installs took 16 + 9 s instead of 39 + 13 s.
-PIP_INSTALL := $(BIN)/python -m pip install -q --no-compile
+# a changed setup.cfg or lock reinstalls both. (pip compiles the bytecode: with --no-compile
+# and PYTHONDONTWRITEBYTECODE set, as here, every process compiled what it imported, ~200 s
+# of CPU more in make test.)
 $(RUNTIME): setup.cfg pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
-	$(PIP_INSTALL) --upgrade pip==24.3.1
-	$(PIP_INSTALL) -c requirements.lock -e .
+	$(BIN)/python -m pip install -q --upgrade pip==24.3.1
+	$(BIN)/python -m pip install -q -c requirements.lock -e .
 	touch $(RUNTIME)
 
 $(TESTENV): $(RUNTIME)
-	$(PIP_INSTALL) -c requirements.lock -e '.[test]'
+	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
 	touch $(TESTENV)
 
 # The sample maps baked with the settings shbake's own advice names for them: --negative clamp

@@ -91,5 +91,5 @@ def test_demo_venv_holds_no_test_extras():
                               text=True, check=True).stdout  # fmt: skip
 
     demo = dry("demo")
-    assert "-c requirements.lock -e .\n" in demo and "[test]" not in demo
+    assert "pip install -q -c requirements.lock -e .\n" in demo and "[test]" not in demo
     assert "-e '.[test]'" in dry("test")
