@@ -106,6 +106,14 @@ def random_coeffs():
     return make
 
 
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(items):
+    """Tests marked ``heavy`` first, the others in their order. ``--dist loadgroup`` hands
+    out the xdist groups, then the other tests in collection order: the README examples
+    (87 s, collected near the end) ran alone on one worker while the other had finished."""
+    items.sort(key=lambda item: item.get_closest_marker("heavy") is None)
+
+
 def pytest_addoption(parser):
     parser.addoption(
         "--update-golden",

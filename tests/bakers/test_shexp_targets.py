@@ -31,7 +31,7 @@ class TestQuadraturePlan:
 
     # city in make test; the other maps repeat the study (make test-all)
     @pytest.mark.parametrize("name, bound", [
-        ("city", 0.015),
+        pytest.param("city", 0.015, marks=pytest.mark.heavy),
         pytest.param("esplanade", 0.04, marks=pytest.mark.slow),
         pytest.param("studio", 0.15, marks=pytest.mark.slow),
     ])  # fmt: skip

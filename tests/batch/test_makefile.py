@@ -311,6 +311,7 @@ def check_dry_runs(layout: Layout) -> None:
     assert len(shells) == 1, "make started another shell"
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("examples", [2000, pytest.param(10000, marks=pytest.mark.slow)])
 def test_make_dry_run_argv_exact(examples):
     """``make -n`` of fragments of drawn scenes (module docstring): 2000 of them (10000 more
@@ -342,6 +343,7 @@ exec /bin/sh "$@"
 """
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("examples", [2000, pytest.param(5000, marks=pytest.mark.slow)])
 def test_make_runs_exactly_the_expected_commands(examples):
     """A real ``make scene-assets``: one shell per recipe, each running the command with

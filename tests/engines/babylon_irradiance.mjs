@@ -8,7 +8,9 @@
 // (pbrBlockReflection.fx: irradianceVector = reflectionMatrix * normalW, OPPOSITEZ / INVERTCUBICMAP
 // flips, computeEnvironmentIrradiance, *= vReflectionInfos.x) are evaluated here on those numbers;
 // the script checks that the installed shader source still contains the formula it evaluates.
-// usage: node babylon_irradiance.mjs FILE.gltf DIRS.json [rh]   (DIRS: [[x,y,z], ...] in glTF frame)
+// usage: node babylon_irradiance.mjs DIRS.json rh|lh FILE.gltf...   (DIRS: [[x,y,z], ...] in glTF
+// frame; rh: a right-handed scene): a JSON list, one entry per file, each loaded in a scene of its
+// own (one node start for several files: ~0.5 s of CPU each saved).
 import fs from "node:fs";
 import path from "node:path";
 import { NullEngine } from "@babylonjs/core/Engines/nullEngine.js";
@@ -30,15 +32,8 @@ globalThis.Image = class {
   get height() { return 1; }
 };
 
-const [file, dirsFile, handedness] = process.argv.slice(2); // handedness: "rh" = right-handed scene
-const doc = JSON.parse(fs.readFileSync(file, "utf8"));
-// external files -> data URIs (node's fetch has no file://); the loader then decodes them itself
-for (const img of doc.images || []) {
-  if (img.uri && !img.uri.startsWith("data:")) {
-    const bytes = fs.readFileSync(path.join(path.dirname(file), img.uri));
-    img.uri = `data:${img.mimeType};base64,` + bytes.toString("base64");
-  }
-}
+const [dirsFile, handedness, ...files] = process.argv.slice(2);
+if (!["rh", "lh"].includes(handedness) || !files.length) throw new Error("usage: DIRS.json rh|lh FILE.gltf...");
 const dirs = JSON.parse(fs.readFileSync(dirsFile, "utf8"));
 
 const shaderH = harmonicsFunctions.shader;
@@ -54,64 +49,78 @@ for (const needle of [
   "environmentIrradiance*=vReflectionColor.rgb*vReflectionInfos.x;",
 ]) if (!shaderR.includes(needle)) throw new Error("pbrBlockReflection changed: " + needle);
 
-const engine = new NullEngine();
-// NullEngine has no GL context for raw cube textures: allocate them without GPU storage.
-// (Only the upload is stubbed; the loader, SH and texture objects are Babylon's own.)
-engine.createRawCubeTexture = function (data, size, format, type, generateMipMaps, invertY, samplingMode) {
-  const t = new InternalTexture(this, 9 /* InternalTextureSource.CubeRaw */);
-  t.isCube = true; t.format = format; t.type = type; t.generateMipMaps = generateMipMaps;
-  t.width = t.height = t.baseWidth = t.baseHeight = size; t.invertY = invertY; t.samplingMode = samplingMode;
-  t.isReady = true;
-  return t;
-};
-engine._uploadImageToTexture = function () {};
-const scene = new Scene(engine);
-if (handedness === "rh") scene.useRightHandedSystem = true;
-await AppendSceneAsync("data:" + JSON.stringify(doc), scene, { pluginExtension: ".gltf" });
-const tex = scene.environmentTexture;
-if (!tex) throw new Error("no environment texture after loading");
-await new Promise((r) => { const t = () => (tex.isReady() ? r() : setTimeout(t, 5)); t(); });
-const h = tex.sphericalPolynomial.preScaledHarmonics; // what BindIBLParameters uploads
-const refl = tex.getReflectionTextureMatrix();
-// defines as materialHelper.functions PrepareDefinesForIBL / BindIBLSamplers set them
-const OPPOSITEZ = tex.isCube && scene.useRightHandedSystem ? !tex.invertZ : tex.invertZ;
-const INVERTCUBIC = tex.coordinatesMode === 6;
-const level = tex.level * scene.iblIntensity; // vReflectionInfos.x
-const root = scene.getMeshByName("__root__") || scene.getTransformNodeByName("__root__");
-const world = root.computeWorldMatrix(true);
-const lights = scene.lights.filter((l) => l instanceof DirectionalLight).map((l) => {
-  l.computeWorldMatrix(true);
-  const dir = l.getShadowDirection ? l.direction : l.direction;
-  // a glTF light node: Babylon DirectionalLight.direction in its parent's (root's) frame; world direction:
-  const wd = Vector3.TransformNormal(l.direction, l.parent ? l.parent.computeWorldMatrix(true) : world).normalize();
-  return { wd, color: l.diffuse, intensity: l.intensity };
-});
-const out = [];
-for (const d of dirs) {
-  const nW = Vector3.TransformNormal(new Vector3(d[0], d[1], d[2]), world).normalize(); // normalW
-  const v = Vector3.TransformNormal(nW, refl);
-  if (OPPOSITEZ) v.z *= -1;
-  if (INVERTCUBIC) v.y *= -1;
-  const e = [0, 0, 0];
-  const ch = ["x", "y", "z"];
-  for (let c = 0; c < 3; c++) {
-    const k = ch[c];
-    let val = h.l00[k] + h.l1_1[k] * v.y + h.l10[k] * v.z + h.l11[k] * v.x + h.l2_2[k] * (v.y * v.x)
-      + h.l2_1[k] * (v.y * v.z) + h.l20[k] * (3 * v.z * v.z - 1) + h.l21[k] * (v.z * v.x)
-      + h.l22[k] * (v.x * v.x - v.y * v.y);
-    val *= level;
-    // pbrDirectLightingFunctions: diffuse = (1/pi) * NdotL * lightColor, lightColor = diffuse * intensity
-    for (const L of lights) {
-      const ndl = Math.max(0, -(nW.x * L.wd.x + nW.y * L.wd.y + nW.z * L.wd.z));
-      val += (1 / Math.PI) * ndl * L.color[["r", "g", "b"][c]] * L.intensity;
+async function irradianceOf(file) {
+  const doc = JSON.parse(fs.readFileSync(file, "utf8"));
+  // external files -> data URIs (node's fetch has no file://); the loader then decodes them itself
+  for (const img of doc.images || []) {
+    if (img.uri && !img.uri.startsWith("data:")) {
+      const bytes = fs.readFileSync(path.join(path.dirname(file), img.uri));
+      img.uri = `data:${img.mimeType};base64,` + bytes.toString("base64");
     }
-    e[c] = Math.PI * val; // irradiance = pi * Lambert radiance at albedo 1
   }
-  out.push(e);
+  const engine = new NullEngine();
+  // NullEngine has no GL context for raw cube textures: allocate them without GPU storage.
+  // (Only the upload is stubbed; the loader, SH and texture objects are Babylon's own.)
+  engine.createRawCubeTexture = function (data, size, format, type, generateMipMaps, invertY, samplingMode) {
+    const t = new InternalTexture(this, 9 /* InternalTextureSource.CubeRaw */);
+    t.isCube = true; t.format = format; t.type = type; t.generateMipMaps = generateMipMaps;
+    t.width = t.height = t.baseWidth = t.baseHeight = size; t.invertY = invertY; t.samplingMode = samplingMode;
+    t.isReady = true;
+    return t;
+  };
+  engine._uploadImageToTexture = function () {};
+  const scene = new Scene(engine);
+  if (handedness === "rh") scene.useRightHandedSystem = true;
+  await AppendSceneAsync("data:" + JSON.stringify(doc), scene, { pluginExtension: ".gltf" });
+  const tex = scene.environmentTexture;
+  if (!tex) throw new Error("no environment texture after loading");
+  await new Promise((r) => { const t = () => (tex.isReady() ? r() : setTimeout(t, 5)); t(); });
+  const h = tex.sphericalPolynomial.preScaledHarmonics; // what BindIBLParameters uploads
+  const refl = tex.getReflectionTextureMatrix();
+  // defines as materialHelper.functions PrepareDefinesForIBL / BindIBLSamplers set them
+  const OPPOSITEZ = tex.isCube && scene.useRightHandedSystem ? !tex.invertZ : tex.invertZ;
+  const INVERTCUBIC = tex.coordinatesMode === 6;
+  const level = tex.level * scene.iblIntensity; // vReflectionInfos.x
+  const root = scene.getMeshByName("__root__") || scene.getTransformNodeByName("__root__");
+  const world = root.computeWorldMatrix(true);
+  const lights = scene.lights.filter((l) => l instanceof DirectionalLight).map((l) => {
+    l.computeWorldMatrix(true);
+    const dir = l.getShadowDirection ? l.direction : l.direction;
+    // a glTF light node: Babylon DirectionalLight.direction in its parent's (root's) frame; world direction:
+    const wd = Vector3.TransformNormal(l.direction, l.parent ? l.parent.computeWorldMatrix(true) : world).normalize();
+    return { wd, color: l.diffuse, intensity: l.intensity };
+  });
+  const out = [];
+  for (const d of dirs) {
+    const nW = Vector3.TransformNormal(new Vector3(d[0], d[1], d[2]), world).normalize(); // normalW
+    const v = Vector3.TransformNormal(nW, refl);
+    if (OPPOSITEZ) v.z *= -1;
+    if (INVERTCUBIC) v.y *= -1;
+    const e = [0, 0, 0];
+    const ch = ["x", "y", "z"];
+    for (let c = 0; c < 3; c++) {
+      const k = ch[c];
+      let val = h.l00[k] + h.l1_1[k] * v.y + h.l10[k] * v.z + h.l11[k] * v.x + h.l2_2[k] * (v.y * v.x)
+        + h.l2_1[k] * (v.y * v.z) + h.l20[k] * (3 * v.z * v.z - 1) + h.l21[k] * (v.z * v.x)
+        + h.l22[k] * (v.x * v.x - v.y * v.y);
+      val *= level;
+      // pbrDirectLightingFunctions: diffuse = (1/pi) * NdotL * lightColor, lightColor = diffuse * intensity
+      for (const L of lights) {
+        const ndl = Math.max(0, -(nW.x * L.wd.x + nW.y * L.wd.y + nW.z * L.wd.z));
+        val += (1 / Math.PI) * ndl * L.color[["r", "g", "b"][c]] * L.intensity;
+      }
+      e[c] = Math.PI * val; // irradiance = pi * Lambert radiance at albedo 1
+    }
+    out.push(e);
+  }
+  engine.dispose();
+  return {
+    irradiance: out,
+    level, opposite_z: OPPOSITEZ, invert_cubic: INVERTCUBIC, right_handed: scene.useRightHandedSystem,
+    root_world: Array.from(world.m), lights: lights.length,
+  };
 }
-process.stdout.write(JSON.stringify({
-  irradiance: out,
-  level, opposite_z: OPPOSITEZ, invert_cubic: INVERTCUBIC, right_handed: scene.useRightHandedSystem,
-  root_world: Array.from(world.m), lights: lights.length,
-}) + "\n");
-engine.dispose();
+
+const results = [];
+for (const file of files) results.push(await irradianceOf(file));
+process.stdout.write(JSON.stringify(results) + "\n");

@@ -84,6 +84,10 @@ CASES = {
     "overview": ["overview", "{in}/previews", "-o", "{out}/index.html"],
 }  # fmt: skip
 
+pytestmark = pytest.mark.xdist_group("full-disk")
+"""One worker runs this module (``make test``: ``--dist loadgroup``): :func:`ws` and each
+command's :func:`measured` run are made once, not once per worker."""
+
 
 @pytest.fixture(scope="module")
 def ws(tmp_path_factory):

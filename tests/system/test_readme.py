@@ -64,6 +64,7 @@ def test_readme_has_examples():
     assert len(COMMANDS) >= 8, COMMANDS
 
 
+@pytest.mark.heavy
 def test_examples_run_in_order(workdir, scheduler, monkeypatch, capfd):
     """One test, so that xdist keeps the examples in order on one worker."""
     monkeypatch.chdir(workdir)

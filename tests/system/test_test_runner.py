@@ -12,6 +12,8 @@ import os
 import subprocess
 import sys
 
+from tests.helpers import ROOT
+
 GROUPED = """
 import os
 
@@ -40,3 +42,16 @@ def test_an_xdist_group_runs_on_one_worker(tmp_path):
     assert run.returncode == 0, run.stdout + run.stderr
     workers = log.read_text().split()
     assert len(workers) == 8 and len(set(workers)) == 1, workers
+
+
+def test_heavy_tests_are_collected_first():
+    """A ``heavy`` test leads the collection (tests/conftest.py), so that ``--dist loadgroup``
+    hands it out right after the groups (the README examples, first in no file order)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    run = subprocess.run(
+        [sys.executable, "-m", "pytest", "--collect-only", "-q", "tests/system/test_readme.py"],
+        cwd=ROOT, capture_output=True, text=True, env=env,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr
+    ids = [line for line in run.stdout.splitlines() if "::" in line]
+    assert len(ids) == 3 and ids[0].endswith("::test_examples_run_in_order"), ids

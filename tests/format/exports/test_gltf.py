@@ -6,6 +6,7 @@ Khronos validator reports no error; a flipped axis, a π or Babylon's sign fails
 
 import glob
 import json
+import os
 import shutil
 
 import numpy as np
@@ -19,12 +20,63 @@ from tests.helpers import run_node
 
 pytestmark = BAKED_FOR_NODE
 
+FAULTS = ["flip-x", "flip-y", "flip-z", "pi", "no-sign"]
+
+
+def babylon_reads(dirs_file: str, scene: str, *files: str) -> list[dict]:
+    """What Babylon.js's own loader shades with at the directions of ``dirs_file``, for each
+    glTF of ``files`` in a left- (``"lh"``) or right-handed (``"rh"``) scene: one node process
+    for them all (``tests/engines/babylon_irradiance.mjs``)."""
+    return run_node("babylon_irradiance.mjs", dirs_file, scene, *files)
+
+
+def with_fault(gltf: str, fault: str) -> str:
+    """A copy of ``gltf`` beside it (its images copied too) with the irradiance coefficients
+    broken by ``fault``: an axis mirrored, times π, or Babylon's sign left out."""
+    doc = json.load(open(gltf))
+    light = doc["extensions"]["EXT_lights_image_based"]["lights"][0]
+    c = np.array(light["irradianceCoefficients"])
+    odd = {"flip-x": [3, 4, 7], "flip-y": [1, 4, 5], "flip-z": [2, 5, 7]}
+    if fault in odd:
+        c[odd[fault]] *= -1
+    elif fault == "pi":
+        c *= np.pi
+    else:
+        c *= np.array([1, -1, 1, 1, -1, -1, 1, 1, 1])[:, None]
+    light["irradianceCoefficients"] = c.tolist()
+    folder, stem = os.path.dirname(gltf), f"bad-{fault}"
+    for png in glob.glob(os.path.join(folder, "a_specular_*.png")):
+        shutil.copy(png, png.replace("a_specular_", f"{stem}_specular_"))
+    for im in doc["images"]:
+        im["uri"] = im["uri"].replace("a_specular_", f"{stem}_specular_")
+    bad = os.path.join(folder, f"{stem}.gltf")
+    with open(bad, "w") as f:
+        json.dump(doc, f)
+    return bad
+
+
+@pytest.fixture(scope="module")
+def faulted(dirs_file):
+    """``faulted(baked)``: fault → the irradiance Babylon.js reads from the asset's glTF so
+    broken (the :data:`FAULTS` files of an asset written and loaded by one node process, once)."""
+    runs = {}
+
+    def get(baked: dict) -> dict:
+        if baked["name"] not in runs:
+            reads = babylon_reads(dirs_file, "lh", *(with_fault(baked["gltf"], f) for f in FAULTS))
+            runs[baked["name"]] = {
+                f: np.array(r["irradiance"]) for f, r in zip(FAULTS, reads, strict=True)
+            }
+        return runs[baked["name"]]
+
+    return get
+
 
 class TestBabylonGltf:
     """gltf.write: Babylon.js's loader reads shbake's irradiance (sun included)."""
 
     def test_irradiance_equals_shbake(self, baked, dirs_file):
-        r = run_node("babylon_irradiance.mjs", baked["gltf"], dirs_file)
+        (r,) = babylon_reads(dirs_file, "lh", baked["gltf"])
         got = np.array(r["irradiance"])
         src = load_source(baked["h5"])
         d = np.array(json.load(open(dirs_file)))
@@ -48,36 +100,15 @@ class TestBabylonGltf:
         rh = export_assets(
             [baked["h5"]], "gltf", str(tmp_path / "rh.gltf"), babylon_scene="right-handed", **SMALL
         )[0]
-        got = np.array(run_node("babylon_irradiance.mjs", rh, dirs_file, "rh")["irradiance"])
-        assert _rel(got, want, src, d) < TOL
-        lh = np.array(
-            run_node("babylon_irradiance.mjs", baked["gltf"], dirs_file, "rh")["irradiance"]
+        got, lh = (
+            np.array(r["irradiance"]) for r in babylon_reads(dirs_file, "rh", rh, baked["gltf"])
         )
+        assert _rel(got, want, src, d) < TOL
         assert _rel(lh, want) > 1e-3
 
-    @pytest.mark.parametrize("fault", ["flip-x", "flip-y", "flip-z", "pi", "no-sign"])
-    def test_a_wrong_convention_fails(self, baked, dirs_file, fault):
+    @pytest.mark.parametrize("fault", FAULTS)
+    def test_a_wrong_convention_fails(self, baked, dirs_file, faulted, fault):
         """The comparison is sensitive: a mirrored axis, a π or Babylon's sign ignored fails."""
-        doc = json.load(open(baked["gltf"]))
-        light = doc["extensions"]["EXT_lights_image_based"]["lights"][0]
-        c = np.array(light["irradianceCoefficients"])
-        odd = {"flip-x": [3, 4, 7], "flip-y": [1, 4, 5], "flip-z": [2, 5, 7]}
-        if fault in odd:
-            c[odd[fault]] *= -1
-        elif fault == "pi":
-            c *= np.pi
-        else:
-            c *= np.array([1, -1, 1, 1, -1, -1, 1, 1, 1])[:, None]
-        light["irradianceCoefficients"] = c.tolist()
-        bad = str(baked["dir"] / "bad.gltf")
-        with open(bad, "w") as f:
-            json.dump(doc, f)
-        for png in glob.glob(str(baked["dir"] / "a_specular_*.png")):
-            shutil.copy(png, png.replace("a_specular_", "bad_specular_"))
-        for im in doc["images"]:
-            im["uri"] = im["uri"].replace("a_specular_", "bad_specular_")
-        with open(bad, "w") as f:
-            json.dump(doc, f)
-        got = np.array(run_node("babylon_irradiance.mjs", bad, dirs_file)["irradiance"])
+        got = faulted(baked)[fault]
         want = shbake_irradiance(load_source(baked["h5"]), np.array(json.load(open(dirs_file))))
         assert _rel(got, want) > 1e-3
