@@ -262,6 +262,9 @@ def measure(
     shutil.rmtree(out, ignore_errors=True)
     jobs = ["--jobs", "2"] if "--jobs" in subprocess.run(
         [SHBAKE, "plan", "--help"], capture_output=True, text=True).stdout else []  # fmt: skip
+    from shbake.batch.plan_cache import store_scene_units
+
+    store_scene_units(str(work / "scene.toml"), {})  # a cold plan: no units of an earlier run
     res["plan"] = run([SHBAKE, "plan", "scene.toml", *jobs, "-q"], work)
     res["bake"] = run([SHBAKE, "bake", "scene.toml", "--jobs", "2", "-q"], work)
     lock = json.loads((out / "scene.lock.json").read_text())
