@@ -113,6 +113,9 @@ def main(argv=None) -> int:
         messages.end_run()
         set_memory_budget(None)  # --max-memory is this run's, not the process's
         if script:
+            workers = sys.modules.get("shbake.batch.workers")  # imported by --jobs runs
+            if workers is not None:
+                workers.stop_server()
             exit_quietly_on_signal()
     if script:
         _fast_exit(code)

@@ -75,7 +75,7 @@ def output_opt(help_text: str, required: bool = True, dir_okay: bool = False):
 def many_maps_opts(f):
     """``--list``, ``--out-dir``, ``--jobs``: a command's maps in one call
     (:mod:`shbake.batch.project_many`), as ``probe-fit`` takes them."""
-    from shbake.batch.probe_jobs import JOBS_LIMIT
+    from shbake.batch.workers import JOBS_LIMIT
 
     jobs_help = f"Local worker processes for several maps (1…{JOBS_LIMIT})."
     f = click.option("--jobs", "n_jobs", type=click.IntRange(1, JOBS_LIMIT), default=1,

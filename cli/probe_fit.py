@@ -25,7 +25,7 @@ from shbake_cli.options import (
 
 from shbake.bakers.shexp import FIT_TARGETS, SETS_LIMIT, WEIGHTS, FitConfig
 from shbake.batch.probe_fit import fit_probes
-from shbake.batch.probe_jobs import JOBS_LIMIT
+from shbake.batch.workers import JOBS_LIMIT
 from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT, ggx_alpha
 from shbake.errors import ParameterError
 

@@ -15,8 +15,10 @@ Forked children reset the handlers and ask the kernel to kill them with their pa
 (``PR_SET_PDEATHSIG``).
 
 Pool workers (:func:`worker_init`) ignore SIGINT (the terminal sends it to the whole
-process group; the parent decides), ask the kernel to send them SIGTERM when their parent
-dies, for whatever reason, ``kill -9`` included, and answer SIGTERM at once from their
+process group; the parent decides), ask the kernel to send them SIGTERM when the process
+they were forked from exits (the pool's fork server, which exits with the command:
+:mod:`shbake.batch.workers`), for whatever reason, ``kill -9`` of the command included,
+and answer SIGTERM at once from their
 watcher thread: remove the temporaries of their open transactions and ``os._exit(143)``,
 even inside a numba kernel. A worker therefore never outlives its parent by more than
 the time a thread needs to wake, and leaves no temporary behind.
@@ -165,16 +167,15 @@ def _ignore(signum, frame):
     """A worker's Python-level handler: the watcher thread does the work."""
 
 
-def worker_init() -> None:
+def worker_init(parent: int) -> None:
     """Initialiser of pool worker processes (module docstring): the parent handles SIGINT,
     SIGTERM removes the worker's temporaries and ends it at once (from the watcher thread,
-    so also inside a numba kernel), and the worker gets SIGTERM when its parent dies; its
-    warnings are not printed (they would interleave with the parent's one-line messages).
-    Does nothing in a thread (a Dask worker's task thread)."""
+    so also inside a numba kernel), and the worker gets SIGTERM when the process it was
+    forked from (``parent``, its pid) exits; its warnings are not printed (they would
+    interleave with the parent's one-line messages). Does nothing in a thread."""
     global _grace, _quiet
     if threading.current_thread() is not threading.main_thread():
         return
-    import multiprocessing
     import warnings
 
     warnings.simplefilter("ignore")  # a worker's stderr is the user's terminal: one-line rule
@@ -182,8 +183,7 @@ def worker_init() -> None:
     install()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _ignore)
-    parent = multiprocessing.parent_process()
-    die_with_parent(signal.SIGTERM, parent.pid if parent is not None else None)
+    die_with_parent(signal.SIGTERM, parent)
 
 
 def install() -> bool:

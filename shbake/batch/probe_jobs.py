@@ -10,17 +10,13 @@ weights, the design matrix) and the DFG table — is built once per process
 and reused by every job that shares its configuration and map shape.
 """
 
-import contextlib
 import functools
-import multiprocessing
-import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
-from shbake import signals
 from shbake.bakers.shexp import FitConfig, FitPlan
 from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
 from shbake.batch.scheduler import completed, session, write_returned
+from shbake.batch.workers import JOBS_LIMIT, start_server, worker_pool
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
 from shbake.format.asset import write_asset
@@ -29,9 +25,6 @@ from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
 from shbake.jit import use_one_thread
 from shbake.resources import check_memory
-
-JOBS_LIMIT = (os.cpu_count() or 1) * 4
-"""Most local worker processes (``--jobs``): four per CPU."""
 
 
 @dataclass(frozen=True)
@@ -138,39 +131,6 @@ def _warm_plan_cache(jobs: list[ProbeJob], n_jobs: int = 1) -> None:
     shared_dfg_table()
 
 
-def _single_thread():
-    signals.worker_init()
-    use_one_thread()
-
-
-STOP_SECONDS = 5.0
-"""How long a stopped pool's workers have to remove their temporaries and exit."""
-
-
-@contextlib.contextmanager
-def worker_pool(n_jobs: int):
-    """A spawned process pool whose workers run numba on one thread each
-    (:func:`shbake.signals.worker_init`: they die with this process). When the block
-    fails or is interrupted, the workers are sent SIGTERM at once — each removes its
-    temporaries and exits — instead of finishing their current jobs."""
-    # spawn, not fork: forking a process whose numba thread pool is running is unsafe
-    context = multiprocessing.get_context("spawn")
-    pool = ProcessPoolExecutor(n_jobs, mp_context=context, initializer=_single_thread)
-    try:
-        yield pool
-    except BaseException:
-        workers = list((getattr(pool, "_processes", None) or {}).values())
-        for w in workers:
-            with contextlib.suppress(OSError, ValueError):
-                w.terminate()
-        pool.shutdown(wait=False, cancel_futures=True)
-        for w in workers:
-            with contextlib.suppress(OSError, ValueError, AssertionError):
-                w.join(STOP_SECONDS)
-        raise
-    pool.shutdown(wait=True)
-
-
 def check_jobs(jobs: list[ProbeJob]) -> None:
     """Refuse, before any work, a job whose output is any job's map (same file)."""
     refuse_same_file([j.output for j in jobs if j.output], [j.source for j in jobs])
@@ -180,9 +140,9 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None,
               finished: list | None = None) -> list[dict]:  # fmt: skip
     """Run jobs in this process (``n_jobs = 1``) or ``n_jobs`` worker processes.
 
-    Worker processes (spawned) run numba on one thread each. Results keep the job order;
-    ``finished`` (a list) receives each job's summary as soon as it is done, so a caller
-    still knows what completed when a later job fails.
+    Worker processes (:mod:`shbake.batch.workers`) run numba on one thread each. Results
+    keep the job order; ``finished`` (a list) receives each job's summary as soon as it is
+    done, so a caller still knows what completed when a later job fails.
     """
     check_jobs(jobs)
     done = finished if finished is not None else []
@@ -197,6 +157,7 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None,
             if progress:
                 progress(len(results), len(jobs))
         return results
+    start_server()  # it warms while the plan is built or loaded here
     _warm_plan_cache(jobs, n_jobs)
     batches = [jobs[i : i + GATHER_BATCH] for i in range(0, len(jobs), GATHER_BATCH)]
     with worker_pool(n_jobs) as pool:
@@ -211,7 +172,7 @@ def run_local(jobs: list[ProbeJob], n_jobs: int = 1, progress=None,
 def _dask_job(job: ProbeJob) -> tuple[dict, bytes | None]:
     """A Dask worker's probe: its summary and the bytes of its file, which the client writes
     (:mod:`shbake.batch.scheduler`: a worker writes nothing where outputs go)."""
-    _single_thread()
+    use_one_thread()
     with collected() as outputs:
         summary = run_probe_job(job)
         return summary, (outputs.read(job.output) if job.output else None)

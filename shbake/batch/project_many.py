@@ -4,8 +4,8 @@ A build that bakes thousands of probes should not start an interpreter per map (
 start-up costs more than a map's projection). :func:`run_many` takes the maps as
 arguments and/or a list file (lines ``MAP [OUTPUT]``,
 :func:`shbake.batch.map_list.read_map_list`), writes ``OUT_DIR/STEM.h5`` (or the list's
-named output) for each, and runs them here or in a pool of spawned workers
-(:func:`shbake.batch.probe_jobs.worker_pool`), a few maps per task. Every output is
+named output) for each, and runs them here or in a pool of workers
+(:func:`shbake.batch.workers.worker_pool`), a few maps per task. Every output is
 checked before any work (two maps may not write one file, no output may be a map) and
 written atomically on its own, as ``probe-fit``'s (docs/FORMAT.md §1): an interrupted
 batch keeps the maps it completed. Each output is the one-map command's with the same
@@ -47,7 +47,7 @@ def run_many(command: str, pairs: list[tuple[str, str]], settings: dict, n_jobs:
     output)`` pair with the keyword ``settings`` of that call, here (``n_jobs = 1``) or in
     ``n_jobs`` worker processes, :data:`TASK_MAPS` maps a task; per-map summaries (input,
     output, warnings) in order. ``progress(done, total)``: after each task."""
-    from shbake.batch.probe_jobs import JOBS_LIMIT, worker_pool
+    from shbake.batch.workers import JOBS_LIMIT, worker_pool
 
     if not 1 <= n_jobs <= JOBS_LIMIT:
         raise ParameterError(f"--jobs must be in [1, {JOBS_LIMIT}], got {n_jobs}")

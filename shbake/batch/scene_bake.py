@@ -30,7 +30,6 @@ from shbake.batch.makefile import (
     variable_value,
 )
 from shbake.batch.plan import file_hash, plan_scene_kept
-from shbake.batch.probe_jobs import worker_pool
 from shbake.batch.scene import (
     NAME_PATTERN,
     STAMP_DIR,
@@ -44,6 +43,7 @@ from shbake.batch.scene import (
     stamp_path,
 )
 from shbake.batch.scene_paths import resolved, scene_folder, stored, stored_asset
+from shbake.batch.workers import start_server, worker_pool
 from shbake.errors import OutputError, ParameterError
 from shbake.format.atomic import (
     atomic_path,
@@ -692,6 +692,8 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
              and a["settings"]["env_sh"] in ids]  # fmt: skip
     todo = [_with_planned_fit(a, units) for a in todo]
+    if scheduler is None and jobs > 1 and len(todo) > 1:
+        start_server()  # it warms while the stamps are written
     makedirs(scene.out_dir)
     write_stamps(plan, scene)  # before the assets: make then finds each newer than its stamp
     if scheduler is not None:

@@ -146,7 +146,7 @@ def test_workers_plan_each_map_content_once(tmp_path, monkeypatch):
     import contextlib
 
     import shbake.batch.plan as plan
-    import shbake.batch.probe_jobs as probe_jobs
+    import shbake.batch.workers as workers
     from shbake.batch.scene import load_scene
 
     path = diffuse_scene(tmp_path)
@@ -156,7 +156,7 @@ def test_workers_plan_each_map_content_once(tmp_path, monkeypatch):
     monkeypatch.setattr(plan, "PLAN_TASK_MAPS", 1)
     # the workers' tasks run here, in order, so that their measurements can be counted
     here = type("Pool", (), {"map": map})
-    monkeypatch.setattr(probe_jobs, "worker_pool", lambda jobs: contextlib.nullcontext(here))
+    monkeypatch.setattr(workers, "worker_pool", lambda jobs: contextlib.nullcontext(here))
     measured = []
     real = plan.plan_env_sh
     monkeypatch.setattr(plan, "plan_env_sh", lambda *a, **k: measured.append(a[0]) or real(*a, **k))
