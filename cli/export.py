@@ -26,7 +26,7 @@ from shbake.bakers.env_lights import MAX_LIGHTS
 from shbake.batch.export import cube_settings
 from shbake.batch.export_map import MAP_DEFAULTS, export_inputs
 from shbake.conventions import LMAX_LIMIT
-from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
+from shbake.envmap.sun import SUN_RADIUS_DEG, SUN_RADIUS_MAX_DEG
 from shbake.format.exports import TARGETS
 from shbake.format.exports.gltf import BABYLON_SCENES
 from shbake.format.exports.source import FRAMES
@@ -101,7 +101,7 @@ from shbake.sh.windows import WINDOW_METHODS
     "--sun-radius",
     "sun_radius_deg",
     type=FiniteRange(0.0, SUN_RADIUS_MAX_DEG, min_open=True),
-    default=10.0,
+    default=SUN_RADIUS_DEG,
     show_default=True,
     help=f"Radius the asset's sun was extracted with, degrees (0…{SUN_RADIUS_MAX_DEG:g}], to "
     "rebuild its residual map.",

@@ -29,7 +29,7 @@ from shbake_cli.options import (
 from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, MAX_LIGHTS
 from shbake.batch.project_env import EXPORTS, check_settings, project_environment
 from shbake.conventions import LMAX_LIMIT
-from shbake.envmap.sun import SUN_RADIUS_MAX_DEG
+from shbake.envmap.sun import SUN_RADIUS_DEG, SUN_RADIUS_MAX_DEG
 from shbake.sh.windows import WINDOW_METHODS
 
 
@@ -90,7 +90,7 @@ from shbake.sh.windows import WINDOW_METHODS
 @click.option(
     "--sun-radius",
     type=FiniteRange(0.0, SUN_RADIUS_MAX_DEG, min_open=True),
-    default=10.0,
+    default=SUN_RADIUS_DEG,
     show_default=True,
     help=f"Largest angular radius of the extracted light, degrees (0…{SUN_RADIUS_MAX_DEG:g}].",
 )

@@ -6,7 +6,9 @@
 Shaded by :mod:`shbake.shading.env_sh`, measured by :mod:`shbake.evaluation.env_sh`.
 """
 
+import base64
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -20,7 +22,7 @@ from shbake.bakers.env_lights import (
 )
 from shbake.conventions import band_of_index, check_lmax, lmax_of
 from shbake.envmap.environment import Environment
-from shbake.envmap.sun import extract_sun
+from shbake.envmap.sun import SUN_RADIUS_DEG, Sun, extract_sun
 from shbake.errors import ParameterError
 from shbake.format.asset import Asset
 from shbake.format.provenance import map_source
@@ -32,6 +34,105 @@ from shbake.sh.windows import WINDOW_METHODS, dering_window, window
 
 REPORT_LMAX = 64
 """Band up to which ``--report`` projects to estimate what truncation loses."""
+
+
+class Projection(NamedTuple):
+    """What :func:`bake_env_sh` reads from a map's pixels (without fitted lights): the
+    lighting SH ``sh`` (``((lmax+1)², 3)``, the map's frame) of the map less its sun, and
+    when a sun was asked for (``sun_radius_deg``) the extracted ``light`` (or ``None``) and
+    the extraction's ``sun_report`` (:func:`shbake.envmap.sun.extract_sun`)."""
+
+    sh: np.ndarray
+    sun_radius_deg: float | None
+    light: Sun | None
+    sun_report: dict | None
+
+    def to_record(self) -> dict:
+        """The projection as JSON values, every float64 kept exactly (``sh`` as
+        little-endian bytes in base64, other floats by ``repr``): what a scene's plan keeps
+        for the bake (:meth:`from_record`)."""
+        light = None if self.light is None else {
+            "direction": self.light.direction.tolist(), "solid_angle": self.light.solid_angle,
+            "radiance": self.light.radiance.tolist()}  # fmt: skip
+        return {"sh": base64.b64encode(np.asarray(self.sh, "<f8").tobytes()).decode(),
+                "sun_radius_deg": self.sun_radius_deg, "light": light,
+                "sun_report": self.sun_report}  # fmt: skip
+
+    @classmethod
+    def from_record(cls, record, lmax: int, sun_radius_deg: float | None) -> "Projection | None":
+        """The projection :meth:`to_record` wrote for ``lmax`` and ``sun_radius_deg``;
+        ``None`` when ``record`` is not one (it comes from a lock or cache file: untrusted) —
+        another ``lmax`` or sun radius, wrong shapes or types, non-finite values."""
+        if not isinstance(record, dict) or record.keys() != PROJECTION_KEYS:
+            return None
+        if record["sun_radius_deg"] != sun_radius_deg:
+            return None
+        try:
+            raw = base64.b64decode(record["sh"], validate=True)
+        except (TypeError, ValueError):
+            return None
+        if len(raw) != 8 * 3 * (lmax + 1) ** 2:
+            return None
+        sh = np.frombuffer(raw, "<f8").astype(np.float64).reshape((lmax + 1) ** 2, 3)
+        light, report = record["light"], record["sun_report"]
+        if sun_radius_deg is None:
+            ok = light is None and report is None
+        else:
+            ok = _is_sun_report(report) and (
+                (light is None and report["extracted"] is False)
+                or (report["extracted"] is True and _is_light(light)))  # fmt: skip
+        if not (ok and np.all(np.isfinite(sh))):
+            return None
+        if light is not None:
+            light = Sun(np.array(light["direction"], np.float64), light["solid_angle"],
+                        np.array(light["radiance"], np.float64))  # fmt: skip
+        return cls(sh, sun_radius_deg, light, report)
+
+
+PROJECTION_KEYS = {"sh", "sun_radius_deg", "light", "sun_report"}
+"""The keys of :meth:`Projection.to_record`."""
+
+
+def _floats(value, n: int) -> bool:
+    return (isinstance(value, list) and len(value) == n
+            and all(type(x) is float and np.isfinite(x) for x in value))  # fmt: skip
+
+
+def _is_light(light) -> bool:
+    """Whether ``light`` is a :meth:`Projection.to_record` sun: a unit direction, a positive
+    solid angle, a finite RGB radiance."""
+    return (isinstance(light, dict) and light.keys() == {"direction", "solid_angle", "radiance"}
+            and _floats(light["direction"], 3)
+            and abs(float(np.linalg.norm(light["direction"])) - 1.0) < 1e-9
+            and _floats([light["solid_angle"]], 1) and light["solid_angle"] > 0.0
+            and _floats(light["radiance"], 3))  # fmt: skip
+
+
+def _is_sun_report(report) -> bool:
+    """Whether ``report`` has the keys and JSON types :func:`extract_sun`'s report takes."""
+    if not isinstance(report, dict) or type(report.get("extracted")) is not bool:
+        return False
+    keys = SUN_REPORT_KEYS | (SUN_EXTRACTED_KEYS if report["extracted"] else set())
+    return (report.keys() == keys and _floats([report["peak_luminance"]], 1)
+            and _floats(report["background"], 3) and _floats([report["contrast"]], 1)
+            and (not report["extracted"] or (_floats(report["energy_fraction"], 3)
+                                             and type(report["texels"]) is int)))  # fmt: skip
+
+
+SUN_REPORT_KEYS = {"peak_luminance", "background", "contrast", "extracted"}
+SUN_EXTRACTED_KEYS = {"energy_fraction", "texels"}
+"""The keys of :func:`extract_sun`'s report (JSON form), and those it adds for a light."""
+
+
+def project_lighting(env: Environment, lmax: int, sun_radius_deg: float | None = None,
+                     extracted: tuple | None = None) -> Projection:  # fmt: skip
+    """The :class:`Projection` of ``env`` to ``lmax``: its sun extracted first when
+    ``sun_radius_deg`` is given (``extracted``: :func:`extract_sun`'s result for that
+    radius, made earlier). Its values are those :func:`bake_env_sh` writes."""
+    if sun_radius_deg is None:
+        return Projection(env.project(lmax), None, None, None)
+    light, residual, report = extracted or extract_sun(env, radius_deg=sun_radius_deg)
+    return Projection(residual.project(lmax), sun_radius_deg, light, _jsonable(report))
 
 
 def band_energy(coeffs) -> np.ndarray:
@@ -49,11 +150,12 @@ def bake_env_sh(
     irradiance: bool = True,
     tangent: bool = True,
     sun: bool = False,
-    sun_radius_deg: float = 10.0,
+    sun_radius_deg: float = SUN_RADIUS_DEG,
     provenance: dict | None = None,
     rotation: np.ndarray | None = None,
     lights: int | str | None = None,
     light_tol: float = 0.01,
+    projection: Projection | None = None,
 ) -> tuple[Asset, dict]:
     """Bake an ``env_sh`` asset.
 
@@ -78,6 +180,10 @@ def bake_env_sh(
         on the irradiance (:mod:`shbake.bakers.env_lights`): that many lights, or with
         ``"auto"`` the fewest (up to 3) whose mean relative error meets ``light_tol``.
         Not with ``sun`` nor a window (the fit is the irradiance).
+    projection : Projection, optional
+        :func:`project_lighting` of this ``env`` at ``lmax`` (and ``sun_radius_deg`` with
+        ``sun``), made earlier (a scene's plan): used instead of projecting again. Not with
+        ``lights``.
 
     Returns
     -------
@@ -96,9 +202,12 @@ def bake_env_sh(
     datasets: dict = {}
     dattrs: dict = {}
     light = None
-    residual = env
     fit = None
     check_lights(lights, light_tol, sun, window_name)
+    if projection is not None and (
+            lights is not None or projection.sh.shape[0] != (lmax + 1) ** 2
+            or projection.sun_radius_deg != (sun_radius_deg if sun else None)):  # fmt: skip
+        raise ParameterError("the projection given is not one of these settings")
     if lights is not None:
         fit, summary["lights"] = _fit(env, lights, light_tol, irradiance_lmax)
     if fit is not None and fit.count:  # no light found: the SH alone (fitted), no /lights
@@ -112,9 +221,14 @@ def bake_env_sh(
             "fit_mean_error": fit.mean_error,
             "fit_max_error": fit.max_error,
         }
+    if fit is None:
+        if projection is None:
+            projection = project_lighting(env, lmax, sun_radius_deg if sun else None)
+        light, L = projection.light, projection.sh
+    else:
+        L = _with_fit(env.project(lmax), fit, irradiance_lmax)
     if sun:
-        light, residual, sun_report = extract_sun(env, radius_deg=sun_radius_deg)
-        summary["sun"] = _jsonable(sun_report)
+        summary["sun"] = dict(projection.sun_report)  # the caller's to add to
         if light is not None:
             datasets["/sun/direction"] = (light.direction if rotation is None
                                           else np.asarray(rotation) @ light.direction)  # fmt: skip
@@ -122,9 +236,6 @@ def bake_env_sh(
             datasets["/sun/radiance"] = light.radiance
             dattrs["/sun/direction"] = {"frame": "world, unit vector toward the light"}
             dattrs["/sun/radiance"] = {"units": "radiance; radiance * solid_angle = irradiance"}
-    L = residual.project(lmax)
-    if fit is not None:
-        L = _with_fit(L, fit, irradiance_lmax)
     if rotation is not None:
         L = rotate(L, rotation)
     datasets["/lighting/sh"] = L

@@ -60,7 +60,7 @@ import numpy as np
 
 from shbake.bakers.brdf_table_report import probe_views, product_energy
 from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, choose_lights, irradiance_target
-from shbake.bakers.env_sh import band_energy
+from shbake.bakers.env_sh import band_energy, project_lighting
 from shbake.bakers.shexp import FIT_ALPHA_MIN, FitConfig
 from shbake.bakers.splitsum import SplitSumConfig
 from shbake.batch.plan_costs import (
@@ -77,7 +77,7 @@ from shbake.brdf.tabulate import project_views, tabulate
 from shbake.conventions import ggx_alpha, n_coeffs
 from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment as EnvMap
-from shbake.envmap.sun import extract_sun
+from shbake.envmap.sun import SUN_RADIUS_DEG, extract_sun
 from shbake.evaluation.metrics import mean_relative_norm
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 from shbake.texture.parabolic import fetch
@@ -177,6 +177,9 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
         return {"impossible": {k: float(e[MAX_IRRADIANCE_LMAX]) for k, (e, _) in errs.items()}}
     t_l = shape_seconds("env_sh", (residual.layout, residual.shape, lmax), residual.project,
                         lmax)  # fmt: skip
+    # what the bake projects, made here once (the same calls: the same bits)
+    projection = project_lighting(env, lmax, SUN_RADIUS_DEG if sun else None,
+                                  (light, residual, rep))  # fmt: skip
     settings = {
         "lmax": lmax,
         "irradiance": irr_tol is not None,
@@ -191,6 +194,7 @@ def plan_env_sh(env_path: str, env: EnvMap, load_s: float, irr_tol, tan_tol,
         "sun_seconds": t_sun if sun else 0.0,
         "bytes": n * (1 + settings["irradiance"] + settings["tangent"]) + (56 if sun else 0),
         "note": "error: Parseval on the full map" + (", sun removed (exact light)" if sun else ""),
+        "projection": projection.to_record(),
     }
 
 

@@ -175,7 +175,7 @@ def project_environment_asset(
     irradiance_sh: bool = True,
     tangent_irradiance: bool = True,
     extract_sun: bool = False,
-    sun_radius: float = 10.0,
+    sun_radius: float = sun_light.SUN_RADIUS_DEG,
     lights: int | str | None = None,
     light_tol: float = 0.01,
     exr_dir: str | None = None,
@@ -193,6 +193,7 @@ def project_environment_asset(
     progress=NO_PROGRESS,
     pose: dict | None = None,
     measure_export: bool = False,
+    projection=None,
 ) -> tuple:
     """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the asset as
     written, the summary, and the environment it was baked from: the map as read with the
@@ -212,7 +213,9 @@ def project_environment_asset(
     headline ``error`` that of what a consumer evaluates (:func:`headline_error`; with
     ``exports`` or ``measure_export``, the SH exports' 9 coefficients and lights).
     ``lights``/``light_tol``: directional lights fitted with the SH to the irradiance
-    (:func:`shbake.bakers.env_sh.bake_env_sh`).
+    (:func:`shbake.bakers.env_sh.bake_env_sh`). ``projection``: the map's
+    :class:`~shbake.bakers.env_sh.Projection` at these settings, made earlier (a scene's
+    plan), which the bake then does not make again.
     """
     irradiance_lmax = check_settings(
         lmax, irradiance_lmax, irradiance_sh, exports, lights, light_tol, extract_sun, window
@@ -250,6 +253,7 @@ def project_environment_asset(
         rotation=rotation,
         lights=lights,
         light_tol=light_tol,
+        projection=projection,
     )
     maps = {}
     if exr_dir is not None:

@@ -72,22 +72,28 @@ def _committed():
 
 
 def _bake_env_sh(a: dict, measure: bool = True) -> tuple[dict, dict]:
-    """An env_sh asset; measured: its irradiance against the pyramid brute force
-    (:func:`shbake.evaluation.env_sh.check_reference`) of the map the bake decoded (its
-    pixels as the asset's recorded policies read them, unturned), the asset as written taken
-    from memory (its values are the file's: every dataset is stored in its own dtype)."""
+    """An env_sh asset, its projection ``a["planned_projection"]`` (:func:`_with_planned`)
+    when that is one of these settings; measured: its irradiance against the pyramid brute
+    force (:func:`shbake.evaluation.env_sh.check_reference`) of the map the bake decoded
+    (its pixels as the asset's recorded policies read them, unturned), the asset as written
+    taken from memory (its values are the file's: every dataset is stored in its own
+    dtype)."""
+    from shbake.bakers.env_sh import Projection
     from shbake.batch.project_env import project_environment_asset
+    from shbake.envmap.sun import SUN_RADIUS_DEG
     from shbake.envmap.turn import turn_matrix
     from shbake.evaluation.env_sh import check_reference, irradiance_errors
 
     s = a["settings"]
+    projection = Projection.from_record(a.get("planned_projection"), s["lmax"],
+                                        SUN_RADIUS_DEG if s["extract_sun"] else None)  # fmt: skip
     t0 = time.perf_counter()
     with _committed():
         asset, summary, env = project_environment_asset(
             a["inputs"][0], a["output"], lmax=s["lmax"], irradiance_lmax=s["lmax"],
             irradiance_sh=s["irradiance"], tangent_irradiance=s["tangent"],
             extract_sun=s["extract_sun"], lights=s.get("lights"), quiet=True,
-            pose=s.get("pose"),
+            pose=s.get("pose"), projection=projection,
         )  # fmt: skip
     seconds = time.perf_counter() - t0
     outputs = summary["outputs"]
@@ -142,7 +148,7 @@ def _posed_env(a: dict, turn_pixels: bool):
 
 
 def _bake_shexp(a: dict, measure: bool = True) -> tuple[dict, dict]:
-    """An SH-exp probe; ``a["planned_fit"]`` (:func:`_with_planned_fit`): the plan's fit of
+    """An SH-exp probe; ``a["planned_fit"]`` (:func:`_with_planned`): the plan's fit of
     the same map at the same settings, written as it is when it is one (else fitted here);
     measured: the fit's RMS log residual."""
     from shbake.bakers.shexp import FitConfig, ShexpProbe
@@ -691,7 +697,7 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     ids = {a["id"] for a in todo}
     todo += [a for a in plan["assets"] if a["kind"] == "export" and a["id"] not in ids
              and a["settings"]["env_sh"] in ids]  # fmt: skip
-    todo = [_with_planned_fit(a, units) for a in todo]
+    todo = [_with_planned(a, units) for a in todo]
     if scheduler is None and jobs > 1 and len(todo) > 1:
         start_server()  # it warms while the stamps are written
     makedirs(scene.out_dir)
@@ -732,16 +738,23 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
             "records": records, "lock": lock_file, "warnings": warnings}  # fmt: skip
 
 
-def _with_planned_fit(asset: dict, units: dict) -> dict:
-    """``asset`` with its plan unit's SH-exp fit (``planned_fit``,
-    :func:`shbake.batch.plan.plan_shexp`): the fit of the same map bytes at the same
-    settings, made by the call the bake makes, so the bake writes it instead of fitting
-    again. Not for a turned probe (the plan fits the map unturned) nor for other kinds.
-    The unit may come from the lock or the plan cache: :meth:`ShexpProbe.from_record`
-    checks it, and the bake fits when it is not a fit of these settings."""
-    turned = float(asset["settings"].get("pose", {}).get("rotation_deg", 0.0)) % 360.0 != 0.0
-    fit = units.get(asset["plan_key"], {}).get("fit") if asset["kind"] == "shexp" else None
-    return asset if fit is None or turned else dict(asset, planned_fit=fit)
+def _with_planned(asset: dict, units: dict) -> dict:
+    """``asset`` with what its plan unit made of the map that the bake would make again:
+    an SH-exp probe's fit (``planned_fit``, :func:`shbake.batch.plan.plan_shexp`), an
+    ``env_sh`` asset's projection (``planned_projection``, its sun extracted,
+    :func:`shbake.batch.plan.plan_env_sh`) — of the same map bytes at the same settings,
+    made by the calls the bake makes (the same bits), so the bake writes them instead.
+    Not a fit for a turned probe (the plan fits the map unturned; a projection is turned
+    with the SH) nor a projection with fitted lights. The unit may come from the lock or
+    the plan cache: ``from_record`` checks it (:meth:`ShexpProbe.from_record`,
+    :meth:`Projection.from_record`), and the bake makes its own when it is not one."""
+    unit = units.get(asset["plan_key"], {})
+    if asset["kind"] == "shexp" and "fit" in unit:
+        turned = float(asset["settings"].get("pose", {}).get("rotation_deg", 0.0)) % 360.0
+        return asset if turned else dict(asset, planned_fit=unit["fit"])
+    if asset["kind"] == "env_sh" and "projection" in unit and "lights" not in asset["settings"]:
+        return dict(asset, planned_projection=unit["projection"])
+    return asset
 
 
 def check_makeable(scene: Scene, fragment: str, shbake: str = "shbake") -> None:

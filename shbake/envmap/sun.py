@@ -28,6 +28,9 @@ from shbake.errors import ParameterError
 
 SUN_RADIUS_MAX_DEG = 45.0
 """Largest angular radius of an extracted light, degrees."""
+SUN_RADIUS_DEG = 10.0
+"""Angular radius an extracted light is taken from unless asked otherwise (``--sun-radius``,
+every scene bake), degrees."""
 
 
 class Sun(NamedTuple):
@@ -63,7 +66,8 @@ def _excess(px, cap, background):
 
 
 def remove_lights(
-    env: Environment, directions: np.ndarray, irradiance: np.ndarray, radius_deg: float = 10.0
+    env: Environment, directions: np.ndarray, irradiance: np.ndarray,
+    radius_deg: float = SUN_RADIUS_DEG,
 ) -> tuple[Environment, dict]:
     """The map less the energy of given directional lights, taken from around each.
 
@@ -103,7 +107,7 @@ def remove_lights(
 
 
 def extract_sun(
-    env: Environment, radius_deg: float = 10.0, min_contrast: float = 20.0
+    env: Environment, radius_deg: float = SUN_RADIUS_DEG, min_contrast: float = 20.0
 ) -> tuple[Sun | None, Environment, dict]:
     """Split ``env`` into a :class:`Sun` and a residual environment.
 

@@ -99,7 +99,7 @@ class TestPlannedFit:
             bake_scene(planned)
         fitted = self._scene(tmp_path / "fitted")
         with monkeypatch.context() as m:  # the bake fits each map itself
-            m.setattr(scene_bake, "_with_planned_fit", lambda asset, units: asset)
+            m.setattr(scene_bake, "_with_planned", lambda asset, units: asset)
             bake_scene(fitted)
         lock = json.loads((tmp_path / "planned" / "out" / "scene.lock.json").read_text())
         for a in plan["assets"]:
@@ -110,16 +110,156 @@ class TestPlannedFit:
             assert lock["assets"][aid]["measured_error"] == a["predicted_error"], aid
 
     def test_a_turned_probe_and_other_kinds_are_fitted_in_the_bake(self):
-        from shbake.batch.scene_bake import _with_planned_fit
+        from shbake.batch.scene_bake import _with_planned
 
         units = {"k": {"fit": {"p": "x"}}}
         shexp = {"kind": "shexp", "plan_key": "k", "settings": {}}
-        assert _with_planned_fit(shexp, units)["planned_fit"] == {"p": "x"}
+        assert _with_planned(shexp, units)["planned_fit"] == {"p": "x"}
         for rotation, planned in ((0.0, True), (360.0, True), (30.0, False)):
             a = dict(shexp, settings={"pose": {"position": [0, 0, 0], "rotation_deg": rotation}})
-            assert ("planned_fit" in _with_planned_fit(a, units)) is planned, rotation
-        assert "planned_fit" not in _with_planned_fit(dict(shexp, kind="splitsum"), units)
-        assert "planned_fit" not in _with_planned_fit(dict(shexp, plan_key="other"), units)
+            assert ("planned_fit" in _with_planned(a, units)) is planned, rotation
+        assert "planned_fit" not in _with_planned(dict(shexp, kind="splitsum"), units)
+        assert "planned_fit" not in _with_planned(dict(shexp, plan_key="other"), units)
+
+
+DIFFUSE_SCENE = """[scene]
+out_dir = "out"
+[[environments]]
+map = "maps/*.exr"
+[[environments]]
+map = "maps/studio.exr"
+name = "turned"
+rotation_deg = 30.0
+[[materials]]
+name = "plaster"
+kind = "diffuse"
+"""
+
+
+def overcast() -> np.ndarray:
+    """A 32 × 64 map without a compact light (its peak under 20× the background)."""
+    rng = np.random.default_rng(3)
+    return (0.5 + 0.5 * rng.random((32, 64, 3))).astype(np.float32)
+
+
+class TestPlannedProjection:
+    """``bake_scene`` writes the env_sh projection (sun extracted) its plan made (issue 31:
+    the bake extracted each map's sun and projected it a second time)."""
+
+    def _scene(self, folder):
+        from tests.helpers import write_test_exr
+
+        (folder / "maps").mkdir(parents=True)
+        for name in ("studio", "sunset"):  # a sun extracted from each
+            shutil.copy(map_path(name), folder / "maps" / f"{name}.exr")
+        write_test_exr(folder / "maps" / "overcast.exr", overcast())  # no sun
+        (folder / "scene.toml").write_text(DIFFUSE_SCENE)
+        return load_scene(str(folder / "scene.toml"))
+
+    def test_same_bytes_as_projecting_in_the_bake_and_none_there(self, tmp_path, monkeypatch):
+        from shbake.bakers import env_sh
+        from shbake.batch import scene_bake
+        from shbake.batch.plan import plan_scene_kept
+
+        planned = self._scene(tmp_path / "planned")
+        plan = plan_scene_kept(planned)
+        suns = {a["id"]: a["settings"]["extract_sun"] for a in plan["assets"]}
+        assert len(suns) == 4 and True in suns.values() and False in suns.values(), suns
+
+        def refuse(*args, **kwargs):
+            raise AssertionError("the bake projected the map again")
+
+        with monkeypatch.context() as m:
+            m.setattr(env_sh, "project_lighting", refuse)
+            bake_scene(planned)
+        projected = self._scene(tmp_path / "projected")
+        with monkeypatch.context() as m:  # the bake projects each map itself
+            m.setattr(scene_bake, "_with_planned", lambda asset, units: asset)
+            bake_scene(projected)
+        for aid in suns:
+            got = (tmp_path / "planned" / "out" / f"{aid}.h5").read_bytes()
+            assert got == (tmp_path / "projected" / "out" / f"{aid}.h5").read_bytes(), aid
+
+    def test_fitted_lights_and_other_kinds_are_projected_in_the_bake(self):
+        from shbake.batch.scene_bake import _with_planned
+
+        units = {"k": {"projection": {"sh": "x"}}}
+        env_sh = {"kind": "env_sh", "plan_key": "k", "settings": {"lmax": 2}}
+        assert _with_planned(env_sh, units)["planned_projection"] == {"sh": "x"}
+        turned = dict(env_sh, settings={"lmax": 2, "pose": {"position": [0, 0, 0],
+                                                            "rotation_deg": 30.0}})  # fmt: skip
+        assert "planned_projection" in _with_planned(turned, units)  # the SH are turned after
+        lit = dict(env_sh, settings={"lmax": 2, "lights": 2})
+        assert "planned_projection" not in _with_planned(lit, units)
+        assert "planned_projection" not in _with_planned(dict(env_sh, kind="shexp"), units)
+        assert "planned_projection" not in _with_planned(dict(env_sh, plan_key="other"), units)
+
+
+class TestProjectionRecord:
+    """``Projection.to_record`` / ``from_record``: exact, and untrusted records refused."""
+
+    @pytest.fixture(scope="class", params=["sun", "no sun", "not extracted"])
+    def projection(self, request):
+        from shbake.bakers.env_sh import project_lighting
+        from shbake.envmap import load_environment
+        from shbake.envmap.environment import Environment
+
+        if request.param == "not extracted":
+            env = Environment(overcast(), "latlong")
+        else:
+            env = load_environment(str(map_path("sunset")), quiet=True)
+        radius = None if request.param == "no sun" else 10.0
+        return project_lighting(env, 3, radius)
+
+    def test_round_trip_is_exact(self, projection):
+        from shbake.bakers.env_sh import Projection
+
+        rec = json.loads(json.dumps(projection.to_record()))
+        back = Projection.from_record(rec, 3, projection.sun_radius_deg)
+        assert np.array_equal(back.sh, projection.sh)
+        assert back.sun_report == projection.sun_report
+        assert (back.light is None) is (projection.light is None)
+        if back.light is not None:
+            assert np.array_equal(back.light.direction, projection.light.direction)
+            assert np.array_equal(back.light.radiance, projection.light.radiance)
+            assert back.light.solid_angle == projection.light.solid_angle
+
+    @pytest.mark.parametrize("spoil", ["lmax", "radius", "short", "base64", "nan", "key",
+                                       "light", "norm", "report", "bool", "extracted"])  # fmt: skip
+    def test_not_a_record_of_these_settings(self, projection, spoil):
+        import base64
+
+        from shbake.bakers.env_sh import Projection
+
+        rec = json.loads(json.dumps(projection.to_record()))
+        lmax, radius = 3, projection.sun_radius_deg
+        if spoil == "lmax":
+            lmax = 2
+        elif spoil == "radius":
+            radius = 5.0 if radius is None else None
+        elif spoil == "short":
+            rec["sh"] = base64.b64encode(base64.b64decode(rec["sh"])[:-8]).decode()
+        elif spoil == "base64":
+            rec["sh"] = "not base64!"
+        elif spoil == "nan":
+            rec["sh"] = base64.b64encode(np.full((16, 3), np.nan).tobytes()).decode()
+        elif spoil == "key":
+            rec["extra"] = 1
+        elif spoil == "light":
+            rec["light"] = {"direction": [0.0, 0.0, 1.0], "solid_angle": 0.1}
+        elif spoil == "norm":
+            rec["light"] = {"direction": [0.0, 0.0, 2.0], "solid_angle": 0.1,
+                            "radiance": [1.0, 1.0, 1.0]}  # fmt: skip
+        elif spoil == "report":
+            rec["sun_report"] = {"extracted": False, "peak_luminance": "1"}
+        elif spoil == "bool":
+            rec["sun_report"] = dict(rec["sun_report"] or {}, extracted=1)
+        else:  # a light without an extraction, or an extraction without its light
+            report = rec["sun_report"] or {"peak_luminance": 1.0, "background": [0.0] * 3,
+                                           "contrast": 1.0}  # fmt: skip
+            rec["sun_report"] = dict(report, extracted=not report.get("extracted", False))
+        assert Projection.from_record(rec, lmax, radius) is None
+        assert Projection.from_record(None, 3, projection.sun_radius_deg) is None
 
 
 class TestProbeRecord:
