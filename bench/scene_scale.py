@@ -17,8 +17,9 @@ Per N, side by side in one run, each command a fresh process from a cold output 
   changed, then ``bake`` (its assets only);
 * ``plan --emit-make`` (``--maps-per-rule``, 8 unless given) then ``make -j2``; a second
   ``make``;
-* ``bake --scheduler`` on a 2-worker ``LocalCluster`` (started before the timing; the
-  nanny's ``MALLOC_TRIM_THRESHOLD_`` unset, as docs/SCENES.md recommends);
+* ``bake --scheduler`` on a 2-worker ``LocalCluster`` configured as docs/SCENES.md
+  recommends (started before the timing, with ``--preload shbake.batch.warm_worker``; the
+  nanny's ``MALLOC_TRIM_THRESHOLD_`` unset; Dask's statistical profiler off);
 * the bare commands doing the same bakes, all maps in one call each with ``--jobs 2``:
   ``project-env`` at the settings the plan chose, ``probe-fit`` at the plan's fit,
   ``split-sum`` at the plan's chain (a shbake before issue 31: ``project-env`` one process
@@ -316,12 +317,17 @@ def measure(
         import dask
         from distributed import LocalCluster
 
-        # the nanny's MALLOC_TRIM_THRESHOLD_ costs shbake's workers ~30 % CPU (docs/SCENES.md)
+        from shbake.batch.workers import WARM_MODULE
+
+        # the workers as docs/SCENES.md configures them: the nanny's MALLOC_TRIM_THRESHOLD_
+        # unset (~30 % of their CPU), no statistical profiler (~15 %), shbake preloaded
         nanny = {"pre-spawn-environ": {"MALLOC_TRIM_THRESHOLD_": None}}
-        dask.config.update(dask.config.config, {"distributed": {"nanny": nanny}})
+        worker = {"profile": {"enabled": False}}
+        dask.config.update(dask.config.config, {"distributed": {"nanny": nanny,
+                                                                "worker": worker}})  # fmt: skip
         shutil.rmtree(out)
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                          dashboard_address=":0") as cluster:  # fmt: skip
+                          dashboard_address=":0", preload=[WARM_MODULE]) as cluster:  # fmt: skip
             res["dask"] = run([SHBAKE, "bake", "scene.toml", "--scheduler",
                                cluster.scheduler_address, "-q"], work, cluster=True)  # fmt: skip
     for v in res.values():

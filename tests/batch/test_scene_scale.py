@@ -349,7 +349,9 @@ def test_two_workers_with_their_own_folders(tmp_path):
     (and ``--local-directory``) of its own, as on two machines: ``bake --scheduler`` writes
     the same bytes as a local bake, every file written by the client, none in the
     workers' folders; a probe on a link to another's map is written from that bake on a
-    worker that has only the bytes the client sent (:func:`scene_bake.same_work`)."""
+    worker that has only the bytes the client sent (:func:`scene_bake.same_work`). One
+    worker starts as docs/SCENES.md recommends, ``--preload shbake.batch.warm_worker``: shbake
+    and numba loaded before any task."""
     import json as json_
     import subprocess
     import sys
@@ -370,9 +372,10 @@ def test_two_workers_with_their_own_folders(tmp_path):
             folder = tmp_path / f"worker{i}"
             folder.mkdir()
             workers.append(folder)
+            preload = ["--preload", "shbake.batch.warm_worker"] if i else []
             procs.append(subprocess.Popen(
                 [dask, "worker", "--scheduler-file", str(info), "--nthreads", "1",
-                 "--local-directory", str(folder), "--no-dashboard"],
+                 "--local-directory", str(folder), "--no-dashboard", *preload],
                 cwd=folder, stderr=subprocess.DEVNULL))  # fmt: skip
         deadline = time.time() + 120
         while time.time() < deadline:
@@ -382,6 +385,9 @@ def test_two_workers_with_their_own_folders(tmp_path):
                 with Client(scheduler_file=str(info), timeout=60) as client:
                     client.wait_for_workers(2, timeout=120)
                     address = client.scheduler.address
+                    loaded = client.run(lambda: {m for m in ("numba", "shbake.batch.plan")
+                                                 if m in sys.modules})  # fmt: skip
+                assert sorted(map(len, loaded.values())) == [0, 2], loaded
                 break
             time.sleep(0.5)
         done = subprocess.run([shbake, "bake", str(scene), "--scheduler", address, "--json",
