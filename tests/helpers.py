@@ -26,6 +26,15 @@ ENGINES_DIR = str(ROOT / "tests" / "engines")
 """The pinned engine packages (three, Babylon.js, Filament) and their node scripts."""
 SHARED_MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
 GOLDEN = ROOT / "tests" / "data" / "golden"
+DIFFUSE_SCENE = """[scene]
+out_dir = "out"
+[[environments]]
+map = "maps/*.exr"
+[[materials]]
+name = "plaster"
+kind = "diffuse"
+"""
+"""A scene of one diffuse material on every map of its ``maps`` folder."""
 """Golden files: outputs of the release before a change, compared byte for byte
 (``tests/system/test_golden.py``; rewritten only by ``pytest --update-golden``)."""
 

@@ -13,7 +13,7 @@ from shbake.envmap.turn import turn_matrix
 from shbake.evaluation.env_sh import check_reference, irradiance_errors
 from shbake.format import provenance
 from shbake.format.asset import read_asset
-from tests.helpers import map_path
+from tests.helpers import DIFFUSE_SCENE, map_path
 
 TURNED_SCENE = """[scene]
 out_dir = "out"
@@ -57,6 +57,29 @@ def test_env_sh_check_measures_the_map_the_bake_decoded(tmp_path, monkeypatch):
         assert rec["measured_error"] == {"irradiance": fresh["irradiance"]["relative_rms"]}, aid
 
 
+def same_bytes_planned_or_made(tmp_path, planned, scene_in, owner, name, ids,
+                               monkeypatch) -> None:  # fmt: skip
+    """Bake scene ``planned`` (in ``tmp_path / "planned"``, planned already) with
+    ``owner.name`` refused — the bake writes what its plan made — and
+    ``scene_in(tmp_path / "made")`` with no plan unit given to its assets (the bake makes
+    each itself); assets ``ids`` have the same bytes in both."""
+    from shbake.batch import scene_bake
+
+    def refuse(*args, **kwargs):
+        raise AssertionError(f"the bake called {name} again")
+
+    with monkeypatch.context() as m:
+        m.setattr(owner, name, refuse)
+        bake_scene(planned)
+    made = scene_in(tmp_path / "made")
+    with monkeypatch.context() as m:
+        m.setattr(scene_bake, "_with_planned", lambda asset, units: asset)
+        bake_scene(made)
+    for aid in ids:
+        got = (tmp_path / "planned" / "out" / f"{aid}.h5").read_bytes()
+        assert got == (tmp_path / "made" / "out" / f"{aid}.h5").read_bytes(), aid
+
+
 GLOSSY_SCENE = """[scene]
 out_dir = "out"
 [tolerances]
@@ -83,29 +106,17 @@ class TestPlannedFit:
 
     def test_same_bytes_as_fitting_in_the_bake_and_no_second_fit(self, tmp_path, monkeypatch):
         from shbake.bakers.shexp import FitPlan
-        from shbake.batch import scene_bake
         from shbake.batch.plan import plan_scene_kept
 
         planned = self._scene(tmp_path / "planned")
         plan = plan_scene_kept(planned)
         ids = sorted(a["id"] for a in plan["assets"])
         assert ids == ["shexp/studio", "shexp/sunset"]
-
-        def refuse(self, maps):
-            raise AssertionError("the bake fitted the map again")
-
-        with monkeypatch.context() as m:
-            m.setattr(FitPlan, "fit_many", refuse)
-            bake_scene(planned)
-        fitted = self._scene(tmp_path / "fitted")
-        with monkeypatch.context() as m:  # the bake fits each map itself
-            m.setattr(scene_bake, "_with_planned", lambda asset, units: asset)
-            bake_scene(fitted)
+        same_bytes_planned_or_made(tmp_path, planned, self._scene, FitPlan, "fit_many", ids,
+                                   monkeypatch)  # fmt: skip
         lock = json.loads((tmp_path / "planned" / "out" / "scene.lock.json").read_text())
         for a in plan["assets"]:
             aid = a["id"]
-            got = (tmp_path / "planned" / "out" / f"{aid}.h5").read_bytes()
-            assert got == (tmp_path / "fitted" / "out" / f"{aid}.h5").read_bytes(), aid
             # predicted and measured: the same fit's residual
             assert lock["assets"][aid]["measured_error"] == a["predicted_error"], aid
 
@@ -122,17 +133,10 @@ class TestPlannedFit:
         assert "planned_fit" not in _with_planned(dict(shexp, plan_key="other"), units)
 
 
-DIFFUSE_SCENE = """[scene]
-out_dir = "out"
-[[environments]]
-map = "maps/*.exr"
-[[environments]]
+SUN_SCENE = DIFFUSE_SCENE + """[[environments]]
 map = "maps/studio.exr"
 name = "turned"
 rotation_deg = 30.0
-[[materials]]
-name = "plaster"
-kind = "diffuse"
 """
 
 
@@ -153,32 +157,19 @@ class TestPlannedProjection:
         for name in ("studio", "sunset"):  # a sun extracted from each
             shutil.copy(map_path(name), folder / "maps" / f"{name}.exr")
         write_test_exr(folder / "maps" / "overcast.exr", overcast())  # no sun
-        (folder / "scene.toml").write_text(DIFFUSE_SCENE)
+        (folder / "scene.toml").write_text(SUN_SCENE)
         return load_scene(str(folder / "scene.toml"))
 
     def test_same_bytes_as_projecting_in_the_bake_and_none_there(self, tmp_path, monkeypatch):
         from shbake.bakers import env_sh
-        from shbake.batch import scene_bake
         from shbake.batch.plan import plan_scene_kept
 
         planned = self._scene(tmp_path / "planned")
         plan = plan_scene_kept(planned)
         suns = {a["id"]: a["settings"]["extract_sun"] for a in plan["assets"]}
         assert len(suns) == 4 and True in suns.values() and False in suns.values(), suns
-
-        def refuse(*args, **kwargs):
-            raise AssertionError("the bake projected the map again")
-
-        with monkeypatch.context() as m:
-            m.setattr(env_sh, "project_lighting", refuse)
-            bake_scene(planned)
-        projected = self._scene(tmp_path / "projected")
-        with monkeypatch.context() as m:  # the bake projects each map itself
-            m.setattr(scene_bake, "_with_planned", lambda asset, units: asset)
-            bake_scene(projected)
-        for aid in suns:
-            got = (tmp_path / "planned" / "out" / f"{aid}.h5").read_bytes()
-            assert got == (tmp_path / "projected" / "out" / f"{aid}.h5").read_bytes(), aid
+        same_bytes_planned_or_made(tmp_path, planned, self._scene, env_sh, "project_lighting",
+                                   suns, monkeypatch)  # fmt: skip
 
     def test_fitted_lights_and_other_kinds_are_projected_in_the_bake(self):
         from shbake.batch.scene_bake import _with_planned

@@ -20,16 +20,7 @@ from shbake.format.asset import read_asset
 from shbake.reference.irradiance import brute_force_irradiance
 from shbake.reference.irradiance_pyramid import IrradiancePyramid
 from shbake.sh.point_sets import fibonacci_sphere
-from tests.helpers import SHARED_MAPS, map_path, write_test_exr
-
-DIFFUSE_SCENE = """[scene]
-out_dir = "out"
-[[environments]]
-map = "maps/*.exr"
-[[materials]]
-name = "plaster"
-kind = "diffuse"
-"""
+from tests.helpers import DIFFUSE_SCENE, SHARED_MAPS, map_path, write_test_exr
 
 
 class TestPyramid:
