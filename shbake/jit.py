@@ -137,7 +137,8 @@ def _register_with_numba():
 
 def load_numba() -> None:
     """Import numba and build its CPU target now (~0.8 s) rather than at the first kernel
-    call: for a process that other processes fork from (:mod:`shbake.batch.warm_worker`)."""
+    call: in a process whose tasks come later (a fork server, a Dask worker:
+    :mod:`shbake.batch.warm_worker`)."""
     from numba.core.registry import cpu_target
 
     _register_with_numba()

@@ -59,10 +59,9 @@ def stop_server() -> None:
     multiprocessing.forkserver._forkserver._stop()
 
 
-def _start_worker(folder: str, environment: dict) -> None:
-    """Initialiser of a pool's workers (module docstring)."""
-    from shbake.batch import warm_worker
-
+def _start_worker(folder: str, environment: dict, server_pid: int) -> None:
+    """Initialiser of a pool's workers (module docstring); ``server_pid``: the fork server's
+    process id, the parent whose exit ends the worker."""
     os.chdir(folder)
     os.environ.clear()
     os.environ.update(environment)
@@ -70,7 +69,7 @@ def _start_worker(folder: str, environment: dict) -> None:
     if server._forkserver_alive_fd is not None:
         os.close(server._forkserver_alive_fd)
         server._forkserver_alive_fd = None
-    signals.worker_init(parent=warm_worker.SERVER_PID)
+    signals.worker_init(parent=server_pid)
     use_one_thread()
 
 
@@ -80,8 +79,9 @@ def worker_pool(n_jobs: int):
     block fails or is interrupted, the workers are sent SIGTERM at once — each removes its
     temporaries and exits — instead of finishing their current jobs."""
     start_server()
+    server_pid = multiprocessing.forkserver._forkserver._forkserver_pid
     pool = ProcessPoolExecutor(n_jobs, mp_context=_context(), initializer=_start_worker,
-                               initargs=(os.getcwd(), dict(os.environ)))  # fmt: skip
+                               initargs=(os.getcwd(), dict(os.environ), server_pid))  # fmt: skip
     try:
         yield pool
     except BaseException:
