@@ -22,6 +22,7 @@ and the worker asks Linux for SIGTERM when the server exits (``PR_SET_PDEATHSIG`
 import contextlib
 import multiprocessing
 import multiprocessing.forkserver
+import multiprocessing.util
 import os
 from concurrent.futures import ProcessPoolExecutor
 
@@ -54,9 +55,12 @@ def start_server() -> None:
 def stop_server() -> None:
     """Stop the fork server this process started, if any, and wait for it: it exits once
     its workers have, and its CPU time, its workers' included, is then counted as this
-    process's children's (``time``, ``getrusage``) like spawned workers' was. The command
-    line calls it before it exits."""
+    process's children's (``time``, ``getrusage``) like spawned workers' was. Then run
+    multiprocessing's exit steps, which the command line's ``os._exit`` would skip: they
+    remove the folder of the server's socket (``$TMPDIR/pymp-*``). The command line calls
+    it before it exits."""
     multiprocessing.forkserver._forkserver._stop()
+    multiprocessing.util._exit_function()
 
 
 def _start_worker(folder: str, environment: dict, server_pid: int) -> None:

@@ -242,6 +242,27 @@ class TestPoolWorkers:
     then sends them SIGTERM, ``PR_SET_PDEATHSIG``), and leave no
     temporary (each removes its own before exiting)."""
 
+    def test_no_folder_left_in_tmpdir(self, box):
+        """The fork server's socket lives in a ``pymp-*`` folder of ``$TMPDIR``
+        (:mod:`shbake.batch.workers`): removed when the command ends (it was left by every
+        ``--jobs`` run, the CLI ending with ``os._exit``)."""
+        from shbake.batch.project_many import TASK_MAPS
+        from tests.helpers import write_test_exr
+
+        rng = np.random.default_rng(6)
+        maps = [box / f"m{i}.exr" for i in range(2 * TASK_MAPS)]  # two tasks: a pool
+        for path in maps:
+            write_test_exr(path, 0.5 + rng.random((16, 32, 3)))
+        (box / "tmp").mkdir()
+        done = subprocess.run(
+            [sys.executable, "-m", "shbake_cli.main", "project-env", *map(str, maps),
+             "--out-dir", str(box / "out"), "--jobs", "2", "-q"],
+            capture_output=True, text=True, env=dict(os.environ, TMPDIR=str(box / "tmp")),
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert len(list((box / "out").iterdir())) == len(maps)
+        assert list((box / "tmp").iterdir()) == []
+
     @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
     def test_workers_die_with_parent(self, box, big, sig):
         from tests.helpers import write_test_exr
