@@ -272,8 +272,11 @@ class TestPoolWorkers:
         for i in range(400):  # ~15 s of fitting on 2 idle cores: the signal lands mid-run
             write_test_exr(box / f"m{i}.exr", 0.5 + rng.random((32, 64, 3)))
             maps.append(box / f"m{i}.exr")
-        # the plan cache is shared by both cases (the second loads the plan)
-        env = dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR=str(big / "cache"))
+        # the plan cache is shared by both cases (the second loads the plan); the fork
+        # server's socket folder goes in the box (kill -9 leaves it: an empty folder)
+        (box / "tmp").mkdir()
+        env = dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR=str(big / "cache"),
+                   TMPDIR=str(box / "tmp"))  # fmt: skip
         p = subprocess.Popen(
             [sys.executable, "-m", "shbake_cli.main", "probe-fit", *map(str, maps), "--out-dir",
              str(box / "out"), "--jobs", "2", "-q"],
@@ -303,6 +306,7 @@ class TestPoolWorkers:
                 p.wait()
         if sig == signal.SIGTERM:
             assert_failed((p.returncode, "", err), code=143, fragment="interrupted")
+            assert list((box / "tmp").iterdir()) == []
         left = [str(f) for f in box.rglob("*") if ".shbake-" in f.name]
         assert not left, left
         assert not (box / "out").exists() or all(f.suffix == ".h5" for f in (box / "out").iterdir())
