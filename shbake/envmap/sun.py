@@ -66,7 +66,9 @@ def _excess(px, cap, background):
 
 
 def remove_lights(
-    env: Environment, directions: np.ndarray, irradiance: np.ndarray,
+    env: Environment,
+    directions: np.ndarray,
+    irradiance: np.ndarray,
     radius_deg: float = SUN_RADIUS_DEG,
 ) -> tuple[Environment, dict]:
     """The map less the energy of given directional lights, taken from around each.

@@ -133,11 +133,14 @@ class TestPlannedFit:
         assert "planned_fit" not in _with_planned(dict(shexp, plan_key="other"), units)
 
 
-SUN_SCENE = DIFFUSE_SCENE + """[[environments]]
+SUN_SCENE = (
+    DIFFUSE_SCENE
+    + """[[environments]]
 map = "maps/studio.exr"
 name = "turned"
 rotation_deg = 30.0
 """
+)
 
 
 def overcast() -> np.ndarray:
