@@ -45,10 +45,27 @@ def _context():
     return context
 
 
+SOCKET_PATH_BYTES = 108
+"""Size of a Unix socket's path on Linux (``sun_path``), its final NUL included."""
+SOCKET_IN_TEMP = os.path.join("pymp-xxxxxxxx", "listener-xxxxxxxx")
+"""Where multiprocessing puts the fork server's socket, relative to ``$TMPDIR``."""
+
+
 def start_server() -> None:
     """Start the fork server now, if it is not running, without waiting for it to warm:
-    :func:`worker_pool` waits when it forks the first worker."""
+    :func:`worker_pool` waits when it forks the first worker. Its socket goes in a
+    ``pymp-*`` folder of ``$TMPDIR``, or of ``/tmp`` when ``$TMPDIR`` is too long a path
+    for a Unix socket (:data:`SOCKET_PATH_BYTES`)."""
+    import tempfile
+
     _context()
+    socket = os.path.join(tempfile.gettempdir(), SOCKET_IN_TEMP)
+    if len(os.fsencode(socket)) >= SOCKET_PATH_BYTES:
+        saved, tempfile.tempdir = tempfile.tempdir, "/tmp"
+        try:
+            multiprocessing.util.get_temp_dir()  # made now, removed at exit (stop_server)
+        finally:
+            tempfile.tempdir = saved
     multiprocessing.forkserver.ensure_running()
 
 

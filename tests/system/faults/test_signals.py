@@ -4,9 +4,11 @@ native kernels and numba's compiler included, clean up and exit 130/143; the wor
 """
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -242,7 +244,15 @@ class TestPoolWorkers:
     then sends them SIGTERM, ``PR_SET_PDEATHSIG``), and leave no
     temporary (each removes its own before exiting)."""
 
-    def test_no_folder_left_in_tmpdir(self, box):
+    @pytest.fixture
+    def short_tmp(self):
+        """A ``$TMPDIR`` short enough for the fork server's socket path (pytest's are not
+        always: it then goes in ``/tmp``)."""
+        folder = tempfile.mkdtemp(prefix="t", dir="/tmp")
+        yield folder
+        shutil.rmtree(folder)
+
+    def test_no_folder_left_in_tmpdir(self, box, short_tmp):
         """The fork server's socket lives in a ``pymp-*`` folder of ``$TMPDIR``
         (:mod:`shbake.batch.workers`): removed when the command ends (it was left by every
         ``--jobs`` run, the CLI ending with ``os._exit``)."""
@@ -253,18 +263,21 @@ class TestPoolWorkers:
         maps = [box / f"m{i}.exr" for i in range(2 * TASK_MAPS)]  # two tasks: a pool
         for path in maps:
             write_test_exr(path, 0.5 + rng.random((16, 32, 3)))
-        (box / "tmp").mkdir()
-        done = subprocess.run(
-            [sys.executable, "-m", "shbake_cli.main", "project-env", *map(str, maps),
-             "--out-dir", str(box / "out"), "--jobs", "2", "-q"],
-            capture_output=True, text=True, env=dict(os.environ, TMPDIR=str(box / "tmp")),
-        )  # fmt: skip
-        assert done.returncode == 0, done.stderr[-2000:]
-        assert len(list((box / "out").iterdir())) == len(maps)
-        assert list((box / "tmp").iterdir()) == []
+        long = box / ("x" * 80)  # too long a folder for a socket: it goes in /tmp
+        long.mkdir()
+        for tmp in (short_tmp, long):
+            out = box / f"out-{len(str(tmp))}"
+            done = subprocess.run(
+                [sys.executable, "-m", "shbake_cli.main", "project-env", *map(str, maps),
+                 "--out-dir", str(out), "--jobs", "2", "-q"],
+                capture_output=True, text=True, env=dict(os.environ, TMPDIR=str(tmp)),
+            )  # fmt: skip
+            assert done.returncode == 0, done.stderr[-2000:]
+            assert len(list(out.iterdir())) == len(maps)
+            assert os.listdir(tmp) == []
 
     @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
-    def test_workers_die_with_parent(self, box, big, sig):
+    def test_workers_die_with_parent(self, box, big, sig, short_tmp):
         from tests.helpers import write_test_exr
 
         rng = np.random.default_rng(5)
@@ -273,10 +286,9 @@ class TestPoolWorkers:
             write_test_exr(box / f"m{i}.exr", 0.5 + rng.random((32, 64, 3)))
             maps.append(box / f"m{i}.exr")
         # the plan cache is shared by both cases (the second loads the plan); the fork
-        # server's socket folder goes in the box (kill -9 leaves it: an empty folder)
-        (box / "tmp").mkdir()
+        # server's socket folder goes in short_tmp (kill -9 leaves it: an empty folder)
         env = dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR=str(big / "cache"),
-                   TMPDIR=str(box / "tmp"))  # fmt: skip
+                   TMPDIR=short_tmp)  # fmt: skip
         p = subprocess.Popen(
             [sys.executable, "-m", "shbake_cli.main", "probe-fit", *map(str, maps), "--out-dir",
              str(box / "out"), "--jobs", "2", "-q"],
@@ -306,7 +318,7 @@ class TestPoolWorkers:
                 p.wait()
         if sig == signal.SIGTERM:
             assert_failed((p.returncode, "", err), code=143, fragment="interrupted")
-            assert list((box / "tmp").iterdir()) == []
+            assert os.listdir(short_tmp) == []
         left = [str(f) for f in box.rglob("*") if ".shbake-" in f.name]
         assert not left, left
         assert not (box / "out").exists() or all(f.suffix == ".h5" for f in (box / "out").iterdir())
