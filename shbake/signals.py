@@ -172,10 +172,8 @@ def worker_init(parent: int) -> None:
     SIGTERM removes the worker's temporaries and ends it at once (from the watcher thread,
     so also inside a numba kernel), and the worker gets SIGTERM when the process it was
     forked from (``parent``, its pid) exits; its warnings are not printed (they would
-    interleave with the parent's one-line messages). Does nothing in a thread."""
+    interleave with the parent's one-line messages)."""
     global _grace, _quiet
-    if threading.current_thread() is not threading.main_thread():
-        return
     import warnings
 
     warnings.simplefilter("ignore")  # a worker's stderr is the user's terminal: one-line rule

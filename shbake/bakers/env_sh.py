@@ -204,9 +204,10 @@ def bake_env_sh(
     light = None
     fit = None
     check_lights(lights, light_tol, sun, window_name)
+    radius = sun_radius_deg if sun else None  # what a projection of these settings holds
     if projection is not None and (
             lights is not None or projection.sh.shape[0] != (lmax + 1) ** 2
-            or projection.sun_radius_deg != (sun_radius_deg if sun else None)):  # fmt: skip
+            or projection.sun_radius_deg != radius):  # fmt: skip
         raise ParameterError("the projection given is not one of these settings")
     if lights is not None:
         fit, summary["lights"] = _fit(env, lights, light_tol, irradiance_lmax)
@@ -223,7 +224,7 @@ def bake_env_sh(
         }
     if fit is None:
         if projection is None:
-            projection = project_lighting(env, lmax, sun_radius_deg if sun else None)
+            projection = project_lighting(env, lmax, radius)
         light, L = projection.light, projection.sh
     else:
         L = _with_fit(env.project(lmax), fit, irradiance_lmax)

@@ -588,10 +588,12 @@ def _plan_in_workers(scene: Scene, units: dict, jobs: int) -> None:
     few here)."""
     from dataclasses import replace
 
-    from shbake.batch.workers import worker_pool
+    from shbake.batch.workers import start_server, worker_pool
 
-    if jobs <= 1:
+    if jobs <= 1 or len(scene.environments) < PLAN_POOL_MAPS:
         return
+    if len(units) < len(scene.environments):
+        start_server()  # it warms while the maps are hashed, in case they need the pool
     envs = _distinct_contents(scene.environments)
     if len(envs) < PLAN_POOL_MAPS or len(units) >= len(envs):
         return
@@ -623,12 +625,9 @@ def plan_scene_kept(scene: Scene, cache: dict | None = None, jobs: int = 1) -> d
     output folder measures each unit once, not twice. ``jobs``: the maps' units measured
     in that many worker processes first (:func:`_plan_in_workers`)."""
     from shbake.batch.plan_cache import scene_units, store_scene_units
-    from shbake.batch.workers import start_server
 
     kept = scene_units(scene.path)
     units = _Consulted(kept | (cache if cache is not None else {}))
-    if jobs > 1 and PLAN_POOL_MAPS <= len(scene.environments) > len(units):
-        start_server()  # it warms while the maps are hashed (_plan_in_workers)
     _plan_in_workers(scene, units, jobs)
     plan = plan_scene(scene, cache=units)
     used = {k: units[k] for k in sorted(units.read)}
