@@ -7,8 +7,11 @@ linearly. Neither draws a mirror: three raises ``r`` to 0.045 plus its geometry 
 (``getGeometryRoughness``, ``lights_physical_fragment``: the largest component of
 ``max(|∂x n|, |∂y n|)`` of the view-space normal); Filament widens ``α²`` by gltfio's specular
 anti-aliasing (``min(2 · 0.15 (|∂x n|² + |∂y n|²), 0.2)``, ``base.mat.in``) and floors ``r`` at
-0.089. A "mirror" sphere drawn at 128² pixels therefore reads ``lod ≈ 0.7`` in three (30 % of
-the mirror level, 70 % of level 1) and ``lod ≈ 1.3`` in Filament (levels 1 and 2).
+0.089. A "mirror" sphere drawn at 128² pixels therefore reads ``lod ≈ 0.7`` of a seven-level
+chain in three (30 % of the mirror level, 70 % of level 1) and ``lod ≈ 1.3`` in Filament
+(levels 1 and 2). More levels bring the levels' roughnesses closer together and lower
+this floor; the texels of the rough levels (not modelled here) set the other side of
+that trade.
 
 This script replaces every level by its exact brute-force value (level 0: the map read
 bilinearly; level ``i``: ``P(R', α_i)``, :func:`shbake.bakers.cube_prefilter.reference_radiance`,
@@ -47,13 +50,17 @@ from tests.engine_browser import (  # noqa: E402
     reflect,
 )
 from tests.engine_cases import (  # noqa: E402
+    BABYLON_CUBES,
+    FILAMENT_CUBES,
     FILAMENT_MIN_ROUGHNESS,
     FILAMENT_SPECULAR_AA,
     FOV_DEG,
     REFERENCE_PIXELS,
     SIZE,
+    THREE_CUBES,
     THREE_MIN_ROUGHNESS,
     VIEWS,
+    chain_sizes,
     luminance_error,
 )
 
@@ -83,15 +90,15 @@ def sphere_pixels(view) -> tuple[np.ndarray, ...]:
     return rays[inner], n[inner], g[inner], kernel[inner]
 
 
-BABYLON_CHAIN = (512, 7)
-"""Babylon's chain in the tests: 512² to 8² faces (``--size 512``), seven levels."""
+CHAINS = {"three": THREE_CUBES, "filament": FILAMENT_CUBES, "babylon": BABYLON_CUBES}
+"""Each engine's chain in the tests (its level count is ``--levels``' default)."""
 
 
 def lookups(engine: str, r_material: float, refl, n, g, kernel, levels: int):
     """``(lookup directions, α of the reference, lod read)`` of a sphere of perceptual
     roughness ``r_material`` as ``engine`` draws it."""
     if engine == "babylon":  # pbrIBLFunctions getLodFromAlphaG; MINIMUMVARIANCE; no R' mix
-        size, _ = BABYLON_CHAIN
+        size = BABYLON_CUBES["size"]
         alpha = np.full(len(refl), r_material**2 + BABYLON_MIN_ALPHA)
         lod = (levels - 1) / np.log2(size) * np.log2(size * alpha)
         return refl, alpha, np.clip(lod, 0.0, levels - 1.0)
@@ -129,7 +136,7 @@ def map_row(engine: str, name: str, levels: int) -> str:
     keep = np.sort(rng.choice(len(rays), min(REFERENCE_PIXELS, len(rays)), replace=False))
     rays, n, g, kernel = rays[keep], n[keep], g[keep], kernel[keep]
     refl = reflect(rays, n)
-    mapping, size = ("babylon", BABYLON_CHAIN[0]) if engine == "babylon" else ("filament", 0)
+    mapping, size = ("babylon", BABYLON_CUBES["size"]) if engine == "babylon" else ("filament", 0)
     e_over_pi = brute_force_irradiance(*env.samples(), n) / np.pi
     cells = []
     for r_material in (0.0, 0.3, 0.6):
@@ -155,10 +162,10 @@ def main() -> None:
     ap.add_argument(
         "--levels",
         type=int,
-        default=7,
-        help="chain levels (7: 256² to 4² for three and Filament, 512² to 8² Babylon)",
+        help="chain levels (default: the tests' chain: three 8, Filament 7, Babylon 9)",
     )
     args = ap.parse_args()
+    args.levels = args.levels or len(chain_sizes(CHAINS[args.engine]))
     print(f"{args.engine} lod rule, ideal {args.levels}-level chain, {SIZE}² pixels, "
           f"{len(VIEWS)} views")  # fmt: skip
     print("\n| map | r 0 (mirror) | r 0.3 | r 0.6 |\n|---|---|---|---|")

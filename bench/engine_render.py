@@ -1,7 +1,9 @@
 """Rendered engine exports on the six shared maps: the figures of docs/BENCHMARKS.md.
 
-For each map: an env_sh asset (lmax 2), its exports at the targets' defaults (three.js
-``threejs`` + ``threejs-pmrem``; Babylon.js ``babylon`` as ``.env`` and ``.gltf``; Filament
+For each map: an env_sh asset (lmax 2), its exports at the chains of the tests
+(:data:`tests.engine_cases.THREE_CUBES`, ``FILAMENT_CUBES``, ``BABYLON_CUBES``, the
+settings docs/EXPORTS.md recommends for glossy work: three.js ``threejs`` +
+``threejs-pmrem``; Babylon.js ``babylon`` as ``.env`` and ``.gltf``; Filament
 ``filament``), rendered by the engines in headless Chromium (tests/engines/harness.mjs)
 exactly as ``tests/system/test_engine_render.py`` does, and compared with the brute-force
 references of that module: the diffuse max relative error against shbake's asset; the
@@ -30,6 +32,7 @@ from shbake.format.exports.source import load_source  # noqa: E402
 from tests.engine_browser import EngineBrowser, chromium_or_reason  # noqa: E402
 from tests.engine_cases import (  # noqa: E402
     BABYLON_CUBES,
+    FILAMENT_CUBES,
     FOV_DEG,
     GLOSSY,
     LAMBERT,
@@ -37,6 +40,7 @@ from tests.engine_cases import (  # noqa: E402
     THREE_CUBES,
     VIEWS,
     babylon_expected,
+    chain_sizes,
     diffuse_error,
     export_recording,
     filament_expected,
@@ -67,14 +71,12 @@ def map_rows(browser, name: str, d: Path) -> dict:
     write_asset(h5, asset)
     src = load_source(h5)
     rows = {}
-    n_levels = 7
-    # three.js: LightProbe JSON (diffuse) + PMREM KTX2 (glossy), Filament's chain
+    # three.js: LightProbe JSON (diffuse) + PMREM KTX2 (glossy)
     probe = export_assets([h5], "threejs", str(d / f"{name}.json"))[0]
-    pmrem, chain = export_recording(h5, "threejs-pmrem", str(d / f"{name}_pmrem.ktx2"),
-                                    **THREE_CUBES)  # fmt: skip
+    pmrem, _ = export_recording(h5, "threejs-pmrem", str(d / f"{name}_pmrem.ktx2"), **THREE_CUBES)
     r = browser.render("three.html", VIEWS, SIZE, FOV_DEG, probe=browser.url(probe),
                        materials=[LAMBERT])  # fmt: skip
-    white = white_environment(d, [THREE_CUBES["size"] >> i for i in range(n_levels)])
+    white = white_environment(d, chain_sizes(THREE_CUBES))
     renders = render_three_glossy(browser, pmrem[0], white)
     rows["three.js r187"] = {
         "diffuse": diffuse_error(r, src, clamped=False),
@@ -83,11 +85,11 @@ def map_rows(browser, name: str, d: Path) -> dict:
         ),
         "bytes": {".json": sizes([probe]), "_pmrem.ktx2": sizes(pmrem)},
     }
-    # Filament: the same chain
-    fil, _ = export_recording(h5, "filament", str(d / f"{name}_sh.txt"), chain=chain, **THREE_CUBES)
+    # Filament: its own chain (seven levels: FILAMENT_CUBES)
+    fil, _ = export_recording(h5, "filament", str(d / f"{name}_sh.txt"), **FILAMENT_CUBES)
     ibl = next(f for f in fil if f.endswith("_ibl.ktx"))
     env_r = render_filament(browser, d, [LAMBERT, *sphere_materials()], ibl)
-    unit = white_ktx1(d, [THREE_CUBES["size"] >> i for i in range(n_levels)])
+    unit = white_ktx1(d, chain_sizes(FILAMENT_CUBES))
     white_r = render_filament(browser, d, sphere_materials(), unit)
     rows["Filament 1.53.4"] = {
         "diffuse": diffuse_error(env_r, src),

@@ -18,9 +18,11 @@ Settings: ``L2`` (plain projection); ``L2+sun`` (``--extract-sun``, today's sing
 (25 coefficients per channel, no lights, shbake's evaluation), ``ZH3`` (Roughton et al.
 2024, L1 + one zonal quadratic coefficient per channel along the shared luminance axis,
 computed from the map's L2 projection) and ``ZH3+auto`` (the ``L2+auto`` residual in ZH3
-with the same lights), and ``caps3`` (three spherical-cap lights with fitted angular radii
+with the same lights), ``caps3`` (three spherical-cap lights with fitted angular radii
 plus an L2 residual, least squares on the same fit normals as ``--lights``: what an area
-light would give; evaluated by quadrature over each cap).
+light would give; evaluated by quadrature over each cap) and ``rects3`` (the same with
+three.js's / Babylon.js's rectangular area lights as their shaders light a diffuse surface,
+:func:`rect_kernel`).
 
 For the maps where three lights miss 1 % (``--search``, default night and studio), the
 best fit that can be computed: the ``--lights 3`` optimum and ``--starts`` random triples of
@@ -115,9 +117,25 @@ def cap_kernel(normals: np.ndarray, direction: np.ndarray, radius: float) -> np.
     return np.maximum(normals @ world.T, 0.0).mean(axis=1)
 
 
-def cap_lights(env, count: int, dirs_eval: np.ndarray):
-    """K spherical-cap lights (free radius) + L2 residual, fitted as ``--lights`` fits
-    points; returns the irradiance at ``dirs_eval`` and the radii (degrees)."""
+def rect_kernel(normals: np.ndarray, direction: np.ndarray, form_factor: float) -> np.ndarray:
+    """The diffuse term of a distant rectangular area light as three.js and Babylon.js shade
+    it, per unit irradiance at normal incidence: ``max(0, (n·d + l)/(1 + l))``.
+
+    Both evaluate the polygon's vector form factor ``F`` (``LTC_EdgeVectorFormFactor``) and
+    clip it to the horizon with ``max((l² + F·n)/(l + 1), 0)``, ``l = |F|`` (three
+    ``lights_physical_pars_fragment.glsl.js`` ``LTC_ClippedSphereFormFactor``, Babylon
+    ``ltcHelperFunctions`` ``LTCClippedSphereFormFactor``); for a light of solid angle ``Ω``
+    away from the horizon ``l ≈ Ω/π``, and ``F`` points at its centre ``d``.
+    """
+    c = normals @ direction
+    return np.maximum(0.0, (c + form_factor) / (1.0 + form_factor))
+
+
+def area_lights(env, count: int, dirs_eval: np.ndarray, kind: str):
+    """K area lights (``kind`` ``cap``: spherical caps, free radius; ``rect``: three.js's /
+    Babylon's rectangle, free form factor :func:`rect_kernel`) + L2 residual, fitted as
+    ``--lights`` fits points; returns the irradiance at ``dirs_eval`` and each light's size
+    (cap radius in degrees, rectangle form factor ``l``)."""
     from scipy.optimize import least_squares
 
     from shbake.bakers import env_lights
@@ -127,26 +145,28 @@ def cap_lights(env, count: int, dirs_eval: np.ndarray):
     problem = env_lights._Problem(target, 2)
     start = env_lights.fit_lights(target, count).directions
     frames = env_lights._frames(start)
-    radii = np.full(len(start), 0.05)
+    sizes = np.full(len(start), 0.05)
+    kernel = cap_kernel if kind == "cap" else rect_kernel
 
-    def lobes(normals, dirs, r):  # per unit energy ∫L dω of the cap; mean 1/4 over n
-        return np.stack([cap_kernel(normals, d, x) for d, x in zip(dirs, r, strict=True)], 1)
+    def lobes(normals, dirs, x):  # per unit irradiance at normal incidence, mean removed
+        k = np.stack([kernel(normals, d, v) for d, v in zip(dirs, x, strict=True)], 1)
+        return k - (0.25 if kind == "cap" else (1.0 + x) / 4.0)
 
-    problem.lobes = lambda dirs: lobes(target.normals, dirs, radii) - 0.25
+    problem.lobes = lambda dirs: lobes(target.normals, dirs, sizes)
 
     def fun(x):
-        radii[:] = np.abs(x[2 * len(start) :])
+        sizes[:] = np.abs(x[2 * len(start) :])
         d = env_lights._directions(x[: 2 * len(start)], frames)
         return problem.residual(d, *problem.linear(d)).ravel()
 
-    x0 = np.concatenate([np.tile([np.pi / 2, 0.0], len(start)), radii])
+    x0 = np.concatenate([np.tile([np.pi / 2, 0.0], len(start)), sizes])
     res = least_squares(fun, x0, method="trf", x_scale=0.1, diff_step=1e-4)
-    radii[:] = np.abs(res.x[2 * len(start) :])
+    sizes[:] = np.abs(res.x[2 * len(start) :])
     d = env_lights._directions(res.x[: 2 * len(start)], frames)
     e, a = problem.linear(d)
-    E = (target.energy[None, :] - a.sum(axis=0)) / 4.0 + real_sh(dirs_eval, 2)[:, problem.bands] @ e
-    E = E + lobes(dirs_eval, d, radii) @ a
-    return E, np.degrees(radii)
+    E = target.energy[None, :] / 4.0 + real_sh(dirs_eval, 2)[:, problem.bands] @ e
+    E = E + lobes(dirs_eval, d, sizes) @ a
+    return E, (np.degrees(sizes) if kind == "cap" else sizes.copy())
 
 
 def best_luminance_fit(dirs: np.ndarray, normals: np.ndarray, ref_lum: np.ndarray, energy: float,
@@ -314,9 +334,12 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
     E = E + np.maximum(dirs @ lights[0].T, 0.0) @ lights[1]
     out["ZH3+auto"] = errors(E @ REC709_LUMINANCE, ref_lum) | {
         "lights": len(lights[0]), "floats": 15 + 6 * len(lights[0])}  # fmt: skip
-    E, radii = cap_lights(env, 3, dirs)
+    E, radii = area_lights(env, 3, dirs, "cap")
     out["caps3"] = errors(E @ REC709_LUMINANCE, ref_lum) | {
         "lights": 3, "floats": 27 + 7 * 3, "radii_deg": radii.round(2).tolist()}  # fmt: skip
+    E, form = area_lights(env, 3, dirs, "rect")
+    out["rects3"] = errors(E @ REC709_LUMINANCE, ref_lum) | {
+        "lights": 3, "floats": 27 + 7 * 3, "form_factor": form.round(4).tolist()}  # fmt: skip
     if starts:
         out["search3"] = multistart(env, 3, starts, dirs, ref_lum)
     return out
@@ -324,7 +347,7 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
 
 def markdown(results: dict, max_lights: int) -> str:
     keys = ["L2", "L2+sun", "L2+auto"] + [f"L2+{k}" for k in range(max_lights + 1)]
-    keys += ["lmax4", "ZH3", "ZH3+auto", "caps3"]
+    keys += ["lmax4", "ZH3", "ZH3+auto", "caps3", "rects3"]
     lines = ["| map | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]
     for m, r in results.items():
         cells = []

@@ -36,6 +36,7 @@ from tests.engine_browser import inner_pixels, quad_derivatives
 from tests.engine_cases import (
     BABYLON_CUBES,
     DIFFUSE_TOL,
+    FILAMENT_CUBES,
     FILAMENT_MIN_ROUGHNESS,
     FOV_DEG,
     LAMBERT,
@@ -44,6 +45,8 @@ from tests.engine_cases import (
     VIEWS,
     assert_identity_wins,
     babylon_expected,
+    busiest_face,
+    chain_sizes,
     diffuse_error,
     export_recording,
     filament_expected,
@@ -59,6 +62,7 @@ from tests.engine_cases import (
     snippet,
     sphere_materials,
     three_expected,
+    upside_down,
     white_env,
     white_environment,
     white_ktx1,
@@ -126,28 +130,16 @@ class TestHarness:
         assert np.median(np.abs(ours - gpu)) < 0.05 * np.median(gpu)
 
 
-@pytest.fixture(scope="module")
-def filament_chain(baked):
-    """The chain with Filament's roughness mapping, 256² to 4², 512 samples, baked once per
-    map: three.js's PMREM and Filament's IBL (the same defaults) are written from it."""
-    files, chain = export_recording(baked["h5"], "threejs-pmrem",
-                                    str(baked["dir"] / "t_pmrem.ktx2"), **THREE_CUBES)  # fmt: skip
-    return {"pmrem": files[0], "chain": chain}
-
-
 class TestThree:
     """three.js r187: ``LightProbe`` (diffuse) and the prefiltered PMREM cube (glossy)."""
 
     @pytest.fixture(scope="class")
     @classmethod
-    def three(cls, baked, engine_browser, filament_chain):
-        chain = filament_chain["chain"]
-        files = [
-            export_assets([baked["h5"]], "threejs", str(baked["dir"] / "t.json"))[0],
-            filament_chain["pmrem"],
-        ]
-        sizes = [THREE_CUBES["size"] >> i for i in range(7)]
-        white = white_environment(baked["dir"], sizes)
+    def three(cls, baked, engine_browser):
+        out = str(baked["dir"] / "t_pmrem.ktx2")
+        pmrem, chain = export_recording(baked["h5"], "threejs-pmrem", out, **THREE_CUBES)
+        files = [export_assets([baked["h5"]], "threejs", str(baked["dir"] / "t.json"))[0], pmrem[0]]
+        white = white_environment(baked["dir"], chain_sizes(THREE_CUBES))
         renders = render_three_glossy(engine_browser, files[1], white)
         pick = pick_pixels(renders["env"]["normal"])
         return {"files": files, "white": white, "renders": renders, "pick": pick, "chain": chain}
@@ -197,19 +189,20 @@ class TestThree:
         from shbake.format.exports import ktx2
 
         out = str(baked["dir"] / f"fault-{fault}_pmrem.ktx2")
-        if fault == "roughness-mapping":  # baked anew (fewer samples: the fault dominates)
+        if fault == "roughness-mapping":  # baked anew (256², fewer samples: the fault dominates)
             monkeypatch.setattr("shbake.batch.export.FIXED_LOD_MAPPING", ("filament",))
             files = export_assets([baked["h5"]], "threejs-pmrem", out, mapping="gltf-ibl-sampler",
-                                  **{**THREE_CUBES, "samples": 128})  # fmt: skip
+                                  **{**THREE_CUBES, "size": 256, "samples": 128})  # fmt: skip
         else:  # the chain already baked, faulted as the file is written
             real = ktx2.write_cube_chain
             chain = three["chain"]
+            busiest = busiest_face(chain["levels"][0])
 
             def faulty(path, src, levels, roughness, mapping):
                 levels = [lv.copy() for lv in levels]
                 for lv in levels:
                     if fault == "flip-face":
-                        lv[2] = lv[2, ::-1]  # +Y upside down
+                        upside_down(lv, busiest)
                     else:
                         lv[:] = lv ** (1 / 2.2)  # gamma-encoded: the engine decodes nothing
                 real(path, src, levels, roughness, mapping)
@@ -288,8 +281,9 @@ class TestBabylon:
         levels = [lv.copy() for lv in chain["levels"]]
         out, files, mapping = str(baked["dir"] / f"fault-{fault}.gltf"), {}, "babylon"
         if fault == "flip-face":
+            busiest = busiest_face(levels[0])
             for lv in levels:
-                lv[2] = lv[2, ::-1]  # +Y upside down
+                upside_down(lv, busiest)
         elif fault == "roughness-mapping":  # baked anew (fewer samples: the fault dominates)
             mapping = "gltf-ibl-sampler"
             levels = None
@@ -314,23 +308,22 @@ class TestBabylon:
 
 
 class TestFilament:
-    """Filament 1.53.4 (web): ``--to filament``, the chain shared with three.js's."""
+    """Filament 1.53.4 (web): ``--to filament`` with its own chain (:data:`FILAMENT_CUBES`)."""
 
     @pytest.fixture(scope="class")
     @classmethod
-    def filament(cls, baked, engine_browser, filament_chain):
-        files, _ = export_recording(baked["h5"], "filament", str(baked["dir"] / "f_sh.txt"),
-                                    chain=filament_chain["chain"], **THREE_CUBES)  # fmt: skip
+    def filament(cls, baked, engine_browser):
+        files, chain = export_recording(baked["h5"], "filament", str(baked["dir"] / "f_sh.txt"),
+                                        **FILAMENT_CUBES)  # fmt: skip
         ibl = next(f for f in files if f.endswith("_ibl.ktx"))
-        sizes = [THREE_CUBES["size"] >> i for i in range(7)]
         renders = {
             "env": render_filament(
                 engine_browser, baked["dir"], [LAMBERT, *sphere_materials()], ibl
             ),
             "white": render_filament(engine_browser, baked["dir"], sphere_materials(),
-                                     white_ktx1(baked["dir"], sizes)),
+                                     white_ktx1(baked["dir"], chain_sizes(FILAMENT_CUBES))),
         }  # fmt: skip
-        return {"files": files, "ibl": ibl, "renders": renders, "chain": filament_chain["chain"],
+        return {"files": files, "ibl": ibl, "renders": renders, "chain": chain,
                 "pick": pick_pixels(renders["env"]["normal"])}  # fmt: skip
 
     def test_snippet_is_the_documented_one(self):
@@ -370,17 +363,18 @@ class TestFilament:
 
         chain = filament["chain"]
         out = str(baked["dir"] / f"fault-{fault}_sh.txt")
-        if fault == "roughness-mapping":  # baked anew (fewer samples: the fault dominates)
+        if fault == "roughness-mapping":  # baked anew (256², fewer samples: the fault dominates)
             monkeypatch.setattr("shbake.batch.export.FIXED_LOD_MAPPING", ("threejs-pmrem",))
             files = export_assets([baked["h5"]], "filament", out, mapping="gltf-ibl-sampler",
-                                  **{**THREE_CUBES, "samples": 128})  # fmt: skip
+                                  **{**FILAMENT_CUBES, "size": 256, "samples": 128})  # fmt: skip
         else:
             faces = fil.filament_faces
             if fault == "flip-face":
+                busiest = busiest_face(faces(chain["levels"][0]))
 
                 def faulty(level):
                     level = faces(level).copy()
-                    level[2] = level[2, ::-1]  # +Y upside down
+                    upside_down(level, busiest)
                     return level
             elif fault == "unmirrored":
 
@@ -392,7 +386,7 @@ class TestFilament:
                     return faces(level) ** (1 / 2.2)  # gamma-encoded: the engine decodes nothing
 
             monkeypatch.setattr(fil, "filament_faces", faulty)
-            files, _ = export_recording(baked["h5"], "filament", out, chain=chain, **THREE_CUBES)
+            files, _ = export_recording(baked["h5"], "filament", out, chain=chain, **FILAMENT_CUBES)
         ibl = next(f for f in files if f.endswith("_ibl.ktx"))
         render = render_filament(engine_browser, baked["dir"], sphere_materials(("metal",)), ibl)
         white = filament["renders"]["white"]

@@ -32,8 +32,9 @@ a browser by ``tests/system/test_engine_render.py``:
   (:func:`filament_faces`): Filament samples world ``d`` at GL ``d`` itself, where
   shbake's cubes (three.js's convention) hold world ``(−g_x, g_y, g_z)`` at GL ``g``.
   ``_ibl.ktx`` holds the GGX chain with Filament's roughness↔LOD mapping
-  (``lod = (levels − 1) r(2 − r)``), 256² to 16² faces as cmgen's defaults
-  (``IBL_DEFAULT_SIZE``, ``IBL_DEFAULT_MIN_LOD_SIZE``); ``_skybox.ktx`` the mirror level.
+  (``lod = (levels − 1) r(2 − r)``), by default 256² (cmgen's ``IBL_DEFAULT_SIZE``) to 4²
+  faces (cmgen stops at ``IBL_DEFAULT_MIN_LOD_SIZE`` 16², where r 0.6 reads a level of
+  another roughness; docs/EXPORTS.md); ``_skybox.ktx`` the mirror level.
 * SH: ``createIblFromKtx1`` reads the ``sh`` metadata into ``ibl.shfloats`` and never
   gives it to the light (Filament 1.53.4 ``filament.js`` ``_createIblFromKtx1``), so the
   light's diffuse would come from the reflections' roughest level: ``docs/EXPORTS.md``'s
@@ -149,8 +150,8 @@ def encode_ktx1(levels: list[np.ndarray], kv: dict) -> bytes:
 
 
 CUBES = {"size": 256, "floor": 4, "samples": 512, "mapping": "filament"}
-"""The cube chain this target wants: cmgen's sizes (256² to 16²), Filament's roughness↔LOD
-mapping (always)."""
+"""The cube chain this target wants: 256² (cmgen's) to 4², Filament's roughness↔LOD mapping
+(always)."""
 
 
 def write(
