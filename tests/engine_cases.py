@@ -47,7 +47,8 @@ THREE_CUBES = {"size": 512, "floor": 4, "samples": 512}
 eight levels."""
 
 FILAMENT_CUBES = {"size": 512, "floor": 8, "samples": 512}
-"""Filament's chain in the tests (``--size 512``, docs/EXPORTS.md): 512² to 8², seven levels."""
+"""Filament's chain in the tests (``--size 512 --floor 8``, docs/EXPORTS.md): 512² to 8², seven
+levels."""
 
 
 def busiest_face(level: np.ndarray) -> int:
