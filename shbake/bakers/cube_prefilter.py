@@ -543,14 +543,20 @@ def prefilter_level(
     return out.reshape(6, size, size, 3)
 
 
-def chain_memory(size: int, source_size: int, supersample: int = SUPERSAMPLE) -> int:
-    """Estimated peak bytes of :func:`prefilter_chain`: the mirror cube's sub-texel
-    directions (``6 × source² × supersample²`` float64 triples, three copies while they are
-    normalised and reordered), its pyramid (4/3 of the source texels: the FIS source, the map
-    without its hot texels' excess, :func:`split_hot_texels`) and the levels."""
+def chain_memory(
+    size: int, source_size: int, cube_input: bool, supersample: int = SUPERSAMPLE
+) -> int:
+    """Estimated peak bytes of :func:`prefilter_chain`: the FIS source cube (``6 × source²``
+    float64 RGB; with its pyramid, the pyramid packed into one array and their transients
+    4.5 such cubes: the map without its hot texels' excess, :func:`split_hot_texels`) and
+    the levels (twice); for a ``cube_input`` map also the source's sub-texel directions
+    (``6 × source² × supersample²`` float64 triples, four copies while they are made,
+    normalised, reordered and fetched; :func:`mirror_cube` reads a lat-long map texel by
+    texel and keeps none); 10 % over their sum. Measured peaks (``tracemalloc``) are 0.75–0.9
+    of it (``tests/system/faults/test_memory.py``)."""
     src = int(source_size) * int(source_size)
-    mirror = 6 * src * supersample * supersample * 3 * 8 * 3
-    return int(mirror + 6 * src * 24 * 2 + 6 * int(size) ** 2 * 24 * 2)
+    directions = 6 * src * supersample * supersample * 3 * 8 * 4 if cube_input else 0
+    return int(1.1 * (directions + 6 * src * 24 * 4.5 + 6 * int(size) ** 2 * 24 * 2))
 
 
 CUBE_SIZE_LIMIT = 4096
@@ -619,7 +625,8 @@ def prefilter_chain(
     check_chain(size, floor, samples)
     n_levels = int(round(math.log2(size // floor))) + 1
     src = source_size or 2 * size
-    check_memory(chain_memory(size, src), f"a cube chain of {size}² faces from {src}² faces")
+    check_memory(chain_memory(size, src, env.layout != "latlong"),
+                 f"a cube chain of {size}² faces from {src}² faces")  # fmt: skip
     rest, hot = split_hot_texels(env, rotation)
     # the FIS source: the map without the hot texels' excess (summed exactly per level)
     source = cube_pyramid(mirror_cube(rest, src, rotation=rotation))

@@ -212,6 +212,24 @@ class TestOtherCommandsMemory:
                                   "-o", box / "x.gltf", "--size", 4096, "--floor", 8),
                           fragment="cube chain of 4096")  # fmt: skip
 
+    @pytest.mark.parametrize("layout", ["latlong", "cube"])
+    def test_cube_chain_estimate_bounds_measured_peak(self, layout):
+        """The estimate covers the measured peak and, for a lat-long map (read texel by
+        texel), is not the cube input's sub-texel directions: a 1024² chain of a 512×256 map
+        was refused at 28.4 GiB while it needs about 2."""
+        from shbake.bakers.cube_prefilter import chain_memory, prefilter_chain
+        from shbake.envmap.environment import Environment
+
+        rng = np.random.default_rng(3)
+        if layout == "latlong":
+            env = Environment(0.5 + rng.random((64, 128, 3)), "latlong")
+        else:
+            env = Environment(0.5 + rng.random((32 * 6, 32, 3)), "cube-strip")
+        prefilter_chain(env, 32, 8, samples=8)  # compile outside
+        peak = traced_peak(lambda: prefilter_chain(env, 32, 8, samples=8))
+        estimate = chain_memory(32, 64, layout == "cube")
+        assert peak <= estimate <= 4 * peak, (peak, estimate)
+
     def test_shrm_cube(self, run_cli, box):
         with unchanged(box):
             assert_failed(run_cli("--max-memory", "64M", "shrm", box / "map.exr", "-o",
