@@ -14,7 +14,7 @@ this floor; the texels of the rough levels (not modelled here) set the other sid
 that trade.
 
 This script replaces every level by its exact brute-force value (level 0: the map read
-bilinearly; level ``i``: ``P(R', α_i)``, :func:`shbake.bakers.cube_prefilter.reference_radiance`,
+bilinearly; level ``i``: ``P(R', α_i)``, :func:`shbake.reference.prefiltered.reference_radiance`,
 no texels, no sampling) and blends them as the engine does; the error of that blend against
 brute-force ``P(R', α(r))`` is what no chain shbake could write removes. Same camera, sphere
 pixels, pixel sample and error definition as ``tests/system/test_engine_render.py`` (the
@@ -36,13 +36,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the tests package, as pytest sees it
 
-from shbake.bakers.cube_prefilter import (  # noqa: E402
-    BABYLON_MIN_ALPHA,
-    reference_radiance,
-    roughness_of_level,
-)
 from shbake.envmap import load_environment  # noqa: E402
+from shbake.format.exports.cube_chain import BABYLON_MIN_ALPHA, roughness_of_level  # noqa: E402
 from shbake.reference.irradiance import brute_force_irradiance  # noqa: E402
+from shbake.reference.prefiltered import reference_radiance  # noqa: E402
 from tests.engine_browser import (  # noqa: E402
     latlong_bilinear,
     pixel_rays,

@@ -9,13 +9,14 @@ import re
 import numpy as np
 import pytest
 
-from shbake.bakers.cube_prefilter import BABYLON_MIN_ALPHA, reference_radiance
 from shbake.batch.export import export_assets
 from shbake.conventions import REC709_LUMINANCE
+from shbake.format.exports.cube_chain import BABYLON_MIN_ALPHA, read_chain
 from shbake.format.exports.gltf import png_rgba8
 from shbake.format.exports.ktx2 import write_ktx2
 from shbake.format.exports.source import shbake_irradiance
 from shbake.reference.irradiance import brute_force_irradiance
+from shbake.reference.prefiltered import reference_radiance
 from shbake.sh.basis import real_sh
 from tests.engine_browser import (
     View,
@@ -165,7 +166,7 @@ THREE_MIN_ROUGHNESS = 0.045
 """three's floor on roughness (``lights_physical_fragment``: ``max(roughnessFactor, 0.045)``)."""
 
 
-def three_expected(env, renders: dict, pick, white: bool = False) -> dict:
+def three_expected(env, renders: dict, pick, white: bool = False, chain=None) -> dict:
     """Per glossy material: (rendered, expected) radiance at the ``pick``ed sphere pixels.
 
     three r187 shades an environment-lit surface (``RE_IndirectSpecular_Physical``) as
@@ -176,7 +177,10 @@ def three_expected(env, renders: dict, pick, white: bool = False) -> dict:
     ``alpha − 1`` with the GPU's own ``dFdx``/``dFdy``), ``R' = normalize(mix(R, n, r⁴))``
     (``envmap_physical_pars_fragment``), the two factors from three's DFG table
     (:func:`three_scattering`). The expected value puts the brute-force ``P(R', r²)`` and
-    brute-force ``E(n)`` in their place; ``white=True``: a unit environment (both 1).
+    brute-force ``E(n)`` in their place; ``white=True``: a unit environment (both 1);
+    ``chain`` (the export's levels): three's reads of them instead, as
+    :func:`shbake.format.exports.cube_chain.read_chain` emulates them (``P``: at
+    ``roughnessToMip(r) = (n − 1) r (2 − r)``; ``E/π``: at the last level, ``getIBLIrradiance``).
     """
     normal = renders["env"]["normal"]
     n = normal[..., :3][pick]
@@ -185,7 +189,10 @@ def three_expected(env, renders: dict, pick, white: bool = False) -> dict:
     n_dot_v = np.clip(-(rays * n).sum(-1), 0.0, 1.0)
     r_geo = normal[..., 3][pick] - 1.0
     refl = reflect(rays, n)
-    if not white:
+    if chain is not None:
+        top = len(chain) - 1
+        e_over_pi = read_chain(chain, n, top)
+    elif not white:
         d, w, rad = env.samples()
         e_over_pi = brute_force_irradiance(d, w, rad, n) / np.pi
     out = {}
@@ -199,7 +206,10 @@ def three_expected(env, renders: dict, pick, white: bool = False) -> dict:
         else:
             look = refl + (n - refl) * (r_eff**4)[:, None]
             look /= np.linalg.norm(look, axis=-1, keepdims=True)
-            prefiltered = reference_radiance(env, look, r_eff**2)
+            if chain is not None:
+                prefiltered = read_chain(chain, look, top * r_eff * (2.0 - r_eff))
+            else:
+                prefiltered = reference_radiance(env, look, r_eff**2)
             want = single[:, None] * prefiltered + multi[:, None] * e_over_pi
         got = renders["white" if white else "env"]["radiance"][name][..., :3][pick]
         out[name] = (got, want)

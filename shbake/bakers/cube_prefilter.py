@@ -28,31 +28,10 @@ only the clamped remainder.
 
 Level 0 is the mirror map (``α = 0``): the source resampled at :func:`mirror_supersample`
 sub-texels, no lobe.
-Roughness ↔ LOD (``lod_fraction f = i / (n-1)``, perceptual roughness ``r``,
-``α = r²``, shbake.conventions):
-
-``gltf-ibl-sampler`` (default)
-    ``r = f`` (glTF-IBL-Sampler ``main.cpp``: ``roughness = lod / (mipCount-1)``).
-``filament``
-    ``f = r (2 - r)``, so ``r = 1 - sqrt(1 - f)`` (Filament
-    ``lodToPerceptualRoughness``: ``a = 2, b = -1``).
-``babylon``
-    Babylon.js's shader: ``lod = s · log2(N0 · α)`` with ``s = (n-1)/log2(N0)``
-    (``pbrIBLFunctions`` ``getLodFromAlphaG``, the glTF loader's and a full .env chain's
-    ``lodGenerationScale``), so level ``i > 0`` holds ``α = N0^(f - 1)`` (``α`` doubles
-    per level in a full chain; the last is ``α = 1``); level 0 is the mirror, as
-    Babylon's own ``HDRFiltering`` bakes it. Depends on ``N0`` (the level-0 edge).
-
-Cube geometry: OpenGL/Vulkan/KTX face order and orientation (GL 4.6 spec
-table 8.19): face ``k`` (+X, −X, +Y, −Y, +Z, −Z), texel row ``i`` (top = 0),
-column ``j``, ``s = 2(j+½)/n − 1``, ``t = 2(i+½)/n − 1``, GL direction
-``g = s·a_s + t·a_t + a_n``. Engines sample a right-handed world direction
-``d`` at ``g = (−d_x, d_y, d_z)`` (three.js ``flipEnvMap = −1`` for cube
-textures; Babylon's glTF loader mirrors glTF ``x``), so texel directions are
-``d = (−g_x, g_y, g_z)``. Texel solid angles are the exact ones of
-:func:`shbake.envmap.layouts.cube_texels` (the same grid on every face).
-Every output texel is computed at its own direction, so faces agree along
-their shared edges (no seam).
+The roughness of each level (``mapping``) and the cube's faces are the engines' and
+live in :mod:`shbake.format.exports.cube_chain`; texel solid angles are the exact ones of
+:func:`shbake.envmap.layouts.cube_texels` (the same grid on every face). Every output texel
+is computed at its own direction, so faces agree along their shared edges (no seam).
 """
 
 import math
@@ -61,42 +40,22 @@ from typing import NamedTuple
 import numpy as np
 
 from shbake.brdf.ggx import ggx_d, ggx_d_iso, half_vector_cos2
-from shbake.conventions import REC709_LUMINANCE, ggx_alpha, perceptual_roughness
+from shbake.conventions import REC709_LUMINANCE, ggx_alpha
 from shbake.envmap.environment import Environment
 from shbake.envmap.layouts import cube_texels
 from shbake.errors import ParameterError
+from shbake.format.exports.cube_chain import (
+    roughness_of_level,
+    world_face_frames,
+)
 from shbake.jit import jit, run_blocks
+from shbake.reference.prefiltered import reference_radiance
 from shbake.resources import check_memory
-from shbake.texture.bilinear import axis, blend
+from shbake.texture.bilinear import axis, bilinear_latlong, blend
 from shbake.texture.cube import cube_directions as texel_directions
 from shbake.texture.cube import cube_face_st, nearest_texels, texel_coordinate
 
-# GL cube faces: columns (s axis, t axis, face normal) in GL cube space.
-GL_FACES = np.array(
-    [
-        [[0, 0, 1], [0, -1, 0], [-1, 0, 0]],  # +X: sc = -z, tc = -y
-        [[0, 0, -1], [0, -1, 0], [1, 0, 0]],  # -X: sc = +z, tc = -y
-        [[1, 0, 0], [0, 0, 1], [0, 1, 0]],  # +Y: sc = +x, tc = +z
-        [[1, 0, 0], [0, 0, -1], [0, -1, 0]],  # -Y: sc = +x, tc = -z
-        [[1, 0, 0], [0, -1, 0], [0, 0, 1]],  # +Z: sc = +x, tc = -y
-        [[-1, 0, 0], [0, -1, 0], [0, 0, -1]],  # -Z: sc = -x, tc = -y
-    ],
-    dtype=np.float64,
-)
-"""``GL_FACES[k] @ (s, t, 1)``: GL direction on face ``k`` (columns: s axis, t axis, normal)."""
-
-WORLD_FROM_GL = np.diag([-1.0, 1.0, 1.0])
-"""World direction of GL cube direction ``g``: ``d = WORLD_FROM_GL @ g`` (an x mirror)."""
-
-LOD_MAPPINGS = ("gltf-ibl-sampler", "filament", "babylon")
 DEFAULT_SAMPLES = 512
-BABYLON_MIN_ALPHA = 0.0005
-"""Babylon.js adds this to every ``α = r²`` (``pbrHelperFunctions`` ``MINIMUMVARIANCE``)."""
-
-
-def world_face_frames() -> np.ndarray:
-    """``(6, 3, 3)``: world direction of face ``k`` at ``(s, t)`` is ``F[k] @ (s, t, 1)``."""
-    return np.einsum("ij,kjl->kil", WORLD_FROM_GL, GL_FACES)
 
 
 def cube_directions(size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -107,56 +66,7 @@ def cube_directions(size: int) -> tuple[np.ndarray, np.ndarray]:
     return d, omega
 
 
-def _check_mapping(mapping: str) -> None:
-    if mapping not in LOD_MAPPINGS:
-        raise ParameterError(f"unknown roughness/LOD mapping {mapping!r}; choose {LOD_MAPPINGS}")
-
-
-def roughness_of_level(
-    level: int, levels: int, mapping: str = "gltf-ibl-sampler", size: int = 0
-) -> float:
-    """Perceptual roughness ``r`` stored at mip ``level`` of a chain of ``levels``
-    (``size``: the level-0 edge, which the ``babylon`` mapping depends on)."""
-    _check_mapping(mapping)
-    if levels < 2 or level == 0:
-        return 0.0
-    f = level / (levels - 1)
-    if mapping == "gltf-ibl-sampler":
-        return f
-    if mapping == "filament":
-        return 1.0 - math.sqrt(max(0.0, 1.0 - f))
-    return perceptual_roughness(float(size) ** (f - 1.0))
-
-
-def level_of_roughness(r: float, levels: int, mapping: str = "gltf-ibl-sampler", size: int = 0):
-    """Fractional mip level an engine samples for perceptual roughness ``r`` (inverse map;
-    ``babylon``: ``α = r² +`` :data:`BABYLON_MIN_ALPHA`, clamped to the chain as the GPU does)."""
-    _check_mapping(mapping)
-    if mapping == "gltf-ibl-sampler":
-        return r * (levels - 1)
-    if mapping == "filament":
-        return r * (2.0 - r) * (levels - 1)
-    if levels < 2:
-        return 0.0
-    lod = (levels - 1) / math.log2(size) * math.log2(size * (ggx_alpha(r) + BABYLON_MIN_ALPHA))
-    return min(max(lod, 0.0), levels - 1.0)
-
-
 # ---------------------------------------------------------------- source sampling
-
-
-@jit
-def _bilinear_latlong(img, u, v, out):
-    """Texel-centred bilinear lat-long fetch: rows clamp to edge, columns wrap around."""
-    h, w = img.shape[0], img.shape[1]
-    r0, r1, fr = axis(v * h - 0.5, h)
-    x = u * w - 0.5
-    xf = math.floor(x)
-    c0 = int(xf) % w
-    c1 = (c0 + 1) % w
-    fc = x - xf
-    for c in range(3):
-        out[c] = blend(img[r0, c0, c], img[r0, c1, c], img[r1, c0, c], img[r1, c1, c], fr, fc)
 
 
 @jit
@@ -213,7 +123,7 @@ def _resample_latlong(img, frames, rot, size, k, out, b0, b1):
             u = math.atan2(dx, -dz) / (2.0 * math.pi)
             u = u - math.floor(u)
             v = math.acos(min(1.0, max(-1.0, dy))) / math.pi
-            _bilinear_latlong(img, u, v, tmp)
+            bilinear_latlong(img, u, v, tmp)
             acc0 += tmp[0]
             acc1 += tmp[1]
             acc2 += tmp[2]
@@ -654,74 +564,23 @@ def extend_chain(levels: list, roughness: list) -> tuple[list, list]:
     return levels, roughness
 
 
-@jit
-def _reference_kernel(src_dirs, src_omega, src_rad, dirs, alphas, out, b0, b1):
-    for k in range(b0, b1):
-        alpha = alphas[k]
-        nx, ny, nz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
-        acc0 = 0.0
-        acc1 = 0.0
-        acc2 = 0.0
-        wsum = 0.0
-        for q in range(src_dirs.shape[0]):
-            lx, ly, lz = src_dirs[q, 0], src_dirs[q, 1], src_dirs[q, 2]
-            nl = nx * lx + ny * ly + nz * lz
-            if nl <= 0.0:
-                continue
-            # h = normalize(n + l); n.h = sqrt((1 + n.l)/2); D depends on n.h only
-            nh = math.sqrt(0.5 * (1.0 + nl))
-            sh = math.sqrt(max(0.0, 1.0 - nh * nh))
-            w = ggx_d(alpha, alpha, sh, 0.0, nh) * nl * src_omega[q]
-            acc0 += w * src_rad[q, 0]
-            acc1 += w * src_rad[q, 1]
-            acc2 += w * src_rad[q, 2]
-            wsum += w
-        out[k, 0] = acc0 / wsum
-        out[k, 1] = acc1 / wsum
-        out[k, 2] = acc2 / wsum
-
-
-def reference_radiance(env: Environment, dirs: np.ndarray, alpha) -> np.ndarray:
-    """Brute-force ``P(N, α)`` at unit directions ``dirs (..., 3)``: quadrature over all map texels.
-
-    ``∫ L D (N·l) dl / ∫ D (N·l) dl`` summed over the map's cells with their exact
-    solid angles (``Environment.samples``); shares nothing with the sampler but ``D``.
-    ``alpha``: the GGX width, a scalar or one per direction (``dirs.shape[:-1]``), > 0.
-    """
-    d, w, rad = env.samples()
-    q = np.asarray(dirs, dtype=np.float64)
-    a = np.ascontiguousarray(np.broadcast_to(np.asarray(alpha, dtype=np.float64), q.shape[:-1]))
-    out = np.empty((q.size // 3, 3))
-    run_blocks(_reference_kernel, out.shape[0], out.shape[0] * d.shape[0] * 20.0,
-               d, w, rad, np.ascontiguousarray(q.reshape(-1, 3)), a.reshape(-1), out)  # fmt: skip
-    return out.reshape(q.shape)
-
-
 def reference_level(env: Environment, size: int, alpha: float) -> np.ndarray:
     """:func:`reference_radiance` at every texel of a ``size`` cube."""
     return reference_radiance(env, cube_directions(size)[0], alpha)
 
 
 __all__ = [
-    "BABYLON_MIN_ALPHA",
-    "GL_FACES",
     "HOT_CONTRAST",
     "HOT_TEXELS_MAX",
-    "LOD_MAPPINGS",
     "HotTexels",
-    "WORLD_FROM_GL",
     "cube_directions",
     "cube_pyramid",
     "extend_chain",
-    "level_of_roughness",
     "level_samples",
     "lobe_normalization",
     "mirror_cube",
     "prefilter_chain",
     "prefilter_level",
     "reference_level",
-    "reference_radiance",
-    "roughness_of_level",
     "split_hot_texels",
-    "world_face_frames",
 ]

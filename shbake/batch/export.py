@@ -8,10 +8,12 @@ DFG table (:mod:`shbake.bakers.dfg`) for ``ktx2``. Maps given instead of assets:
 """
 
 import os
+import time
 
 from shbake.bakers.cube_prefilter import check_chain, extend_chain, prefilter_chain
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
+from shbake.evaluation.cube_chain import chain_errors, chain_warnings
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.exports import check_ending, target_module
 from shbake.format.exports.source import load_source, require_sh
@@ -85,6 +87,7 @@ def export_assets(
     mapping: str | None = None,
     many: bool | None = None,
     explicit=(),
+    glossy_report: list | None = None,
     **options,
 ) -> list[str]:
     """Export each asset file in ``assets`` to ``target``; returns the files written.
@@ -108,6 +111,11 @@ def export_assets(
         Names of the settings the caller set on purpose (the command line's); one
         of :data:`TARGET_OPTIONS` that ``target`` does not read raises
         :class:`~shbake.errors.ParameterError` rather than being ignored.
+    glossy_report : list, optional
+        Where given, each asset's cube chain is measured as its engine reads it
+        (:func:`shbake.evaluation.cube_chain.chain_errors`) and ``{"input", "size",
+        "floor", "samples", "mapping", "levels", "bake_s", "roughness": [...], "warnings"}``
+        appended.
     options
         Passed to the target's ``write`` (e.g. ``babylon_scene``).
     """
@@ -137,14 +145,19 @@ def export_assets(
         if cfg is not None:
             if target != "ktx2":
                 require_sh(src, target)  # refuse before baking cube maps for nothing
+            env = src.environment(sun_radius_deg)
+            start = time.perf_counter()
             levels, rough = prefilter_chain(
-                src.environment(sun_radius_deg),
+                env,
                 size=cfg["size"],
                 floor=cfg["floor"],
                 mapping=cfg["mapping"],
                 samples=cfg["samples"],
                 rotation=src.cube_rotation,
             )
+            if glossy_report is not None:
+                glossy_report.append(_chain_report(path, cfg, env, levels, src.cube_rotation,
+                                                   time.perf_counter() - start))  # fmt: skip
             if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
                 levels, rough = extend_chain(levels, rough)
             extra.update(levels=levels, roughness=rough, mapping=cfg["mapping"])
@@ -152,6 +165,13 @@ def export_assets(
                 extra["dfg_table"] = dfg_table()
         written += mod.write(src, dest, **extra)
     return written
+
+
+def _chain_report(path, cfg, env, levels, rotation, bake_s) -> dict:
+    errors = chain_errors(env, levels, cfg["mapping"], rotation)
+    return {"input": path, "levels": len(levels), "bake_s": bake_s,
+            **{k: cfg[k] for k in ("size", "floor", "samples", "mapping")},
+            "roughness": errors, "warnings": chain_warnings(errors)}  # fmt: skip
 
 
 def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 2048,

@@ -57,8 +57,10 @@ def export_inputs(
     The baked asset is an output of the run's transaction, read back by the export and
     then discarded; ``keep_asset`` (one map input) keeps it there. ``report``: an asset
     input's export is measured too (:func:`shbake.batch.export.export_error`; a map's
-    always is). Returns ``{"written": files, "bakes": [the project-env summary of each
-    map], "measured": [{"input", "error"} of each measured asset input]}``. Settings of
+    always is; a target with cube maps: each input's chain as its engine reads it,
+    :func:`shbake.batch.export.export_assets` ``glossy_report``). Returns ``{"written": files,
+    "bakes": [the project-env summary of each map], "measured": [{"input", "error"} of each
+    measured asset input], "glossy": [the chain report of each input]}``. Settings of
     :data:`MAP_OPTIONS` named in ``explicit`` without a map input, or of
     :data:`TARGET_OPTIONS` the target does not read, raise
     :class:`~shbake.errors.ParameterError` before anything is baked.
@@ -80,11 +82,13 @@ def export_inputs(
     if not one_file:
         check_output_dir(out, "--out-dir")
     written, bakes, measured = [], [], []
+    glossy = [] if report and target_module(target).CUBES is not None else None
     with transaction() as t:
         for path in inputs:
             if path not in maps:
                 written += export_assets([path], target, out, many=not one_file,
-                                         explicit=explicit, **options)  # fmt: skip
+                                         explicit=explicit, glossy_report=glossy,
+                                         **options)  # fmt: skip
                 if report and target != "ktx2":  # ktx2 carries cube maps, no SH
                     errors, _ = export_error(path, options.get("env_path"))
                     measured.append({"input": path, "error": headline_error({"export": errors})})
@@ -107,7 +111,9 @@ def export_inputs(
             if target_module(target).CUBES is not None:  # the cube chain's map: this one
                 options = options | {"env_path": options.get("env_path") or path}
             files = export_assets([asset], target, out, many=not one_file, explicit=explicit,
-                                  **options)  # fmt: skip
+                                  glossy_report=glossy, **options)  # fmt: skip
+            if glossy:
+                glossy[-1]["input"] = path
             if keep_asset is None:
                 t.discard(staged(asset))
                 summary["outputs"] = files
@@ -115,7 +121,7 @@ def export_inputs(
                 summary["outputs"] = [asset, *files]
             written += summary["outputs"]
             bakes.append(summary)
-    return {"written": written, "bakes": bakes, "measured": measured}
+    return {"written": written, "bakes": bakes, "measured": measured, "glossy": glossy or []}
 
 
 __all__ = ["MAP_DEFAULTS", "MAP_OPTIONS", "export_inputs"]

@@ -169,8 +169,10 @@ def _sample_blocks(cube, axes, dirs, out, b0, b1):
         cube_bilinear(cube, axes, dirs[k, 0], dirs[k, 1], dirs[k, 2], out[k])
 
 
-def sample_cube(cube, dirs) -> np.ndarray:
-    """Bilinear, seam-correct fetch of ``cube (6, S, S, C)`` at directions ``(..., 3)``.
+def sample_cube(cube, dirs, axes: np.ndarray = FACE_AXES) -> np.ndarray:
+    """Bilinear, seam-correct fetch of ``cube (6, S, S, C)`` at directions ``(..., 3)``
+    (faces ``axes``, default the cube-strip layout's; any six signed permutations, e.g. the
+    GL/KTX faces of :func:`shbake.format.exports.cube_chain.world_face_frames`).
 
     Returns ``dirs.shape[:-1] + (C,)`` float64. Directions need not be unit
     length but must be non-zero and finite.
@@ -183,5 +185,6 @@ def sample_cube(cube, dirs) -> np.ndarray:
     out = np.empty((flat.shape[0], c.shape[3]))
     n = flat.shape[0]
     run_blocks(_sample_blocks, -(-n // LOOKUP_BLOCK), n * 40.0 * c.shape[3],
-               np.ascontiguousarray(c), FACE_AXES, flat, out)  # fmt: skip
+               np.ascontiguousarray(c), np.ascontiguousarray(axes, dtype=np.float64), flat,
+               out)  # fmt: skip
     return out.reshape(d.shape[:-1] + (c.shape[3],))

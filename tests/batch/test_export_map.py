@@ -105,3 +105,30 @@ class TestRefused:
                                "--rotate", "30", "--keep-asset", tmp_path / "k.h5")  # fmt: skip
         assert code == 1 and err.count("\n") == 1, err
         assert listing(tmp_path) == []
+
+
+class TestGlossyReport:
+    """``export --report`` to a target with cube maps: each input's chain as its engine reads
+    it (:mod:`shbake.evaluation.cube_chain`), on stderr and in ``--json``; none without."""
+
+    def test_chain_line_and_json(self, tmp_path, run_cli, sky):
+        code, out, err = run_cli("export", sky, "--to", "threejs-pmrem", "-o",
+                                 tmp_path / "s.ktx2", "--size", "32", "--floor", "4",
+                                 "--samples", "64", "--report", "--json")  # fmt: skip
+        assert code == 0, err
+        (chain,) = json.loads(out)["glossy"]
+        assert (chain["input"], chain["size"], chain["floor"], chain["levels"]) == (sky, 32, 4, 4)
+        assert chain["mapping"] == "filament" and chain["bake_s"] > 0
+        rows = chain["roughness"]
+        assert [e["roughness"] for e in rows] == [0.1, 0.3, 0.6]
+        # three.js's roughnessToMip: ENVMAP_MAX_LOD * r * (2 - r), ENVMAP_MAX_LOD = levels - 1
+        assert [e["lod"] for e in rows] == pytest.approx([3 * r * (2 - r) for r in (0.1, 0.3, 0.6)])
+        assert all(0 <= e["median"] <= e["p95"] for e in rows)
+        assert f"{sky}: glossy chain 32² to 4² (4 levels, 64 samples, baked in " in err
+        assert ("the glossy chain as the engine reads it" in err) == bool(chain["warnings"])
+
+    def test_no_chain_no_glossy_report(self, tmp_path, run_cli, sky):
+        code, out, err = run_cli("export", sky, "--to", "threejs", "-o", tmp_path / "s.json",
+                                 "--report", "--json", "-q")  # fmt: skip
+        assert code == 0, err
+        assert json.loads(out)["glossy"] == []

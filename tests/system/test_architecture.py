@@ -18,7 +18,7 @@ ALLOWED = {
     "texture": set(),
     "envmap": {"sh"},
     "brdf": {"sh", "texture"},
-    "reference": {"sh", "envmap", "brdf"},
+    "reference": {"sh", "texture", "envmap", "brdf"},
     "shading": {"sh", "texture", "brdf", "format"},
     "format": {"sh", "texture", "brdf", "envmap"},
     "shaders": set(),  # GLSL and the viewer: package data, no Python

@@ -11,7 +11,7 @@ the export's own math:
   at the rendered normal, within 2 % (max relative);
 * glossy: metal (F0 1) and dielectric (F0 0.04, black base) spheres at roughness 0, 0.3
   and 0.6 against the brute-force GGX prefiltered radiance ``P(R', α)``
-  (:func:`shbake.bakers.cube_prefilter.reference_radiance`) at the direction and
+  (:func:`shbake.reference.prefiltered.reference_radiance`) at the direction and
   roughness the engine looks up, times the engine's environment-BRDF factor measured by
   rendering the same sphere in a white environment (see :func:`three_expected`):
   within 5 % median and 15 % at the 95th percentile (luminance);
@@ -175,6 +175,16 @@ class TestThree:
         errors = glossy_errors(three_expected(baked["env"], three["renders"], three["pick"]))
         print_errors("three.js", baked["name"], errors)
         assert glossy_within(errors, limits_of("three.js", baked["name"])), errors
+
+    def test_report_reads_the_chain_as_three_does(self, baked, three):
+        """``export --report`` measures the chain as
+        :func:`shbake.format.exports.cube_chain.read_chain` reads it; put in the place of
+        brute force, that read of the baked chain is what three.js draws from the file."""
+        expected = three_expected(None, three["renders"], three["pick"],
+                                  chain=three["chain"]["levels"])  # fmt: skip
+        errors = glossy_errors(expected)
+        print_errors("three.js vs read_chain", baked["name"], errors)
+        assert all(med < 0.005 and p95 < 0.02 for med, p95 in errors.values()), errors
 
     def test_orientation(self, baked, three):
         """The mirror's lookup direction fits the rendered mirror best unturned, in every view."""
