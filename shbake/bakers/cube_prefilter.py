@@ -27,7 +27,9 @@ normalisation :func:`lobe_normalization`), the quadrature brute force uses; FIS 
 only the clamped remainder.
 
 Level 0 is the mirror map (``α = 0``): the source resampled at :func:`mirror_supersample`
-sub-texels, no lobe.
+sub-texels, no lobe. A level of at most :data:`FIT_MAX_SIZE`² faces holds, instead of its
+values at its texel centres, the texel values whose GPU bilinear read best fits the level at
+2 × 2 points per texel (:func:`fit_bilinear`): an engine reads between the centres.
 The roughness of each level (``mapping``) and the cube's faces are the engines' and
 live in :mod:`shbake.format.exports.cube_chain`; texel solid angles are the exact ones of
 :func:`shbake.envmap.layouts.cube_texels` (the same grid on every face). Every output texel
@@ -52,8 +54,14 @@ from shbake.jit import jit, run_blocks
 from shbake.reference.prefiltered import reference_radiance
 from shbake.resources import check_memory
 from shbake.texture.bilinear import axis, bilinear_latlong, blend
+from shbake.texture.cube import (
+    MAX_TAPS,
+    cube_bilinear_taps,
+    cube_face_st,
+    nearest_texels,
+    texel_coordinate,
+)
 from shbake.texture.cube import cube_directions as texel_directions
-from shbake.texture.cube import cube_face_st, nearest_texels, texel_coordinate
 
 DEFAULT_SAMPLES = 512
 
@@ -453,6 +461,105 @@ def prefilter_level(
     return out.reshape(6, size, size, 3)
 
 
+FIT_DENSITY = 2
+"""Points per side of a level texel its least-squares fit is made to (:func:`fit_bilinear`)."""
+FIT_ITERATIONS = 24
+"""Conjugate-gradient steps of :func:`fit_bilinear`."""
+FIT_MAX_SIZE = 64
+"""Largest level face a chain fits (:func:`fit_bilinear`) rather than samples at its texel
+centres: the rough levels, where the lobe is not wide against a texel and the fit pays most
+(studio, 4096 directions, p95: three.js's r 0.6 14.7 → 5.9 %, Babylon.js's 63.3 → 21.5 %),
+at 4× the samples of those levels (together less than level 1's). The sharp levels gain
+little (r 0.1: 20.5 → 19.9 %, fitted to points with the level's own samples)."""
+
+
+@jit
+def _count_taps(axes, dirs, size, counts):
+    index = np.empty(MAX_TAPS, np.int64)
+    weight = np.empty(MAX_TAPS)
+    for k in range(dirs.shape[0]):
+        counts[k] = cube_bilinear_taps(size, axes, dirs[k, 0], dirs[k, 1], dirs[k, 2], index,
+                                       weight)  # fmt: skip
+
+
+@jit
+def _fill_taps(axes, dirs, size, offsets, index, weight):
+    for k in range(dirs.shape[0]):
+        o = offsets[k]
+        cube_bilinear_taps(size, axes, dirs[k, 0], dirs[k, 1], dirs[k, 2], index[o:], weight[o:])
+
+
+@jit
+def _read_taps(offsets, index, weight, x, out):
+    # out[k] = Σ_t weight · x[index] over the taps of row k (the bilinear read, A x)
+    for k in range(out.shape[0]):
+        for c in range(3):
+            out[k, c] = 0.0
+        for t in range(offsets[k], offsets[k + 1]):
+            for c in range(3):
+                out[k, c] += weight[t] * x[index[t], c]
+
+
+@jit
+def _spread_taps(offsets, index, weight, r, out):
+    # out = Aᵀ r, rows in order (the same sums on every run)
+    out[:] = 0.0
+    for k in range(r.shape[0]):
+        for t in range(offsets[k], offsets[k + 1]):
+            for c in range(3):
+                out[index[t], c] += weight[t] * r[k, c]
+
+
+def fit_bilinear(dense: np.ndarray, size: int, iterations: int = FIT_ITERATIONS) -> np.ndarray:
+    """Texel values of a ``size``² chain level whose seam-correct bilinear read (the GPU's,
+    :func:`shbake.texture.cube.cube_bilinear`) best fits ``dense`` — the level's radiance at
+    the texel centres of a finer cube ``(6, m·size, m·size, 3)`` — in least squares: ``A x ≈
+    b``, ``A`` the bilinear weights of :func:`~shbake.texture.cube.cube_bilinear_taps`,
+    solved by conjugate gradients on the normal equations (CGLS, Hestenes & Stiefel 1952)
+    from the solid-angle box average, ``iterations`` steps, then clamped at 0.
+
+    A level's value at its own texel centres is not what a GPU's bilinear read of it should
+    hold where the lobe is not wide against the texel: the read between centres then misses
+    what lies between them (a rough level of studio read at r 0.6 on Babylon.js's 8² and 4²
+    faces: 62.6 % p95 from brute force at 4096 directions with centre values, 22.9 % with
+    least-squares values).
+    """
+    fine = dense.shape[1]
+    dirs = cube_directions(fine)[0].reshape(-1, 3)
+    axes = world_face_frames()
+    counts = np.empty(dirs.shape[0], np.int64)
+    _count_taps(axes, dirs, size, counts)
+    offsets = np.zeros(dirs.shape[0] + 1, np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    index = np.empty(offsets[-1], np.int64)
+    weight = np.empty(offsets[-1])
+    _fill_taps(axes, dirs, size, offsets, index, weight)
+    x = dense
+    while x.shape[1] > size:
+        x = downsample_cube(x)
+    x = x.reshape(-1, 3).copy()
+    b = dense.reshape(-1, 3)
+    ax = np.empty_like(b)
+    _read_taps(offsets, index, weight, x, ax)
+    r = b - ax
+    s = np.empty_like(x)
+    _spread_taps(offsets, index, weight, r, s)
+    p = s.copy()
+    gamma = (s * s).sum(axis=0)
+    q = np.empty_like(b)
+    for _ in range(int(iterations)):
+        _read_taps(offsets, index, weight, p, q)
+        qq = (q * q).sum(axis=0)
+        step = np.divide(gamma, qq, out=np.zeros(3), where=qq > 0)
+        x += step * p
+        r -= step * q
+        _spread_taps(offsets, index, weight, r, s)
+        new = (s * s).sum(axis=0)
+        p = s + np.divide(new, gamma, out=np.zeros(3), where=gamma > 0) * p
+        gamma = new
+    return np.maximum(x, 0.0).reshape(6, size, size, 3)
+
+
 def chain_memory(
     size: int, source_size: int, cube_input: bool, supersample: int = SUPERSAMPLE
 ) -> int:
@@ -546,6 +653,10 @@ def prefilter_chain(
         n = size >> i
         if i == 0 or r == 0.0:
             lvl = mirror_cube(env, n, mirror_supersample(env, n), rotation)
+        elif n <= FIT_MAX_SIZE:
+            dense = prefilter_level(source, FIT_DENSITY * n, ggx_alpha(r),
+                                    level_samples(samples, i), fis, hot)  # fmt: skip
+            lvl = fit_bilinear(dense, n)
         else:
             lvl = prefilter_level(source, n, ggx_alpha(r), level_samples(samples, i), fis, hot)
         levels.append(lvl)

@@ -156,6 +156,55 @@ def cube_bilinear(cube, axes, dx, dy, dz, out):
                 out[c] += w * face_bilinear(cube, f2, x2, y2, c)
 
 
+MAX_TAPS = 16
+"""Most texels one :func:`cube_bilinear` fetch blends (four taps, each read bilinearly on the
+face holding it when it lies past the border)."""
+
+
+@jit
+def cube_bilinear_taps(size, axes, dx, dy, dz, index, weight):
+    """The texels and weights :func:`cube_bilinear` blends at direction ``d`` on faces of
+    ``size`` texels: ``index[t] = (face · S + row) · S + column``, ``weight[t]`` (arrays of at
+    least :data:`MAX_TAPS`); returns the number of taps. The same steps as
+    :func:`cube_bilinear` (a tap past the border read bilinearly, clamped, on the face that
+    holds its direction), as weights: what a least-squares fit of texel values to a
+    bilinear read needs. Check-free kernel."""
+    face, x, y = cube_address(axes, dx, dy, dz, size)
+    j0 = int(np.floor(x))
+    i0 = int(np.floor(y))
+    fx, fy = x - j0, y - i0
+    A = axes[face]
+    n = 0
+    for di in range(2):
+        wy = fy if di == 1 else 1.0 - fy
+        i = i0 + di
+        for dj in range(2):
+            wx = fx if dj == 1 else 1.0 - fx
+            w = wx * wy
+            if w == 0.0:
+                continue
+            j = j0 + dj
+            if 0 <= i < size and 0 <= j < size:
+                index[n] = (face * size + i) * size + j
+                weight[n] = w
+                n += 1
+                continue
+            s = 2.0 * (j + 0.5) / size - 1.0
+            t = 2.0 * (i + 0.5) / size - 1.0
+            ex = A[0, 0] * s + A[0, 1] * t + A[0, 2]
+            ey = A[1, 0] * s + A[1, 1] * t + A[1, 2]
+            ez = A[2, 0] * s + A[2, 1] * t + A[2, 2]
+            f2, x2, y2 = cube_address(axes, ex, ey, ez, size)
+            r0, r1, gy = axis(y2, size)
+            c0, c1, gx = axis(x2, size)
+            for r, c, v in ((r0, c0, (1.0 - gy) * (1.0 - gx)), (r0, c1, (1.0 - gy) * gx),
+                            (r1, c0, gy * (1.0 - gx)), (r1, c1, gy * gx)):  # fmt: skip
+                index[n] = (f2 * size + r) * size + c
+                weight[n] = w * v
+                n += 1
+    return n
+
+
 LOOKUP_BLOCK = 1024
 """Directions per block of :func:`_sample_blocks` (the unit :func:`~shbake.jit.run_blocks`
 hands to a thread)."""

@@ -47,3 +47,23 @@ class TestSampleCube:
         for bad in ([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]], [[np.nan, 0.0, 1.0]], [[0.0, 1.0]]):
             with pytest.raises(ParameterError):
                 sample_cube(cube, bad)
+
+
+class TestCubeBilinearTaps:
+    """cube_bilinear_taps: the texels and weights cube_bilinear blends, as weights (the
+    least-squares fit of a chain level needs them): the weighted sum of those texels is
+    :func:`sample_cube` at every direction, seams and corners included."""
+
+    @pytest.mark.parametrize("size", [1, 2, 4, 7])
+    def test_weights_read_what_sample_cube_reads(self, size):
+        from shbake.texture.cube import FACE_AXES, MAX_TAPS, cube_bilinear_taps, sample_cube
+
+        rng = np.random.default_rng(size)
+        cube = rng.random((6, size, size, 1))
+        d = rng.normal(size=(500, 3))
+        want = sample_cube(cube, d)[:, 0]
+        index, weight = np.empty(MAX_TAPS, np.int64), np.empty(MAX_TAPS)
+        for k in range(len(d)):
+            n = cube_bilinear_taps(size, FACE_AXES, *d[k], index, weight)
+            assert weight[:n].sum() == pytest.approx(1.0)
+            assert (weight[:n] * cube.reshape(-1)[index[:n]]).sum() == pytest.approx(want[k])
