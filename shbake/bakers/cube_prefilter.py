@@ -27,7 +27,7 @@ normalisation :func:`lobe_normalization`), the quadrature brute force uses; FIS 
 only the clamped remainder.
 
 Level 0 is the mirror map (``α = 0``): the source resampled at :func:`mirror_supersample`
-sub-texels, no lobe. A level of at most :data:`FIT_MAX_SIZE`² faces holds, instead of its
+sub-texels, no lobe. A level of at most ``FIT_MAX_SIZE``² faces holds, instead of its
 values at its texel centres, the texel values whose GPU bilinear read best fits the level at
 2 × 2 points per texel (:func:`fit_bilinear`): an engine reads between the centres.
 The roughness of each level (``mapping``) and the cube's faces are the engines' and
@@ -47,6 +47,7 @@ from shbake.envmap.environment import Environment
 from shbake.envmap.layouts import cube_texels
 from shbake.errors import ParameterError
 from shbake.format.exports.cube_chain import (
+    FIT_MAX_SIZE,
     roughness_of_level,
     world_face_frames,
 )
@@ -465,12 +466,6 @@ FIT_DENSITY = 2
 """Points per side of a level texel its least-squares fit is made to (:func:`fit_bilinear`)."""
 FIT_ITERATIONS = 24
 """Conjugate-gradient steps of :func:`fit_bilinear`."""
-FIT_MAX_SIZE = 64
-"""Largest level face a chain fits (:func:`fit_bilinear`) rather than samples at its texel
-centres: the rough levels, where the lobe is not wide against a texel and the fit pays most
-(studio, 4096 directions, p95: three.js's r 0.6 14.7 → 5.9 %, Babylon.js's 63.3 → 21.5 %),
-at 4× the samples of those levels (together less than level 1's). The sharp levels gain
-little (r 0.1: 20.5 → 19.9 %, fitted to points with the level's own samples)."""
 
 
 @jit

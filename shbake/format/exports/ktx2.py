@@ -41,6 +41,7 @@ import numpy as np
 
 from shbake.errors import FormatError, OutputError, ParameterError
 from shbake.format.atomic import atomic_path
+from shbake.format.exports.cube_chain import FIT_MAX_SIZE
 from shbake.format.exports.source import ExportSource
 from shbake.format.images import clamp_to_half
 
@@ -202,7 +203,8 @@ def write_cube_chain(
         "shbake.cubeLookup": CUBE_LOOKUP,
         "shbake.frame": src.frame,
         "shbake.content": "GGX split-sum prefiltered radiance, level 0 = mirror (alpha 0), "
-        "filtered importance sampling",
+        f"filtered importance sampling; levels of at most {FIT_MAX_SIZE}^2 texels hold the "
+        "least-squares fit of their bilinear read",
     }
     write_ktx2(path, [_rgba(lv) for lv in clamp_to_half(levels, path)], cube=True, kv=kv)
 
