@@ -311,7 +311,7 @@ ORIENTATION_MARGINS = {("Filament", "studio"): 1.0}
 where studio's few-texel lamps blur into every orientation's error alike (identity 0.37,
 next 0.38 in view 0): the identity still fits best, by less than the margin."""
 
-ORIENTATION_PIXELS = 400
+ORIENTATION_PIXELS = 250
 """Sphere pixels per view the orientation fit uses when its reference is brute force."""
 
 

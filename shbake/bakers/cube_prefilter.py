@@ -29,7 +29,8 @@ only the clamped remainder.
 Level 0 is the mirror map (``α = 0``): the source resampled at :func:`mirror_supersample`
 sub-texels, no lobe. A level of at most ``FIT_MAX_SIZE``² faces holds, instead of its
 values at its texel centres, the texel values whose GPU bilinear read best fits the level at
-2 × 2 points per texel (:func:`fit_bilinear`): an engine reads between the centres.
+2 × 2 points per texel, each with half the level's samples (:func:`fit_bilinear`): an engine
+reads between the centres.
 The roughness of each level (``mapping``) and the cube's faces are the engines' and
 live in :mod:`shbake.format.exports.cube_chain`; texel solid angles are the exact ones of
 :func:`shbake.envmap.layouts.cube_texels` (the same grid on every face). Every output texel
@@ -650,7 +651,7 @@ def prefilter_chain(
             lvl = mirror_cube(env, n, mirror_supersample(env, n), rotation)
         elif n <= FIT_MAX_SIZE:
             dense = prefilter_level(source, FIT_DENSITY * n, ggx_alpha(r),
-                                    level_samples(samples, i), fis, hot)  # fmt: skip
+                                    level_samples(samples, i) // 2, fis, hot)  # fmt: skip
             lvl = fit_bilinear(dense, n)
         else:
             lvl = prefilter_level(source, n, ggx_alpha(r), level_samples(samples, i), fis, hot)

@@ -16,12 +16,9 @@ from shbake.texture.bilinear import bilinear_latlong
 
 
 @jit
-def _lobe_weight(alpha, nx, ny, nz, lx, ly, lz):
-    """``D(h) (N·l)`` of the ``N = V`` lobe at ``l`` (0 below the horizon)."""
-    nl = nx * lx + ny * ly + nz * lz
-    if nl <= 0.0:
-        return 0.0
-    # h = normalize(n + l); n.h = sqrt((1 + n.l)/2); D depends on n.h only
+def _lobe_weight(alpha, nl):
+    """``D(h) (N·l)`` of the ``N = V`` lobe at ``N·l = nl > 0``: ``h = normalize(N + l)``,
+    so ``N·h = sqrt((1 + N·l)/2)`` and ``D`` depends on it alone."""
     nh = math.sqrt(0.5 * (1.0 + nl))
     sh = math.sqrt(max(0.0, 1.0 - nh * nh))
     return ggx_d(alpha, alpha, sh, 0.0, nh) * nl
@@ -29,9 +26,9 @@ def _lobe_weight(alpha, nx, ny, nz, lx, ly, lz):
 
 @jit
 def _reference_kernel(src_dirs, src_omega, src_rad, img, k, cos_near, dirs, alphas, out, b0, b1):
-    # img: the lat-long map whose texels src_* are (row-major), or a (0, 0, 3) array: no
-    # sub-texels. A texel within acos(cos_near) of N is summed as its k × k sub-cells, each
-    # at its centre with its exact solid angle and the map read bilinearly there.
+    # img: the lat-long map whose texels src_* are (row-major; any array when cos_near > 1:
+    # no sub-texels). A texel within acos(cos_near) of N is summed as its k × k sub-cells,
+    # each at its centre with its exact solid angle and the map read bilinearly there.
     h, w = img.shape[0], img.shape[1]
     hk, wk = h * k, w * k
     rad = np.empty(3)
@@ -43,9 +40,11 @@ def _reference_kernel(src_dirs, src_omega, src_rad, img, k, cos_near, dirs, alph
         acc2 = 0.0
         wsum = 0.0
         for q in range(src_dirs.shape[0]):
-            lx, ly, lz = src_dirs[q, 0], src_dirs[q, 1], src_dirs[q, 2]
-            if h == 0 or nx * lx + ny * ly + nz * lz <= cos_near:
-                wt = _lobe_weight(alpha, nx, ny, nz, lx, ly, lz) * src_omega[q]
+            nl = nx * src_dirs[q, 0] + ny * src_dirs[q, 1] + nz * src_dirs[q, 2]
+            if nl <= cos_near:
+                if nl <= 0.0:
+                    continue
+                wt = _lobe_weight(alpha, nl) * src_omega[q]
                 acc0 += wt * src_rad[q, 0]
                 acc1 += wt * src_rad[q, 1]
                 acc2 += wt * src_rad[q, 2]
@@ -62,10 +61,10 @@ def _reference_kernel(src_dirs, src_omega, src_rad, img, k, cos_near, dirs, alph
                 for b in range(k):
                     u = (col * k + b + 0.5) / wk
                     phi = 2.0 * math.pi * u
-                    wt = _lobe_weight(alpha, nx, ny, nz, st * math.sin(phi), ct,
-                                      -st * math.cos(phi)) * omega  # fmt: skip
-                    if wt == 0.0:
+                    nl = nx * st * math.sin(phi) + ny * ct - nz * st * math.cos(phi)
+                    if nl <= 0.0:
                         continue
+                    wt = _lobe_weight(alpha, nl) * omega
                     bilinear_latlong(img, u, (fi + 0.5) / hk, rad)
                     acc0 += wt * rad[0]
                     acc1 += wt * rad[1]
@@ -114,7 +113,7 @@ def reference_radiance(env: Environment, dirs: np.ndarray, alpha) -> np.ndarray:
     q = np.asarray(dirs, dtype=np.float64)
     a = np.ascontiguousarray(np.broadcast_to(np.asarray(alpha, dtype=np.float64), q.shape[:-1]))
     k = reference_supersample(env, float(a.min())) if a.size else 1
-    img, cos_near = np.zeros((0, 0, 3)), 1.0
+    img, cos_near = np.zeros((0, 0, 3)), 2.0  # cos_near > 1: no texel is near
     if k > 1:
         img = np.ascontiguousarray(env.pixels, dtype=np.float64)
         cos_near = math.cos(REFERENCE_NEAR_TEXELS * math.pi / img.shape[0])
