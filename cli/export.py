@@ -9,6 +9,7 @@ from shbake_cli.options import (
     FiniteRange,
     also_wrote,
     emit_json,
+    glossy_line,
     headline_line,
     info,
     input_policy_opts,
@@ -206,18 +207,6 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
                    "measured": result["measured"], "glossy": result["glossy"]})  # fmt: skip
     else:
         info(f"wrote {written[0]} ({target})" + also_wrote(written[1:]), quiet)
-
-
-def glossy_line(chain: dict) -> str:
-    """A cube chain's report (:func:`shbake.batch.export.export_assets` ``glossy_report``) on
-    one line: its settings and cost, then its worst roughness first."""
-    errors = sorted(chain["roughness"], key=lambda e: -e["p95"])
-    parts = ", ".join(f"r {e['roughness']:g} {e['p95']:.1%} / {e['median']:.1%}" for e in errors)
-    return (f"{chain['input']}: glossy chain {chain['size']}² to {chain['floor']}² "
-            f"({chain['levels']} levels, {chain['samples']} samples, baked in "
-            f"{chain['bake_s']:.1f} s), read as the engine does (lod mapping "
-            f"{chain['mapping']}): p95 / median relative error of luminance vs brute force "
-            f"{parts}")  # fmt: skip
 
 
 def bake_line(summary: dict) -> str:

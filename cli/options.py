@@ -390,6 +390,18 @@ def headline_line(error: dict) -> str:
             "relative")  # fmt: skip
 
 
+def glossy_line(chain: dict) -> str:
+    """A cube chain's report (:func:`shbake.batch.export.export_assets` ``glossy_report``) on
+    one line: its settings and cost, then its worst roughness first."""
+    errors = sorted(chain["roughness"], key=lambda e: -e["p95"])
+    parts = ", ".join(f"r {e['roughness']:g} {e['p95']:.1%} / {e['median']:.1%}" for e in errors)
+    return (f"{chain['input']}: glossy chain {chain['size']}² to {chain['floor']}² "
+            f"({chain['levels']} levels, {chain['samples']} samples, baked in "
+            f"{chain['bake_s']:.1f} s), read as the engine does (lod mapping "
+            f"{chain['mapping']}): p95 / median relative error of luminance vs brute force "
+            f"{parts}")  # fmt: skip
+
+
 def also_wrote(paths) -> str:
     """The ``; also …`` tail of a ``wrote MAIN …`` line: every other file the run wrote, by
     name where a folder holds at most :data:`LISTED_PER_FOLDER` of them, else as ``N files in

@@ -9,6 +9,7 @@ from shbake_cli.options import (
     deprecated,
     emit_json,
     exr_dir_opt,
+    glossy_line,
     headline_line,
     info,
     input_policy_opts,
@@ -195,6 +196,8 @@ def print_report(summary: dict, quiet: bool) -> None:
                  f"{f['mean_error']:.4%}, max {f['max_error']:.4%}", quiet)  # fmt: skip
         for light in lights.get("lights", []):
             info(light_line(light), quiet)
+    for chain in summary.get("glossy", []):
+        info(glossy_line(chain), quiet)
 
 
 def light_line(light: dict) -> str:

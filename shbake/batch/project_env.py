@@ -293,6 +293,7 @@ def project_environment_asset(
                 png_path = os.path.splitext(path)[0] + ".png"
                 write_png(png_path, tonemap_to_srgb8(img))
                 written.append(png_path)
+    glossy = [] if report else None  # the cube chains of gltf/babylon, as the engine reads them
     for target in exports:  # issue 14: the library call of `shbake export`
         folder = export_folder(output, target)
         makedirs(folder)
@@ -300,7 +301,8 @@ def project_environment_asset(
             ".json" if target == "threejs" else ".gltf"))  # fmt: skip
         from shbake.batch.export import export_assets  # the exporters load numba: only here
 
-        files = export_assets([output], target, out, env_path=env_path, sun_radius_deg=sun_radius)
+        files = export_assets([output], target, out, env_path=env_path,
+                              sun_radius_deg=sun_radius, glossy_report=glossy)  # fmt: skip
         summary[target] = files[0]
         written.extend(files)
     summary.update(
@@ -318,4 +320,7 @@ def project_environment_asset(
     elif summary.get("lights"):
         summary["lights"]["lights"] = lights_found
     summary["warnings"] = quality_warnings(asset, summary)
+    if glossy:
+        summary["glossy"] = glossy
+        summary["warnings"] += [w for chain in glossy for w in chain["warnings"]]
     return asset, summary, environment

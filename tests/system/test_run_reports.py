@@ -106,9 +106,11 @@ class TestFilesAndSun:
         out = tmp_path / "sky.h5"
         code, _, err = run_cli("project-env", sunny, "-o", out, "--extract-sun", "--exr-dir",
                                tmp_path / "maps", "--png", "--export", "gltf", "--export",
-                               "threejs")  # fmt: skip
+                               "threejs", "--report")  # fmt: skip
         assert code == 0, err
         assert sorted(os.listdir(tmp_path)) == ["maps", "sky-gltf", "sky-threejs", "sky.h5"]
+        # --report measures the glTF's cube chain as Babylon.js reads it (docs/CLI.md)
+        assert f"{out}: glossy chain 256² to 8² (6 levels, 512 samples, baked in " in err
         assert (tmp_path / "sky-gltf" / "sky.gltf").exists()
         assert os.listdir(tmp_path / "sky-threejs") == ["sky.json"]
         gltf_side = [f for f in os.listdir(tmp_path / "sky-gltf") if f.endswith(".png")]
