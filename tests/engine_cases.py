@@ -264,7 +264,7 @@ force, no texels, no sampling, read by the engine's rule) against the converged 
   edge. Rendered (p95) 21.9 % on esplanade, 17.1 % forest, 46.8 % studio (city 10.2, night
   11.7, sunset 5.4 %); the ideal eight-level floor is 19.6, 12.6 and 41.4 % there, nine
   levels 8.1, 5.3 and 18.9 %; rendered from 1024² to 4² (nine levels) 12.3, 8.9 and 23.8 %.
-* three.js studio r 0.3: the dielectric's median 5.3 % (metal 3.7 %; p95 12.3 / 10.4 %):
+* three.js studio r 0.3: the dielectric's median 5.5 % (metal 3.7 %; p95 12.5 / 10.4 %):
   r 0.3 plus the geometry roughness reads between levels 3 and 4 (r 0.25 and 0.35), where
   the blend of the two lobes is not the lobe between for studio's lamps (floor 5.5 / 12.8 %).
 * Filament's mirror reads levels 1 and 2 (its roughness floor,
