@@ -224,6 +224,14 @@ def pick_pixels(normal: np.ndarray) -> tuple:
     return tuple(idx.T)
 
 
+def against_expected(expected: dict, render: dict, pick) -> dict:
+    """``expected`` (per material: (rendered, expected)) with the rendered values taken from
+    another ``render`` of the same spheres and views (a fault test's: the same pixels, so
+    the same brute force, computed once)."""
+    return {name: (render["radiance"][name][..., :3][pick], want)
+            for name, (_, want) in expected.items() if name in render["radiance"]}  # fmt: skip
+
+
 def glossy_errors(expected: dict) -> dict:
     """Per material: (median, 95th percentile) of the luminance relative error."""
     out = {}
@@ -416,8 +424,8 @@ def babylon_expected(env, src, renders: dict, white: dict, pick) -> dict:
     (DFG table, energy conservation), a factor of ``n·v`` and ``r`` only: measured per pixel
     by the same sphere in a unit environment (``white``: both terms 1). The expected value
     puts brute-force ``P(R, α)`` and the asset's ``E`` (which the diffuse test checks
-    Babylon shades) in their place; the mirror (``α`` below the map's texel, where the
-    brute-force sum is the nearest texel) reads the map bilinearly.
+    Babylon shades) in their place; the mirror (``α`` 0.0005, narrower than the sub-texels
+    brute force sums) reads the map bilinearly, the limit that sum tends to.
     """
     normal = renders["normal"]
     n = normal[..., :3][pick]

@@ -43,6 +43,7 @@ from tests.engine_cases import (
     SIZE,
     THREE_CUBES,
     VIEWS,
+    against_expected,
     assert_identity_wins,
     babylon_expected,
     busiest_face,
@@ -142,7 +143,8 @@ class TestThree:
         white = white_environment(baked["dir"], chain_sizes(THREE_CUBES))
         renders = render_three_glossy(engine_browser, files[1], white)
         pick = pick_pixels(renders["env"]["normal"])
-        return {"files": files, "white": white, "renders": renders, "pick": pick, "chain": chain}
+        return {"files": files, "white": white, "renders": renders, "pick": pick, "chain": chain,
+                "expected": three_expected(baked["env"], renders, pick)}  # fmt: skip
 
     def test_snippet_is_the_documented_one(self):
         page = snippet(os.path.join(ROOT, "tests", "engines", "pages", "three.mjs"), "three.js")
@@ -172,7 +174,7 @@ class TestThree:
         assert all(med < 0.01 and p95 < 0.08 for med, p95 in errors.values()), errors
 
     def test_glossy(self, baked, three):
-        errors = glossy_errors(three_expected(baked["env"], three["renders"], three["pick"]))
+        errors = glossy_errors(three["expected"])
         print_errors("three.js", baked["name"], errors)
         assert glossy_within(errors, limits_of("three.js", baked["name"])), errors
 
@@ -223,12 +225,11 @@ class TestThree:
                 lambda *a, **k: (chain["levels"], chain["roughness"]),
             )
             files = export_assets([baked["h5"]], "threejs-pmrem", out, **THREE_CUBES)
-        renders = dict(three["renders"])
-        renders["env"] = engine_browser.render(
+        render = engine_browser.render(
             "three.html", VIEWS, SIZE, FOV_DEG, pmrem=engine_browser.url(files[0]),
             materials=sphere_materials(("metal",)),
         )  # fmt: skip
-        errors = glossy_errors(three_expected(baked["env"], renders, three["pick"]))
+        errors = glossy_errors(against_expected(three["expected"], render, three["pick"]))
         print(f"\nthree.js with fault {fault}: {errors}")
         assert not glossy_within(errors, limits_of("three.js", baked["name"]))
 
@@ -252,8 +253,11 @@ class TestBabylon:
                                     env=white_env(baked["dir"], BABYLON_CUBES["size"])),
         }  # fmt: skip
         pick = pick_pixels(renders["env"]["normal"])
+        src = load_source(baked["h5"])
+        expected = {path: babylon_expected(baked["env"], src, renders[path], renders["white"],
+                                           pick) for path in ("env", "gltf")}  # fmt: skip
         return {"env": env_file, "gltf": gltf_file, "renders": renders, "pick": pick,
-                "chain": chain, "src": load_source(baked["h5"])}  # fmt: skip
+                "chain": chain, "src": src, "expected": expected}  # fmt: skip
 
     def test_snippet_is_the_documented_one(self):
         page = snippet(os.path.join(ROOT, "tests", "engines", "pages", "babylon.mjs"), "Babylon.js")
@@ -270,10 +274,7 @@ class TestBabylon:
 
     @pytest.mark.parametrize("path", ["env", "gltf"])
     def test_glossy(self, baked, babylon, path):
-        r = babylon["renders"]
-        errors = glossy_errors(
-            babylon_expected(baked["env"], babylon["src"], r[path], r["white"], babylon["pick"])
-        )
+        errors = glossy_errors(babylon["expected"][path])
         print_errors(f"Babylon.js ({path})", baked["name"], errors)
         assert glossy_within(errors, limits_of("Babylon.js", baked["name"])), errors
 
@@ -309,10 +310,8 @@ class TestBabylon:
             files["gltf"] = export_recording(baked["h5"], "babylon", out, chain=faulty,
                                              **BABYLON_CUBES)[0][0]  # fmt: skip
         render = render_babylon(engine_browser, sphere_materials(("metal",)), **files)
-        r = babylon["renders"]
-        errors = glossy_errors(
-            babylon_expected(baked["env"], babylon["src"], render, r["white"], babylon["pick"])
-        )
+        errors = glossy_errors(against_expected(babylon["expected"]["gltf"], render,
+                                                babylon["pick"]))  # fmt: skip
         print(f"\nBabylon.js with fault {fault}: {errors}")
         assert not glossy_within(errors, limits_of("Babylon.js", baked["name"]))
 
@@ -333,8 +332,10 @@ class TestFilament:
             "white": render_filament(engine_browser, baked["dir"], sphere_materials(),
                                      white_ktx1(baked["dir"], chain_sizes(FILAMENT_CUBES))),
         }  # fmt: skip
-        return {"files": files, "ibl": ibl, "renders": renders, "chain": chain,
-                "pick": pick_pixels(renders["env"]["normal"])}  # fmt: skip
+        pick = pick_pixels(renders["env"]["normal"])
+        return {"files": files, "ibl": ibl, "renders": renders, "chain": chain, "pick": pick,
+                "expected": filament_expected(baked["env"], renders["env"], renders["white"],
+                                              pick)}  # fmt: skip
 
     def test_snippet_is_the_documented_one(self):
         page = snippet(os.path.join(ROOT, "tests", "engines", "pages", "filament.mjs"), "Filament")
@@ -352,9 +353,7 @@ class TestFilament:
                     if c.startswith("pageerror") or "not an expected" in c]  # fmt: skip
 
     def test_glossy(self, baked, filament):
-        r = filament["renders"]
-        errors = glossy_errors(filament_expected(baked["env"], r["env"], r["white"],
-                                                 filament["pick"]))  # fmt: skip
+        errors = glossy_errors(filament["expected"])
         print_errors("Filament", baked["name"], errors)
         assert glossy_within(errors, limits_of("Filament", baked["name"])), errors
 
@@ -399,7 +398,6 @@ class TestFilament:
             files, _ = export_recording(baked["h5"], "filament", out, chain=chain, **FILAMENT_CUBES)
         ibl = next(f for f in files if f.endswith("_ibl.ktx"))
         render = render_filament(engine_browser, baked["dir"], sphere_materials(("metal",)), ibl)
-        white = filament["renders"]["white"]
-        errors = glossy_errors(filament_expected(baked["env"], render, white, filament["pick"]))
+        errors = glossy_errors(against_expected(filament["expected"], render, filament["pick"]))
         print(f"\nFilament with fault {fault}: {errors}")
         assert not glossy_within(errors, limits_of("Filament", baked["name"]))
