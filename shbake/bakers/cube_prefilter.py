@@ -33,8 +33,9 @@ values at its texel centres, the texel values whose GPU bilinear read best fits 
 reads between the centres.
 The roughness of each level (``mapping``) and the cube's faces are the engines' and
 live in :mod:`shbake.format.exports.cube_chain`; texel solid angles are the exact ones of
-:func:`shbake.envmap.layouts.cube_texels` (the same grid on every face). Every output texel
-is computed at its own direction, so faces agree along their shared edges (no seam).
+:func:`shbake.envmap.layouts.cube_face_solid_angles` (the same grid on every face).
+Every output texel is computed at its own direction, so faces agree along their shared
+edges (no seam).
 """
 
 import math
@@ -45,7 +46,7 @@ import numpy as np
 from shbake.brdf.ggx import ggx_d, ggx_d_iso, half_vector_cos2
 from shbake.conventions import REC709_LUMINANCE, ggx_alpha
 from shbake.envmap.environment import Environment
-from shbake.envmap.layouts import cube_texels
+from shbake.envmap.layouts import cube_face_solid_angles
 from shbake.errors import ParameterError
 from shbake.format.exports.cube_chain import (
     FIT_MAX_SIZE,
@@ -71,8 +72,7 @@ DEFAULT_SAMPLES = 512
 def cube_directions(size: int) -> tuple[np.ndarray, np.ndarray]:
     """Unit world directions ``(6, size, size, 3)`` and exact solid angles ``(size, size)``."""
     d = texel_directions(size, world_face_frames())
-    # the exact projected-texel solid angles of the cube-strip layout (same grid per face)
-    omega = cube_texels("cube-strip", 6 * size, size)[1][:size]
+    omega = cube_face_solid_angles(size)  # exact, the same grid on every face
     return d, omega
 
 
@@ -202,7 +202,7 @@ def _nearest_cube_input(env: Environment, d: np.ndarray) -> np.ndarray:
 def downsample_cube(cube: np.ndarray) -> np.ndarray:
     """Next coarser level: solid-angle weighted mean of each 2×2 block."""
     n = cube.shape[1]
-    omega = cube_directions(n)[1]
+    omega = cube_face_solid_angles(n)
     w = omega[None, :, :, None]
     num = (cube * w).reshape(6, n // 2, 2, n // 2, 2, 3).sum(axis=(2, 4))
     den = w.reshape(1, n // 2, 2, n // 2, 2, 1).sum(axis=(2, 4))
@@ -556,17 +556,16 @@ def fit_bilinear(dense: np.ndarray, size: int, iterations: int = FIT_ITERATIONS)
     return np.maximum(x, 0.0).reshape(6, size, size, 3)
 
 
-def chain_memory(
-    size: int, source_size: int, cube_input: bool, supersample: int = SUPERSAMPLE
-) -> int:
+def chain_memory(size: int, source_size: int, cube_input: bool, supersample: int = 1) -> int:
     """Estimated peak bytes of :func:`prefilter_chain`: the FIS source cube (``6 × source²``
     float64 RGB; with its pyramid, the pyramid packed into one array and their transients
     4.5 such cubes: the map without its hot texels' excess, :func:`split_hot_texels`) and
     the levels (twice); for a ``cube_input`` map also the source's sub-texel directions
-    (``6 × source² × supersample²`` float64 triples, four copies while they are made,
-    normalised, reordered and fetched; :func:`mirror_cube` reads a lat-long map texel by
-    texel and keeps none); 10 % over their sum. Measured peaks (``tracemalloc``) are 0.75–0.9
-    of it (``tests/system/faults/test_memory.py``)."""
+    (``6 × source² × supersample²`` float64 triples, ``supersample`` its
+    :func:`mirror_supersample`, four copies while they are made, normalised, reordered and
+    fetched; :func:`mirror_cube` reads a lat-long map texel by texel and keeps none); 10 %
+    over their sum. Measured peaks (``tracemalloc``) are 0.5–0.9 of it
+    (``tests/system/faults/test_memory.py``)."""
     src = int(source_size) * int(source_size)
     directions = 6 * src * supersample * supersample * 3 * 8 * 4 if cube_input else 0
     return int(1.1 * (directions + 6 * src * 24 * 4.5 + 6 * int(size) ** 2 * 24 * 2))
@@ -638,11 +637,11 @@ def prefilter_chain(
     check_chain(size, floor, samples)
     n_levels = int(round(math.log2(size // floor))) + 1
     src = source_size or 2 * size
-    check_memory(chain_memory(size, src, env.layout != "latlong"),
+    check_memory(chain_memory(size, src, env.layout != "latlong", mirror_supersample(env, src)),
                  f"a cube chain of {size}² faces from {src}² faces")  # fmt: skip
     rest, hot = split_hot_texels(env, rotation)
     # the FIS source: the map without the hot texels' excess (summed exactly per level)
-    source = cube_pyramid(mirror_cube(rest, src, rotation=rotation))
+    source = cube_pyramid(mirror_cube(rest, src, mirror_supersample(rest, src), rotation))
     levels, rough = [], []
     for i in range(n_levels):
         r = roughness_of_level(i, n_levels, mapping, size)

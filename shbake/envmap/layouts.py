@@ -294,6 +294,18 @@ def _face_area(x, y):
     return np.arctan2(x * y, np.sqrt(x * x + y * y + 1.0))
 
 
+def cube_face_solid_angles(n: int) -> np.ndarray:
+    """Exact solid angle of each texel of an ``n``² cube face, ``(n, n)`` (the same grid on
+    every face; sums to 4π/6)."""
+    edges = 2.0 * np.arange(n + 1) / n - 1.0
+    return np.abs(
+        _face_area(edges[None, 1:], edges[1:, None])
+        - _face_area(edges[None, :-1], edges[1:, None])
+        - _face_area(edges[None, 1:], edges[:-1, None])
+        + _face_area(edges[None, :-1], edges[:-1, None])
+    )
+
+
 def cube_texels(layout: str, height: int, width: int):
     """Directions ``(H, W, 3)``, solid angles ``(H, W)`` and a validity mask of a cube layout.
 
@@ -305,12 +317,7 @@ def cube_texels(layout: str, height: int, width: int):
     edges = 2.0 * np.arange(n + 1) / n - 1.0
     centres = 0.5 * (edges[:-1] + edges[1:])
     s, t = np.meshgrid(centres, centres)  # s varies along columns, t along rows
-    area = (
-        _face_area(edges[None, 1:], edges[1:, None])
-        - _face_area(edges[None, :-1], edges[1:, None])
-        - _face_area(edges[None, 1:], edges[:-1, None])
-        + _face_area(edges[None, :-1], edges[:-1, None])
-    )
+    area = cube_face_solid_angles(n)
     dirs = np.zeros((height, width, 3))
     omega = np.zeros((height, width))
     mask = np.zeros((height, width), dtype=bool)
@@ -319,7 +326,7 @@ def cube_texels(layout: str, height: int, width: int):
         d = st1 @ np.asarray(A, dtype=np.float64).T
         rs, cs = slice(row * n, (row + 1) * n), slice(col * n, (col + 1) * n)
         dirs[rs, cs] = d / np.linalg.norm(d, axis=-1, keepdims=True)
-        omega[rs, cs] = np.abs(area)
+        omega[rs, cs] = area
         mask[rs, cs] = True
     return dirs, omega, mask
 
