@@ -103,7 +103,7 @@ class TestCompactBrightSources:
     def studio(cls):
         return load_environment(os.path.join(SHARED, "hdri", "studio.exr"), quiet=True)
 
-    @pytest.mark.parametrize("yaw", [0.0, 90.0])
+    @pytest.mark.parametrize("yaw", [0.0, pytest.param(90.0, marks=pytest.mark.slow)])
     def test_levels_match_brute_force(self, studio, yaw):
         """A 128² to 8² chain's levels 2 and 3 at their texel centres (:func:`prefilter_level`,
         before a chain fits its small levels to the bilinear read, :class:`TestFitBilinear`)."""
