@@ -117,6 +117,19 @@ def face_bilinear(cube, face, x, y, c):
 
 
 @jit
+def _beyond_border(axes, A, size, i, j):
+    """Face and continuous texel coordinates of the direction of texel ``(i, j)`` of face
+    ``A`` extended past its border: where a tap of :func:`cube_bilinear` outside the face
+    is read."""
+    s = 2.0 * (j + 0.5) / size - 1.0
+    t = 2.0 * (i + 0.5) / size - 1.0
+    ex = A[0, 0] * s + A[0, 1] * t + A[0, 2]
+    ey = A[1, 0] * s + A[1, 1] * t + A[1, 2]
+    ez = A[2, 0] * s + A[2, 1] * t + A[2, 2]
+    return cube_address(axes, ex, ey, ez, size)
+
+
+@jit
 def cube_bilinear(cube, axes, dx, dy, dz, out):
     """``out[c]`` = seam-correct bilinear fetch of ``cube (6, S, S, C)`` at direction ``d``.
 
@@ -146,12 +159,7 @@ def cube_bilinear(cube, axes, dx, dy, dz, out):
                 for c in range(out.shape[0]):
                     out[c] += w * cube[face, i, j, c]
                 continue
-            s = 2.0 * (j + 0.5) / size - 1.0
-            t = 2.0 * (i + 0.5) / size - 1.0
-            ex = A[0, 0] * s + A[0, 1] * t + A[0, 2]
-            ey = A[1, 0] * s + A[1, 1] * t + A[1, 2]
-            ez = A[2, 0] * s + A[2, 1] * t + A[2, 2]
-            f2, x2, y2 = cube_address(axes, ex, ey, ez, size)
+            f2, x2, y2 = _beyond_border(axes, A, size, i, j)
             for c in range(out.shape[0]):
                 out[c] += w * face_bilinear(cube, f2, x2, y2, c)
 
@@ -189,12 +197,7 @@ def cube_bilinear_taps(size, axes, dx, dy, dz, index, weight):
                 weight[n] = w
                 n += 1
                 continue
-            s = 2.0 * (j + 0.5) / size - 1.0
-            t = 2.0 * (i + 0.5) / size - 1.0
-            ex = A[0, 0] * s + A[0, 1] * t + A[0, 2]
-            ey = A[1, 0] * s + A[1, 1] * t + A[1, 2]
-            ez = A[2, 0] * s + A[2, 1] * t + A[2, 2]
-            f2, x2, y2 = cube_address(axes, ex, ey, ez, size)
+            f2, x2, y2 = _beyond_border(axes, A, size, i, j)
             r0, r1, gy = axis(y2, size)
             c0, c1, gx = axis(x2, size)
             for r, c, v in ((r0, c0, (1.0 - gy) * (1.0 - gx)), (r0, c1, (1.0 - gy) * gx),
