@@ -22,7 +22,7 @@ from shbake_cli.options import (
     warn,
 )
 
-from shbake.bakers.cube_prefilter import CUBE_SIZE_LIMIT
+from shbake.bakers.cube_chain import CUBE_SIZE_LIMIT
 from shbake.bakers.env_lights import MAX_LIGHTS
 from shbake.batch.export import cube_settings
 from shbake.batch.export_map import MAP_DEFAULTS, export_inputs

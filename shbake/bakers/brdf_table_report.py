@@ -8,14 +8,16 @@ Three independent error sources, each against a brute-force or converged value:
 * resolution — bilinear look-up error: ``sqrt(4π) max |c_lookup(v) − c(v)|``
   at random views (``c(v)`` projected directly with the same samples). The
   study's tables use at most :data:`RESOLUTION_STUDY_SAMPLES` points per view
-  (the same for the direct values, so the difference is the look-up alone) and
-  their times are scaled to the table's sample count.
+  (the same for the direct values, so the difference is the look-up alone) and are
+  computed only at the texels the look-up reads
+  (:func:`shbake.brdf.tabulate.tabulate_at`: the whole 256² table was 6 of the report's
+  11 s for Ashikhmin–Shirley (24, 8) at 32²).
 * samples — the table's own refinement history (error estimate per power-of-two of points).
 
 Times are predictions anchored to the measured bake: the bake's own seconds, scaled by
-each setting's measured cost relative to the chosen setting's (per-view projection cost
-for ``lmax``, a whole table at the study's samples for the resolution), so the chosen
-setting's estimate is the bake's time and its neighbours' carry the measured ratio.
+each setting's cost relative to the chosen setting's (the measured per-view projection
+cost for ``lmax``; for the resolution the views a table integrates, ``⌈H/2⌉ ⌈W/2⌉`` at
+the same cost each), so the chosen setting's estimate is the bake's time.
 """
 
 import time
@@ -23,7 +25,7 @@ import time
 import numpy as np
 
 from shbake.brdf.model import BRDF
-from shbake.brdf.tabulate import SQRT_4PI, project_views, tabulate
+from shbake.brdf.tabulate import SQRT_4PI, project_views, quadrant_views, tabulate_at
 from shbake.sh.point_sets import gauss_legendre
 from shbake.texture.parabolic import fetch
 
@@ -95,14 +97,12 @@ def settings_report(
     direct, _ = project_views(brdf, test_views, lmax, samples=study)
     by_res = []
     for r in sorted(set(RESOLUTION_STUDY) | {h}):
-        t0 = time.perf_counter()
-        table, _ = tabulate(brdf, lmax, (r, r), samples=study)
-        dt = time.perf_counter() - t0
+        table = tabulate_at(brdf, lmax, (r, r), test_views, samples=study)
         err = SQRT_4PI * float(np.max(np.abs(fetch(table, test_views) - direct)))
-        by_res.append({"resolution": r, "lookup_error": err, "table_seconds": dt})
-    chosen = next(r["table_seconds"] for r in by_res if r["resolution"] == h)
-    for r in by_res:
-        r["est_table_seconds"] = bake_seconds * r.pop("table_seconds") / chosen
+        # a table integrates its quadrant's texels, each at the same cost
+        scale = len(quadrant_views(r, r)) / len(quadrant_views(h, w))
+        by_res.append({"resolution": r, "lookup_error": err,
+                       "est_table_seconds": bake_seconds * scale})  # fmt: skip
     return {"lmax": by_lmax, "resolution": by_res, "samples": history}
 
 

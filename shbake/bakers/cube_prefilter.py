@@ -1,6 +1,7 @@
-"""GGX prefiltered cube mip chains with filtered importance sampling (split-sum radiance).
+"""GGX prefiltered cube levels with filtered importance sampling (split-sum radiance).
 
-Level ``i`` of a chain of ``n`` levels (sizes ``size >> i``, at least the
+The levels of the chains :func:`shbake.bakers.cube_chain.prefilter_chain` assembles. Level
+``i`` of a chain of ``n`` levels (sizes ``size >> i``, at least the
 stated floor) holds, for every texel direction ``N``, the split-sum
 prefiltered radiance of Karis 2013 (eq. 4, ``N = V = R``)::
 
@@ -30,7 +31,8 @@ Level 0 is the mirror map (``α = 0``): the source resampled at :func:`mirror_su
 sub-texels, no lobe. A level of at most ``FIT_MAX_SIZE``² faces holds, instead of its
 values at its texel centres, the texel values whose GPU bilinear read best fits the level at
 2 × 2 points per texel, each with half the level's samples (:func:`fit_bilinear`): an engine
-reads between the centres.
+reads between the centres. (An engine with a roughness floor also gets its sharp levels
+refitted to its blend between levels: :mod:`shbake.bakers.lod_blend`.)
 The roughness of each level (``mapping``) and the cube's faces are the engines' and
 live in :mod:`shbake.format.exports.cube_chain`; texel solid angles are the exact ones of
 :func:`shbake.envmap.layouts.cube_face_solid_angles` (the same grid on every face).
@@ -44,18 +46,15 @@ from typing import NamedTuple
 import numpy as np
 
 from shbake.brdf.ggx import ggx_d, ggx_d_iso, half_vector_cos2
-from shbake.conventions import REC709_LUMINANCE, ggx_alpha
+from shbake.conventions import REC709_LUMINANCE
 from shbake.envmap.environment import Environment
 from shbake.envmap.layouts import cube_face_solid_angles
 from shbake.errors import ParameterError
 from shbake.format.exports.cube_chain import (
-    FIT_MAX_SIZE,
-    roughness_of_level,
     world_face_frames,
 )
 from shbake.jit import jit, run_blocks
 from shbake.reference.prefiltered import reference_radiance
-from shbake.resources import check_memory
 from shbake.texture.bilinear import axis, bilinear_latlong, blend
 from shbake.texture.cube import (
     MAX_TAPS,
@@ -431,7 +430,22 @@ def prefilter_level(
     fis: bool = True,
     hot: HotTexels | None = None,
 ) -> np.ndarray:
-    """One prefiltered cube ``(6, size, size, 3)`` at GGX ``alpha`` from a source pyramid.
+    """One prefiltered cube ``(6, size, size, 3)`` at GGX ``alpha`` from a source pyramid:
+    :func:`prefilter_points` at its texel centres."""
+    dirs = cube_directions(size)[0].reshape(-1, 3)
+    return prefilter_points(pyramid, dirs, alpha, samples, fis, hot).reshape(6, size, size, 3)
+
+
+def prefilter_points(
+    pyramid: list[np.ndarray],
+    dirs: np.ndarray,
+    alpha: float,
+    samples: int = DEFAULT_SAMPLES,
+    fis: bool = True,
+    hot: HotTexels | None = None,
+) -> np.ndarray:
+    """Prefiltered radiance ``(m, 3)`` at GGX ``alpha`` along unit ``dirs (m, 3)`` (the
+    cube's frame) from a source pyramid.
 
     ``fis=False`` point-samples level 0 of the source (plain importance
     sampling: the estimator that shows fireflies). ``hot``: excess texels
@@ -439,10 +453,10 @@ def prefilter_level(
     """
     if not 0.0 < alpha <= 1.0:
         raise ParameterError(f"alpha must be in (0, 1], got {alpha}")
-    dirs, _ = cube_directions(size)
+    dirs = np.ascontiguousarray(dirs, dtype=np.float64)
     n0 = pyramid[0].shape[1]
     omega_p = 4.0 * math.pi / (6.0 * n0 * n0)
-    out = np.empty((6 * size * size, 3))
+    out = np.empty((dirs.shape[0], 3))
     table = np.empty((int(samples), 6))
     rows = _sample_table(float(alpha), int(samples), omega_p, len(pyramid), bool(fis), table)
     table = table[:rows]
@@ -452,15 +466,14 @@ def prefilter_level(
         out.shape[0] * table.shape[0] * 60.0,
         *_packed_pyramid(pyramid),
         world_face_frames(),
-        dirs.reshape(-1, 3),
+        dirs,
         table,
         out,
     )
     if hot is not None and len(hot.dirs):
         run_blocks(_add_hot_texels, out.shape[0], out.shape[0] * len(hot.solid_angles) * 20.0,
-                   *hot, np.ascontiguousarray(dirs.reshape(-1, 3)), float(alpha),
-                   1.0 / lobe_normalization(alpha), out)  # fmt: skip
-    return out.reshape(6, size, size, 3)
+                   *hot, dirs, float(alpha), 1.0 / lobe_normalization(alpha), out)  # fmt: skip
+    return out
 
 
 FIT_DENSITY = 2
@@ -556,120 +569,6 @@ def fit_bilinear(dense: np.ndarray, size: int, iterations: int = FIT_ITERATIONS)
     return np.maximum(x, 0.0).reshape(6, size, size, 3)
 
 
-def chain_memory(size: int, source_size: int, cube_input: bool, supersample: int = 1) -> int:
-    """Estimated peak bytes of :func:`prefilter_chain`: the FIS source cube (``6 × source²``
-    float64 RGB; with its pyramid, the pyramid packed into one array and their transients
-    4.5 such cubes: the map without its hot texels' excess, :func:`split_hot_texels`) and
-    the levels (twice); for a ``cube_input`` map also the source's sub-texel directions
-    (``6 × source² × supersample²`` float64 triples, ``supersample`` its
-    :func:`mirror_supersample`, four copies while they are made, normalised, reordered and
-    fetched; :func:`mirror_cube` reads a lat-long map texel by texel and keeps none); 10 %
-    over their sum. Measured peaks (``tracemalloc``) are 0.5–0.9 of it
-    (``tests/system/faults/test_memory.py``)."""
-    src = int(source_size) * int(source_size)
-    directions = 6 * src * supersample * supersample * 3 * 8 * 4 if cube_input else 0
-    return int(1.1 * (directions + 6 * src * 24 * 4.5 + 6 * int(size) ** 2 * 24 * 2))
-
-
-CUBE_SIZE_LIMIT = 4096
-"""Largest level-0 face edge of a prefiltered chain (its mirror cube is twice as wide)."""
-
-
-def check_chain(size: int, floor: int, samples: int) -> None:
-    """Refuse a chain layout :func:`prefilter_chain` cannot build: ``size`` and ``floor``
-    powers of two with ``1 ≤ floor ≤ size ≤ CUBE_SIZE_LIMIT``, ``samples ≥ 1``."""
-    for name, v in (("size", size), ("floor", floor)):
-        if not 1 <= v <= CUBE_SIZE_LIMIT or v & (v - 1):
-            raise ParameterError(
-                f"{name} must be a power of two in [1, {CUBE_SIZE_LIMIT}], got {v}"
-            )
-    if floor > size:
-        raise ParameterError(f"floor {floor} exceeds size {size}")
-    if samples < 1:
-        raise ParameterError(f"samples must be >= 1, got {samples}")
-
-
-def level_samples(samples: int, level: int) -> int:
-    """GGX samples per texel at chain ``level``: ``samples`` up to level 1, doubled at each
-    level from 2 on, as cmgen does (``tools/cmgen/src/cmgen.cpp`` ``iblRoughnessPrefilter``:
-    "starting at level 2, we increase the number of samples per level ... since there are 4x
-    less work per level, this doesn't slow things down a lot"): a chain costs about twice its
-    level 1. A wider lobe meets more of a map's small bright sources; with ``samples`` at
-    every level the rough levels miss them: esplanade (its sun 29 856), 8² faces at r 0.59,
-    3.5 % median / 18.6 % p95 from brute force with 512 samples, 0.6 % / 4.7 % with 4096."""
-    return int(samples) << max(0, level - 1)
-
-
-def prefilter_chain(
-    env: Environment,
-    size: int = 128,
-    floor: int = 1,
-    mapping: str = "gltf-ibl-sampler",
-    samples: int = DEFAULT_SAMPLES,
-    source_size: int | None = None,
-    fis: bool = True,
-    rotation: np.ndarray | None = None,
-) -> tuple[list[np.ndarray], list[float]]:
-    """The GGX prefiltered cube mip chain of ``env``.
-
-    Parameters
-    ----------
-    size : power of two
-        Level-0 face edge (the mirror map).
-    floor : power of two, 1 … size
-        Smallest level edge; the chain has ``log2(size/floor) + 1`` levels.
-    mapping : one of :data:`LOD_MAPPINGS`
-        Perceptual roughness of each level (module docstring).
-    samples : int
-        GGX samples per texel (filtered importance sampling) up to level 1, doubled per
-        level after (:func:`level_samples`).
-    source_size : power of two
-        Edge of the mirror cube the filter reads (default ``2*size``).
-    rotation : 3×3, optional
-        Target ← world rotation (:func:`mirror_cube`).
-
-    Returns
-    -------
-    (levels, roughness)
-        ``levels[i]`` is ``(6, size >> i, size >> i, 3)`` float64;
-        ``roughness[i]`` its perceptual roughness (``α = r²``).
-    """
-    check_chain(size, floor, samples)
-    n_levels = int(round(math.log2(size // floor))) + 1
-    src = source_size or 2 * size
-    check_memory(chain_memory(size, src, env.layout != "latlong", mirror_supersample(env, src)),
-                 f"a cube chain of {size}² faces from {src}² faces")  # fmt: skip
-    rest, hot = split_hot_texels(env, rotation)
-    # the FIS source: the map without the hot texels' excess (summed exactly per level)
-    source = cube_pyramid(mirror_cube(rest, src, mirror_supersample(rest, src), rotation))
-    levels, rough = [], []
-    for i in range(n_levels):
-        r = roughness_of_level(i, n_levels, mapping, size)
-        n = size >> i
-        if i == 0 or r == 0.0:
-            lvl = mirror_cube(env, n, mirror_supersample(env, n), rotation)
-        elif n <= FIT_MAX_SIZE:
-            dense = prefilter_level(source, FIT_DENSITY * n, ggx_alpha(r),
-                                    level_samples(samples, i) // 2, fis, hot)  # fmt: skip
-            lvl = fit_bilinear(dense, n)
-        else:
-            lvl = prefilter_level(source, n, ggx_alpha(r), level_samples(samples, i), fis, hot)
-        levels.append(lvl)
-        rough.append(r)
-    return levels, rough
-
-
-def extend_chain(levels: list, roughness: list) -> tuple[list, list]:
-    """The chain continued down to 1² faces by :func:`downsample_cube` of its last level, each
-    added level at the last level's roughness (a Babylon ``.env`` holds every level; a
-    ``babylon`` chain ends at ``α = 1``, so the added ones are never read below ``r = 1``)."""
-    levels, roughness = list(levels), list(roughness)
-    while levels[-1].shape[1] > 1:
-        levels.append(downsample_cube(levels[-1]))
-        roughness.append(roughness[-1])
-    return levels, roughness
-
-
 def reference_level(env: Environment, size: int, alpha: float) -> np.ndarray:
     """:func:`reference_radiance` at every texel of a ``size`` cube."""
     return reference_radiance(env, cube_directions(size)[0], alpha)
@@ -681,12 +580,13 @@ __all__ = [
     "HotTexels",
     "cube_directions",
     "cube_pyramid",
-    "extend_chain",
-    "level_samples",
+    "downsample_cube",
+    "fit_bilinear",
     "lobe_normalization",
     "mirror_cube",
-    "prefilter_chain",
+    "mirror_supersample",
     "prefilter_level",
+    "prefilter_points",
     "reference_level",
     "split_hot_texels",
 ]

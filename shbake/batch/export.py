@@ -10,7 +10,8 @@ DFG table (:mod:`shbake.bakers.dfg`) for ``ktx2``. Maps given instead of assets:
 import os
 import time
 
-from shbake.bakers.cube_prefilter import check_chain, extend_chain, prefilter_chain
+from shbake.bakers.cube_chain import check_chain, extend_chain, prefilter_chain
+from shbake.bakers.cube_prefilter import mirror_cube, mirror_supersample
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
 from shbake.evaluation.cube_chain import chain_errors, chain_warnings
@@ -154,6 +155,7 @@ def export_assets(
                 mapping=cfg["mapping"],
                 samples=cfg["samples"],
                 rotation=src.cube_rotation,
+                min_roughness=cfg.get("min_roughness", 0.0),
             )
             if glossy_report is not None:
                 glossy_report.append(_chain_report(path, cfg, env, levels, src.cube_rotation,
@@ -161,6 +163,10 @@ def export_assets(
             if target == "babylon" and dest.endswith(".env"):  # a .env holds every level
                 levels, rough = extend_chain(levels, rough)
             extra.update(levels=levels, roughness=rough, mapping=cfg["mapping"])
+            if target == "filament":  # the map as a cube, beside a chain fitted to its blend
+                extra["skybox"] = mirror_cube(env, cfg["size"],
+                                              mirror_supersample(env, cfg["size"]),
+                                              src.cube_rotation)  # fmt: skip
             if target == "ktx2":
                 extra["dfg_table"] = dfg_table()
         written += mod.write(src, dest, **extra)

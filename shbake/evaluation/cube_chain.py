@@ -57,7 +57,7 @@ def chain_errors(
     env : Environment
         The map the chain holds (world frame; the export's map less its lights).
     levels : list of ``(6, n, n, 3)`` arrays
-        The chain, level 0 first (:func:`shbake.bakers.cube_prefilter.prefilter_chain`).
+        The chain, level 0 first (:func:`shbake.bakers.cube_chain.prefilter_chain`).
     mapping : one of :data:`shbake.format.exports.cube_chain.LOD_MAPPINGS`
         The engine's roughness → lod rule.
     rotation : 3×3, optional

@@ -35,7 +35,8 @@ class TestMirrorSupersample:
     def test_level0_is_the_map_read_bilinearly(self):
         """Where the cube is finer than the map, level 0 holds the map read bilinearly at each
         texel's direction (test-side lat-long bilinear), not a box filter of sub-texels."""
-        from shbake.bakers.cube_prefilter import cube_directions, prefilter_chain
+        from shbake.bakers.cube_chain import prefilter_chain
+        from shbake.bakers.cube_prefilter import cube_directions
         from tests.engine_browser import latlong_bilinear
 
         env = load_environment(os.path.join(SHARED, "hdri", "forest.exr"), quiet=True)
@@ -107,10 +108,10 @@ class TestCompactBrightSources:
     def test_levels_match_brute_force(self, studio, yaw):
         """A 128² to 8² chain's levels 2 and 3 at their texel centres (:func:`prefilter_level`,
         before a chain fits its small levels to the bilinear read, :class:`TestFitBilinear`)."""
+        from shbake.bakers.cube_chain import level_samples
         from shbake.bakers.cube_prefilter import (
             cube_directions,
             cube_pyramid,
-            level_samples,
             mirror_cube,
             prefilter_level,
             split_hot_texels,

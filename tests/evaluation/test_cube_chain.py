@@ -9,7 +9,8 @@ can have.
 import numpy as np
 import pytest
 
-from shbake.bakers.cube_prefilter import cube_directions, prefilter_chain
+from shbake.bakers.cube_chain import prefilter_chain
+from shbake.bakers.cube_prefilter import cube_directions
 from shbake.envmap.environment import Environment
 from shbake.evaluation.cube_chain import WARNING_P95, chain_errors, chain_warnings
 from shbake.format.exports.cube_chain import read_chain

@@ -46,7 +46,7 @@ EXTENSION = ".gltf"
 OUTPUT_ENDINGS = (".gltf", ".env")
 CUBES = gltf.CUBES
 """The glTF's chain (256² faces, as Babylon's own ``.env`` files; ``α = 1`` at 8²); a ``.env``
-continues it to 1² (:func:`shbake.bakers.cube_prefilter.extend_chain`)."""
+continues it to 1² (:func:`shbake.bakers.cube_chain.extend_chain`)."""
 ENV_MAGIC = bytes([0x86, 0x16, 0x87, 0x96, 0xF6, 0xD6, 0x96, 0x36])
 POLYNOMIAL_KEYS = ("x", "y", "z", "xx", "yy", "zz", "yz", "zx", "xy")
 

@@ -66,6 +66,12 @@ at twice the samples of those levels (2 × 2 points a texel, half the level's sa
 6.0 s against 10.5 s with the level's own, r 0.3 6.4 against 6.3 %). The sharp levels gain
 little (r 0.1: 20.5 → 19.9 %)."""
 
+BLEND_MAX_ROUGHNESS = 0.45
+"""Levels of this perceptual roughness or more keep their exact lobe when a chain's sharp
+levels are refitted to an engine's blend between levels (:mod:`shbake.bakers.lod_blend`):
+refitting every level but the last raised studio's r 0.6 from 7.6 to 16.8 % p95 (three.js's
+rule, 512² → 4²), fitting those below it lowers the mirror from 46.5 to 12.1 %."""
+
 BABYLON_MIN_ALPHA = 0.0005
 """Babylon.js adds this to every ``α = r²`` (``pbrHelperFunctions`` ``MINIMUMVARIANCE``)."""
 
@@ -134,6 +140,7 @@ def read_chain(levels: list, directions: np.ndarray, lod) -> np.ndarray:
 
 __all__ = [
     "BABYLON_MIN_ALPHA",
+    "BLEND_MAX_ROUGHNESS",
     "FIT_MAX_SIZE",
     "GL_FACES",
     "LOD_MAPPINGS",

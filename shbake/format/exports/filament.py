@@ -149,9 +149,16 @@ def encode_ktx1(levels: list[np.ndarray], kv: dict) -> bytes:
     return out
 
 
-CUBES = {"size": 256, "floor": 4, "samples": 512, "mapping": "filament"}
+MIN_ROUGHNESS = 0.089
+"""Filament's floor on perceptual roughness in its mobile materials (the web build's;
+``shaders/src/common_material.fs`` ``MIN_PERCEPTUAL_ROUGHNESS``): it never reads the chain
+below ``lod = (n − 1) · 0.089 (2 − 0.089)`` (level 1 of seven), so the levels it reads only
+blended are refitted to that blend (:mod:`shbake.bakers.lod_blend`)."""
+
+CUBES = {"size": 256, "floor": 4, "samples": 512, "mapping": "filament",
+         "min_roughness": MIN_ROUGHNESS}  # fmt: skip
 """The cube chain this target wants: 256² (cmgen's) to 4², Filament's roughness↔LOD mapping
-(always)."""
+and roughness floor (always)."""
 
 
 def write(
@@ -159,11 +166,14 @@ def write(
     out: str,
     levels: list[np.ndarray] | None = None,
     roughness: list[float] | None = None,
+    skybox: np.ndarray | None = None,
     **_ignored,
 ) -> list[str]:
-    """Write ``out`` (``<stem>_sh.txt``), and beside it ``<stem>_ibl.ktx``, ``<stem>_skybox.ktx``
-    (given the cube chain ``levels``, made with the ``filament`` mapping) and, with a
-    sun, ``<stem>_sun.json`` (with fitted lights, ``<stem>_lights.json``)."""
+    """Write ``out`` (``<stem>_sh.txt``), and beside it ``<stem>_ibl.ktx`` (given the cube
+    chain ``levels``, made with the ``filament`` mapping), ``<stem>_skybox.ktx`` (given the
+    mirror cube ``skybox``: the chain's sharp levels are fitted to Filament's blend, not shown
+    alone) and, with a sun, ``<stem>_sun.json`` (with fitted lights,
+    ``<stem>_lights.json``)."""
     require_sh(src, "filament")
     stem = out[: -len("_sh.txt")]
     sh = filament_sh(src.irradiance9)
@@ -172,7 +182,7 @@ def write(
     if levels is not None:
         rough = roughness
         kv = {"sh": sh_metadata(sh), "shbake.roughness": json.dumps([round(r, 9) for r in rough])}
-        for path, lv in ((stem + "_ibl.ktx", levels), (stem + "_skybox.ktx", levels[:1])):
+        for path, lv in ((stem + "_ibl.ktx", levels), (stem + "_skybox.ktx", [skybox])):
             lv = clamp_to_half(lv, path, limit=R11G11B10_MAX, kind="R11F_G11F_B10F")
             payload = encode_ktx1([filament_faces(x) for x in lv], kv)
             with atomic_path(path) as tmp, open(tmp, "wb") as f:
@@ -208,6 +218,8 @@ def _light_entry(kind: str, direction, irradiance) -> dict:
 
 
 __all__ = [
+    "CUBES",
+    "MIN_ROUGHNESS",
     "basis_constants",
     "encode_ktx1",
     "filament_faces",

@@ -161,7 +161,7 @@ def write(
     """Write ``out`` (.gltf) and its specular PNGs beside it; returns the paths written.
 
     ``levels``/``roughness``: the GGX prefiltered cube chain in the target frame
-    (:func:`shbake.bakers.cube_prefilter.prefilter_chain`) and each level's
+    (:func:`shbake.bakers.cube_chain.prefilter_chain`) and each level's
     perceptual roughness; ``mapping`` names the roughness↔LOD rule it used.
 
     ``babylon_scene``: ``left-handed`` (Babylon's default scene) or

@@ -193,10 +193,16 @@ CUBE_LOOKUP = (
 
 
 def write_cube_chain(
-    path: str, src: ExportSource, levels: list[np.ndarray], roughness: list[float], mapping: str
+    path: str,
+    src: ExportSource,
+    levels: list[np.ndarray],
+    roughness: list[float],
+    mapping: str,
+    note: str = "",
 ) -> None:
     """The prefiltered cube chain as an RGBA16F KTX2 cube (half-float overflow clamped),
-    each level's roughness and the LOD mapping in the key/value data."""
+    each level's roughness and the LOD mapping in the key/value data (``note`` ends the
+    ``shbake.content`` line)."""
     kv = {
         "shbake.roughness": json.dumps([round(r, 9) for r in roughness]),
         "shbake.lodMapping": mapping,
@@ -204,7 +210,7 @@ def write_cube_chain(
         "shbake.frame": src.frame,
         "shbake.content": "GGX split-sum prefiltered radiance, level 0 = mirror (alpha 0), "
         f"filtered importance sampling; levels of at most {FIT_MAX_SIZE}^2 texels hold the "
-        "least-squares fit of their bilinear read",
+        "least-squares fit of their bilinear read" + note,
     }
     write_ktx2(path, [_rgba(lv) for lv in clamp_to_half(levels, path)], cube=True, kv=kv)
 

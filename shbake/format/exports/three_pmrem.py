@@ -18,13 +18,20 @@ holding each level's six faces, turned into a ``CompressedCubeTexture`` with
   at the normal): GGX at ``α = 1`` has ``D = 1/π``, so it holds ``E(n)/π``.
 """
 
+from shbake.format.exports.cube_chain import BLEND_MAX_ROUGHNESS
 from shbake.format.exports.ktx2 import write_cube_chain
 from shbake.format.exports.source import ExportSource, require_sh
 
 EXTENSION = "_pmrem.ktx2"
 OUTPUT_ENDINGS = (".ktx2",)
-CUBES = {"size": 256, "floor": 4, "samples": 512, "mapping": "filament"}
-"""Seven levels, 256² to 4² faces, three's roughness↔LOD rule.
+MIN_ROUGHNESS = 0.045
+"""three's floor on roughness (``lights_physical_fragment``: ``max(roughnessFactor, 0.045)``):
+it never reads the chain below ``lod = maxLod · 0.045 (2 − 0.045)``, so the levels it reads
+only blended are refitted to that blend (:mod:`shbake.bakers.lod_blend`)."""
+
+CUBES = {"size": 256, "floor": 4, "samples": 512, "mapping": "filament",
+         "min_roughness": MIN_ROUGHNESS}  # fmt: skip
+"""Seven levels, 256² to 4² faces, three's roughness↔LOD rule and roughness floor.
 
 three blends linearly between the two levels around ``lod = maxLod · r(2 − r)``; with
 seven levels (``maxLod`` 6) the blend stays within 3 % (median) of the true lobe at r 0.3
@@ -32,11 +39,18 @@ and 0.6 on the shared maps, where three's own six (256² to 8²) reach 17 % on s
 to 2² leaves the rough levels too coarse (4² faces at r 0.59: 9 % median)."""
 
 
+BLENDED_NOTE = (
+    f"; levels below r {BLEND_MAX_ROUGHNESS} hold the combination of the chain's lobes "
+    f"whose linear blend fits three's reads (roughness floor {MIN_ROUGHNESS})"
+)
+"""How the ``shbake.content`` note names the refitted levels (:mod:`shbake.bakers.lod_blend`)."""
+
+
 def write(src: ExportSource, out: str, levels, roughness, mapping: str = "filament", **_ignored):
     """Write the chain ``levels`` (three's mapping) to ``out`` (``…_pmrem.ktx2``)."""
     require_sh(src, "threejs-pmrem")
-    write_cube_chain(out, src, levels, roughness, mapping)
+    write_cube_chain(out, src, levels, roughness, mapping, BLENDED_NOTE)
     return [out]
 
 
-__all__ = ["CUBES", "EXTENSION", "OUTPUT_ENDINGS", "write"]
+__all__ = ["CUBES", "EXTENSION", "MIN_ROUGHNESS", "OUTPUT_ENDINGS", "write"]

@@ -217,11 +217,8 @@ class TestOtherCommandsMemory:
         """The estimate covers the measured peak and, for a lat-long map (read texel by
         texel), is not the cube input's sub-texel directions: a 1024² chain of a 512×256 map
         was refused at 28.4 GiB while it needs about 2."""
-        from shbake.bakers.cube_prefilter import (
-            chain_memory,
-            mirror_supersample,
-            prefilter_chain,
-        )
+        from shbake.bakers.cube_chain import chain_memory, prefilter_chain
+        from shbake.bakers.cube_prefilter import mirror_supersample
         from shbake.envmap.environment import Environment
 
         rng = np.random.default_rng(3)
