@@ -256,7 +256,7 @@ the 95th percentile, with no texel or sample error at all). three.js and Filamen
 read below their roughness floor, so their sharp levels hold the combinations of lobes
 fitted to that blend (:mod:`shbake.bakers.lod_blend`); since then three.js meets the bounds
 on all six maps (rendered 2026-11-27, mirror p95: esplanade 21.9 → 9.8 %, forest 17.1 →
-7.2 %, studio 46.8 → 11.5 %; studio's r 0.3 dielectric median 5.5 → 0.7 %) and Filament
+7.2 %, studio 46.8 → 11.4 %; studio's r 0.3 dielectric median 5.5 → 0.7 %) and Filament
 on esplanade (22.4 → 13.8 %) and night (20.4 → 11.6 %).
 
 * Filament's mirror on studio: 5.0 % median / 30.6 % p95 (was 13.9 / 80.5 %). Filament's
