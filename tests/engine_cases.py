@@ -2,6 +2,7 @@
 the views, materials and cube chains, how each engine page is rendered, and the brute-force
 references and error measures the renders are compared with (that test module's docstring)."""
 
+import functools
 import json
 import os
 import re
@@ -195,6 +196,16 @@ def three_expected(env, renders: dict, pick, white: bool = False, chain=None) ->
     elif not white:
         d, w, rad = env.samples()
         e_over_pi = brute_force_irradiance(d, w, rad, n) / np.pi
+
+    @functools.cache
+    def prefiltered(r):  # metal and dielectric of one roughness: the same lobe
+        r_eff = np.minimum(np.maximum(r, THREE_MIN_ROUGHNESS) + r_geo, 1.0)
+        look = refl + (n - refl) * (r_eff**4)[:, None]
+        look /= np.linalg.norm(look, axis=-1, keepdims=True)
+        if chain is not None:
+            return read_chain(chain, look, top * r_eff * (2.0 - r_eff))
+        return reference_radiance(env, look, r_eff**2)
+
     out = {}
     for name, kind, r in GLOSSY:
         if name not in renders["white" if white else "env"]["radiance"]:
@@ -204,13 +215,7 @@ def three_expected(env, renders: dict, pick, white: bool = False, chain=None) ->
         if white:
             want = (single + multi)[:, None] * np.ones(3)
         else:
-            look = refl + (n - refl) * (r_eff**4)[:, None]
-            look /= np.linalg.norm(look, axis=-1, keepdims=True)
-            if chain is not None:
-                prefiltered = read_chain(chain, look, top * r_eff * (2.0 - r_eff))
-            else:
-                prefiltered = reference_radiance(env, look, r_eff**2)
-            want = single[:, None] * prefiltered + multi[:, None] * e_over_pi
+            want = single[:, None] * prefiltered(r) + multi[:, None] * e_over_pi
         got = renders["white" if white else "env"]["radiance"][name][..., :3][pick]
         out[name] = (got, want)
     return out
@@ -406,17 +411,20 @@ def babylon_expected(env, src, renders: dict, white: dict, pick) -> dict:
     n = n / np.linalg.norm(n, axis=-1, keepdims=True)
     refl = reflect(renders["rays"][pick], n)
     e_over_pi = shbake_irradiance(src, n) / np.pi
+
+    @functools.cache
+    def prefiltered(a):  # metal and dielectric of one roughness: the same lobe
+        if a == BABYLON_MIN_ALPHA:
+            return latlong_bilinear(env.pixels, refl)
+        return reference_radiance(env, refl, a)
+
     out = {}
     for name, _kind, r in GLOSSY:
         if name not in renders["radiance"]:
             continue
         a = r * r + BABYLON_MIN_ALPHA
-        if r == 0.0:
-            prefiltered = latlong_bilinear(env.pixels, refl)
-        else:
-            prefiltered = reference_radiance(env, refl, a)
         factor = white["radiance"][name][..., :3][pick]
-        want = factor * ((1.0 - a) * prefiltered + a * e_over_pi)
+        want = factor * ((1.0 - a) * prefiltered(a) + a * e_over_pi)
         out[name] = (renders["radiance"][name][..., :3][pick], want)
     return out
 
@@ -504,15 +512,20 @@ def filament_expected(env, renders: dict, white: dict, pick) -> dict:
     kernel = np.minimum(2.0 * variance * ((du * du).sum(-1) + (dv * dv).sum(-1)), threshold)[pick]
     n = unit[pick]
     refl = reflect(renders["rays"][pick], n)
-    out = {}
-    for name, _kind, r in GLOSSY:
-        if name not in renders["radiance"]:
-            continue
+
+    @functools.cache
+    def prefiltered(r):  # metal and dielectric of one roughness: the same lobe
         filtered = np.minimum(r**4 + kernel, 1.0) ** 0.25
         a = np.maximum(filtered, FILAMENT_MIN_ROUGHNESS) ** 2
         look = refl + (n - refl) * (a * a)[:, None]
         look /= np.linalg.norm(look, axis=-1, keepdims=True)
-        want = white["radiance"][name][..., :3][pick] * reference_radiance(env, look, a)
+        return reference_radiance(env, look, a)
+
+    out = {}
+    for name, _kind, r in GLOSSY:
+        if name not in renders["radiance"]:
+            continue
+        want = white["radiance"][name][..., :3][pick] * prefiltered(r)
         out[name] = (renders["radiance"][name][..., :3][pick], want)
     return out
 
