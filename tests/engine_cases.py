@@ -260,9 +260,9 @@ exact lobe of its roughness, that blend is not the lobe between near a bright so
 the 95th percentile, with no texel or sample error at all). three.js and Filament never
 read below their roughness floor, so their sharp levels hold the combinations of lobes
 fitted to that blend (:mod:`shbake.bakers.lod_blend`); since then three.js meets the bounds
-on all six maps (rendered 2026-11-27, mirror p95: esplanade 21.9 → 9.8 %, forest 17.1 →
-7.2 %, studio 46.8 → 11.4 %; studio's r 0.3 dielectric median 5.5 → 0.7 %) and Filament
-on esplanade (22.4 → 13.8 %) and night (20.4 → 11.6 %).
+on all six maps (rendered 2026-11-27, mirror p95: esplanade 21.9 → 9.9 %, forest 17.1 →
+7.3 %, studio 46.8 → 11.5 %; studio's r 0.3 dielectric median 5.5 → 0.7 %) and Filament
+on esplanade (22.4 → 13.9 %) and night (20.4 → 11.5 %).
 
 * Filament's mirror on studio: 5.0 % median / 30.6 % p95 (was 13.9 / 80.5 %). Filament's
   "mirror" is its roughness floor (0.089) widened by gltfio's specular anti-aliasing

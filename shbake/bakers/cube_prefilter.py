@@ -519,6 +519,23 @@ def _spread_taps(offsets, index, weight, r, out):
                 out[index[t], c] += weight[t] * r[k, c]
 
 
+def bilinear_taps(dirs: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The texels and weights of the GPU's seam-correct bilinear read of a ``size``² cube at
+    unit ``dirs (m, 3)`` (:func:`~shbake.texture.cube.cube_bilinear_taps`): direction ``k``
+    blends texels ``index[offsets[k]:offsets[k+1]]`` (flat: ``(face · size + row) · size +
+    column``) with ``weight`` over the same range."""
+    dirs = np.ascontiguousarray(dirs, dtype=np.float64)
+    axes = world_face_frames()
+    counts = np.empty(dirs.shape[0], np.int64)
+    _count_taps(axes, dirs, size, counts)
+    offsets = np.zeros(dirs.shape[0] + 1, np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    index = np.empty(offsets[-1], np.int64)
+    weight = np.empty(offsets[-1])
+    _fill_taps(axes, dirs, size, offsets, index, weight)
+    return offsets, index, weight
+
+
 def fit_bilinear(dense: np.ndarray, size: int, iterations: int = FIT_ITERATIONS) -> np.ndarray:
     """Texel values of a ``size``² chain level whose seam-correct bilinear read (the GPU's,
     :func:`shbake.texture.cube.cube_bilinear`) best fits ``dense`` — the level's radiance at
@@ -533,16 +550,7 @@ def fit_bilinear(dense: np.ndarray, size: int, iterations: int = FIT_ITERATIONS)
     faces: 62.6 % p95 from brute force at 4096 directions with centre values, 22.9 % with
     least-squares values).
     """
-    fine = dense.shape[1]
-    dirs = cube_directions(fine)[0].reshape(-1, 3)
-    axes = world_face_frames()
-    counts = np.empty(dirs.shape[0], np.int64)
-    _count_taps(axes, dirs, size, counts)
-    offsets = np.zeros(dirs.shape[0] + 1, np.int64)
-    np.cumsum(counts, out=offsets[1:])
-    index = np.empty(offsets[-1], np.int64)
-    weight = np.empty(offsets[-1])
-    _fill_taps(axes, dirs, size, offsets, index, weight)
+    offsets, index, weight = bilinear_taps(cube_directions(dense.shape[1])[0].reshape(-1, 3), size)
     x = dense
     while x.shape[1] > size:
         x = downsample_cube(x)
@@ -578,6 +586,7 @@ __all__ = [
     "HOT_CONTRAST",
     "HOT_TEXELS_MAX",
     "HotTexels",
+    "bilinear_taps",
     "cube_directions",
     "cube_pyramid",
     "downsample_cube",

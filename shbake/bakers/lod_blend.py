@@ -18,20 +18,24 @@ the levels free: each level only has to make the *blends* right. So the levels `
 levels, ``L_k = max(0, Σ_j C_kj E_j)`` (``j ≤ K``), ``C`` fitted per map by linear least
 squares: at :data:`BLEND_DIRECTIONS` spherical-Fibonacci directions and at lods
 :data:`BLEND_LODS_PER_LEVEL` per level apart across ``[lod_min, K]``, the blend of the
-``L_k`` (each ``E_j`` read bilinearly, as the GPU reads it) against the prefiltered
-radiance at that lod's roughness (the chain's own estimator,
-:func:`shbake.bakers.cube_prefilter.prefilter_points`), each residual divided by the
-target's luminance (relative error, what the engines are judged by). The identity
-(``C = I``) is one candidate, so on those points the fit is never worse than exact levels.
+``L_k`` (each ``E_j`` as level ``k`` holds it on its grid, read bilinearly as the GPU
+reads it) against the prefiltered radiance at that lod's roughness (the chain's own
+estimator, :func:`shbake.bakers.cube_prefilter.prefilter_points`), each residual divided
+by the target's luminance (relative error, what the engines are judged by). The identity
+(``C = I``) is one candidate; the refitted chain is kept only if its blend, read back at
+those points, is nearer the targets than the exact levels' (a 64² → 2² chain of esplanade
+averaged to 128 × 64 gains nothing: the exact levels are kept, where the refit alone read
+35.3 → 58.1 % p95).
 The fitted ``C`` is near ``L_k ≈ 1.25 E_k − 0.15 (E_{k−1} + E_{k+1})``: each level sharpened
 against its neighbours, which the blend then softens back.
 
-Measured (three.js's 512² → 4² chain, its lod rule and the tests' sphere pixels, chain read
-as the GPU does against the converged brute force, p95): the mirror on esplanade 24.0 →
-10.6 %, studio 46.5 → 12.1 %; studio r 0.3 median 5.8 → 0.7 %; r 0.6 unchanged (its levels
-are exact). Refitting the rough levels too (every level but the last) raised studio's
-r 0.6 from 7.6 to 16.8 %: a least-squares fit over all lods trades the rough end's tail
-for the sharp end's, so those levels stay exact.
+Measured on three.js's 512² → 4² chain read as the GPU does (:func:`read_chain` at the
+rendered-engine tests' sphere pixels and lods) against the converged brute force, p95: the
+mirror on esplanade 24.0 → 10.6 %, studio 46.5 → 12.1 %; studio r 0.3 median 5.8 → 0.7 %;
+r 0.6 unchanged (its levels are exact). Rendered by three.js itself: esplanade 21.9 →
+9.9 %, studio 46.8 → 11.5 % (docs/BENCHMARKS.md). Refitting the rough levels too (every
+level but the last) raised studio's r 0.6 from 7.6 to 16.8 %: a least-squares fit over all
+lods trades the rough end's tail for the sharp end's, so those levels stay exact.
 """
 
 import math
@@ -41,6 +45,7 @@ import numpy as np
 from shbake.bakers.cube_prefilter import (
     FIT_DENSITY,
     HotTexels,
+    bilinear_taps,
     cube_directions,
     downsample_cube,
     fit_bilinear,
@@ -85,37 +90,10 @@ def _hat(k: int, lods: np.ndarray) -> np.ndarray:
     return np.maximum(0.0, 1.0 - np.abs(lods - k))
 
 
-def blend_coefficients(
-    levels: list[np.ndarray],
-    fitted: range,
-    mapping: str,
-    source: list[np.ndarray],
-    hot: HotTexels | None,
-    lod_min: float,
-) -> np.ndarray:
-    """``C`` (``len(fitted) × (fitted.stop + 1)``): level ``fitted[i]`` becomes
-    ``Σ_j C[i, j] levels[j]`` (module docstring). ``source``/``hot``: the chain's FIS
-    pyramid and excess texels (:func:`shbake.bakers.cube_prefilter.split_hot_texels`)."""
-    n, size = len(levels), levels[0].shape[1]
-    top = fitted.stop
-    frames = world_face_frames()
-    dirs = fibonacci_sphere(BLEND_DIRECTIONS)
-    lods = np.linspace(lod_min, top, int(math.ceil((top - lod_min) * BLEND_LODS_PER_LEVEL)) + 1)
-    target = np.stack([
-        prefilter_points(source, dirs, ggx_alpha(roughness_of_level(ell, n, mapping, size)),
-                         BLEND_SAMPLES, hot=hot) @ REC709_LUMINANCE
-        for ell in lods
-    ])  # fmt: skip
-    basis = np.stack([sample_cube(levels[j], dirs, frames) @ REC709_LUMINANCE
-                      for j in range(top + 1)])  # fmt: skip
-    # what the levels kept exact add at each lod (levels below `fitted` have no weight there)
-    rest = _hat(top, lods)[:, None] * basis[top][None]
-    hats = np.stack([_hat(k, lods) for k in fitted], axis=1)  # (lods, fitted)
-    design = hats[:, None, :, None] * basis.T[None, :, None, :]  # (lods, dirs, fitted, basis)
-    weight = 1.0 / np.maximum(target, 1e-6 * max(float(target.mean()), 1e-300))
-    a = (design * weight[..., None, None]).reshape(-1, len(fitted) * (top + 1))
-    b = ((target - rest) * weight).reshape(-1)
-    return np.linalg.lstsq(a, b, rcond=None)[0].reshape(len(fitted), top + 1)
+def _grid_edge(n: int) -> int:
+    """Edge of the grid a refitted level of ``n``² faces is made on: its own, or
+    ``FIT_DENSITY × n`` for a level fitted to the bilinear read (``n ≤ FIT_MAX_SIZE``)."""
+    return n if n > FIT_MAX_SIZE else FIT_DENSITY * n
 
 
 def _level_on_grid(level: np.ndarray, m: int) -> np.ndarray:
@@ -129,6 +107,34 @@ def _level_on_grid(level: np.ndarray, m: int) -> np.ndarray:
     return sample_cube(level, dirs, world_face_frames()).reshape(6, m, m, 3)
 
 
+def _reads_on_grid(levels: list[np.ndarray], m: int, dirs: np.ndarray) -> np.ndarray:
+    """Luminance of each of ``levels`` as an ``m``² grid holds it (:func:`_level_on_grid`),
+    read bilinearly at ``dirs``: ``(len(levels), len(dirs))``. Only the texels those reads
+    take are made (a 512² grid: a few thousand, not 1.5 million)."""
+    offsets, index, weight = bilinear_taps(dirs, m)
+    used, inverse = np.unique(index, return_inverse=True)
+    at = cube_directions(m)[0].reshape(-1, 3)[used]
+    rows = np.repeat(np.arange(len(dirs)), np.diff(offsets))
+    out = []
+    for level in levels:
+        while level.shape[1] > m:
+            level = downsample_cube(level)
+        if level.shape[1] == m:
+            values = level.reshape(-1, 3)[used]
+        else:
+            values = sample_cube(level, at, world_face_frames())
+        y = (values @ REC709_LUMINANCE)[inverse.reshape(-1)]
+        out.append(np.bincount(rows, weights=weight * y, minlength=len(dirs)))
+    return np.stack(out)
+
+
+def _blend_error(reads: np.ndarray, lods: np.ndarray, target: np.ndarray) -> float:
+    """Sum of squared relative errors of a chain's luminance ``reads`` (levels × dirs) blended
+    at ``lods`` against ``target`` (lods × dirs)."""
+    blend = np.stack([_hat(k, lods) for k in range(len(reads))], axis=1) @ reads
+    return float((((blend - target) / target) ** 2).sum())
+
+
 def fit_lod_blend(
     levels: list[np.ndarray],
     mapping: str,
@@ -137,23 +143,59 @@ def fit_lod_blend(
     lod_min: float,
 ) -> tuple[list[np.ndarray], np.ndarray]:
     """The chain ``levels`` (exact lobes, level 0 first, ``mapping``'s roughness per level)
-    with :func:`blended_levels` replaced by the combinations of :func:`blend_coefficients`,
-    for an engine that reads it at ``lod`` ≥ ``lod_min``. A level of at most
-    ``FIT_MAX_SIZE``² faces is made at ``FIT_DENSITY`` × its edge and fitted to the GPU's
-    bilinear read (:func:`shbake.bakers.cube_prefilter.fit_bilinear`), like the level it
-    replaces. Returns ``(levels, C)`` (``C``: zero rows when nothing is refitted)."""
-    size = levels[0].shape[1]
-    fitted = blended_levels(len(levels), mapping, size, lod_min)
+    with :func:`blended_levels` replaced by combinations of the levels, for an engine that
+    reads it at ``lod`` ≥ ``lod_min`` (module docstring). ``source``/``hot``: the chain's
+    FIS pyramid and excess texels (:func:`shbake.bakers.cube_prefilter.split_hot_texels`),
+    which the targets are prefiltered from.
+
+    Level ``k`` is made on its grid (:func:`_grid_edge`: at ``FIT_DENSITY`` × its edge, then
+    fitted to the GPU's bilinear read by :func:`shbake.bakers.cube_prefilter.fit_bilinear`,
+    for a level of at most ``FIT_MAX_SIZE``² faces), and the least squares read each
+    ``E_j`` as it lies on that grid, so the fit models the level it builds. The refitted
+    chain is kept only where its blend, read back at the fit's points, is nearer the targets
+    than the exact levels'. Returns ``(levels, C)``, ``C`` (``len(fitted) × (K + 1)``) with
+    no rows when nothing is refitted."""
+    n, size = len(levels), levels[0].shape[1]
+    fitted = blended_levels(n, mapping, size, lod_min)
     if not len(fitted):
         return list(levels), np.zeros((0, 0))
-    coeffs = blend_coefficients(levels, fitted, mapping, source, hot, lod_min)
+    top = fitted.stop
+    frames = world_face_frames()
+    dirs = fibonacci_sphere(BLEND_DIRECTIONS)
+    lods = np.linspace(lod_min, top, int(math.ceil((top - lod_min) * BLEND_LODS_PER_LEVEL)) + 1)
+    target = np.stack([
+        prefilter_points(source, dirs, ggx_alpha(roughness_of_level(ell, n, mapping, size)),
+                         BLEND_SAMPLES, hot=hot) @ REC709_LUMINANCE
+        for ell in lods
+    ])  # fmt: skip
+    target = np.maximum(target, 1e-6 * max(float(target.mean()), 1e-300))
+
+    def read(level):
+        return sample_cube(level, dirs, frames) @ REC709_LUMINANCE
+
+    # basis[i, j]: E_j as level fitted[i] holds it (on its grid), read at dirs
+    basis = np.stack([_reads_on_grid(levels[: top + 1], _grid_edge(levels[k].shape[1]), dirs)
+                      for k in fitted])  # fmt: skip
+    exact = np.stack([read(lv) for lv in levels[: top + 1]])
+    rest = _hat(top, lods)[:, None] * exact[top][None]  # levels below `fitted`: no weight
+    hats = np.stack([_hat(k, lods) for k in fitted], axis=1)  # (lods, fitted)
+    design = hats[:, None, :, None] * basis.transpose(2, 0, 1)[None]  # (lods, dirs, fitted, j)
+    weight = 1.0 / target
+    a = (design * weight[..., None, None]).reshape(-1, basis.shape[0] * basis.shape[1])
+    b = ((target - rest) * weight).reshape(-1)
+    coeffs = np.linalg.lstsq(a, b, rcond=None)[0].reshape(basis.shape[:2])
     out = list(levels)
     for row, k in enumerate(fitted):
-        n = levels[k].shape[1]
-        m = n if n > FIT_MAX_SIZE else FIT_DENSITY * n
-        mixed = sum(c * _level_on_grid(levels[j], m) for j, c in enumerate(coeffs[row]))
+        edge = levels[k].shape[1]
+        m = _grid_edge(edge)
+        mixed = np.zeros((6, m, m, 3))
+        for j, c in enumerate(coeffs[row]):
+            mixed += c * _level_on_grid(levels[j], m)
         mixed = np.maximum(mixed, 0.0)
-        out[k] = mixed if m == n else fit_bilinear(mixed, n)
+        out[k] = mixed if m == edge else fit_bilinear(mixed, edge)
+    refit = np.stack([read(lv) for lv in out[: top + 1]])
+    if _blend_error(refit, lods, target) >= _blend_error(exact, lods, target):
+        return list(levels), np.zeros((0, 0))
     return out, coeffs
 
 
@@ -161,7 +203,6 @@ __all__ = [
     "BLEND_DIRECTIONS",
     "BLEND_LODS_PER_LEVEL",
     "BLEND_SAMPLES",
-    "blend_coefficients",
     "blended_levels",
     "fit_lod_blend",
 ]
