@@ -5,6 +5,7 @@ against the fit's own targets."""
 import os
 
 import numpy as np
+import pytest
 
 from shbake.conventions import REC709_LUMINANCE
 from shbake.envmap import load_environment
@@ -88,3 +89,16 @@ class TestFitLodBlend:
         are kept."""
         exact, refitted = self.blend_p95(self.sunny(4), 64, 2)
         assert refitted <= exact
+
+    @pytest.mark.parametrize("value", [0.0, 1e5])
+    def test_black_and_uniform_maps(self, value):
+        """A black map (every target 0) and a uniform one of 1e5: the refitted chain holds the
+        map's value (a degenerate least squares gives no NaN, no ringing)."""
+        from shbake.bakers.cube_chain import prefilter_chain
+        from shbake.envmap.environment import Environment
+        from shbake.format.exports.three_pmrem import MIN_ROUGHNESS
+
+        env = Environment(np.full((32, 64, 3), value, np.float32), "latlong")
+        levels, _ = prefilter_chain(env, 16, 2, "filament", 32, min_roughness=MIN_ROUGHNESS)
+        for level in levels:
+            np.testing.assert_allclose(level, value, rtol=1e-12, atol=0.0)
