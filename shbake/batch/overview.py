@@ -9,7 +9,7 @@ What the folder holds, all of it untrusted (``docs/SECURITY.md``):
 * preview summaries (``preview --json > NAME.json``): a contact sheet and its error;
 * scene locks (``scene.lock.json`` in the folder or one folder below it, ``shbake bake``):
   per asset its measured errors, the scene's tolerances, outputs and bake seconds;
-* tradeoff plots (``tradeoff*.png``, ``shbake tradeoff``).
+* tradeoff plots (``tradeoff*.png``, ``shbake tradeoff``; not a ``…-sheet.png``, a preview's).
 
 Every summary's and record's fields must have the types the commands write (a finite
 number, a string, a list of strings); a file or record that does not is skipped, as a
@@ -290,7 +290,10 @@ def gather(folder: str, tol: float | None = None) -> dict:
     for lock in sorted([root / LOCK_NAME, *root.glob(f"*/{LOCK_NAME}")]):
         if lock.is_file() and not lock.is_symlink():
             rows += _lock_rows(lock, tol)
-    plots = [str(p) for p in sorted(root.glob("tradeoff*.png"))]
+    # a tradeoff…-sheet.png is a preview's contact sheet (above), not a plot
+    plots = [
+        str(p) for p in sorted(root.glob("tradeoff*.png")) if not p.name.endswith("-sheet.png")
+    ]
     return {"rows": rows, "groups": groups, "plots": plots}
 
 
