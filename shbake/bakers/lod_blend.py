@@ -96,15 +96,15 @@ def _grid_edge(n: int) -> int:
     return n if n > FIT_MAX_SIZE else FIT_DENSITY * n
 
 
-def _level_on_grid(level: np.ndarray, m: int) -> np.ndarray:
-    """``level`` at the texel centres of an ``m``² cube: box-averaged down to it when finer,
-    read bilinearly at them otherwise. ``(6, m, m, 3)``."""
+def _level_on_grid(level: np.ndarray, m: int, centres: np.ndarray) -> np.ndarray:
+    """``level`` at the texel centres of an ``m``² cube (``centres``: their directions,
+    ``(6 m², 3)``): box-averaged down to it when finer, read bilinearly at them otherwise.
+    ``(6, m, m, 3)``."""
     while level.shape[1] > m:
         level = downsample_cube(level)
     if level.shape[1] == m:
         return level
-    dirs = cube_directions(m)[0].reshape(-1, 3)
-    return sample_cube(level, dirs, world_face_frames()).reshape(6, m, m, 3)
+    return sample_cube(level, centres, world_face_frames()).reshape(6, m, m, 3)
 
 
 def _reads_on_grid(levels: list[np.ndarray], m: int, dirs: np.ndarray) -> np.ndarray:
@@ -188,9 +188,10 @@ def fit_lod_blend(
     for row, k in enumerate(fitted):
         edge = levels[k].shape[1]
         m = _grid_edge(edge)
+        centres = cube_directions(m)[0].reshape(-1, 3)  # once per level, not per term
         mixed = np.zeros((6, m, m, 3))
         for j, c in enumerate(coeffs[row]):
-            mixed += c * _level_on_grid(levels[j], m)
+            mixed += c * _level_on_grid(levels[j], m, centres)
         mixed = np.maximum(mixed, 0.0)
         out[k] = mixed if m == edge else fit_bilinear(mixed, edge)
     refit = np.stack([read(lv) for lv in out[: top + 1]])
