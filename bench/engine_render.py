@@ -1,7 +1,7 @@
 """Rendered engine exports on the six shared maps: the figures of docs/BENCHMARKS.md.
 
 For each map: an env_sh asset (lmax 2), its exports at the chains of the tests
-(:data:`tests.engine_cases.THREE_CUBES`, ``FILAMENT_CUBES``, ``BABYLON_CUBES``, the
+(:data:`tests.engine_cases.THREE_CUBES`, ``filament_cubes``, ``BABYLON_CUBES``, the
 settings docs/EXPORTS.md recommends for glossy work: three.js ``threejs`` +
 ``threejs-pmrem``; Babylon.js ``babylon`` as ``.env`` and ``.gltf``; Filament
 ``filament``), rendered by the engines in headless Chromium (tests/engines/harness.mjs)
@@ -32,7 +32,6 @@ from shbake.format.exports.source import load_source  # noqa: E402
 from tests.engine_browser import EngineBrowser, chromium_or_reason  # noqa: E402
 from tests.engine_cases import (  # noqa: E402
     BABYLON_CUBES,
-    FILAMENT_CUBES,
     FOV_DEG,
     GLOSSY,
     LAMBERT,
@@ -43,6 +42,7 @@ from tests.engine_cases import (  # noqa: E402
     chain_sizes,
     diffuse_error,
     export_recording,
+    filament_cubes,
     filament_expected,
     glossy_errors,
     pick_pixels,
@@ -85,11 +85,12 @@ def map_rows(browser, name: str, d: Path) -> dict:
         ),
         "bytes": {".json": sizes([probe]), "_pmrem.ktx2": sizes(pmrem)},
     }
-    # Filament: its own chain (seven levels: FILAMENT_CUBES)
-    fil, _ = export_recording(h5, "filament", str(d / f"{name}_sh.txt"), **FILAMENT_CUBES)
+    # Filament: its own chain (seven levels, ten on studio: filament_cubes)
+    cubes = filament_cubes(name)
+    fil, _ = export_recording(h5, "filament", str(d / f"{name}_sh.txt"), **cubes)
     ibl = next(f for f in fil if f.endswith("_ibl.ktx"))
     env_r = render_filament(browser, d, [LAMBERT, *sphere_materials()], ibl)
-    unit = white_ktx1(d, chain_sizes(FILAMENT_CUBES))
+    unit = white_ktx1(d, chain_sizes(cubes))
     white_r = render_filament(browser, d, sphere_materials(), unit)
     rows["Filament 1.53.4"] = {
         "diffuse": diffuse_error(env_r, src),
