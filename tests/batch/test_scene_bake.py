@@ -196,7 +196,8 @@ class TestProjectionRecord:
     """``Projection.to_record`` / ``from_record``: exact, and untrusted records refused."""
 
     @pytest.fixture(scope="class", params=["sun", "no sun", "not extracted"])
-    def projection(self, request):
+    @classmethod
+    def projection(cls, request):
         from shbake.bakers.env_sh import project_lighting
         from shbake.envmap import load_environment
         from shbake.envmap.environment import Environment
@@ -263,7 +264,8 @@ class TestProbeRecord:
     """``ShexpProbe.to_record`` / ``from_record``: exact, and untrusted records refused."""
 
     @pytest.fixture(scope="class")
-    def fitted(self):
+    @classmethod
+    def fitted(cls):
         from shbake.bakers.shexp import FitConfig
         from shbake.batch.probe_jobs import fit_plan
         from shbake.envmap import load_environment
