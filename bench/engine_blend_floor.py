@@ -6,15 +6,12 @@ the value read along a direction ``d`` at ``lod`` is therefore ``Σ_k h_k(lod) v
 ``h_k`` the blend's hat weights and ``v_k(d)`` what level ``k`` gives at ``d``; every
 roughness from the engine's floor up to ``--up-to`` is some material's, and each is expected
 to give ``P(d, α(lod))`` (brute force, :func:`shbake.reference.prefiltered.reference_radiance`).
-For each direction, the linear program
-
-    minimise e  subject to  |Σ_k h_k(lod_i) v_k − P_i| ≤ e P_i  at every lod_i,  v_k ≥ 0
-
-gives the least largest relative error over that roughness range that *any* chain can have
-at ``d``: levels free per direction (no texels, no bilinear coupling between directions),
-so every chain shbake or anyone could write errs at least this much at ``d`` for some
-roughness in the range. The lods are sampled 12 per level (a subset of the continuous
-range: the bound stays a lower bound).
+For each direction, a linear program (:func:`tests.engine_cases.blend_bound`) gives the
+least largest relative error over that roughness range that *any* chain can have at ``d``:
+levels free per direction (no texels, no bilinear coupling between directions), so every
+chain shbake or anyone could write errs at least this much at ``d`` for some roughness in
+the range. The lods are sampled 12 per level (a subset of the continuous range: the bound
+stays a lower bound).
 
 The directions are those the rendered-engine tests' mirror sphere shows
 (``tests/system/test_engine_render.py``: same camera, pixels and sample). Prints a Markdown
@@ -31,58 +28,20 @@ import argparse
 
 import numpy as np
 from engine_lod_floor import CHAINS, MAPS, ROOT, lookups, sphere_pixels
-from scipy.optimize import linprog
 
-from shbake.conventions import REC709_LUMINANCE, ggx_alpha
 from shbake.envmap import load_environment
-from shbake.format.exports.cube_chain import level_of_roughness, roughness_of_level
-from shbake.reference.prefiltered import reference_radiance
 from tests.engine_browser import reflect
 from tests.engine_cases import (
     FILAMENT_MIN_ROUGHNESS,
+    P95_TOL,
     REFERENCE_PIXELS,
     THREE_MIN_ROUGHNESS,
     VIEWS,
+    blend_bound,
+    bound_lods,
     chain_sizes,
+    prefiltered_luminance,
 )
-
-LODS_PER_LEVEL = 12
-"""Lods sampled per level of the range (the bound's constraints)."""
-BOUND = 0.15
-"""The issue's 95th-percentile bound the share is counted against."""
-
-
-def direction_bound(hats: np.ndarray, target: np.ndarray) -> float:
-    """The least ``e`` with ``|hats @ v − target| ≤ e · target``, ``v ≥ 0`` (module
-    docstring): ``hats`` ``(lods, levels)``, ``target`` ``(lods,)`` positive."""
-    scaled = hats / target[:, None]
-    ones = np.ones((len(target), 1))
-    a_ub = np.vstack([np.hstack([scaled, -ones]), np.hstack([-scaled, -ones])])
-    b_ub = np.concatenate([np.ones(len(target)), -np.ones(len(target))])
-    cost = np.zeros(hats.shape[1] + 1)
-    cost[-1] = 1.0
-    return float(linprog(cost, A_ub=a_ub, b_ub=b_ub, bounds=(0, None), method="highs").x[-1])
-
-
-def lod_range(engine: str, levels: int, up_to: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(lods, knots)``: the lods a chain of ``levels`` is read at by materials from
-    ``engine``'s roughness floor to ``up_to`` (:data:`LODS_PER_LEVEL` per level), and the
-    levels whose blends cover them."""
-    floor = FILAMENT_MIN_ROUGHNESS if engine == "filament" else THREE_MIN_ROUGHNESS
-    lo, hi = (level_of_roughness(r, levels, "filament") for r in (floor, up_to))
-    lods = np.linspace(lo, hi, int(np.ceil((hi - lo) * LODS_PER_LEVEL)) + 1)
-    return lods, np.arange(int(np.floor(lo)), int(np.ceil(hi)) + 1)
-
-
-def prefiltered_luminance(env, look: np.ndarray, lods: np.ndarray, levels: int) -> np.ndarray:
-    """Brute-force ``P(d, α(lod))`` luminance, ``(len(look), len(lods))``, floored at 1e-12 of
-    its largest value."""
-    target = np.stack([
-        reference_radiance(env, look, ggx_alpha(roughness_of_level(lod, levels, "filament")))
-        @ REC709_LUMINANCE
-        for lod in lods
-    ], axis=1)  # fmt: skip
-    return np.maximum(target, 1e-12 * target.max())
 
 
 def mirror_directions(engine: str, levels: int) -> np.ndarray:
@@ -97,13 +56,13 @@ def mirror_directions(engine: str, levels: int) -> np.ndarray:
 
 def map_row(engine: str, name: str, levels: int, up_to: float) -> str:
     env = load_environment(str(ROOT.parent / "shared" / "hdri" / f"{name}.exr"), quiet=True)
-    lods, knots = lod_range(engine, levels, up_to)
-    hats = np.maximum(0.0, 1.0 - np.abs(lods[:, None] - knots[None]))
+    floor = FILAMENT_MIN_ROUGHNESS if engine == "filament" else THREE_MIN_ROUGHNESS
+    lods, knots = bound_lods(floor, levels, up_to)
     target = prefiltered_luminance(env, mirror_directions(engine, levels), lods, levels)
-    bound = np.array([direction_bound(hats, t) for t in target])
+    bound = np.array([blend_bound(lods, knots, t) for t in target])
     q = np.percentile(bound, [50, 90, 95])
     return (f"| {name} | {levels} | {lods[0]:.2f}–{lods[-1]:.2f} | {q[0]:.1%} | {q[1]:.1%} | "
-            f"{q[2]:.1%} | {np.mean(bound > BOUND):.1%} |")  # fmt: skip
+            f"{q[2]:.1%} | {np.mean(bound > P95_TOL):.1%} |")  # fmt: skip
 
 
 def main() -> None:

@@ -9,11 +9,17 @@ import re
 
 import numpy as np
 import pytest
+from scipy.optimize import linprog
 
 from shbake.batch.export import export_assets
-from shbake.conventions import REC709_LUMINANCE
+from shbake.conventions import REC709_LUMINANCE, ggx_alpha
 from shbake.format.exports import filament, three_pmrem
-from shbake.format.exports.cube_chain import BABYLON_MIN_ALPHA, read_chain
+from shbake.format.exports.cube_chain import (
+    BABYLON_MIN_ALPHA,
+    level_of_roughness,
+    read_chain,
+    roughness_of_level,
+)
 from shbake.format.exports.gltf import png_rgba8
 from shbake.format.exports.ktx2 import write_ktx2
 from shbake.format.exports.source import shbake_irradiance
@@ -516,3 +522,46 @@ def render_filament(browser, d, materials, ibl: str) -> dict:
                for k in ("lit", "diffuse", "normal")}  # fmt: skip
     return browser.render("filament.html", VIEWS, SIZE, FOV_DEG, materials=materials,
                           ibl=browser.url(ibl), spheres=spheres)  # fmt: skip
+
+
+BOUND_LODS_PER_LEVEL = 12
+"""Lods per level a blend bound (:func:`blend_bound`) is sampled at."""
+
+
+def bound_lods(floor: float, levels: int, up_to: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(lods, knots)``: the lods a chain of ``levels`` is read at (``(n − 1) r (2 − r)``,
+    three.js and Filament) by materials from roughness ``floor`` (the engine's) to ``up_to``,
+    :data:`BOUND_LODS_PER_LEVEL` per level, and the levels whose blends cover them."""
+    lo, hi = (level_of_roughness(r, levels, "filament") for r in (floor, up_to))
+    lods = np.linspace(lo, hi, int(np.ceil((hi - lo) * BOUND_LODS_PER_LEVEL)) + 1)
+    return lods, np.arange(int(np.floor(lo)), int(np.ceil(hi)) + 1)
+
+
+def prefiltered_luminance(env, look: np.ndarray, lods: np.ndarray, levels: int) -> np.ndarray:
+    """Brute-force ``P(d, α(lod))`` luminance at directions ``look``, ``(len(look), len(lods))``,
+    floored at 1e-12 of its largest value."""
+    target = np.stack([
+        reference_radiance(env, look, ggx_alpha(roughness_of_level(lod, levels, "filament")))
+        @ REC709_LUMINANCE
+        for lod in lods
+    ], axis=1)  # fmt: skip
+    return np.maximum(target, 1e-12 * target.max())
+
+
+def blend_bound(lods: np.ndarray, knots: np.ndarray, target: np.ndarray) -> float:
+    """The least largest relative error over ``lods`` that any chain read by a linear blend of
+    its levels ``knots`` can have where the lobe is ``target`` (``(len(lods),)``, positive).
+
+    Whatever the levels hold, the read at ``lod`` is ``Σ_k h_k(lod) v_k`` (``h_k``: the
+    blend's hat weights, ``v_k``: what level ``k`` gives there): the linear program
+    ``min e`` subject to ``|Σ_k h_k(lod_i) v_k − t_i| ≤ e t_i``, ``v_k ≥ 0`` (HiGHS). With
+    the levels free per direction and no texels, every real chain errs at least this much
+    at that direction for some lod of the range (``bench/engine_blend_floor.py``)."""
+    hats = np.maximum(0.0, 1.0 - np.abs(lods[:, None] - knots[None]))
+    scaled = hats / target[:, None]
+    ones = np.ones((len(target), 1))
+    a_ub = np.vstack([np.hstack([scaled, -ones]), np.hstack([-scaled, -ones])])
+    b_ub = np.concatenate([np.ones(len(target)), -np.ones(len(target))])
+    cost = np.zeros(len(knots) + 1)
+    cost[-1] = 1.0
+    return float(linprog(cost, A_ub=a_ub, b_ub=b_ub, bounds=(0, None), method="highs").x[-1])
