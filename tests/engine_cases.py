@@ -1,6 +1,8 @@
 """The engine render cases shared by tests/system/test_engine_render.py and bench/engine_render.py:
 the views, materials and cube chains, how each engine page is rendered, and the brute-force
-references and error measures the renders are compared with (that test module's docstring)."""
+references and error measures the renders are compared with (that test module's docstring),
+and the bound no chain read by an engine's blend beats (:func:`blend_bound`,
+bench/engine_blend_floor.py)."""
 
 import functools
 import json
