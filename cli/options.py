@@ -197,7 +197,8 @@ scheduler_opt = click.option(
     default=None,
     metavar="ADDRESS",
     callback=_scheduler_address,
-    help="Run on the Dask scheduler at [tcp://]HOST:PORT (connected before any work).",
+    help="Run on the Dask scheduler at [tcp|tls|ws|wss://]HOST:PORT (tcp when omitted; "
+    "connected before any work).",
 )
 report_opt = click.option(
     "--report",
