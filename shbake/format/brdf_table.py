@@ -1,4 +1,4 @@
-"""The ``brdf_table`` asset (``docs/FORMAT.md`` §4): build it, read it, look it up.
+"""The ``brdf_table`` asset (``docs/FORMAT.md`` §3): build it, read it, look it up.
 
 ``/table`` is float32 with axes ``([channel,] *parameter axes, row, col, coeff)``:
 a leading channel axis of 3 only for RGB BRDFs, then one axis per ``--vary``

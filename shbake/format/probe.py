@@ -1,4 +1,4 @@
-"""What every probe asset shares (``docs/FORMAT.md`` §5–7): the DFG table dataset,
+"""What every probe asset shares (``docs/FORMAT.md`` §3, the probe kinds): the DFG table dataset,
 the α convention and range, the probe format version, the source record and the
 payload size.
 
@@ -72,7 +72,7 @@ def check_probe_asset(asset: Asset, path: str = "probe") -> Asset:
 
 
 def source_attrs(meta: dict) -> dict:
-    """The provenance block of a probe from an environment's ``meta`` (FORMAT §3)."""
+    """The provenance block of a probe from an environment's ``meta`` (FORMAT §2)."""
     return map_source(meta)
 
 

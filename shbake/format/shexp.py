@@ -1,4 +1,5 @@
-"""The ``shexp_probe`` and ``shexp_probe_set`` assets (``docs/FORMAT.md`` §5, §5a), probe format 2.
+"""The ``shexp_probe`` and ``shexp_probe_set`` assets (``docs/FORMAT.md`` §3, kinds
+``shexp_probe`` and ``shexp_probe_set``), probe format 2.
 
 ``/p`` ``(K, (lmax_p+1)², 3)`` and ``/q`` ``(K, (lmax_q+1)² − 1, 3)`` float32: ``K``
 coefficient sets at the GGX widths ``/knots`` ``(K,)`` (float64), blended by
@@ -85,7 +86,7 @@ SHEXP_PROBE_SET = register(Kind(
     attrs=_SHEXP_ATTRS + (
         Attr("probe_count", "int", "`N`", range=(1, 1 << 24), symbol="N"),
         Attr("probe_names", "json", "map stems", json_type=list),
-        Attr("probe_sources", "json", "per probe, the provenance block of §3 (and the source "
+        Attr("probe_sources", "json", "per probe, the provenance block of §2 (and the source "
              "map attributes)", json_type=list),
         Attr("probe_fit_stats", "json", "per probe, `fit_stats` as in `shexp_probe`",
              json_type=list),
@@ -111,7 +112,7 @@ SHEXP_ATTRS = (
 
 
 def _shexp_attrs(config) -> dict:
-    """Root attributes every SH-exp kind shares (FORMAT §5)."""
+    """Root attributes every SH-exp kind shares (FORMAT §3, ``shexp_probe``)."""
     return convention_attrs((config.alpha_min, config.alpha_max)) | {
         "technique": "SH exponential (Silvennoinen et al. 2025), K sets linear in alpha (v2)",
         "lmax_p": config.lmax_p,

@@ -14,7 +14,7 @@ Root attributes
     (appendix B bound, worst channel), ``residual`` (JSON per channel),
     ``face_size``, ``layout``, ``coefficients`` (``global`` or
     ``tangent_q0``), ``view_convention``, ``method`` and the map's provenance
-    ``source_*`` (the common block, FORMAT §3).
+    ``source_*`` (the common block, FORMAT §2).
 
 Timings vary between runs, so the CLI reports them and the asset does not
 store them: same inputs give identical bytes.

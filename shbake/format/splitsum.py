@@ -1,4 +1,4 @@
-"""The ``splitsum_probe`` asset (``docs/FORMAT.md`` §6), probe format 2."""
+"""The ``splitsum_probe`` asset (``docs/FORMAT.md`` §3, kind ``splitsum_probe``), probe format 2."""
 
 import numpy as np
 
