@@ -78,10 +78,10 @@ def counts(pass_name: str, u: dict) -> tuple[int, int]:
         return 0, 3 * 24 + 2 * lights + geometry
     if pass_name == "splitsum":
         return 2 * BILINEAR[0] + BILINEAR[0], 3 * BILINEAR[1] + 2 * 14 + 30 + geometry
-    if pass_name == "shexp":
+    if pass_name == "shexp":  # Q at h_ρ and at ρ (the tail), the DFG at n·v and at 1
         fp, ap = sh_sum(v["uLmaxP"], 2)
         fq, aq = sh_sum(v["uLmaxQ"], 2)
-        return fp + fq + BILINEAR[0], ap + aq + BILINEAR[1] + 40 + geometry
+        return fp + 2 * fq + 2 * BILINEAR[0], ap + 2 * aq + 2 * BILINEAR[1] + 50 + geometry
     if pass_name == "shrm":  # interior: 4 taps, each one texel's eq. 12 (an SH sum)
         f, a = sh_sum(v["uShrmP"])
         return 4 * f, 4 * (a + 20) + 30 + geometry

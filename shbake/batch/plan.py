@@ -13,8 +13,8 @@ Rules (one asset per map or per BRDF, shared by every material that needs it):
   with ONE roughness whose SHRM orders meet ``shrm``: it gets an SHRM. A
   dielectric (``params.F0`` below :data:`SHEXP_DIELECTRIC_F0`) whose range starts
   below :data:`SHEXP_DIELECTRIC_ALPHA` goes to the split-sum (or SHRM) too, the
-  asset's note says why: there SH-exp's Fresnel tail (eq. 15) loses to the plain
-  split-sum in more than 10 % of the shared-map cases.
+  asset's note says why: there SH-exp loses to the plain split-sum in more than 10 %
+  of the shared-map cases.
 * ``glossy`` with another isotropic ``model`` (Phong, Blinn–Phong, Ward,
   microfacet σ, Lafortune…) → one SHRM per map and distinct BRDF.
 
@@ -90,11 +90,12 @@ SHEXP_MIN_ALPHA = FIT_ALPHA_MIN
 materials whose roughness range starts below ``sqrt(SHEXP_MIN_ALPHA)`` get split-sum."""
 SHEXP_DIELECTRIC_F0 = 0.5
 """Schlick ``F0`` below which a GGX material is a dielectric for :data:`SHEXP_DIELECTRIC_ALPHA`."""
-SHEXP_DIELECTRIC_ALPHA = 0.49
-"""GGX width below which SH-exp loses to the plain split-sum for dielectrics (F0 0.04) in
-more than 10 % of the 24 shared-map cases per α (α 0.25: 17/24 wins, 0.36: 19/24, 0.49:
-23/24; docs/BENCHMARKS.md): eq. 15's Fresnel tail ``E1 ≈ E0 A1/A0`` is the limit — with
-the exact ``E0`` it wins 17/24 and 18/24 at 0.25 and 0.36."""
+SHEXP_DIELECTRIC_ALPHA = 0.36
+"""GGX width below which SH-exp (the default fit) loses to the plain split-sum for
+dielectrics (F0 0.04) in more than 10 % of the 24 shared-map cases per α (α 0.25: 20/24
+wins, 0.36 and above: 24/24; docs/BENCHMARKS.md). With its tail read at the mirror
+direction (:mod:`shbake.shading.shexp`) the limit is the fit's ``E0`` there: the exact
+``E0`` wins every studio and forest case at α 0.25."""
 TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
@@ -484,12 +485,13 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                 })  # fmt: skip
         if glossy:
             tol, tkey = scene.tolerance("glossy_probe", env)
-            tail_bound = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA
+            low_dielectrics = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA
                           and ggx_alpha(m.roughness[0]) < SHEXP_DIELECTRIC_ALPHA
                           and float(m.params.get("F0", 1.0)) < SHEXP_DIELECTRIC_F0]  # fmt: skip
             high = [m for m in glossy if ggx_alpha(m.roughness[0]) >= SHEXP_MIN_ALPHA
-                    and m not in tail_bound]  # fmt: skip
-            low = [m for m in glossy if ggx_alpha(m.roughness[0]) < SHEXP_MIN_ALPHA] + tail_bound
+                    and m not in low_dielectrics]  # fmt: skip
+            low = [m for m in glossy if ggx_alpha(m.roughness[0]) < SHEXP_MIN_ALPHA]
+            low += low_dielectrics
             if high:
                 lo = min(m.roughness[0] for m in high)
                 hi = max(m.roughness[1] for m in high)
@@ -525,10 +527,11 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                     cache[key] = plan_splitsum(get_env(), lo, hi)
                     cache[key]["work_seconds"] += load_s
                 aid = f"splitsum/{env.name}"
-                why = [m.name for m in tail_bound if m in low]
+                why = [m.name for m in low_dielectrics if m in low]
                 p = cache[key] if not why else cache[key] | {"note": cache[key]["note"] + (
                     f"; {', '.join(why)}: dielectric below α {SHEXP_DIELECTRIC_ALPHA:g}, where "
-                    "SH-exp's Fresnel tail (eq. 15) loses to split-sum")}  # fmt: skip
+                    "SH-exp loses to split-sum in more than 10 % of the shared-map "
+                    "cases")}  # fmt: skip
                 add(aid, "splitsum", p, [env.map], {"map": digest}, key, {}, env)
                 for m in low:
                     used[m.name].append(aid)

@@ -120,7 +120,8 @@ def _shexp_attrs(config) -> dict:
         "sets": config.sets,
         "weights": config.weights,
         "fit_config": config.as_dict(),
-        "fresnel_tail": "E1 = E0 * A1/A0 (eq. 15, exact under constant light)",
+        "fresnel_tail": "E1 = P(rho) Q(rho) * A1(n.v)/A0(1): E0 at n = v = rho, as split-sum "
+        "reads its tail (exact under constant light; eq. 15's E0 * A1/A0 before 2026-11-28)",
     }
 
 

@@ -7,7 +7,9 @@
 //   P = exp(sum_lm vMF_l y_lm(rho) p_lm(alpha)),  Q = exp(sum_lm vMF_l y_lm(h_rho) q_lm(alpha))
 //   vMF_l = exp(-l(l+1) alpha / 2)                                          (eq. 12)
 //   rho = 2(n.v)n - v,  h_rho = (n + rho)/|n + rho|                          (eq. 10)
-//   E = F0 E0 + (1 - F0) E0 A1/A0                                          (eq. 5, 15)
+//   E = F0 E0 + (1 - F0) E1                                                (eq. 5)
+//   E1 = P(rho, alpha) Q(rho, alpha) A1(n.v, alpha) / A0(1, alpha)  (the tail at the mirror
+//        direction at normal incidence, as split-sum reads it; replaces eq. 15's E0 A1/A0)
 // p(alpha) = sum_k h_k(alpha) p_k: piecewise-linear hats on the knots (alpha clamped to
 // them; at most two sets blend). q has no DC term.
 //
@@ -36,9 +38,10 @@ vec3 shbakeShexp(highp sampler2D p, int lmaxP, highp sampler2D q, int lmaxQ, flo
   float t;
   shbakeHat(knots, knotCount, alpha, k0, k1, t);
   int base = probe * knotCount;
-  vec3 e0 = exp(shbakeSHBlend(p, base + k0, base + k1, t, alpha, lmaxP, rho)
-                + shbakeSHBlend(q, base + k0, base + k1, t, alpha, lmaxQ, h));
-  vec2 ab = shbakeDFG(dfg, nv, alpha);
-  float tail = ab.x > 0.0 ? ab.y / ab.x : 0.0;
-  return f0 * e0 + (1.0 - f0) * e0 * tail;
+  vec3 logP = shbakeSHBlend(p, base + k0, base + k1, t, alpha, lmaxP, rho);
+  vec3 e0 = exp(logP + shbakeSHBlend(q, base + k0, base + k1, t, alpha, lmaxQ, h));
+  vec3 e0Mirror = exp(logP + shbakeSHBlend(q, base + k0, base + k1, t, alpha, lmaxQ, rho));
+  float a0Normal = shbakeDFG(dfg, 1.0, alpha).x;
+  float tail = a0Normal > 0.0 ? shbakeDFG(dfg, nv, alpha).y / a0Normal : 0.0;
+  return f0 * e0 + (1.0 - f0) * e0Mirror * tail;
 }

@@ -10,9 +10,17 @@ mirror direction, ``h_ρ = (n + ρ)/|n + ρ|``, ``α`` the GGX width (SPEC §1),
 (``K = 1``). v2 stores ``K`` sets at knots ``α_0 < … < α_{K−1}`` and blends
 them with piecewise-linear hat functions of ``α`` (``K = 2``: linear in
 ``α``), ``p(α) = Σ_k h_k(α) p_k``; ``α`` is clamped to the knots, so the
-coefficients are continuous in ``α`` (no seam). Full radiance:
-``E = F0 E0 + (1 − F0) E0 A1/A0`` (eq. 5, 15; :mod:`shbake.shading.dfg`).
-Fitted by :mod:`shbake.bakers.shexp`.
+coefficients are continuous in ``α`` (no seam). Full radiance
+``E = F0 E0 + (1 − F0) E1`` (eq. 5) with the Fresnel tail read as the split-sum reads it::
+
+    E1 = P(ρ, α) Q(ρ, α) · A1(n·v, α) / A0(1, α)
+
+``P(ρ) Q(ρ)`` is the probe's ``E0`` at normal incidence about the mirror direction
+(``n = v = ρ``, where ``h_ρ = ρ``): the lobe's radiance ``E0(ρ, ρ)/A0(1)`` times the tail's
+DFG term (:mod:`shbake.shading.dfg`); exact under constant light, like the paper's eq. 15
+(``E1 = E0 A1/A0``), which it replaces: eq. 15 carries ``E0``'s grazing lobe into the tail
+and overestimates it there (docs/BENCHMARKS.md, probe evaluation). Fitted by
+:mod:`shbake.bakers.shexp`.
 """
 
 import numpy as np
@@ -92,15 +100,16 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
 
     Per distinct ``α`` (a run of equal ``α`` reuses them): the hat-blended
     coefficients ``Σ_k h_k(α) p_k`` times the vMF factor ``exp(−l(l+1)α/2)``
-    of their band (eq. 12), computed once per band. Per point: the two SH
-    evaluations, the sums (six independent chains: P and Q per channel),
-    ``exp`` and the DFG term.
+    of their band (eq. 12), computed once per band. Per point: the SH
+    evaluations (``P`` at ``ρ``, ``Q`` at ``h_ρ`` and at ``ρ`` for the tail), the sums
+    (independent chains per channel), ``exp`` and the DFG terms.
     """
     n_sets = knots.shape[0]
     n_p = (lmax_p + 1) ** 2
     n_q = (lmax_q + 1) ** 2
     yp = np.empty(n_p)
     yq = np.empty(n_q)
+    yr = np.empty(n_q)
     hw = np.empty(n_sets)
     cp = np.empty((n_p, 3))
     cq = np.empty((n_q, 3))
@@ -114,6 +123,7 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
         hn = np.sqrt(hx * hx + hy * hy + hz * hz)
         sh_eval_into(rx, ry, rz, lmax_p, qmm, a, b, yp)
         sh_eval_into(hx / hn, hy / hn, hz / hn, lmax_q, qmm, a, b, yq)
+        sh_eval_into(rx, ry, rz, lmax_q, qmm, a, b, yr)
         al = alphas[k]
         if al != al_prev:
             al_prev = al
@@ -133,10 +143,11 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
                             for s in range(n_sets):
                                 coef += hw[s] * q[s, i - 1, c]
                             cq[i, c] = g * coef
-        a0, a1 = dfg_at(table, nv, al)
-        tail = a1 / a0 if a0 > 0.0 else 0.0
-        # six independent sums (P and Q, per channel): not one serial chain per channel
-        p0 = p1 = p2 = q0 = q1 = q2 = 0.0
+        a1 = dfg_at(table, nv, al)[1]
+        a0n = dfg_at(table, 1.0, al)[0]
+        tail = a1 / a0n if a0n > 0.0 else 0.0
+        # independent sums (P, Q and the tail's Q, per channel): not one serial chain
+        p0 = p1 = p2 = q0 = q1 = q2 = r0 = r1 = r2 = 0.0
         for i in range(n_p):
             y = yp[i]
             p0 += y * cp[i, 0]
@@ -147,8 +158,13 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
             q0 += y * cq[i, 0]
             q1 += y * cq[i, 1]
             q2 += y * cq[i, 2]
-        for c, e0 in enumerate((np.exp(p0 + q0), np.exp(p1 + q1), np.exp(p2 + q2))):
-            out[k, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
+            y = yr[i]
+            r0 += y * cq[i, 0]
+            r1 += y * cq[i, 1]
+            r2 += y * cq[i, 2]
+        out[k, 0] = f0[0] * np.exp(p0 + q0) + (1.0 - f0[0]) * np.exp(p0 + r0) * tail
+        out[k, 1] = f0[1] * np.exp(p1 + q1) + (1.0 - f0[1]) * np.exp(p1 + r1) * tail
+        out[k, 2] = f0[2] * np.exp(p2 + q2) + (1.0 - f0[2]) * np.exp(p2 + r2) * tail
 
 
 @jit
@@ -158,16 +174,18 @@ def _evaluate_blocks_one_alpha(views, normals, alpha, f0, wp, wq, lmax_p, lmax_q
     :func:`evaluate_shexp` at one ``α`` (check-free).
 
     The blended, vMF-filtered coefficients are constant, so ``log P + log Q``
-    of a block is two fused SH sums (:func:`~shbake.sh.basis.add_sums`:
-    vectorised across the block's ``ρ`` and then its ``h_ρ``, no basis
-    stored); per point only ``exp`` and the DFG term remain. ``bad[blk]``
+    of a block is fused SH sums (:func:`~shbake.sh.basis.add_sums`: vectorised
+    across the block's ``ρ``, then ``Q`` at ``ρ`` for the tail, then at ``h_ρ``; no
+    basis stored); per point only ``exp`` and the DFG terms remain. ``bad[blk]``
     counts the points whose ``n + ρ`` vanishes (``v = −n``).
     """
     n = views.shape[0]
     s = sum_scratch()
     dirs = np.empty((BLOCK, 3))
     acc = np.empty((BLOCK, 3))
+    tail_acc = np.empty((BLOCK, 3))
     nvs = np.empty(BLOCK)
+    a0n = dfg_at(table, 1.0, alpha)[0]
     for blk in range(b0, b1):
         i0 = blk * BLOCK
         nb = min(BLOCK, n - i0)
@@ -182,14 +200,18 @@ def _evaluate_blocks_one_alpha(views, normals, alpha, f0, wp, wq, lmax_p, lmax_q
         bad[blk] = add_sums(dirs, nb, wp, lmax_p, s, acc)
         for k in range(nb):
             for c in range(3):
+                tail_acc[k, c] = acc[k, c]
+        add_sums(dirs, nb, wq, lmax_q, s, tail_acc)  # Q at ρ: the tail's E0(ρ, ρ)
+        for k in range(nb):
+            for c in range(3):
                 dirs[k, c] += normals[i0 + k, c]  # n + ρ: add_sums normalises it
         bad[blk] += add_sums(dirs, nb, wq, lmax_q, s, acc)
         for k in range(nb):
-            a0, a1 = dfg_at(table, nvs[k], alpha)
-            tail = a1 / a0 if a0 > 0.0 else 0.0
+            a1 = dfg_at(table, nvs[k], alpha)[1]
+            tail = a1 / a0n if a0n > 0.0 else 0.0
             for c in range(3):
-                e0 = np.exp(acc[k, c])
-                out[i0 + k, c] = f0[c] * e0 + (1.0 - f0[c]) * e0 * tail
+                out[i0 + k, c] = (f0[c] * np.exp(acc[k, c])
+                                  + (1.0 - f0[c]) * np.exp(tail_acc[k, c]) * tail)  # fmt: skip
 
 
 def blended_coefficients(p, q, knots, alpha, lmax_p, lmax_q) -> tuple[np.ndarray, np.ndarray]:
@@ -292,8 +314,8 @@ class ProbeShader(Shader):
 
 
 class ShexpShader(ProbeShader):
-    """An ``shexp_probe``: ``E = F0 E0 + (1 − F0) E0 A1/A0``, ``E0 = P Q`` (module
-    docstring; :func:`evaluate_shexp`)."""
+    """An ``shexp_probe``: ``E = F0 E0 + (1 − F0) E1``, ``E0 = P Q``, the tail
+    ``E1 = P(ρ) Q(ρ) A1(n·v)/A0(1)`` (module docstring; :func:`evaluate_shexp`)."""
 
     name = "shexp"
     glsl = "shexp.glsl:shbakeShexp"

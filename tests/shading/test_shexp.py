@@ -24,7 +24,8 @@ class TestHatWeight:
 
 
 def shexp_in_numpy(p, q, table, v, n, alpha, f0, knots):
-    """eq. 5, 9-12 written with numpy (real_sh, vmf_factors, hat_weights, dfg_lookup)."""
+    """eq. 5, 9-12 written with numpy (real_sh, vmf_factors, hat_weights, dfg_lookup); the
+    tail ``E1 = P(ρ) Q(ρ) A1(n·v)/A0(1)`` (docs/CONVENTIONS.md)."""
     from shbake.sh.basis import real_sh
     from shbake.shading.shexp import mirror_and_half, vmf_factors
 
@@ -37,13 +38,16 @@ def shexp_in_numpy(p, q, table, v, n, alpha, f0, knots):
     qa = np.einsum("tk,kic->tic", hw, q)
     gp = vmf_factors(lp, alpha)[:, :, None]
     gq = vmf_factors(lq, alpha)[:, 1:, None]
-    e0 = np.exp(
-        np.einsum("ti,tic->tc", real_sh(rho, lp), gp[:, :, 0, None] * pa)
-        + np.einsum("ti,tic->tc", real_sh(h, lq)[:, 1:], gq[:, :, 0, None] * qa)
-    )
-    a = dfg_lookup(table, np.sum(n * v, axis=1), alpha)
-    tail = np.where(a[:, 0] > 0, a[:, 1] / np.where(a[:, 0] > 0, a[:, 0], 1.0), 0.0)
-    return f0 * e0 + (1 - f0) * e0 * tail[:, None]
+    log_p = np.einsum("ti,tic->tc", real_sh(rho, lp), gp[:, :, 0, None] * pa)
+
+    def log_q(d):
+        return np.einsum("ti,tic->tc", real_sh(d, lq)[:, 1:], gq[:, :, 0, None] * qa)
+
+    e0 = np.exp(log_p + log_q(h))
+    a1 = dfg_lookup(table, np.sum(n * v, axis=1), alpha)[:, 1]
+    a0_normal = dfg_lookup(table, np.ones(len(v)), alpha)[:, 0]
+    e1 = np.exp(log_p + log_q(rho)) * (a1 / a0_normal)[:, None]
+    return f0 * e0 + (1 - f0) * e1
 
 
 @pytest.fixture(scope="module")
