@@ -4,9 +4,10 @@
 for ``μ = n·v`` and GGX width ``α`` (Silvennoinen et al. 2025,
 eq. 6–8 under unit light), integrated by :func:`shbake.reference.ggx.ggx_integrals`
 in a white environment. Split-sum's second factor is ``F0 A0 + (1 − F0) A1``
-(Karis 2013). The SH-exp Fresnel tail (eq. 15) is ``E1 ≈ E0 · A1/A0``: exact
-under constant light; the paper's literal ``E0 · A1`` loses the ``1/A0``
-factor (``> 1`` at grazing views). Read by :mod:`shbake.shading.dfg`.
+(Karis 2013). The SH-exp Fresnel tail is ``E1 ≈ E0(ρ, ρ) · A1(μ)/A0(1)``
+(:mod:`shbake.shading.shexp`; eq. 15's ``E0 · A1/A0`` before 2026-11-28): exact under
+constant light; the paper's literal ``E0 · A1`` loses the ``1/A0`` factor (``> 1`` at
+grazing views). Read by :mod:`shbake.shading.dfg`.
 
 The table's second axis is node-centred in ``√α`` (perceptual roughness
 ``r``, ``α = r²``) so that narrow lobes get as many nodes as wide ones; look-ups

@@ -284,9 +284,11 @@ class Design:
 def _material_balance(nv, alpha, dfg=None):
     """Per-sample factor giving chrome and dielectric (``F0 = 0.04``) equal say in the fit.
 
-    A dielectric's shaded error is the chrome one times ``m = (F0 + (1 − F0) A1/A0)²``,
-    which grows toward grazing views; ``1/S_c + m/S_d`` (``S`` the means of ``2 n·v`` and
-    ``2 n·v m`` at each ``α``) weighs both materials' relative errors equally.
+    A dielectric's shaded error is about the chrome one times ``m = (F0 + (1 − F0)
+    A1/A0)²`` (exactly so with eq. 15's tail, ``E1 = E0 A1/A0``; the shader's tail reads
+    ``E0`` at the mirror direction instead), which grows toward grazing views;
+    ``1/S_c + m/S_d`` (``S`` the means of ``2 n·v`` and ``2 n·v m`` at each ``α``) weighs
+    both materials' relative errors equally.
     """
     from shbake.bakers.dfg import dfg_table
     from shbake.shading.dfg import dfg_lookup
