@@ -11,7 +11,14 @@ import numpy as np
 
 from shbake.conventions import LMAX_LIMIT, REC709_LUMINANCE
 from shbake.errors import FormatError
-from shbake.format.registry import SOURCE_MAP_ATTRS, Attr, Data, Kind, register
+from shbake.format.registry import (
+    MAP_POLICY_ATTRS,
+    SOURCE_MAP_ATTRS,
+    Attr,
+    Data,
+    Kind,
+    register,
+)
 
 SUN_NORM_TOLERANCE = 1e-3
 """``| |s| − 1 |`` above this refuses ``/sun/direction``."""
@@ -67,15 +74,7 @@ ENV_SH = register(Kind(
     version=3,
     reads=(2,),  # version 3 added the optional /lights: a version 2 file has none
     title="SH lighting and irradiance of an environment map (`project-env`)",
-    attrs=SOURCE_MAP_ATTRS + (
-        Attr("source_stored_format", "str", "pixel type stored in the input file"),
-        Attr("source_channels", "str", "how the input's channels became RGB"),
-        Attr("source_nonfinite_repaired", "int", "pixels repaired by the non-finite policy",
-             range=(0, 1 << 62)),
-        Attr("source_negative_count", "int", "negative pixels found", range=(0, 1 << 62)),
-        Attr("source_negative_energy_change", "floats", "change of `∫L dω` per channel by the "
-             "negative policy", length=3),
-    ),
+    attrs=SOURCE_MAP_ATTRS + MAP_POLICY_ATTRS,
     datasets=(
         Data("/lighting/sh", ("(lmax+1)**2", 3), "float64",
              "`L_lm = ∫ L y_lm dω`, raw projection (of the residual if a sun was extracted); "

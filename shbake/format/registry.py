@@ -201,6 +201,24 @@ SOURCE_MAP_ATTRS = (
 )
 """Extra provenance of kinds baked from an environment map."""
 
+MAP_POLICY_ATTRS = (
+    Attr("source_stored_format", "str", "pixel type stored in the input file"),
+    Attr("source_channels", "str", "how the input's channels became RGB"),
+    Attr("source_nonfinite_repaired", "int", "pixels repaired by the non-finite policy",
+         range=(0, 1 << 62)),
+    Attr("source_negative_count", "int", "negative pixels found", range=(0, 1 << 62)),
+    Attr("source_negative_energy_change", "floats", "change of `∫L dω` per channel by the "
+         "negative policy", length=3),
+)  # fmt: skip
+"""What the input policies found in the map (:func:`shbake.format.provenance.map_source`
+writes them for every kind baked from a map; ``env_sh`` MUST hold them, the other kinds
+MAY: :func:`optional`)."""
+
+
+def optional(attrs: tuple) -> tuple:
+    """``attrs`` declared MAY (``required=False``)."""
+    return tuple(a._replace(required=False) for a in attrs)
+
 
 def attrs_of(kind: Kind) -> tuple:
     """Every root attribute of ``kind``: common, provenance, then its own."""

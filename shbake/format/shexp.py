@@ -20,7 +20,16 @@ from shbake.format.probe import (
     convention_attrs,
     source_attrs,
 )
-from shbake.format.registry import PROVENANCE_ATTRS, SOURCE_MAP_ATTRS, Attr, Data, Kind, register
+from shbake.format.registry import (
+    MAP_POLICY_ATTRS,
+    PROVENANCE_ATTRS,
+    SOURCE_MAP_ATTRS,
+    Attr,
+    Data,
+    Kind,
+    optional,
+    register,
+)
 
 _SHEXP_ATTRS = PROBE_ATTRS + (
     Attr("lmax_p", "int", "highest band of P", range=(0, SHEXP_LMAX_LIMIT), symbol="lmax_p"),
@@ -62,7 +71,7 @@ SHEXP_PROBE = register(Kind(
     name="shexp_probe",
     version=2,
     title="SH-exponential glossy probe (Silvennoinen et al. 2025; `probe-fit`)",
-    attrs=_SHEXP_ATTRS + SOURCE_MAP_ATTRS + (
+    attrs=_SHEXP_ATTRS + SOURCE_MAP_ATTRS + optional(MAP_POLICY_ATTRS) + (
         Attr("fit_stats", "json", "`log_rms`, `relative_rms`, `floored_targets`, `targets`",
              json_type=dict),
     ),
