@@ -16,7 +16,7 @@ from shbake.conventions import KAUTZ_LMAX_LIMIT, SQRT_4PI, lmax_of
 from shbake.errors import FormatError, ParameterError
 from shbake.format.asset import Asset
 from shbake.format.provenance import file_source, no_source
-from shbake.format.registry import Attr, Data, Kind, register
+from shbake.format.registry import MEANING_ATTR, Attr, Data, Kind, register
 
 if TYPE_CHECKING:
     from shbake.brdf.model import BRDF
@@ -168,7 +168,8 @@ BRDF_TABLE = register(Kind(
                       "it when asked for reproducible output (`--reproducible`)", required=False),
              )),
         Data("/error", ("*elead", "H", "W"), "float32",
-             "per-texel quadrature error estimate, axes `(*parameters, row, col)`"),
+             "per-texel quadrature error estimate, axes `(*parameters, row, col)`",
+             attrs=(MEANING_ATTR,)),
         Data("/axes/{name}", ("N",), "float64",
              "the values of varied parameter `name` (one per parameter axis of `/table`)"),
     ),

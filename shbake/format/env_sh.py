@@ -68,6 +68,7 @@ def check_light_irradiance(irradiance: np.ndarray) -> None:
 
 _LMAX = Attr("lmax", "int", "highest band", range=(0, LMAX_LIMIT), symbol="lmax")
 _LMAX_IRR = Attr("lmax", "int", "highest band", range=(0, LMAX_LIMIT), symbol="lmax_irr")
+_KERNEL = Attr("kernel", "str", "the kernel `L` was convolved with", required=False)
 
 ENV_SH = register(Kind(
     name="env_sh",
@@ -93,19 +94,22 @@ ENV_SH = register(Kind(
                          "reconstructed value", required=False))),
         Data("/irradiance/sh", ("(lmax_irr+1)**2", 3), "float64",
              "`E_i = Â_l w_l L_i`: `E(n) = Σ_i y_i(n) E_i`", required=False,
-             attrs=(_LMAX_IRR,)),
+             attrs=(_LMAX_IRR, _KERNEL)),
         Data("/tangent_irradiance/sh", ("(lmax_irr+1)**2", 3), "float64",
              "`A_l w_l L_i` (Kajiya–Kay): `E(t) = Σ_i y_i(t) E_i`", required=False,
-             attrs=(_LMAX_IRR,)),
+             attrs=(_LMAX_IRR, _KERNEL)),
         Data("/tangent_irradiance/matrix", (3, 4, 4), "float64",
              "per channel `M` of Mehta eq. 24: `E(t) = [t,1]ᵀ M [t,1]`; MUST with "
-             "`/tangent_irradiance/sh` when its lmax ≥ 2", required=False),
+             "`/tangent_irradiance/sh` when its lmax ≥ 2", required=False,
+             attrs=(Attr("form", "str", "how `M` is read", required=False),)),
         Data("/sun/direction", (3,), "float64", "unit vector toward the light, world frame",
-             required=False, values=check_sun),
+             required=False, values=check_sun,
+             attrs=(Attr("frame", "str", "the vector's frame and sense", required=False),)),
         Data("/sun/solid_angle", (), "float64", "sr", required=False, with_="/sun/direction"),
         Data("/sun/radiance", (3,), "float64",
              "RGB radiance; `radiance × solid_angle` is its irradiance at normal incidence",
-             required=False, with_="/sun/direction"),
+             required=False, with_="/sun/direction",
+             attrs=(Attr("units", "str", "what the values measure", required=False),)),
         Data("/lights/direction", ("K", 3), "float64", "unit vectors toward the lights, world "
              "frame, brightest (luminance) first", required=False, values=check_light_directions,
              attrs=(Attr("requested", "str", "`auto` or the number of lights asked for"),

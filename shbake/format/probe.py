@@ -21,7 +21,7 @@ from shbake.conventions import DFG_MU_MIN, DFG_SAMPLES, DFG_SIZE, ROUGHNESS_MIN
 from shbake.errors import FormatError, ParameterError
 from shbake.format.asset import Asset
 from shbake.format.provenance import map_source
-from shbake.format.registry import Attr, Data
+from shbake.format.registry import AXES_ATTR, MEANING_ATTR, Attr, Data
 
 PROBE_FORMAT = 2
 """Version of the probe kinds' layout and parameterisation."""
@@ -92,6 +92,14 @@ DFG_DATA = Data(
     "/dfg", (DFG_SIZE, DFG_SIZE, 2), "float32",
     "`A0`, `A1` over node-centred `n·v ∈ [1e-3, 1]` × `sqrt(α) ∈ [0.02, 1]` (attributes say "
     "so); bilinear, clamped",
+    attrs=(AXES_ATTR,
+           Attr("n_dot_v_range", "json", "`[lo, hi]` of the n·v axis", json_type=list, length=2,
+                required=False),
+           Attr("sqrt_alpha_range", "json", "`[lo, hi]` of the sqrt(α) axis", json_type=list,
+                length=2, required=False),
+           Attr("samples", "int", "quadrature samples per entry", range=(1, 1 << 31),
+                required=False),
+           MEANING_ATTR),
 )  # fmt: skip
 """The DFG table every probe kind carries."""
 

@@ -201,6 +201,11 @@ SOURCE_MAP_ATTRS = (
 )
 """Extra provenance of kinds baked from an environment map."""
 
+AXES_ATTR = Attr("axes", "json", "axis names", json_type=list, required=False)
+"""A dataset's axis names, slowest first."""
+MEANING_ATTR = Attr("meaning", "str", "what the values are, in words", required=False)
+"""A dataset's meaning in words (for a person reading the file)."""
+
 MAP_POLICY_ATTRS = (
     Attr("source_stored_format", "str", "pixel type stored in the input file"),
     Attr("source_channels", "str", "how the input's channels became RGB"),

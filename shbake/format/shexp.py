@@ -21,7 +21,9 @@ from shbake.format.probe import (
     source_attrs,
 )
 from shbake.format.registry import (
+    AXES_ATTR,
     MAP_POLICY_ATTRS,
+    MEANING_ATTR,
     PROVENANCE_ATTRS,
     SOURCE_MAP_ATTRS,
     Attr,
@@ -41,7 +43,6 @@ _SHEXP_ATTRS = PROBE_ATTRS + (
          "probes with equal `fit_config` are comparable", json_type=dict),
     Attr("fresnel_tail", "str", "how `E1` is formed"),
 )  # fmt: skip
-_AXES = Attr("axes", "json", "axis names", json_type=list, required=False)
 def _check_knots(values):
     """Knots strictly increasing within ``(0, 1]`` (equal knots would divide by zero in the
     hat weights, :func:`shbake.shading.shexp.hat_weight`)."""
@@ -52,7 +53,7 @@ def _check_knots(values):
 
 KNOTS_DATA = Data("/knots", ("K",), "float64", "the GGX width of each coefficient set, "
                   "strictly increasing within (0, 1] (hat functions between them)",
-                  values=_check_knots)  # fmt: skip
+                  values=_check_knots, attrs=(AXES_ATTR, MEANING_ATTR))  # fmt: skip
 
 
 def _check_set(attrs, shapes, dattrs, symbols):
@@ -77,9 +78,9 @@ SHEXP_PROBE = register(Kind(
     ),
     datasets=(
         Data("/p", ("K", "(lmax_p+1)**2", 3), "float32", "SH coefficients of `P` (eq. 11), one "
-             "set per knot", attrs=(_AXES,)),
+             "set per knot", attrs=(AXES_ATTR,)),
         Data("/q", ("K", "(lmax_q+1)**2-1", 3), "float32", "SH coefficients of `Q` without the "
-             "DC term (eq. 11), one set per knot", attrs=(_AXES,)),
+             "DC term (eq. 11), one set per knot", attrs=(AXES_ATTR,)),
         KNOTS_DATA,
         DFG_DATA,
     ),
@@ -102,9 +103,9 @@ SHEXP_PROBE_SET = register(Kind(
     ),
     datasets=(
         Data("/p", ("N", "K", "(lmax_p+1)**2", 3), "float32", "`P` per probe",
-             attrs=(_AXES,)),
+             attrs=(AXES_ATTR,)),
         Data("/q", ("N", "K", "(lmax_q+1)**2-1", 3), "float32", "`Q` per probe",
-             attrs=(_AXES,)),
+             attrs=(AXES_ATTR,)),
         KNOTS_DATA,
         DFG_DATA,
     ),
