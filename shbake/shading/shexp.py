@@ -114,6 +114,7 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
     cp = np.empty((n_p, 3))
     cq = np.empty((n_q, 3))
     al_prev = np.nan
+    a0n = 0.0
     for k in range(b0 * PIXEL_BLOCK, min(views.shape[0], b1 * PIXEL_BLOCK)):
         vx, vy, vz = views[k, 0], views[k, 1], views[k, 2]
         nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
@@ -127,6 +128,7 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
         al = alphas[k]
         if al != al_prev:
             al_prev = al
+            a0n = dfg_at(table, 1.0, al)[0]
             for s in range(n_sets):
                 hw[s] = hat_weight(knots, al, s)
             for l in range(max(lmax_p, lmax_q) + 1):
@@ -144,7 +146,6 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
                                 coef += hw[s] * q[s, i - 1, c]
                             cq[i, c] = g * coef
         a1 = dfg_at(table, nv, al)[1]
-        a0n = dfg_at(table, 1.0, al)[0]
         tail = a1 / a0n if a0n > 0.0 else 0.0
         # independent sums (P, Q and the tail's Q, per channel): not one serial chain
         p0 = p1 = p2 = q0 = q1 = q2 = r0 = r1 = r2 = 0.0
