@@ -225,6 +225,10 @@ def optional(attrs: tuple) -> tuple:
     return tuple(a._replace(required=False) for a in attrs)
 
 
+MAP_KIND_ATTRS = SOURCE_MAP_ATTRS + optional(MAP_POLICY_ATTRS)
+"""The map provenance of the kinds baked from a map other than ``env_sh`` (probes, SHRM)."""
+
+
 def attrs_of(kind: Kind) -> tuple:
     """Every root attribute of ``kind``: common, provenance, then its own."""
     return ROOT_ATTRS + (PROVENANCE_ATTRS if kind.provenance else ()) + kind.attrs

@@ -22,14 +22,12 @@ from shbake.format.probe import (
 )
 from shbake.format.registry import (
     AXES_ATTR,
-    MAP_POLICY_ATTRS,
+    MAP_KIND_ATTRS,
     MEANING_ATTR,
     PROVENANCE_ATTRS,
-    SOURCE_MAP_ATTRS,
     Attr,
     Data,
     Kind,
-    optional,
     register,
 )
 
@@ -72,7 +70,7 @@ SHEXP_PROBE = register(Kind(
     name="shexp_probe",
     version=2,
     title="SH-exponential glossy probe (Silvennoinen et al. 2025; `probe-fit`)",
-    attrs=_SHEXP_ATTRS + SOURCE_MAP_ATTRS + optional(MAP_POLICY_ATTRS) + (
+    attrs=_SHEXP_ATTRS + MAP_KIND_ATTRS + (
         Attr("fit_stats", "json", "`log_rms`, `relative_rms`, `floored_targets`, `targets`",
              json_type=dict),
     ),

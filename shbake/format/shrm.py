@@ -28,15 +28,7 @@ from shbake.conventions import LMAX_LIMIT, lmax_of
 from shbake.errors import FormatError
 from shbake.format.asset import Asset, read_asset, write_asset
 from shbake.format.provenance import map_source
-from shbake.format.registry import (
-    MAP_POLICY_ATTRS,
-    SOURCE_MAP_ATTRS,
-    Attr,
-    Data,
-    Kind,
-    optional,
-    register,
-)
+from shbake.format.registry import MAP_KIND_ATTRS, Attr, Data, Kind, register
 
 KIND = "shrm"
 LAYOUT = "cube (6, S, S, n, 3): faces +X,-X,+Y,-Y,+Z,-Z as OpenEXR envmap=cube, texel cells"
@@ -60,7 +52,7 @@ SHRM_KIND = register(Kind(
     name=KIND,
     version=2,
     title="Spherical Harmonic Reflection Map (Ramamoorthi & Hanrahan 2002; `shrm`)",
-    attrs=SOURCE_MAP_ATTRS + optional(MAP_POLICY_ATTRS) + (
+    attrs=MAP_KIND_ATTRS + (
         Attr("brdf_model", "str", "the BRDF (shbake model name or a reflection model)"),
         Attr("brdf_kind", "str", "`surface`, `lobe` (radially symmetric) or `tangent`"),
         Attr("brdf_parameters", "json", "the model's parameters", json_type=dict),

@@ -12,15 +12,7 @@ from shbake.format.probe import (
     convention_attrs,
     source_attrs,
 )
-from shbake.format.registry import (
-    MAP_POLICY_ATTRS,
-    SOURCE_MAP_ATTRS,
-    Attr,
-    Data,
-    Kind,
-    optional,
-    register,
-)
+from shbake.format.registry import MAP_KIND_ATTRS, Attr, Data, Kind, register
 
 LEVELS_MAX = 16
 SIZE_MAX = 4096
@@ -43,7 +35,7 @@ SPLITSUM_PROBE = register(Kind(
     name="splitsum_probe",
     version=2,
     title="split-sum prefiltered octahedral mip chain (Karis 2013; `split-sum`)",
-    attrs=PROBE_ATTRS + SOURCE_MAP_ATTRS + optional(MAP_POLICY_ATTRS) + (
+    attrs=PROBE_ATTRS + MAP_KIND_ATTRS + (
         Attr("levels", "int", "prefiltered levels, one per GGX width", range=(1, LEVELS_MAX),
              symbol="levels"),
         Attr("prefilter", "str", "`plain` (Karis 2013) or `filtered` (filtered importance "
