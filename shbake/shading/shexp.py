@@ -107,9 +107,9 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
     n_sets = knots.shape[0]
     n_p = (lmax_p + 1) ** 2
     n_q = (lmax_q + 1) ** 2
-    yp = np.empty(n_p)
+    lmax_r = max(lmax_p, lmax_q)
+    yr = np.empty((lmax_r + 1) ** 2)  # the basis at ρ: P's terms and the tail's Q terms
     yq = np.empty(n_q)
-    yr = np.empty(n_q)
     hw = np.empty(n_sets)
     cp = np.empty((n_p, 3))
     cq = np.empty((n_q, 3))
@@ -122,9 +122,8 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
         rx, ry, rz = 2 * nv * nx - vx, 2 * nv * ny - vy, 2 * nv * nz - vz
         hx, hy, hz = nx + rx, ny + ry, nz + rz
         hn = np.sqrt(hx * hx + hy * hy + hz * hz)
-        sh_eval_into(rx, ry, rz, lmax_p, qmm, a, b, yp)
+        sh_eval_into(rx, ry, rz, lmax_r, qmm, a, b, yr)
         sh_eval_into(hx / hn, hy / hn, hz / hn, lmax_q, qmm, a, b, yq)
-        sh_eval_into(rx, ry, rz, lmax_q, qmm, a, b, yr)
         al = alphas[k]
         if al != al_prev:
             al_prev = al
@@ -150,7 +149,7 @@ def _evaluate_blocks(views, normals, alphas, f0, p, q, knots, lmax_p, lmax_q, qm
         # independent sums (P, Q and the tail's Q, per channel): not one serial chain
         p0 = p1 = p2 = q0 = q1 = q2 = r0 = r1 = r2 = 0.0
         for i in range(n_p):
-            y = yp[i]
+            y = yr[i]
             p0 += y * cp[i, 0]
             p1 += y * cp[i, 1]
             p2 += y * cp[i, 2]
