@@ -23,7 +23,7 @@ from shbake_cli.options import (
     warn,
 )
 
-from shbake.bakers.shexp import FIT_TARGETS, SETS_LIMIT, WEIGHTS, FitConfig
+from shbake.bakers.shexp import ALPHA_WEIGHT_LIMIT, FIT_TARGETS, SETS_LIMIT, WEIGHTS, FitConfig
 from shbake.batch.probe_fit import fit_probes
 from shbake.batch.workers import JOBS_LIMIT
 from shbake.conventions import SH_TARGETS_LMAX_LIMIT, SHEXP_LMAX_LIMIT, ggx_alpha
@@ -77,6 +77,11 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
 @click.option("--polish", type=click.IntRange(0, 8), default=DEFAULT.polish, show_default=True,
               help="Gauss–Newton steps on the shaded error after the log fit (shaded-nv*; "
               "a step that does not lower it is dropped).")  # fmt: skip
+@click.option("--alpha-weight", type=click.FloatRange(0, ALPHA_WEIGHT_LIMIT),
+              default=DEFAULT.alpha_weight, show_default=True,
+              help="Exponent s of the (α_min/α)^s factor on every fit sample's weight: s = 1 "
+              "weighs a sample by 1/α (the narrow end, where split-sum is nearly exact); 0: "
+              "none.")  # fmt: skip
 @samples_opt(1024, "per E0 fit target (filtered visible-normal samples)")
 @click.option("--floor", type=FINITE, default=1e-4, show_default=True,
               help="E0 floor before the log, × mean E0 per channel.")  # fmt: skip

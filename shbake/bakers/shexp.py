@@ -12,9 +12,9 @@ evenly over the fitted range (:func:`shbake.shading.shexp.hat_weights`;
 ``p``: ``lmax_p`` (default 5, 36 coefficients per set; the paper's 4, 25); ``q``:
 ``lmax_q`` (default 2) without its DC term (8), which ``p`` already holds (§4.1).
 Default fit (issue 33): 2 sets, ``lmax_p`` 5, 48 normals × 32 views × 8 α, two
-polish steps — 1056 bytes per probe; it beats the plain split-sum in 274 of the 288
-shared-map cases (``docs/BENCHMARKS.md``), where 2 sets at ``lmax_p`` 4, 64 normals
-and one step (792 bytes) won 270.
+polish steps, ``α`` weight 1 — 1056 bytes per probe; it beats the plain split-sum in 285
+of the 288 shared-map cases (``docs/BENCHMARKS.md``; 283 without the ``α`` weight), where
+2 sets at ``lmax_p`` 4, 64 normals and one step (792 bytes) won 279.
 
 The fit is one weighted linear least-squares problem in log space over fixed
 ``(v, n, α)`` samples (eq. 13–14, all sets jointly), per channel::
@@ -32,6 +32,14 @@ sees normal ``n`` on ``n·v`` of its area). ``polish`` Gauss–Newton steps then
 minimise the shaded error ``Σ_t 2 n·v (P Q − E0)²`` itself (weights
 ``shaded-nv`` only); each step is halved until the error decreases and a step
 that does not decrease it is dropped ("where it helps").
+
+``alpha_weight`` ``s`` multiplies every sample's weight (all three weightings, and the
+polish) by ``(α_min/α)^s``: with ``s = 1`` a sample at ``α`` counts in proportion to
+``1/α``. The split-sum a probe replaces is nearly exact at small ``α`` (its error grows
+with the lobe), so SH-exp must be relatively more accurate there to beat it; the two
+sets (linear in ``α``) cannot be as accurate at both ends, and ``1/α`` moves the balance
+toward the narrow end (measured in ``docs/BENCHMARKS.md``: the dielectric at α 0.25 wins
+22 of 24 shared-map cases instead of 20, every other (material, α) still ≥ 23).
 
 ``sets = 1, weights = log, alpha_count = 4`` over ``α ∈ [0.2, 1]`` with 64
 normals × 64 uniform views is the paper's fit (§5.1). Everything but the
@@ -65,6 +73,7 @@ SETS_LIMIT = 8
 STEP_HALVINGS = 8
 ABSOLUTE_FLOOR = 1e-30
 FIT_ALPHA_MIN = 0.05
+ALPHA_WEIGHT_LIMIT = 4.0
 """Narrowest GGX width a fit range may start at (SH-exp does not reach mirrors)."""
 
 
@@ -80,7 +89,9 @@ class FitConfig:
     raised to it before the log, so dark and black maps stay finite.
     ``targets``: how ``E0`` is computed at the fit samples — ``quadrature``
     (``samples`` filtered visible-normal samples each) or ``sh`` (SH lighting
-    to ``targets_lmax`` × GGX tables).
+    to ``targets_lmax`` × GGX tables). ``alpha_weight``: exponent ``s`` of the
+    factor ``(alpha_min/α)^s`` on every sample's weight, in ``[0, 4]`` (module
+    docstring; 0: every ``α`` weighed as its ``E0`` says).
     """
 
     lmax_p: int = 5
@@ -97,6 +108,7 @@ class FitConfig:
     floor: float = 1e-4
     targets: str = "quadrature"
     targets_lmax: int = 8
+    alpha_weight: float = 1.0
 
     def __post_init__(self):
         checks = [
@@ -118,6 +130,10 @@ class FitConfig:
                 1 <= self.targets_lmax <= SH_TARGETS_LMAX_LIMIT,
                 f"targets_lmax must be in [1, {SH_TARGETS_LMAX_LIMIT}]",
             ),
+            (
+                np.isfinite(self.alpha_weight) and 0 <= self.alpha_weight <= ALPHA_WEIGHT_LIMIT,
+                f"alpha_weight must be in [0, {ALPHA_WEIGHT_LIMIT:g}]",
+            ),
         ]
         for ok, msg in checks:
             if not ok:
@@ -135,9 +151,9 @@ class FitConfig:
     @classmethod
     def paper(cls, **changes) -> "FitConfig":
         """The paper's fit (§5.1): one set, ``lmax_p`` 4, log weights, 4 α samples over
-        [0.2, 1], 64 normals × 64 views, no polish."""
+        [0.2, 1], 64 normals × 64 views, no polish, no ``α`` weight."""
         paper = {"sets": 1, "weights": "log", "alpha_count": 4, "polish": 0, "views": 64,
-                 "lmax_p": 4, "normals": 64}  # fmt: skip
+                 "lmax_p": 4, "normals": 64, "alpha_weight": 0.0}  # fmt: skip
         return cls(**(paper | changes))
 
     @property
@@ -382,9 +398,10 @@ class FitPlan:
         self.design = Design(v1, n1, a, config.lmax_p, config.lmax_q, self.knots)
         nv = np.maximum(np.einsum("ij,ij->i", self.views, self.normals), 0.0)
         self.view_weight = 2.0 * nv
-        self.sample_weight = self.view_weight
+        self.alpha_factor = (config.alpha_min / self.alpha) ** config.alpha_weight
+        self.sample_weight = self.view_weight * self.alpha_factor
         if config.weights == "shaded-nv-f0":
-            self.sample_weight = self.view_weight * _material_balance(nv, self.alpha, dfg)
+            self.sample_weight = self.sample_weight * _material_balance(nv, self.alpha, dfg)
         if config.targets == "sh":
             from shbake.bakers.shexp_sh_targets import ShTargets  # scipy.fft: only when asked
 
@@ -414,11 +431,12 @@ class FitPlan:
         target_lin = np.maximum(e0, floor)
         target = np.log(target_lin)
         if cfg.weights == "log":
-            w = np.ones(target.shape[0])
+            w = self.alpha_factor
         else:
             # scale-free: E0 relative to its channel mean, so weights stay O(1)
             rel = target_lin / target_lin.mean(axis=0)
-            w = rel**2 * (self.sample_weight[:, None] if cfg.weights != "shaded" else 1.0)
+            per_sample = self.sample_weight if cfg.weights != "shaded" else self.alpha_factor
+            w = rel**2 * per_sample[:, None]
         x = self.design.solve(np.broadcast_to(w.reshape(w.shape[0], -1), target.shape), target)
         polished = 0
         if cfg.weights.startswith("shaded-nv"):

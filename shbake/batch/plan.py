@@ -90,12 +90,12 @@ SHEXP_MIN_ALPHA = FIT_ALPHA_MIN
 materials whose roughness range starts below ``sqrt(SHEXP_MIN_ALPHA)`` get split-sum."""
 SHEXP_DIELECTRIC_F0 = 0.5
 """Schlick ``F0`` below which a GGX material is a dielectric for :data:`SHEXP_DIELECTRIC_ALPHA`."""
-SHEXP_DIELECTRIC_ALPHA = 0.36
+SHEXP_DIELECTRIC_ALPHA = 0.25
 """GGX width below which SH-exp (the default fit) loses to the plain split-sum for
-dielectrics (F0 0.04) in more than 10 % of the 24 shared-map cases per α (α 0.25: 20/24
-wins, 0.36 and above: 24/24; docs/BENCHMARKS.md). With its tail read at the mirror
-direction (:mod:`shbake.shading.shexp`) the limit is the fit's ``E0`` there: the exact
-``E0`` wins every studio and forest case at α 0.25."""
+dielectrics (F0 0.04) in more than 10 % of the 24 shared-map cases per α: α 0.2 wins 15/24,
+α 0.25 22/24, 0.36 and above 24/24 (docs/BENCHMARKS.md). Chrome wins 23/24 at both 0.2 and
+0.25: a dielectric's image is ``0.04 E0`` near normal incidence, where the split-sum is
+nearly exact at small α, so the fit's ``E0`` error there decides."""
 TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)

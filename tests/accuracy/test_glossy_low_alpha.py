@@ -3,7 +3,7 @@
 The 288-case figures are asserted by ``tests/accuracy/test_probe_eval.py`` from
 ``bench/results/probe_eval.json``; here: the default's size, that eq. 15's Fresnel tail
 alone (with the exact ``E0``) loses to the plain split-sum where the tail shbake shades
-wins, and that the planner sends the dielectrics below α 0.36 to the split-sum with the
+wins, and that the planner sends the dielectrics below α 0.25 to the split-sum with the
 reason.
 """
 
@@ -71,15 +71,15 @@ def test_planner_sends_low_alpha_dielectrics_to_split_sum(tmp_path):
     (tmp_path / "scene.toml").write_text(
         '[scene]\nname = "glossy"\n[tolerances]\nglossy_probe = 0.3\n'
         '[[environments]]\nmap = "city.exr"\n'
-        '[[materials]]\nname = "varnish"\nkind = "glossy"\nroughness = [0.5, 0.9]\n'
+        '[[materials]]\nname = "varnish"\nkind = "glossy"\nroughness = [0.46, 0.9]\n'
         "params = { F0 = 0.04 }\n"
         '[[materials]]\nname = "gold"\nkind = "glossy"\nroughness = [0.5, 0.9]\n'
-        '[[materials]]\nname = "satin-lacquer"\nkind = "glossy"\nroughness = [0.75, 0.9]\n'
+        '[[materials]]\nname = "satin-lacquer"\nkind = "glossy"\nroughness = [0.5, 0.9]\n'
         "params = { F0 = 0.04 }\n"
     )
     plan = plan_scene(load_scene(str(tmp_path / "scene.toml")))
     assert plan["materials"]["gold"] == ["shexp/city"]
-    assert plan["materials"]["satin-lacquer"] == ["shexp/city"]  # α from 0.5625: SH-exp wins
+    assert plan["materials"]["satin-lacquer"] == ["shexp/city"]  # α from 0.25: SH-exp wins
     assert plan["materials"]["varnish"] == ["splitsum/city"]
     note = next(a["note"] for a in plan["assets"] if a["id"] == "splitsum/city")
     assert "varnish" in note and f"{SHEXP_DIELECTRIC_ALPHA:g}" in note and "10 %" in note

@@ -77,9 +77,32 @@ class TestShexpFit:
         assert errors["shaded-nv"] < 0.8 * errors["log"], errors
         assert errors["polish"] <= 1.01 * errors["shaded-nv"], errors
 
+    def test_alpha_weight_moves_accuracy_to_the_narrow_end(self):
+        """``alpha_weight`` trades the two ends of the range: against an independent
+        re-integration of the targets, the on-screen error at the smallest fit ``α`` falls
+        and the one at the largest rises as the exponent goes 0 → 2; 0 is the unweighted
+        fit (every sample's weight as before, bit for bit)."""
+        img = smooth_map(32, sun=(50.0, 40.0, 30.0))
+        table = dfg_table(size=8, samples=256)
+        ends = {}
+        for s in (0.0, 2.0):
+            cfg = FitConfig(normals=16, views=16, samples=256, alpha_weight=s)
+            plan = FitPlan(cfg, (32, 64))
+            probe = plan.fit(img)
+            truth, _ = ggx_integrals(img, plan.views, plan.normals, plan.alpha, 4096)
+            est = evaluate_shexp(probe.p, probe.q, table, plan.views, plan.normals, plan.alpha,
+                                 knots=probe.knots)  # fmt: skip
+            err = plan.view_weight[:, None] * (est - truth) ** 2
+            ends[s] = [err[plan.alpha == a].sum() / (plan.view_weight[:, None] * truth**2)[
+                plan.alpha == a].sum() for a in (cfg.alpha_min, cfg.alpha_max)]
+            if s == 0.0:
+                np.testing.assert_array_equal(plan.sample_weight, plan.view_weight)
+        assert ends[2.0][0] < ends[0.0][0] and ends[2.0][1] > ends[0.0][1], ends
+
     def test_paper_config(self):
         cfg = FitConfig.paper()
         assert (cfg.sets, cfg.weights, cfg.polish, cfg.alpha_count) == (1, "log", 0, 4)
+        assert cfg.alpha_weight == 0.0
         np.testing.assert_allclose(cfg.alphas, [0.2, 0.2 + 0.8 / 3, 0.2 + 1.6 / 3, 1.0])
 
     @pytest.mark.parametrize("weights", ["log", "shaded-nv"])
@@ -102,6 +125,7 @@ class TestShexpFit:
     def test_bad_config_refused(self):
         for kw in ({"weights": "l1"}, {"alpha_min": 0.0}, {"alpha_max": 1.5}, {"lmax_p": 12},
                    {"floor": 0.0}, {"sets": 0}, {"sets": 5, "alpha_count": 8},
-                   {"alpha_min": float("nan")}):  # fmt: skip
+                   {"alpha_min": float("nan")}, {"alpha_weight": -1.0},
+                   {"alpha_weight": 4.5}, {"alpha_weight": float("nan")}):  # fmt: skip
             with pytest.raises(ValueError):
                 FitConfig(**kw)

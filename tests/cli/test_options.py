@@ -158,6 +158,7 @@ class TestRangesAreUsageErrors:
         ("probe-fit", "--roughness-count"): R(3, 64, True),
         ("probe-fit", "--sets"): R(1, 8, True, extra=("--alpha-count", "64")),
         ("probe-fit", "--polish"): R(0, 8, True),
+        ("probe-fit", "--alpha-weight"): R(0.0, 4.0, False),
         ("probe-fit", "--samples"): R(16, 1 << 20, True),
         ("probe-fit", "--floor"): R(0.0, 1.0, False, True, True),
         ("probe-fit", "--targets-lmax"): R(1, 24, True),
