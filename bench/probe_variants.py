@@ -39,9 +39,12 @@ def variants():
         "paper (1 set, lmax 4/2)": FitConfig.paper(),
         "1 set, lmax 5/2, default fit": FitConfig(sets=1),
         "issue 12 default (lmax 4/2, 64 normals, 1 polish step)": FitConfig(
-            lmax_p=4, normals=64, polish=1
+            lmax_p=4, normals=64, polish=1, alpha_weight=0.0
         ),
-        "default (lmax 5/2, 48 normals, 2 polish steps)": FitConfig(),
+        "default without the α weight (alpha_weight 0)": FitConfig(alpha_weight=0.0),
+        "α weight 0.5, else default": FitConfig(alpha_weight=0.5),
+        "default (lmax 5/2, 48 normals, 2 polish steps, α weight 1)": FitConfig(),
+        "α weight 2, else default": FitConfig(alpha_weight=2.0),
         "3 sets, lmax 4/2": FitConfig(sets=3, lmax_p=4, normals=64, polish=1),
         "lmax 6/2": FitConfig(lmax_p=6),
         "first knot 0.15, else default": FitConfig(alpha_min=0.15),
@@ -98,7 +101,7 @@ def main():
                             "splitsum_plain": ref["splitsum_plain"],
                         }  # fmt: skip
                     )
-                    if name.startswith("default"):
+                    if name.startswith("default ("):
                         check = max(check, abs(mse / ref["shexp_v2"] - 1.0))
         print(m, flush=True)
     summary = {}

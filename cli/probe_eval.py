@@ -85,7 +85,7 @@ def probe_eval(maps, output, size, samples, roughness, eps, face_size, shrm, she
     Cases: chrome (F0 1) and dielectric (F0 0.04) × the paper's GGX widths
     α = 0.25, 0.36, 0.49, 0.64, 0.81, 1 (or --roughness) × four views; error:
     MSE over the sphere. Probes: SH-exp v2 (default fit), the paper's SH-exp
-    (--sets 1 --weights log), split-sum plain (1024 samples per texel, levels
+    (--sets 1 --weights log --alpha-weight 0), split-sum plain (1024 samples per texel, levels
     at those α), split-sum filtered (engine-grade) and the GGX SHRM (E0 and E1
     SHRMs per α by the shrm command's baker, orders from --eps). A probe that
     does not cover an α (SH-exp: α < 0.2) reports n/a there.

@@ -69,8 +69,8 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
 @click.option("--alpha-count", type=int, default=8, show_default=True,
               help="Fit α values, evenly spaced over the range (at least 2·sets − 1).")
 @click.option("--sets", type=click.IntRange(1, SETS_LIMIT), default=2, show_default=True,
-              help="Coefficient sets K, hat-blended (linear) in α; 1 with --weights log "
-              "and --alpha-count 4 is the paper's model.")  # fmt: skip
+              help="Coefficient sets K, hat-blended (linear) in α; 1 with --weights log, "
+              "--alpha-weight 0 and --alpha-count 4 is the paper's model.")  # fmt: skip
 @click.option("--weights", type=click.Choice(WEIGHTS), default="shaded-nv", show_default=True,
               help="Log-space sample weights: log (eq. 13), shaded (E0²), shaded-nv "
               "(E0² · 2 n·v), shaded-nv-f0 (+ chrome/dielectric balance).")  # fmt: skip

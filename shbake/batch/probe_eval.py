@@ -1,7 +1,7 @@
 """``probe-eval``: bake every probe under test for a map and measure them against ground truth.
 
 Probes under test (:data:`EVALUATED`): SH-exp v2 (the default fit), the
-paper's SH-exp (``--sets 1 --weights log``), the paper's plain split-sum
+paper's SH-exp (:meth:`FitConfig.paper`), the paper's plain split-sum
 (1024 samples per texel, levels at the evaluated ``α``), the engine-grade
 split-sum (filtered importance sampling, same levels) and the GGX SHRM
 (Ramamoorthi & Hanrahan 2002; :class:`ShrmProbe`): an ``E0`` and an ``E1``
