@@ -14,14 +14,18 @@ shared machine wall times measure the load more than the code, so the CPU
 time one process spends per probe (batches of 8, after a warm-up batch) is
 reported too, with the rate two cores would give at that CPU time. ``--dask``
 fits the first ``N`` probes on a ``--jobs``-worker Dask LocalCluster and
-compares every file byte for byte with the local run's. Output: Markdown.
+compares every file byte for byte with the local run's. OpenBLAS runs one thread unless
+``OPENBLAS_NUM_THREADS`` says otherwise, as in ``shbake`` itself. Output: Markdown.
 """
 
 import argparse
 import filecmp
+import os
 import tempfile
 import time
 from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the command line runs (cli/__init__.py)
 
 ROOT = Path(__file__).resolve().parent.parent
 MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")

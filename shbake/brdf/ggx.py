@@ -104,9 +104,9 @@ def evaluate(prm, sx, sy, sz, vx, vy, vz, out):
 
 
 @jit
-def sample(prm, vx, vy, vz, ur, ua):
-    """Visible-normal sample (Heitz 2018, listing 1), reflected."""
-    ax, ay = prm[3], prm[4]
+def vndf_frame(ax, ay, vx, vy, vz):
+    """The part of :func:`sample` that depends on the view alone: the stretched view ``w``
+    and the frame ``t1``, ``t2`` about it (Heitz 2018, listing 1), as one 9-tuple."""
     wx, wy, wz = ax * vx, ay * vy, vz
     n = np.sqrt(wx * wx + wy * wy + wz * wz)
     wx, wy, wz = wx / n, wy / n, wz / n
@@ -117,6 +117,13 @@ def sample(prm, vx, vy, vz, ur, ua):
     else:
         t1x, t1y, t1z = 1.0, 0.0, 0.0
     t2x, t2y, t2z = wy * t1z - wz * t1y, wz * t1x - wx * t1z, wx * t1y - wy * t1x
+    return wx, wy, wz, t1x, t1y, t1z, t2x, t2y, t2z
+
+
+@jit
+def sample_in_frame(ax, ay, vx, vy, vz, frame, ur, ua):
+    """:func:`sample` given the view's :func:`vndf_frame` (computed once per view)."""
+    wx, wy, wz, t1x, t1y, t1z, t2x, t2y, t2z = frame
     r = np.sqrt(ur)
     phi = TWO_PI * ua
     p1, p2 = r * np.cos(phi), r * np.sin(phi)
@@ -131,6 +138,13 @@ def sample(prm, vx, vy, vz, ur, ua):
     if n == 0.0:
         return 0.0, 0.0, -1.0
     return reflect_about(hx / n, hy / n, hz / n, vx, vy, vz)
+
+
+@jit
+def sample(prm, vx, vy, vz, ur, ua):
+    """Visible-normal sample (Heitz 2018, listing 1), reflected."""
+    ax, ay = prm[3], prm[4]
+    return sample_in_frame(ax, ay, vx, vy, vz, vndf_frame(ax, ay, vx, vy, vz), ur, ua)
 
 
 @jit
@@ -149,17 +163,41 @@ def pdf(prm, sx, sy, sz, vx, vy, vz):
 
 
 @jit
+def view_g1(vx, vy, vz, alpha):
+    """``G1(v)`` of an isotropic GGX of width ``α`` (local ``v``, ``v_z > 0``)."""
+    return 1.0 / (1.0 + smith_lambda(alpha, alpha, vx, vy, vz))
+
+
+@jit
+def vndf_terms_at(g1v, vx, vy, vz, lx, ly, lz, alpha):
+    """:func:`vndf_terms` given ``G1(v)`` (:func:`view_g1`, computed once per view)."""
+    hx, hy, hz = vx + lx, vy + ly, vz + lz
+    hn = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / hn, hy / hn, hz / hn
+    g1l = 1.0 / (1.0 + smith_lambda(alpha, alpha, lx, ly, lz))
+    tail = (1.0 - min(1.0, max(0.0, vx * hx + vy * hy + vz * hz))) ** 5
+    return g1v * ggx_d(alpha, alpha, hx, hy, hz) / (4.0 * vz), g1l, tail
+
+
+@jit
 def vndf_terms(vx, vy, vz, lx, ly, lz, alpha):
     """For local unit ``v``, ``l`` above the surface of an isotropic GGX of width ``α``: the
     visible-normal density ``p(l) = G1(v) D(h) / (4 n·v)`` (1/sr), ``G1(l)`` and the Schlick
     tail ``(1 − v·h)^5``. ``f_DV (n·l) = p(l) G1(l)`` (separable Smith, SPEC §4)."""
-    hx, hy, hz = vx + lx, vy + ly, vz + lz
-    hn = np.sqrt(hx * hx + hy * hy + hz * hz)
-    hx, hy, hz = hx / hn, hy / hn, hz / hn
-    g1v = 1.0 / (1.0 + smith_lambda(alpha, alpha, vx, vy, vz))
-    g1l = 1.0 / (1.0 + smith_lambda(alpha, alpha, lx, ly, lz))
-    tail = (1.0 - min(1.0, max(0.0, vx * hx + vy * hy + vz * hz))) ** 5
-    return g1v * ggx_d(alpha, alpha, hx, hy, hz) / (4.0 * vz), g1l, tail
+    return vndf_terms_at(view_g1(vx, vy, vz, alpha), vx, vy, vz, lx, ly, lz, alpha)
+
+
+@jit
+def sample_light_at(t, b, n, v_loc, alpha, frame, g1v, ur, ua):
+    """:func:`sample_light` given the view's :func:`vndf_frame` and :func:`view_g1`."""
+    sx, sy, sz = sample_in_frame(alpha, alpha, v_loc[0], v_loc[1], v_loc[2], frame, ur, ua)
+    if sz <= 0.0:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
+    pdf, g1, tail = vndf_terms_at(g1v, v_loc[0], v_loc[1], v_loc[2], sx, sy, sz, alpha)
+    wx = sx * t[0] + sy * b[0] + sz * n[0]
+    wy = sx * t[1] + sy * b[1] + sz * n[1]
+    wz = sx * t[2] + sy * b[2] + sz * n[2]
+    return wx, wy, wz, g1, g1 * tail, pdf
 
 
 @jit
@@ -171,14 +209,9 @@ def sample_light(t, b, n, v_loc, alpha, prm, ur, ua):
     ``prm`` is a scratch GGX parameter vector with ``prm[3] = prm[4] = α``.
     The weights are 0 when ``l`` falls below the surface.
     """
-    sx, sy, sz = sample(prm, v_loc[0], v_loc[1], v_loc[2], ur, ua)
-    if sz <= 0.0:
-        return 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
-    pdf, g1, tail = vndf_terms(v_loc[0], v_loc[1], v_loc[2], sx, sy, sz, alpha)
-    wx = sx * t[0] + sy * b[0] + sz * n[0]
-    wy = sx * t[1] + sy * b[1] + sz * n[1]
-    wz = sx * t[2] + sy * b[2] + sz * n[2]
-    return wx, wy, wz, g1, g1 * tail, pdf
+    frame = vndf_frame(prm[3], prm[4], v_loc[0], v_loc[1], v_loc[2])
+    g1v = view_g1(v_loc[0], v_loc[1], v_loc[2], alpha)
+    return sample_light_at(t, b, n, v_loc, alpha, frame, g1v, ur, ua)
 
 
 def check_geometry(views, normals, roughness):

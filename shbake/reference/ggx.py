@@ -27,7 +27,7 @@ of the piecewise-constant map — the brute-force texel sum of
 
 import numpy as np
 
-from shbake.brdf.ggx import check_geometry, sample_light, vndf_terms
+from shbake.brdf.ggx import check_geometry, sample_light_at, view_g1, vndf_frame, vndf_terms_at
 from shbake.brdf.sampling import surface_frame
 from shbake.conventions import ROUGHNESS_MIN, check_samples
 from shbake.envmap.importance import latlong_flat, light_distribution
@@ -54,24 +54,42 @@ def check_alpha(alpha, count: int | None = None, name: str = "alpha") -> np.ndar
 
 
 @jit
-def _integrate_mis(views, normals, alphas, square, pixels, height, width, cdf, density,
-                   out0, out1, b0, b1):  # fmt: skip
-    """Balance-heuristic MIS of ``N`` visible-normal and ``N`` map samples (module docstring)."""
-    n = square.shape[0]
+def _map_samples(square, cdf, height, width, texel, dirs):
+    """The ``N`` map samples, the same for every integral of a call: sample ``k`` picks
+    texel ``texel[k]`` by inverting ``cdf`` at ``square[k, 0]`` and the point ``dirs[k]``
+    inside it (uniform in solid angle; ``square[k, 1]`` across the column)."""
     texels = cdf.shape[0]
+    for k in range(square.shape[0]):
+        u = square[k, 0]
+        j = min(np.searchsorted(cdf, u, side="right"), texels - 1)
+        lo = cdf[j - 1] if j > 0 else 0.0
+        f = (u - lo) / (cdf[j] - lo) if cdf[j] > lo else 0.5
+        texel[k] = j
+        dirs[k, 0], dirs[k, 1], dirs[k, 2] = latlong_texel_point(
+            j, min(max(f, 0.0), 1.0), square[k, 1], height, width
+        )
+
+
+@jit
+def _integrate_mis(views, normals, alphas, square, pixels, height, width, texel, dirs, density,
+                   out0, out1, b0, b1):  # fmt: skip
+    """Balance-heuristic MIS of ``N`` visible-normal and ``N`` map samples (module docstring;
+    the map's from :func:`_map_samples`, none for a black map)."""
+    n = square.shape[0]
+    mapped = texel.shape[0] > 0
     for t in range(b0, b1):
-        prm = np.zeros(6)
-        prm[3] = prm[4] = alphas[t]
         nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
         (tx, ty, tz), (bx, by, bz), v_loc = surface_frame(
             views[t, 0], views[t, 1], views[t, 2], nx, ny, nz
         )
         a0 = np.zeros(3)
         a1 = np.zeros(3)
+        frame = vndf_frame(alphas[t], alphas[t], v_loc[0], v_loc[1], v_loc[2])
+        g1v = view_g1(v_loc[0], v_loc[1], v_loc[2], alphas[t])
         for k in range(n):
             # the BRDF's sample
-            lx, ly, lz, g1, g1_tail, p_brdf = sample_light(
-                (tx, ty, tz), (bx, by, bz), (nx, ny, nz), v_loc, alphas[t], prm,
+            lx, ly, lz, g1, g1_tail, p_brdf = sample_light_at(
+                (tx, ty, tz), (bx, by, bz), (nx, ny, nz), v_loc, alphas[t], frame, g1v,
                 square[k, 0], square[k, 1],
             )  # fmt: skip
             if g1 > 0.0:
@@ -81,13 +99,10 @@ def _integrate_mis(views, normals, alphas, square, pixels, height, width, cdf, d
                     a0[c] += w * g1 * pixels[j, c]
                     a1[c] += w * g1_tail * pixels[j, c]
             # the map's sample
-            if texels == 0:
+            if not mapped:
                 continue
-            u = square[k, 0]
-            j = min(np.searchsorted(cdf, u, side="right"), texels - 1)
-            lo = cdf[j - 1] if j > 0 else 0.0
-            f = (u - lo) / (cdf[j] - lo) if cdf[j] > lo else 0.5
-            lx, ly, lz = latlong_texel_point(j, min(max(f, 0.0), 1.0), square[k, 1], height, width)
+            j = texel[k]
+            lx, ly, lz = dirs[k, 0], dirs[k, 1], dirs[k, 2]
             l_loc = (
                 tx * lx + ty * ly + tz * lz,
                 bx * lx + by * ly + bz * lz,
@@ -95,7 +110,7 @@ def _integrate_mis(views, normals, alphas, square, pixels, height, width, cdf, d
             )
             if l_loc[2] <= 0.0:
                 continue
-            p_brdf, g1, tail = vndf_terms(*v_loc, *l_loc, alphas[t])
+            p_brdf, g1, tail = vndf_terms_at(g1v, *v_loc, *l_loc, alphas[t])
             w = p_brdf / (p_brdf + density[j])
             for c in range(3):
                 a0[c] += w * g1 * pixels[j, c]
@@ -123,6 +138,11 @@ def ggx_integrals(pixels, views, normals, alpha, samples: int = 4096):
     e0 = np.empty((v.shape[0], 3))
     e1 = np.empty((v.shape[0], 3))
     cdf, density = light_distribution(flat, h, w)
+    square = fibonacci_square(samples)
+    mapped = samples if cdf.shape[0] else 0
+    texel, dirs = np.empty(mapped, np.int64), np.empty((mapped, 3))
+    if mapped:
+        _map_samples(square, cdf, h, w, texel, dirs)
     run_blocks(_integrate_mis, v.shape[0], v.shape[0] * samples * 400.0,
-               v, n, a, fibonacci_square(samples), flat, h, w, cdf, density, e0, e1)  # fmt: skip
+               v, n, a, square, flat, h, w, texel, dirs, density, e0, e1)  # fmt: skip
     return e0, e1
