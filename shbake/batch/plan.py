@@ -100,7 +100,7 @@ TABLE_LMAX = (2, 4, 6, 8)
 TABLE_SIZES = (8, 16, 32, 64)
 TABLE_SAMPLES = (256, 1024, 4096)
 REFERENCE_SAMPLES = 16384
-PLAN_VERSION = 7
+PLAN_VERSION = 8
 
 
 _HASHED: dict = {}
@@ -302,8 +302,10 @@ def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> d
 
 
 def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
-    """An SH-exp probe over perceptual roughness ``[lo, hi]`` (α = r²): the paper's fit
-    (one set, 4 α samples, 256 samples per target) of the map itself — the bake's fit, with
+    """An SH-exp probe over perceptual roughness ``[lo, hi]`` (α = r²): the default fit
+    (:class:`~shbake.bakers.shexp.FitConfig`: two sets, lmax 5/2, the ``α`` weight; one set
+    and one α sample for a single roughness), the one the dielectric limit
+    :data:`SHEXP_DIELECTRIC_ALPHA` was measured with, of the map itself — the bake's fit, with
     the plan it loads (built here once per machine into the plan cache) — whose RMS log
     residual is the error; the probe is kept in the unit (``fit``,
     :meth:`~shbake.bakers.shexp.ShexpProbe.to_record`) for the bake to write
@@ -312,8 +314,8 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
 
     a_lo, a_hi = ggx_alpha(lo), ggx_alpha(hi)
-    config = FitConfig.paper(alpha_min=a_lo, alpha_max=a_hi,
-                             alpha_count=4 if a_hi > a_lo else 1, samples=256)  # fmt: skip
+    single = {} if a_hi > a_lo else {"sets": 1, "alpha_count": 1}
+    config = FitConfig(alpha_min=a_lo, alpha_max=a_hi, **single)
     plan = fit_plan(config, env.shape)
     probe = plan.fit_many([env.pixels])[0]  # the call the bake makes: the same bits
     shared_dfg_table()
@@ -322,7 +324,7 @@ def plan_shexp(env: EnvMap, lo: float, hi: float, tol: float) -> dict:
         "settings": {"fit": config.as_dict()},
         "predicted_error": {"glossy_probe": float(probe.stats["log_rms"])},
         "work_seconds": t_fit,
-        "bytes": 12 * config.n_params,
+        "bytes": 12 * config.sets * config.n_params,
         "note": "error: the fit's RMS log residual (the bake writes this fit)",
         "fit": probe.to_record(),
     }
