@@ -1,7 +1,8 @@
 """SH-exp v2 and the paper's SH-exp against both split-sums on the six shared maps.
 
 Usage: ``python bench/probe_eval.py [--jobs 2] [--size 32] [--truth-samples 2048]
-[--roughness R …] [--eps 0.01] [--face-size 64] [--no-shrm] [--out PREFIX] [MAP …]``
+[--roughness R …] [--yaw DEG …] [--eps 0.01] [--face-size 64] [--no-shrm] [--out PREFIX]
+[MAP …]``
 
 The three-way table of ``docs/BENCHMARKS.md`` (SH-exp, split-sum, GGX SHRM at
 ε = 0.01; issue 13)::
@@ -31,14 +32,16 @@ RESULTS = ROOT / "bench" / "results"
 
 
 def one_map(args):
-    path, size, samples, roughness, eps, face_size = args
+    path, size, samples, roughness, eps, face_size, yaws = args
     from shbake.batch.probe_eval import evaluate_maps
+    from shbake.evaluation.probes import VIEW_YAWS
     from shbake.jit import use_one_thread
 
     use_one_thread()
 
     return evaluate_maps([path], size, samples, cache_dir=os.environ.get("SHBAKE_TRUTH_CACHE"),
-                         roughness=roughness, shrm_eps=eps, shrm_face_size=face_size)
+                         roughness=roughness, shrm_eps=eps, shrm_face_size=face_size,
+                         yaws=yaws or VIEW_YAWS)  # fmt: skip
 
 
 def main():
@@ -49,6 +52,8 @@ def main():
     ap.add_argument("--truth-samples", type=int, default=2048)
     ap.add_argument("--roughness", type=float, nargs="+", default=None,
                     help="perceptual roughness of the cases (default: the paper's six)")
+    ap.add_argument("--yaw", type=float, nargs="+", default=None,
+                    help="view yaws of the cases in degrees (default the paper's 0 90 180 270)")
     ap.add_argument("--eps", type=float, default=0.01, help="GGX SHRM tolerance")
     ap.add_argument("--face-size", type=int, default=64, help="GGX SHRM face size")
     ap.add_argument("--no-shrm", action="store_true", help="leave the GGX SHRM out")
@@ -57,7 +62,7 @@ def main():
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     paths = args.maps or [str(ROOT.parent / "shared" / "hdri" / f"{m}.exr") for m in MAPS]
     eps = None if args.no_shrm else args.eps
-    work = [(p, args.size, args.truth_samples, args.roughness, eps, args.face_size)
+    work = [(p, args.size, args.truth_samples, args.roughness, eps, args.face_size, args.yaw)
             for p in paths]  # fmt: skip
     with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
         parts = list(pool.map(one_map, work))

@@ -205,7 +205,7 @@ def check_evaluation(
 
 def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=None,
                   cache_dir=None, sheet_dir=None, roughness=None, shrm_eps: float | None = SHRM_EPS,
-                  shrm_face_size: int = SHRM_FACE_SIZE) -> dict:  # fmt: skip
+                  shrm_face_size: int = SHRM_FACE_SIZE, yaws=VIEW_YAWS) -> dict:  # fmt: skip
     """Every case of every map (lat-long files): ``{"maps": {stem: rows}, "bytes": {name:
     bytes per probe}, "configs": …, "alphas": …, "shrm": …}``; SH-exp v2 is
     :class:`FitConfig` ``()``, the paper's fit :meth:`FitConfig.paper`, both split-sums
@@ -213,7 +213,8 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
     (:func:`split_levels`; the default levels for the paper's six), the GGX SHRM at
     ``shrm_eps`` (``None``: no SHRM) and ``shrm_face_size`` (:class:`ShrmProbe`; its orders,
     captured energy and whether ``1 − ε`` was reached under ``"shrm"``). ``roughness``:
-    perceptual roughness values of the cases (:func:`evaluation_alphas`)."""
+    perceptual roughness values of the cases (:func:`evaluation_alphas`); ``yaws``: the views'
+    yaws in degrees (default the paper's four, :data:`VIEW_YAWS`)."""
     from pathlib import Path
 
     from shbake.bakers.shexp import FitConfig
@@ -225,13 +226,16 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
     if sheet_dir is not None:
         check_output_dir(sheet_dir, "--sheet-dir")
     alphas, shrm = check_evaluation(roughness, shrm_eps, shrm_face_size)
+    yaws = tuple(float(y) for y in yaws)
+    if not yaws or not all(np.isfinite(y) for y in yaws):
+        raise ParameterError("view yaws must be finite degrees, at least one")
     if shrm is not None:
         shrm["orders"] = shrm_orders(alphas, shrm["eps"])
     dfg = shared_dfg_table()
     split = SplitSumConfig(alphas=split_levels(alphas))
     configs = {"shexp_v2": FitConfig(), "shexp_paper": FitConfig.paper()}
     out = {"maps": {}, "bytes": {}, "size": size, "truth_samples": truth_samples,
-           "alphas": list(alphas),
+           "alphas": list(alphas), "yaws": list(yaws),
            "configs": {k: c.as_dict() for k, c in configs.items()} | {
                "splitsum": split.as_dict()}}  # fmt: skip
     if shrm is not None:
@@ -244,7 +248,7 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
         if sheet_dir is not None:
             makedirs(sheet_dir)
         rows, _, nbytes = evaluate_map(env, plans, split, dfg, size, truth_samples, alphas,
-                                       cache_dir=cache_dir, sheet_dir=sheet_dir,
+                                       yaws, cache_dir=cache_dir, sheet_dir=sheet_dir,
                                        label=Path(path).stem, shrm=shrm)  # fmt: skip
         out["maps"][Path(path).stem] = rows
         out["bytes"] = nbytes
