@@ -10,9 +10,16 @@ The three-way table of ``docs/BENCHMARKS.md`` (SH-exp, split-sum, GGX SHRM at
     python bench/probe_eval.py --jobs 2 --truth-samples 4096 --roughness 0.25 0.4 0.5 \
         --out bench/results/probe_eval_shrm
 
+The planner's dielectric limit (α 0.2) and the views the acceptance does not score::
+
+    python bench/probe_eval.py --jobs 2 --no-shrm --roughness 0.4472136 \
+        --out bench/results/probe_eval_alpha02
+    python bench/probe_eval.py --jobs 2 --no-shrm --yaw 45 135 225 315 \
+        --out bench/results/probe_eval_heldout
+
 Runs :func:`shbake.batch.probe_eval.evaluate_maps` (2 materials × the paper's
-six α × 4 views per map) with one process per map (``--jobs`` at a time,
-numba on one thread each) and writes ``bench/results/probe_eval.json`` (every
+six α × 4 views per map, or ``--roughness``/``--yaw``'s) with one process per map
+(``--jobs`` at a time, numba on one thread each) and writes ``bench/results/probe_eval.json`` (every
 case) and ``bench/results/probe_eval.md`` (win rates per α and material, bytes
 per probe, the per-map table and every case). ``SHBAKE_TRUTH_CACHE=DIR`` keeps
 the ground truths there (they do not depend on the probes) for re-runs.
