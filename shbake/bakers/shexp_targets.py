@@ -19,7 +19,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shbake.brdf.ggx import check_geometry, ggx_d, sample_light, smith_lambda
+from shbake.brdf.ggx import (
+    check_geometry,
+    ggx_d,
+    sample_light_at,
+    smith_lambda,
+    view_g1,
+    vndf_frame,
+)
 from shbake.brdf.sampling import surface_frame
 from shbake.conventions import check_samples
 from shbake.envmap.importance import (
@@ -146,13 +153,13 @@ def _plan_rows(views, normals, alphas, square, height, width, offsets, index, we
     levels = offsets.shape[0] - 1
     log2_omega = log2_row_solid_angles(height, width)
     for t in range(b0, b1):
-        prm = np.zeros(6)
-        prm[3] = prm[4] = alphas[t]
         nrm = (normals[t, 0], normals[t, 1], normals[t, 2])
         tan, bit, v_loc = surface_frame(views[t, 0], views[t, 1], views[t, 2], *nrm)
+        frame = vndf_frame(alphas[t], alphas[t], v_loc[0], v_loc[1], v_loc[2])
+        g1v = view_g1(v_loc[0], v_loc[1], v_loc[2], alphas[t])
         for k in range(n):
-            lx, ly, lz, w0, _, pdf = sample_light(
-                tan, bit, nrm, v_loc, alphas[t], prm, square[k, 0], square[k, 1]
+            lx, ly, lz, w0, _, pdf = sample_light_at(
+                tan, bit, nrm, v_loc, alphas[t], frame, g1v, square[k, 0], square[k, 1]
             )
             if w0 > 0.0:
                 index[t, k] = filtered_texel(
