@@ -71,8 +71,9 @@ SHEXP_PROBE = register(Kind(
     version=2,
     title="SH-exponential glossy probe (Silvennoinen et al. 2025; `probe-fit`)",
     attrs=_SHEXP_ATTRS + MAP_KIND_ATTRS + (
-        Attr("fit_stats", "json", "`log_rms`, `relative_rms`, `floored_targets`, `targets`",
-             json_type=dict),
+        Attr("fit_stats", "json", "`log_rms`, `shaded_relative_rms`, "
+             "`shaded_relative_rms_by_alpha` (one per fit α), `floored_targets`, `targets`, "
+             "`polish_steps`", json_type=dict),
     ),
     datasets=(
         Data("/p", ("K", "(lmax_p+1)**2", 3), "float32", "SH coefficients of `P` (eq. 11), one "
