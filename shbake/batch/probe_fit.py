@@ -16,7 +16,7 @@ from shbake.bakers.shexp import FitConfig
 from shbake.batch.map_list import map_entries, map_outputs
 from shbake.batch.probe_jobs import ProbeJob, fit_plan, run_dask, run_local, shared_dfg_table
 from shbake.batch.scheduler import session
-from shbake.errors import InputError, ParameterError
+from shbake.errors import InputError, OutputError, ParameterError
 from shbake.evaluation.metrics import HEADLINE_WARNING
 from shbake.format.atomic import check_output_path
 
@@ -96,18 +96,33 @@ def fit_warnings(results: list[dict]) -> list[str]:
             "--alpha-range, or split-sum / shrm for low α"]  # fmt: skip
 
 
+def check_manifest_path(manifest: str, jobs, output) -> None:
+    """Refuse, before any work, a ``--manifest`` that cannot be written or that is a map or
+    an output of the run (the same file through links or another spelling): it is written
+    even when the run fails, so it must not replace what the run reads or writes."""
+    check_output_path(manifest, "--manifest")
+    here = os.path.abspath(manifest)
+    for path in {p for job in jobs for p in (job.source, output or job.output) if p}:
+        there = os.path.abspath(path)
+        if here == there or (os.path.exists(here) and os.path.exists(there)
+                             and os.path.samefile(here, there)):  # fmt: skip
+            raise OutputError(f"{manifest}: is also {path} of this run (--manifest must name "
+                              "another file)")  # fmt: skip
+
+
 def write_manifest(path: str, jobs, finished: list, output, error) -> None:
     """``--manifest``: one JSON line per job — source, output, ``written`` / ``not written``
     and the output's SHA-256 — plus the run's status, written atomically on its own even
     when the run failed (so ``make`` or a Dask rerun can resume from it). With ``-o`` (a
-    set) the probes are written together or not at all."""
+    set) the probes are written together or not at all, and a manifest of a run that
+    succeeded is committed with the set (its SHA-256 is the staged set's)."""
     import hashlib
     import json
 
-    from shbake.format.atomic import detached, write_text
+    from shbake.format.atomic import detached, staged, write_text
 
-    def sha256_of(path):  # an output of this run: hashed as such, not read as an input
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    def sha256_of(path):  # an output of this run (staged or committed), not read as an input
+        return hashlib.sha256(Path(staged(path) or path).read_bytes()).hexdigest()
 
     done = {r["source"] for r in finished if r.get("output")} if output is None else set()
     set_written = output is not None and error is None
@@ -121,7 +136,7 @@ def write_manifest(path: str, jobs, finished: list, output, error) -> None:
     reason = (str(error).splitlines() or [type(error).__name__])[0] if error else ""
     status = "ok" if error is None else f"failed: {reason}"
     doc = {"status": status, "probes": rows}
-    with detached():
+    with nullcontext() if set_written else detached():
         write_text(path, json.dumps(doc, indent=1, sort_keys=True) + "\n")
 
 
@@ -142,6 +157,8 @@ def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_C
 def _fit_probes(maps, probe_list, output, out_dir, config, negative, fix_nonfinite, report, tol,
                 n_jobs, client, progress, notes, manifest) -> dict:  # fmt: skip
     jobs = make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, output)
+    if manifest is not None:
+        check_manifest_path(manifest, jobs, output)
     study = {}
     if report or tol is not None:
         config, study, text = settings_study(jobs[0], config, report, tol)
@@ -150,8 +167,6 @@ def _fit_probes(maps, probe_list, output, out_dir, config, negative, fix_nonfini
             notes(f"probe-fit: --tol {tol:g} → --samples {config.samples}")
         if notes and text:
             notes(text)
-    if manifest is not None:
-        check_output_path(manifest, "--manifest")
     t0 = time.perf_counter()
     finished: list = []
     error = None

@@ -68,6 +68,32 @@ class TestBatches:
             digest = hashlib.sha256((box / "probes" / f"m{i}.h5").read_bytes()).hexdigest()
             assert row["sha256"] == digest
 
+    def test_manifest_of_a_set_hashes_the_set_written(self, run_cli, box):
+        """``-o SET --manifest M``: a new set is written and ``M`` holds the SHA-256 of the
+        set this run wrote, not of the file it replaced."""
+        import hashlib
+
+        (box / "old.h5").write_bytes(b"junk")
+        for name in ("new.h5", "old.h5"):
+            manifest = box / f"{name}.json"
+            assert run_cli("probe-fit", box / "map.exr", "-o", box / name, "--samples", 64,
+                           "--manifest", manifest)[0] == 0  # fmt: skip
+            doc = json.loads(manifest.read_text())
+            digest = hashlib.sha256((box / name).read_bytes()).hexdigest()
+            assert doc["status"] == "ok" and doc["probes"][0]["sha256"] == digest
+
+    def test_manifest_is_never_a_map_or_an_output(self, run_cli, box):
+        """A manifest naming the map (or a link to it), the set or a probe of the run is
+        refused before any work: nothing is written, the map is intact."""
+        os.symlink(box / "map.exr", box / "link.json")
+        cases = [("-o", box / "set.h5", box / "map.exr"), ("-o", box / "set.h5", box / "link.json"),
+                 ("-o", box / "set.h5", box / "set.h5"), ("--out-dir", box, box / "map.h5")]
+        for flag, out, manifest in cases:
+            with unchanged(box):
+                assert_failed(run_cli("probe-fit", box / "map.exr", flag, out, "--samples", 64,
+                                      "--manifest", manifest),  # fmt: skip
+                              fragment="--manifest must name another file")
+
     def test_set_is_all_or_nothing(self, run_cli, box):
         (box / "bad.exr").write_bytes(b"not an image")
         with unchanged(box):
