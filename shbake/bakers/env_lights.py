@@ -163,7 +163,8 @@ def irradiance_target(env: Environment, n_dirs: int = FIT_DIRECTIONS) -> Irradia
 def fitted_bands(lmax: int) -> np.ndarray:
     """Indices ``i ≥ 1`` of the SH coefficients the fit solves for (``Â_l ≠ 0``)."""
     kernel = lambert_kernel(lmax)
-    return np.array([i for i in range(1, (lmax + 1) ** 2) if kernel[int(np.sqrt(i))] != 0.0])
+    return np.array([i for i in range(1, (lmax + 1) ** 2) if kernel[int(np.sqrt(i))] != 0.0],
+                    dtype=np.intp)
 
 
 def _frames(starts: np.ndarray) -> np.ndarray:

@@ -76,6 +76,17 @@ class TestSyntheticLights:
         assert [f.count for f in tried] == [0, 1, 2] and fit.count == 2
         assert tried[1].mean_error > 0.002 >= fit.mean_error
 
+    def test_irradiance_lmax_0(self):
+        """Lights with the constant alone (``--irradiance-lmax 0``) on a constant sky with
+        two discs: the discs are found, with their energy."""
+        env, energies, sky = sky_with_lights()
+        flat = env.pixels - sky + 0.5  # the sky's gradient (band 1) taken out
+        fit = fit_lights(irradiance_target(Environment(flat.astype(np.float32), "latlong")), 2,
+                         lmax=0)  # fmt: skip
+        assert fit.sh.shape[0] == 1
+        assert np.all(_angle_deg(fit.directions, LIGHTS) < 0.7)
+        np.testing.assert_allclose(fit.irradiance, energies, rtol=5e-3)
+
     def test_black_map_gives_no_light(self):
         env = Environment(np.zeros((16, 32, 3), np.float32), "latlong")
         fit, _ = choose_lights(irradiance_target(env, 256), 0.01)
