@@ -28,12 +28,14 @@ import os
 import signal
 import sys
 import threading
+from contextlib import contextmanager
 
 GRACE_SECONDS = 1.0
 """How long the main thread has to clean up before the watcher does it and exits."""
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
 _received: list[int] = []
+_deferring: list[bool] = []  # non-empty inside deferred()
 _grace = GRACE_SECONDS
 _quiet = False  # pool workers: the parent prints the one line
 _finished = threading.Event()
@@ -62,7 +64,22 @@ def raise_if_interrupted() -> None:
 def _handler(signum, frame):
     if not _received:
         _received.append(signum)
-    raise KeyboardInterrupt
+    if not _deferring:
+        raise KeyboardInterrupt
+
+
+@contextmanager
+def deferred():
+    """Run a block that an interrupt must not cut in two (a transaction's commit: every
+    output moved or none): a signal that arrives inside it is recorded, and raised as
+    ``KeyboardInterrupt`` when the block has ended. The watcher's grace period still
+    bounds the wait."""
+    _deferring.append(True)
+    try:
+        yield
+    finally:
+        _deferring.pop()
+    raise_if_interrupted()
 
 
 def _unraisable(hook):

@@ -349,26 +349,32 @@ class Transaction:
         _unlink(tmp)
 
     def commit(self) -> list[str]:
-        """Move every temporary onto its target; return the targets."""
+        """Move every temporary onto its target; return the targets. A signal that arrives
+        while they move is raised when all have moved (:func:`shbake.signals.deferred`):
+        an interrupted run leaves the old outputs or the new ones, never a mix."""
         with _lock:
             signals.raise_if_interrupted()
-            done = []
-            for final, tmp in list(self.staged.items()):
-                try:
-                    os.chmod(tmp, 0o644)
-                    os.replace(tmp, final)
-                except OSError as e:  # the files not yet moved stay staged, for abort
-                    raise OutputError(os_error_message(e, final)) from None
-                del self.staged[final]
-                done.append(final)
-            for final, tmp in self.folders.items():
-                try:
-                    _replace_folder(tmp, final)
-                except OSError as e:
-                    raise OutputError(os_error_message(e, final)) from None
-                done.append(final)
-            self.staged, self.folders, self.created, self.done = {}, {}, [], True
-            return done
+            with signals.deferred():  # a signal from here on: raised once all are moved
+                return self._move_all()
+
+    def _move_all(self) -> list[str]:
+        done = []
+        for final, tmp in list(self.staged.items()):
+            try:
+                os.chmod(tmp, 0o644)
+                os.replace(tmp, final)
+            except OSError as e:  # the files not yet moved stay staged, for abort
+                raise OutputError(os_error_message(e, final)) from None
+            del self.staged[final]
+            done.append(final)
+        for final, tmp in self.folders.items():
+            try:
+                _replace_folder(tmp, final)
+            except OSError as e:
+                raise OutputError(os_error_message(e, final)) from None
+            done.append(final)
+        self.staged, self.folders, self.created, self.done = {}, {}, [], True
+        return done
 
     def abort(self) -> None:
         """Remove every temporary and every folder this run created (if empty)."""

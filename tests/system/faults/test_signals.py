@@ -172,6 +172,38 @@ sys.exit(run(call, []))
             )  # fmt: skip
         assert_failed((p.returncode, "", p.stderr), code=130, fragment="interrupted")
 
+    COMMIT = """
+import os, signal, sys
+from shbake import signals
+from shbake.format import atomic
+signals.install()
+replace = os.replace
+def replace_then_signal(src, dst):  # the signal lands between two renames of the commit
+    replace(src, dst)
+    os.kill(os.getpid(), signal.SIGINT)
+os.replace = replace_then_signal
+try:
+    with atomic.transaction():
+        for name in sys.argv[1:]:
+            with atomic.atomic_path(name) as tmp, open(tmp, "w") as f:
+                f.write("new")
+except KeyboardInterrupt:
+    sys.exit(130)
+sys.exit(0)
+"""
+
+    def test_signal_during_commit_moves_all_or_none(self, box):
+        """A signal between two renames of a commit does not leave a mix of two runs: the
+        commit ends, then the interrupt is raised (exit 130, every output new)."""
+        names = [box / f"out{i}.txt" for i in range(3)]
+        for n in names:
+            n.write_text("old")
+        p = subprocess.run([sys.executable, "-c", self.COMMIT, *map(str, names)],
+                           capture_output=True, text=True, timeout=TIMEOUT)  # fmt: skip
+        assert p.returncode == 130, p.stderr
+        assert [n.read_text() for n in names] == ["new"] * 3
+        assert not [f for f in os.listdir(box) if ".tmp" in f]
+
     def test_other_unraisable_errors_still_print(self):
         """Only a KeyboardInterrupt after a signal is dropped by the unraisable hook."""
         code = ("import gc, sys\nfrom shbake import signals\nsignals.install()\n"
