@@ -18,6 +18,9 @@ MAP_META_KEYS = (
 """Keys of an environment's ``meta`` recorded as ``source_<key>`` besides the block."""
 PROBE_META_KEYS = ("probe_position", "probe_rotation_deg")
 """Keys of a scene probe's pose in an environment's ``meta``, recorded as they are."""
+RECORDED_MAP_SUFFIXES = (".exr", ".hdr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
+"""The file name endings (any case) a recorded ``source_path`` must have to be followed:
+an asset names an image, so it cannot make shbake open ``/etc/passwd`` (docs/SECURITY.md §3)."""
 
 
 def no_source() -> dict:
@@ -82,13 +85,19 @@ def resolve_source(attrs: dict, asset_path: str, given: str | None = None,
     ``source_path`` relative to the asset's folder; its SHA-256 must match ``source_sha256``.
 
     The hash is bounded by the file size; FIFOs, devices and folders are refused
-    before opening. Raises :class:`ImageReadError` (not found) or
+    before opening, and a recorded path is followed only to an image
+    (:data:`RECORDED_MAP_SUFFIXES`). Raises :class:`ImageReadError` (not found) or
     :class:`FormatError` (hash differs).
     """
     recorded = attrs.get("source_path", "")
+    if not isinstance(recorded, str):
+        raise FormatError("attribute source_path must be a string")
     if given:
         path = given
     elif recorded:
+        if not recorded.lower().endswith(RECORDED_MAP_SUFFIXES):
+            raise FormatError(f"recorded source map {recorded!r} does not name an image "
+                              f"({', '.join(RECORDED_MAP_SUFFIXES)}); give it with {option}")
         folder = os.path.dirname(os.path.abspath(asset_path))
         path = os.path.join(folder, recorded)
     else:
@@ -103,9 +112,9 @@ def resolve_source(attrs: dict, asset_path: str, given: str | None = None,
     resources.check_regular_file(path, option if given else "recorded source map")
     digest = resources.sha256_of(path)
     want = attrs.get("source_sha256", "")
-    if digest != want:
+    if digest != want:  # the digest found is not shown: a file the user did not name
         raise FormatError(
-            f"{path}: SHA-256 {digest[:12]}… differs from the one recorded in the asset "
+            f"{path}: its SHA-256 differs from the one recorded in the asset "
             f"({str(want)[:12]}…); not the map this asset was baked from"
         )
     return path

@@ -108,3 +108,42 @@ def test_split_sum_probe_export(run_cli, baked, tmp_path):
     code, _, err = run_cli("preview", baked / "split.h5", "--diff", "--size", "16",
                            "--samples", "64", "-o", tmp_path / "pv.exr", "-q")  # fmt: skip
     assert code == 0, err
+
+
+class TestResolveSource:
+    """A hostile asset's recorded ``source_path`` (docs/SECURITY.md §3): followed only to an
+    image; a file found there is hashed, and its digest is never shown."""
+
+    def test_not_an_image_is_never_opened(self, tmp_path, monkeypatch):
+        from shbake import resources
+        from shbake.errors import FormatError
+        from shbake.format.provenance import resolve_source
+
+        opened = []
+        monkeypatch.setattr(resources, "sha256_of", lambda p: opened.append(p) or "")
+        (tmp_path / "secret.txt").write_text("root:x:0:0")
+        for recorded in ("/etc/passwd", "secret.txt", "../secret", "map.exr.txt"):
+            with pytest.raises(FormatError, match="does not name an image"):
+                resolve_source({"source_path": recorded, "source_sha256": ""},
+                               str(tmp_path / "a.h5"))  # fmt: skip
+        assert opened == []
+
+    def test_path_not_a_string(self, tmp_path):
+        from shbake.errors import FormatError
+        from shbake.format.provenance import resolve_source
+
+        with pytest.raises(FormatError, match="source_path must be a string"):
+            resolve_source({"source_path": ["x.exr"]}, str(tmp_path / "a.h5"))
+
+    def test_mismatch_shows_no_digest_of_the_file_found(self, tmp_path):
+        import hashlib
+
+        from shbake.errors import FormatError
+        from shbake.format.provenance import resolve_source
+
+        (tmp_path / "other.exr").write_bytes(b"not the map")
+        found = hashlib.sha256(b"not the map").hexdigest()
+        with pytest.raises(FormatError, match="differs from the one recorded") as info:
+            resolve_source({"source_path": "other.exr", "source_sha256": "ab" * 32},
+                           str(tmp_path / "a.h5"))  # fmt: skip
+        assert found[:8] not in str(info.value)
