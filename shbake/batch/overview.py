@@ -269,6 +269,8 @@ def gather(folder: str, tol: float | None = None) -> dict:
 
     described = set()
     for path in sorted(root.glob("*.json")):
+        if path.is_symlink():  # what the folder holds, not what its links point at
+            continue
         summary = _read_json(path, SUMMARY_MAX_BYTES, "summary")
         if is_bake(summary):
             group(path.stem)["bakes"].append(summary)
@@ -288,7 +290,7 @@ def gather(folder: str, tol: float | None = None) -> dict:
             stem = sheet.name[: -len("-sheet.png")]
             group(stem)["previews"].append((stem, {"sheet": str(sheet)}))
     for lock in sorted([root / LOCK_NAME, *root.glob(f"*/{LOCK_NAME}")]):
-        if lock.is_file() and not lock.is_symlink():
+        if lock.is_file() and not lock.is_symlink() and not lock.parent.is_symlink():
             rows += _lock_rows(lock, tol)
     # a tradeoff…-sheet.png is a preview's contact sheet (above), not a plot
     plots = [

@@ -153,3 +153,23 @@ def test_sheet_outside_the_folder_is_named_not_linked(tmp_path):
     page = Page(render(tmp_path / "pages", "t"))
     assert not page.of("img")
     assert "contact sheet ../secret-sheet.png not shown" in page.of("p")[1][1]
+
+
+def test_links_out_of_the_folder_are_not_read(tmp_path):
+    """A summary or a lock reached through a symlink (to a file, or in a linked folder) is
+    not read: the page shows what the folder holds, not what its links point at."""
+    outside, pages = tmp_path / "outside", tmp_path / "pages"
+    outside.mkdir()
+    pages.mkdir()
+    summary = {"kind": "env_sh", "output": "TOPSECRET.h5", "outputs": ["TOPSECRET.h5"],
+               "window": "TOPSECRET", "error": {"quantity": "irradiance", "value": 0.01}}
+    (outside / "private.json").write_text(json.dumps(summary))
+    own = {"output": "own.h5", "outputs": ["own.h5"], "window": "own"}
+    (pages / "own.json").write_text(json.dumps(summary | own))
+    (pages / "leak.json").symlink_to(outside / "private.json")
+    (pages / "sub").symlink_to(outside)
+    page = render(pages, "t")
+    assert "own.h5" in page and "TOPSECRET" not in page
+    (pages / "leak.json").unlink()
+    (pages / "leak.json").write_text(json.dumps(summary))
+    assert "TOPSECRET" in render(pages, "t")  # the same summary held in the folder is shown
