@@ -64,7 +64,9 @@ def read_merl(path: str) -> np.ndarray:
         raise InputError(f"{path}: not a MERL .binary file (only {len(raw)} bytes)")
     dims = tuple(int(d) for d in np.frombuffer(raw[:12], dtype="<i4"))
     if dims != (N_TH, N_TD, N_PD):
-        raise InputError(f"{path}: MERL dimensions {dims}, expected {(N_TH, N_TD, N_PD)}")
+        # the header is not echoed: a scene may name any file as its MERL BRDF
+        raise InputError(f"{path}: not a MERL .binary file (its header does not hold the "
+                         f"dimensions {N_TH} {N_TD} {N_PD})")  # fmt: skip
     n = N_TH * N_TD * N_PD
     if len(raw) != 12 + 3 * 8 * n:
         raise InputError(

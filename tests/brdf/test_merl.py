@@ -25,3 +25,12 @@ class TestMerl:
         bad.write_bytes(merl_file[0].read_bytes()[:1000])
         with pytest.raises(InputError, match="truncated"):
             make_brdf("merl", merl_path=str(bad))
+
+    def test_other_file_refused_without_echoing_it(self, tmp_path):
+        """A scene may name any file as its MERL BRDF: its first bytes are not shown."""
+        other = tmp_path / "passwd"
+        other.write_bytes(b"root:x:0:0:root:/root:/bin/bash\n" * 4)
+        with pytest.raises(InputError, match="not a MERL .binary file") as info:
+            make_brdf("merl", merl_path=str(other))
+        header = np.frombuffer(other.read_bytes()[:12], "<i4")
+        assert not any(str(int(d)) in str(info.value) for d in header)
