@@ -41,6 +41,7 @@ from shbake.batch.scene import (
     settings_text,
     settings_value,
     stamp_path,
+    written_by_shbake,
 )
 from shbake.batch.scene_paths import resolved, scene_folder, stored, stored_asset
 from shbake.batch.workers import start_server, worker_pool
@@ -581,10 +582,21 @@ def _same_stamp(text: str | None, asset: dict) -> bool:
 def declare_outputs(plan: dict) -> None:
     """Refuse, before any work, an output of ``plan`` (an asset, its settings stamp) that is
     an input of the run (:func:`shbake.resources.declare_output`: the same path, or the same
-    file through a symbolic or hard link)."""
+    file through a symbolic or hard link) or that a symbolic link takes out of its
+    ``out_dir`` (:func:`declare_in_out_dir`)."""
     for a in plan["assets"]:
-        resources.declare_output(a["output"])
-        resources.declare_output(stamp_path(plan["out_dir"], a["id"]))
+        declare_in_out_dir(a["output"], plan["out_dir"])
+        declare_in_out_dir(stamp_path(plan["out_dir"], a["id"]), plan["out_dir"])
+
+
+def declare_in_out_dir(path: str, out_dir: str) -> None:
+    """Declare the output ``path`` (:func:`shbake.resources.declare_output`), refused if it
+    is not inside ``out_dir`` once symbolic links are resolved (a linked subfolder of the
+    scene's ``out_dir`` must not carry its writes elsewhere)."""
+    if not is_inside(path, out_dir):
+        raise OutputError(f"{path}: a symbolic link takes it out of the scene's out_dir "
+                          f"{out_dir} (shbake writes only inside it)")  # fmt: skip
+    resources.declare_output(path)
 
 
 def _stamped_asset(scene: Scene, aid: str) -> dict:
@@ -646,7 +658,7 @@ def _bake_stamped(scene: Scene, ids: list[str]) -> dict:
         asset = _stamped_asset(scene, aid)
         full = dict(asset, plan_key="", tolerances={}, predicted_error={}, predicted_seconds=0.0,
                     stamp=stamp_path(scene.out_dir, aid))  # fmt: skip
-        resources.declare_output(full["output"])
+        declare_in_out_dir(full["output"], scene.out_dir)
         assets.append(full)
     todo = assets if len(assets) == 1 else [a for a in assets if _out_of_date(a)]
     with decoded_once():
@@ -879,6 +891,9 @@ def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake",
         ]
     text = "\n".join(lines)
     check_output_path(path, "--emit-make")
+    if written_by_shbake(path, scene.out_dir) is not None:
+        raise OutputError(f"{path}: is in {scene.out_dir}, which the scene's bake writes "
+                          "(--emit-make must name another file)")  # fmt: skip
     declare_outputs(plan)
     write_stamps(plan, scene)
     write_text(path, text)

@@ -87,6 +87,30 @@ class TestInputsNeverOutputs:
         with unchanged(tmp_path):
             assert_failed(run_cli("plan", path, "--emit-make", path), fragment="destroy the input")
 
+    @pytest.mark.parametrize("linked", ["out/env_sh", "out/.stamps/env_sh"])
+    def test_linked_subfolder_of_out_dir(self, tmp_path, run_cli, linked):
+        """A symbolic link inside out_dir (an asset folder, the stamps' folder) does not carry
+        the run's writes out of it: refused before any work, the outside folder untouched."""
+        path = tiny_scene(tmp_path, '[scene]\nout_dir = "out"\n[[environments]]\n'
+                          'map = "maps/sky.exr"\n')  # fmt: skip
+        (tmp_path / "elsewhere").mkdir()
+        (tmp_path / linked).parent.mkdir(parents=True)
+        (tmp_path / linked).symlink_to(tmp_path / "elsewhere")
+        for args in (["bake", path], ["plan", path, "--emit-make", tmp_path / "scene.mk"]):
+            with unchanged(tmp_path):
+                assert_failed(run_cli(*args), fragment="a symbolic link takes it out")
+
+    @pytest.mark.parametrize("target", ["out/scene.lock.json", "out/env_sh/sky.h5",
+                                        "out/.stamps/env_sh/sky.json"])  # fmt: skip
+    def test_fragment_over_what_the_bake_writes(self, tmp_path, run_cli, target):
+        path = tiny_scene(tmp_path, '[scene]\nout_dir = "out"\n[[environments]]\n'
+                          'map = "maps/sky.exr"\n')  # fmt: skip
+        code, _, err = run_cli("bake", path, "--quiet")
+        assert code == 0, err
+        with unchanged(tmp_path):
+            assert_failed(run_cli("plan", path, "--emit-make", tmp_path / target),
+                          fragment="which the scene's bake writes")  # fmt: skip
+
     def test_glob_never_matches_the_lock(self, tmp_path, run_cli):
         # out_dir "data" and maps "data/*": the lock and the assets the first bake wrote
         # there are not maps; a second bake bakes nothing
