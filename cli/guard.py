@@ -80,19 +80,31 @@ QUIET_CATEGORIES = (DeprecationWarning, PendingDeprecationWarning, FutureWarning
 """Library housekeeping warnings that say nothing about the user's run: not shown."""
 
 
-def _summarise(records, quiet: bool) -> None:
-    records = [w for w in records if not issubclass(w.category, QUIET_CATEGORIES)]
-    if quiet or not records:
-        return
-    seen = {}
-    for w in records:
-        key = (w.category.__name__, one_line(w.message)[:160])
-        seen[key] = seen.get(key, 0) + 1
-    for (cat, msg), n in list(seen.items())[:MAX_WARNINGS]:
-        times = f" ({n}×)" if n > 1 else ""
-        click.echo(f"shbake: warning: {cat}: {msg}{times}", err=True)
-    if len(seen) > MAX_WARNINGS:
-        click.echo(f"shbake: warning: and {len(seen) - MAX_WARNINGS} more kinds", err=True)
+class _PythonWarnings:
+    """Python warnings (numpy's overflow, …) of a run, as shbake's own: each kind recorded
+    once as it happens (:func:`shbake.messages.record`, so ``--json`` lists it, also under
+    ``-q``) and printed after a successful run, the first :data:`MAX_WARNINGS` kinds (a
+    failed run prints its one error line alone)."""
+
+    def __init__(self):
+        self.seen: list[str] = []
+
+    def __call__(self, message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, QUIET_CATEGORIES):
+            return
+        text = f"{category.__name__}: {one_line(str(message))[:160]}"
+        if text not in self.seen:
+            self.seen.append(text)
+            messages.record(text)
+
+    def summarise(self, quiet: bool) -> None:
+        if quiet:
+            return
+        for text in self.seen[:MAX_WARNINGS]:
+            click.echo(f"shbake: warning: {text}", err=True)
+        if len(self.seen) > MAX_WARNINGS:
+            click.echo(f"shbake: warning: and {len(self.seen) - MAX_WARNINGS} more kinds",
+                       err=True)  # fmt: skip
 
 
 def _interrupted() -> int:
@@ -116,8 +128,10 @@ def run(call, argv) -> int:
     quiet = "-q" in argv or "--quiet" in argv
     messages.start_run(quiet)
     code = 0
-    with warnings.catch_warnings(record=True) as records:
+    python_warnings = _PythonWarnings()
+    with warnings.catch_warnings():
         warnings.simplefilter("always")
+        warnings.showwarning = python_warnings
         try:
             try:
                 call()
@@ -153,7 +167,7 @@ def run(call, argv) -> int:
             _silence_stdout()
             _error(f"cannot write to stdout ({e.strerror or type(e).__name__})")
             return 1
-        _summarise(records, quiet)
+        python_warnings.summarise(quiet)
     return code
 
 

@@ -453,24 +453,31 @@ class BarProgress(Progress):
         handle.close()
 
 
-def _default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
+def json_value(o):
+    """``o`` with numpy values as Python ones and every non-finite float as ``None``
+    (``null``: ``NaN`` and ``Infinity`` are not JSON)."""
+    if isinstance(o, dict):
+        return {k: json_value(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple, np.ndarray)):
+        return [json_value(v) for v in (o.tolist() if isinstance(o, np.ndarray) else o)]
     if isinstance(o, np.generic):
-        return o.item()
-    raise TypeError(type(o))
+        o = o.item()
+    if isinstance(o, float) and not np.isfinite(o):
+        return None
+    return o
 
 
 def emit_json(summary: dict) -> None:
-    """The ``--json`` summary: one JSON document on stdout. Its ``warnings`` list holds every
-    warning of the run, printed or silenced by ``-q``, then any the summary had."""
+    """The ``--json`` summary: one JSON document on stdout (a non-finite number is
+    ``null``). Its ``warnings`` list holds every warning of the run, printed or silenced by
+    ``-q``, then any the summary had."""
     import json  # only --json needs it (start-up)
 
     given = run_warnings()
     summary = summary | {"warnings": given + [w for w in summary.get("warnings", [])
                                               if w not in given]}  # fmt: skip
     try:
-        sys.stdout.write(json.dumps(summary, sort_keys=True, default=_default) + "\n")
+        sys.stdout.write(json.dumps(json_value(summary), sort_keys=True, allow_nan=False) + "\n")
         sys.stdout.flush()
     except OSError as e:
         raise OutputError(f"cannot write the JSON summary to stdout ({e.strerror})") from None

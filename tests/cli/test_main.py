@@ -18,3 +18,35 @@ class TestMain:
         capsys.readouterr()
         warn("after the run")
         assert capsys.readouterr().err == "shbake: warning: after the run\n"
+
+
+def _strict_json(text: str):
+    """``json.loads`` that refuses ``NaN`` and ``Infinity`` (not JSON; JavaScript refuses)."""
+    import json
+
+    def refuse(constant):
+        raise ValueError(f"{constant} is not JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+class TestJsonSummary:
+    def test_non_finite_numbers_are_null(self, tmp_path, capsys):
+        """An all-black map: the ``--report`` study's log error is undefined (0/0)."""
+        m = write_test_exr(tmp_path / "black.exr", np.zeros((16, 32, 3)))
+        args = ["-o", str(tmp_path / "z.h5"), "--normals", "8", "--views", "4", "--samples", "16"]
+        assert main(["probe-fit", str(m), *args, "--report", "--json", "-q"]) == 0
+        summary = _strict_json(capsys.readouterr().out)
+        assert summary["samples_study"][0]["target_log_rms"] is None
+
+    def test_python_warnings_are_listed_also_under_quiet(self, tmp_path, capsys):
+        """numpy's overflow on a map of 3e38: one line on stderr after the run, and in the
+        summary's ``warnings`` with and without ``-q`` (docs/CLI.md ``--json``)."""
+        m = write_test_exr(tmp_path / "huge.exr", np.full((16, 32, 3), 3e38))
+        for quiet in ([], ["-q"]):
+            assert main(["project-env", str(m), "-o", str(tmp_path / "h.h5"), "--lights", "3",
+                         "--json", *quiet]) == 0  # fmt: skip
+            out, err = capsys.readouterr()
+            listed = [w for w in _strict_json(out)["warnings"] if "overflow" in w]
+            assert listed == ["RuntimeWarning: overflow encountered in reduce"]
+            assert (err.count("overflow") == 1) is not bool(quiet)
