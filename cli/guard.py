@@ -18,6 +18,7 @@ status   meaning
 No traceback is printed unless ``SHBAKE_DEBUG=1``.
 """
 
+import errno
 import os
 import sys
 import warnings
@@ -120,6 +121,27 @@ def _error(msg: str) -> None:
         click.echo(f"shbake: error: {msg}", err=True)
     except OSError:
         pass
+
+
+class _ClosedStdout:
+    """Standing for a stdout the shell closed (``shbake … >&-``: Python's ``sys.stdout`` is
+    ``None``): writing is the one-line error of a stdout that refuses writes (``--json``),
+    a run that prints nothing there is unaffected."""
+
+    def write(self, text: str) -> int:
+        raise OSError(errno.EBADF, "stdout is closed")
+
+    def flush(self) -> None:
+        pass
+
+
+def replace_closed_streams() -> None:
+    """``sys.stdout`` / ``sys.stderr`` of a process started with them closed (``None``):
+    :class:`_ClosedStdout`, and ``/dev/null`` for stderr (nothing can be shown)."""
+    if sys.stdout is None:
+        sys.stdout = _ClosedStdout()
+    if sys.stderr is None:
+        sys.stderr = open(os.devnull, "w", encoding="utf-8")  # noqa: SIM115 - the process's
 
 
 def run(call, argv) -> int:

@@ -18,7 +18,7 @@ import os
 import sys
 
 import click
-from shbake_cli.guard import guarded_invoke, run
+from shbake_cli.guard import guarded_invoke, replace_closed_streams, run
 
 from shbake import __version__, messages
 from shbake.errors import ParameterError
@@ -95,6 +95,7 @@ def main(argv=None) -> int:
     script = argv is None
     if script:
         argv = sys.argv[1:]
+        replace_closed_streams()
     argv = list(argv)
     set_memory_budget(None)
     start_run()

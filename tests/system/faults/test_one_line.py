@@ -57,6 +57,19 @@ class TestOneLine:
                        stdout=full, timeout=60)  # fmt: skip
         assert_failed(r, fragment="stdout")
 
+    def test_stdout_closed(self, box):
+        """``shbake … >&-``: a run that prints nothing on stdout succeeds; ``--json`` is one
+        line, exit 1, and nothing is written (it was a traceback and the asset written)."""
+        def closed():
+            os.close(1)
+
+        assert shbake("project-env", box / "map.exr", "-o", box / "c1.h5", "-q",
+                      preexec=closed, timeout=60) == (0, "", "")  # fmt: skip
+        with unchanged(box):
+            r = shbake("project-env", box / "map.exr", "-o", box / "c2.h5", "--json", "-q",
+                       preexec=closed, timeout=60)  # fmt: skip
+        assert_failed(r, fragment="stdout is closed")
+
     def test_warnings_then_error_is_one_line(self, capfd):
         import warnings
 
