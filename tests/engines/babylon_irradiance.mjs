@@ -54,7 +54,7 @@ async function irradianceOf(file) {
   // external files -> data URIs (node's fetch has no file://); the loader then decodes them itself
   for (const img of doc.images || []) {
     if (img.uri && !img.uri.startsWith("data:")) {
-      const bytes = fs.readFileSync(path.join(path.dirname(file), img.uri));
+      const bytes = fs.readFileSync(path.join(path.dirname(file), decodeURIComponent(img.uri)));
       img.uri = `data:${img.mimeType};base64,` + bytes.toString("base64");
     }
   }

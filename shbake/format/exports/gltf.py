@@ -43,6 +43,7 @@ import json
 import math
 import os
 import struct
+import urllib.parse
 
 import numpy as np
 
@@ -189,7 +190,8 @@ def write(
             write_bytes(path, png_rgba8(faces_rgbd[f]))
             written.append(path)
             faces.append(len(images))
-            images.append({"uri": name, "mimeType": "image/png"})
+            # a URI reference (RFC 3986): a name's space, "#", "?" or "%" percent-encoded
+            images.append({"uri": urllib.parse.quote(name, safe=""), "mimeType": "image/png"})
         spec.append(faces)
     ibl = {
         "name": src.name,

@@ -14,7 +14,7 @@ import pytest
 
 from shbake.batch.export import export_assets
 from shbake.format.exports.source import load_source, shbake_irradiance
-from tests.export_checks import BAKED_FOR_NODE, SMALL, TOL
+from tests.export_checks import BAKED_FOR_NODE, MAPS, SMALL, TOL
 from tests.export_checks import relative_error as _rel
 from tests.helpers import run_node
 
@@ -112,3 +112,19 @@ class TestBabylonGltf:
         got = faulted(baked)[fault]
         want = shbake_irradiance(load_source(baked["h5"]), np.array(json.load(open(dirs_file))))
         assert _rel(got, want) > 1e-3
+
+
+@pytest.mark.parametrize("baked", [(MAPS[0], "")], indirect=True)
+def test_image_uris_are_percent_encoded(baked, dirs_file, tmp_path):
+    """A name with a space, "#", "?" and "%": the images' URIs are percent-encoded, so the
+    validator and Babylon.js find every image (the raw name cut the URI at "#")."""
+    weird = str(tmp_path / "we ird#%?.gltf")
+    export_assets([baked["h5"]], "gltf", weird, **SMALL)
+    uris = [im["uri"] for im in json.load(open(weird))["images"]]
+    assert all(u.startswith("we%20ird%23%25%3F_specular_") for u in uris), uris
+    r = run_node("validate_gltf.mjs", weird)
+    assert r["numErrors"] == 0, r["messages"]
+    (got,) = babylon_reads(dirs_file, "lh", weird)
+    assert np.allclose(got["irradiance"], babylon_reads(dirs_file, "lh", baked["gltf"])[0][
+        "irradiance"])  # fmt: skip
+
