@@ -18,7 +18,7 @@ from shbake.brdf.reflection import (
     make_reflection_brdf,
     search_orders,
 )
-from shbake.conventions import check_vectors
+from shbake.conventions import unit_vectors
 from shbake.errors import ParameterError
 from shbake.evaluation.shrm import ShrmCheck
 from shbake.format.shrm import build_shrm_asset
@@ -88,10 +88,9 @@ def shrm_settings(brdf: str = "microfacet", params: dict | None = None,
         raise ParameterError(f"{rb.name} is radially symmetric: P must be 0, got {P}")
     if face_size is not None:
         check_face_size(face_size, P or 0, rb.kind)
-    v = check_vectors(view, "view")
+    v = unit_vectors(view, "view")  # any finite non-zero magnitude (1e-320, 1e308)
     if v.shape != (3,):
         raise ParameterError(f"view must be one x,y,z vector, got shape {v.shape}")
-    v = v / np.linalg.norm(v)
     search = None
     if F is None and P is None:
         orders, search = search_orders(rb, eps)

@@ -91,3 +91,16 @@ class TestCLI:
         assert sorted(os.listdir(tmp_path / "exr")) == [
             "reflection.exr", "shrm_p0.exr", "shrm_p1.exr", "shrm_p2.exr",
         ]  # fmt: skip
+
+
+class TestShrmSettings:
+    @pytest.mark.parametrize(("view", "unit"), [((1e308, 1e308, 1e308), (1.0, 1.0, 1.0)),
+                                                ((1e-320, 0.0, 0.0), (1.0, 0.0, 0.0)),
+                                                ((0.0, -3.0, 4.0), (0.0, -0.6, 0.8))])  # fmt: skip
+    def test_view_of_any_finite_magnitude(self, view, unit):
+        """``--view`` is checked and normalised before the bake: a huge or subnormal vector
+        was turned into zeros or NaN by its norm and refused after the bake."""
+        from shbake.batch.shrm import shrm_settings
+
+        got = shrm_settings(F=4, P=2, view=view).view
+        np.testing.assert_allclose(got, np.array(unit) / np.linalg.norm(unit), rtol=1e-15)
