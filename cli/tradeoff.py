@@ -15,7 +15,7 @@ from shbake_cli.options import (
 )
 
 from shbake.batch.brdf_table import check_parameters
-from shbake.batch.tradeoff import TRADEOFF_KINDS, tradeoff, write_tradeoff
+from shbake.batch.tradeoff import TRADEOFF_KINDS, tradeoff_files
 from shbake.brdf import MODELS
 
 
@@ -46,8 +46,8 @@ def tradeoff_cmd(kind, map_path, model, params, tol, samples, output, csv_path, 
     if model is not None:
         with usage_errors():
             check_parameters(model, dict(params))
-    result = tradeoff(kind, tol, map_path, model, dict(params), samples)
-    write_tradeoff(result, output, csv_path, json_path)
+    result = tradeoff_files(kind, tol, output, csv_path, json_path, map_path=map_path,
+                            model=model, params=dict(params), samples=samples)  # fmt: skip
     if as_json:
         emit_json(result)
     else:

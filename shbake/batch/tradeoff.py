@@ -33,7 +33,7 @@ from shbake.conventions import n_coeffs
 from shbake.envmap import load_environment
 from shbake.envmap.sun import extract_sun
 from shbake.errors import ParameterError
-from shbake.format.atomic import atomic_path, write_text
+from shbake.format.atomic import atomic_path, check_output_path, write_text
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 
 TRADEOFF_KINDS = ("env_sh", "brdf_table")
@@ -139,3 +139,16 @@ def tradeoff(kind: str, tol: float, map_path: str | None = None, model: str | No
     if model is None:
         raise ParameterError("tradeoff brdf_table needs --model")
     return brdf_table_tradeoff(model, params or {}, tol, samples)
+
+
+def tradeoff_files(kind: str, tol: float, output: str, csv_path: str | None = None,
+                   json_path: str | None = None, **inputs) -> dict:  # fmt: skip
+    """:func:`tradeoff` (``inputs``: its ``map_path``, ``model``, ``params``, ``samples``)
+    written by :func:`write_tradeoff`; the outputs are checked before any work (a missing
+    folder, an output that is the map: one line at once, not after the sweep)."""
+    for path, option in ((output, "-o/--output"), (csv_path, "--csv"), (json_path, "--json-file")):
+        if path:
+            check_output_path(path, option)
+    result = tradeoff(kind, tol, **inputs)
+    write_tradeoff(result, output, csv_path, json_path)
+    return result

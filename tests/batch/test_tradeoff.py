@@ -53,3 +53,23 @@ class TestTradeoffCommand:
     def test_needs_its_input(self, tmp_path, run_cli):
         code, _, err = run_cli("tradeoff", "env_sh", "-o", tmp_path / "x.png")
         assert code == 1 and "needs --map" in err
+
+    @pytest.mark.parametrize(("where", "fragment"), [("csv over the map", "destroy the input"),
+                                                     ("missing folder", "does not exist")])
+    def test_outputs_checked_before_the_sweep(self, tmp_path, run_cli, monkeypatch, where,
+                                              fragment):  # fmt: skip
+        """A ``--csv`` that is the map, or a plot in a missing folder, is one line before any
+        candidate is measured (the input is never harmed either way)."""
+        import shutil
+
+        from shbake.batch import tradeoff as module
+        from tests.faults import assert_failed, unchanged
+
+        monkeypatch.setattr(module, "warm_seconds", lambda *a: pytest.fail("swept first"))
+        shutil.copy(map_path("city"), tmp_path / "m.exr")
+        out = ["-o", tmp_path / "t.png", "--csv", tmp_path / "m.exr"]
+        if where == "missing folder":
+            out = ["-o", tmp_path / "no" / "t.png"]
+        with unchanged(tmp_path):
+            assert_failed(run_cli("tradeoff", "env_sh", "--map", tmp_path / "m.exr", *out),
+                          fragment=fragment)  # fmt: skip
