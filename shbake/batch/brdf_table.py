@@ -28,7 +28,9 @@ def check_parameters(model: str, params: dict, vary: tuple[str, ...] = ()) -> No
     file: the command line's usage check (a :class:`~shbake.errors.ParameterError`)."""
     spec = model_spec(model)
     spec.resolve(params)
-    for name, values in map(parse_vary, vary):
+    axes = [parse_vary(v) for v in vary]
+    spec.check_axes([name for name, _ in axes])
+    for name, values in axes:
         for value in values:
             spec.resolve(params | {name: value})
 

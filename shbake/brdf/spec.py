@@ -68,6 +68,21 @@ class ModelSpec:
         allowed = ", ".join(self.param_names + tuple(self.aliases))
         raise ParameterError(f"model {self.name!r} has no parameter {name!r} (allowed: {allowed})")
 
+    def check_axes(self, names) -> None:
+        """Refuse parameter axes (``--vary``) that are not scalar parameters of the model (an
+        alias such as ``alpha → (alpha_x, alpha_y)`` varies its targets together) or that
+        vary one parameter twice."""
+        varied: list[str] = []
+        for name in names:
+            targets = self.aliases.get(name, (name,))
+            for target in targets:
+                if self.param(target).colour:
+                    raise ParameterError(f"--vary takes scalar parameters; {name} is a colour")
+            if set(targets) & set(varied):
+                raise ParameterError(f"--vary: {name} varies a parameter already varied; each "
+                                     "parameter may be varied once")  # fmt: skip
+            varied += targets
+
     def resolve(self, values: dict) -> dict:
         """Defaults filled in, aliases expanded, every value checked; ``name → (3,) or float``."""
         out = {p.name: p.default for p in self.params}
@@ -109,7 +124,8 @@ def check_value(model: str, p: Param, value) -> float | np.ndarray:
         shape = "a number or r,g,b" if p.colour else "a single number"
         raise ParameterError(f"{model}: {p.name} must be {shape}, got {value!r}")
     if not np.all(np.isfinite(arr)) or np.any(arr < p.lo) or np.any(arr > p.hi):
+        shown = ",".join(f"{float(x):g}" for x in np.atleast_1d(arr))  # not np.float64(nan)
         raise ParameterError(
-            f"{model}: {p.name}={value!r} is outside [{p.lo:g}, {p.hi:g}] ({p.doc})"
+            f"{model}: {p.name}={shown} is outside [{p.lo:g}, {p.hi:g}] ({p.doc})"
         )
     return arr if arr.ndim else float(arr)

@@ -884,13 +884,8 @@ def tabulate_axes(
     every value is validated before any work starts. ``advance(views)``: as
     :func:`project_views`, over every table.
     """
-    names = [name for name, _ in vary]
-    if len(set(names)) != len(names):
-        raise ParameterError("each parameter may be varied once")
+    brdf.spec.check_axes([name for name, _ in vary])
     for name, values in vary:
-        p = brdf.spec.param(name)
-        if p.colour:
-            raise ParameterError(f"--vary takes scalar parameters; {name} is a colour")
         for value in values:
             brdf.with_values(**{name: value})
     points = list(itertools.product(*[range(len(v)) for _, v in vary]))

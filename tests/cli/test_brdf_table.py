@@ -82,6 +82,12 @@ class TestBrdfTableCli:
             (["phong", "-p", "rho_d=0.7", "-p", "rho_s=0.7"], "energy", 2),
             (["ggx", "--lmax", 17], "17 is not in the range 0<=x<=16", 2),
             (["ggx", "--vary", "alpha=0:1"], "NAME=lo:hi:N", 2),
+            (["ggx", "--vary", "alpha_x=0.1:0.5:2", "--vary", "alpha_x=0.1:0.5:2"],
+             "each parameter may be varied once", 2),
+            (["ggx", "--vary", "alpha=0.1:0.5:2", "--vary", "alpha_y=0.1:0.5:2"],
+             "each parameter may be varied once", 2),
+            (["phong", "--vary", "rho_d=0.1:0.5:2"], "rho_d is a colour", 2),
+            (["ggx", "--vary", "alpha_x=nan:1:2"], "alpha_x=nan is outside", 2),
             (["ggx", "--size", "1"], "sides must be in", 2),
             (["merl"], "needs a MERL", 1),
         ],
@@ -91,6 +97,21 @@ class TestBrdfTableCli:
         got, _, err = run_cli("brdf-table", *args, "-o", out)
         assert got == code and match in err and err.count("\n") == 1, err
         assert list(tmp_path.iterdir()) == []
+
+    def test_vary_an_alias(self, run_cli, tmp_path):
+        """``--vary alpha=…`` (GGX's alias of alpha_x and alpha_y) varies both: each table
+        equals one baked at that isotropic width."""
+        from shbake.format.asset import read_asset
+
+        common = ["--size", "4", "--lmax", "2", "--samples", "64", "--reproducible", "-q"]
+        assert run_cli("brdf-table", "ggx", "-o", tmp_path / "v.h5", "--vary", "alpha=0.2:0.6:2",
+                       *common)[0] == 0  # fmt: skip
+        assert run_cli("brdf-table", "ggx", "-o", tmp_path / "a.h5", "-p", "alpha=0.6",
+                       *common)[0] == 0  # fmt: skip
+        varied = read_asset(str(tmp_path / "v.h5"))["/table"]
+        single = read_asset(str(tmp_path / "a.h5"))["/table"]
+        np.testing.assert_array_equal(varied[1], single)
+        assert not np.array_equal(varied[0], single)
 
     def test_preview_kautz_with_diff(self, run_cli, tmp_path):
         env, table = tmp_path / "e.h5", tmp_path / "t.h5"
