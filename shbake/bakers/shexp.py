@@ -138,6 +138,8 @@ class FitConfig:
         for ok, msg in checks:
             if not ok:
                 raise ParameterError(msg)
+        # -0.0 + 0.0 is 0.0: `--alpha-weight -0` is the same fit, so the same bytes
+        object.__setattr__(self, "alpha_weight", float(self.alpha_weight) + 0.0)
         check_alpha([self.alpha_min, self.alpha_max], name="alpha range")
         if self.alpha_min < FIT_ALPHA_MIN:
             raise ParameterError(f"alpha range must start at {FIT_ALPHA_MIN:g} or above")

@@ -122,6 +122,14 @@ class TestShexpFit:
         probe = FitPlan(cfg, (32, 64)).fit(smooth_map(32, sun=(1e5, 1e5, 1e5)))
         assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
 
+    def test_negative_zero_alpha_weight_is_zero(self):
+        """``--alpha-weight -0`` is the fit of ``0``: the recorded config (the asset's bytes)
+        is the same."""
+        import math
+
+        assert math.copysign(1.0, FitConfig(alpha_weight=-0.0).alpha_weight) == 1.0
+        assert FitConfig(alpha_weight=-0.0).as_dict() == FitConfig(alpha_weight=0.0).as_dict()
+
     def test_bad_config_refused(self):
         for kw in ({"weights": "l1"}, {"alpha_min": 0.0}, {"alpha_max": 1.5}, {"lmax_p": 12},
                    {"floor": 0.0}, {"sets": 0}, {"sets": 5, "alpha_count": 8},
