@@ -551,6 +551,21 @@ class TestExportCommand:
         assert code == 1 and err.count("shbake: error:") == 1 and "not replaced" in err, err
         assert snapshot(tmp_path) == before
 
+    def test_input_inside_the_folder_refused(self, run_cli, small, tmp_path):
+        """An input asset kept in the export's folder under an export file's name is not
+        removed with the old folder: one line, exit 1, the folder byte-identical."""
+        import shutil
+
+        from tests.faults import snapshot
+
+        out = tmp_path / "out"
+        assert run_cli("export", small["env_sh"], "--to", "webgl", "-o", out)[0] == 0
+        shutil.copy(small["env_sh"], out / "viewer.css")
+        before = snapshot(tmp_path)
+        code, _, err = run_cli("export", out / "viewer.css", "--to", "webgl", "-o", out)
+        assert code == 1 and err.count("shbake: error:") == 1 and "holds the input" in err, err
+        assert snapshot(tmp_path) == before
+
     def test_failed_export_keeps_the_old_folder(self, run_cli, small, tmp_path, monkeypatch):
         """A failure after the new files are staged (the page's template fails): the
         earlier export byte-identical, no staged folder or temporary left."""

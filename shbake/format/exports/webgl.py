@@ -37,6 +37,7 @@ from shbake.errors import InputError, OutputError
 from shbake.format.atomic import atomic_folder, atomic_path, makedirs, transaction, write_text
 from shbake.format.exports.ktx2 import EXTENSION as KTX2
 from shbake.format.exports.ktx2 import write_ktx2
+from shbake.resources import same_input
 
 CUBES = None
 """No cube maps."""
@@ -283,6 +284,10 @@ def check_replaceable(out: str) -> None:
     known = {MANIFEST, "index.html", *VIEWER_FILES, *(f for fs in SHADERS.values() for f in fs)}
     names = os.listdir(out)
     for name in names:
+        src = same_input(os.path.join(out, name))
+        if src is not None:  # replacing the folder would remove an input of this run
+            raise OutputError(f"{out}: holds the input {src}; not replaced (choose another "
+                              "folder)")  # fmt: skip
         mode = os.lstat(os.path.join(out, name)).st_mode
         if not (stat.S_ISREG(mode) and (name in known or TEXTURE_FILE.match(name))):
             raise OutputError(f"{out}: holds {name!r}, not a file of a webgl export; "
