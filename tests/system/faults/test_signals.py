@@ -284,6 +284,16 @@ class TestPoolWorkers:
         yield folder
         shutil.rmtree(folder)
 
+    def test_fork_server_ignores_ctrl_c_while_it_warms(self):
+        """Ctrl-C reaches the fork server while it imports the warm modules (before
+        multiprocessing ignores SIGINT there): the import goes on, no traceback."""
+        code = ("import os, signal\nimport shbake.jit as jit\nload = jit.load_numba\n"
+                "def interrupted():\n    os.kill(os.getpid(), signal.SIGINT)\n    load()\n"
+                "jit.load_numba = interrupted\nimport shbake.batch.warm_worker\nprint('warm')\n")
+        p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           timeout=TIMEOUT)  # fmt: skip
+        assert (p.returncode, p.stdout, p.stderr) == (0, "warm\n", "")
+
     def test_no_folder_left_in_tmpdir(self, box, short_tmp):
         """The fork server's socket lives in a ``pymp-*`` folder of ``$TMPDIR``
         (:mod:`shbake.batch.workers`): removed when the command ends (it was left by every
