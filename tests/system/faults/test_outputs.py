@@ -323,8 +323,13 @@ class TestSpecialFiles:
             with pytest.raises(ShbakeError, match="not a regular file"):
                 file_hash(str(path))
 
-    def test_recorded_source_dev_zero(self, box):
+    @pytest.mark.parametrize(("recorded", "fragment"), [("/dev/zero", "does not name an image"),
+                                                        ("zero.exr", "device")])  # fmt: skip
+    def test_recorded_source_dev_zero(self, box, recorded, fragment):
+        """``/dev/zero`` is not followed (not an image's name); a link named like one is
+        refused as a device before it is opened."""
+        os.symlink("/dev/zero", box / "zero.exr")
         with h5py.File(box / "env.h5", "r+") as f:
-            f.attrs["source_path"] = "/dev/zero"
+            f.attrs["source_path"] = recorded
         assert_failed(shbake("preview", box / "env.h5", "--diff", "--size", 8,
-                             "-o", box / "p.exr", timeout=60), fragment="device")  # fmt: skip
+                             "-o", box / "p.exr", timeout=60), fragment=fragment)  # fmt: skip
