@@ -6,6 +6,7 @@ has the same bytes; :func:`resolve_source` finds the file again from the asset a
 :func:`reload_source` reads it as the bake did (every recorded input policy).
 """
 
+import functools
 import os
 
 from shbake import resources
@@ -18,9 +19,24 @@ MAP_META_KEYS = (
 """Keys of an environment's ``meta`` recorded as ``source_<key>`` besides the block."""
 PROBE_META_KEYS = ("probe_position", "probe_rotation_deg")
 """Keys of a scene probe's pose in an environment's ``meta``, recorded as they are."""
-RECORDED_MAP_SUFFIXES = (".exr", ".hdr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
-"""The file name endings (any case) a recorded ``source_path`` must have to be followed:
-an asset names an image, so it cannot make shbake open ``/etc/passwd`` (docs/SECURITY.md §3)."""
+NOT_IMAGE_FORMATS = ("null", "term")
+"""OpenImageIO's pseudo-formats (no pixels in a file): not an image a map comes from."""
+
+
+@functools.cache
+def image_suffixes() -> tuple[str, ...]:
+    """The file name endings (``.exr``, ``.hdr``, …; any case) a recorded ``source_path``
+    must have to be followed: those of the image formats OpenImageIO reads, which every map
+    shbake bakes is. An asset names an image, so it cannot make shbake open ``/etc/passwd``
+    (docs/SECURITY.md §3)."""
+    import OpenImageIO as oiio
+
+    out = []
+    for entry in oiio.get_string_attribute("extension_list").split(";"):
+        fmt, _, exts = entry.partition(":")
+        if fmt not in NOT_IMAGE_FORMATS:
+            out += [f".{e.lower()}" for e in exts.split(",") if e]
+    return tuple(out)
 
 
 def no_source() -> dict:
@@ -86,7 +102,7 @@ def resolve_source(attrs: dict, asset_path: str, given: str | None = None,
 
     The hash is bounded by the file size; FIFOs, devices and folders are refused
     before opening, and a recorded path is followed only to an image
-    (:data:`RECORDED_MAP_SUFFIXES`). Raises :class:`ImageReadError` (not found) or
+    (:func:`image_suffixes`). Raises :class:`ImageReadError` (not found) or
     :class:`FormatError` (hash differs).
     """
     recorded = attrs.get("source_path", "")
@@ -95,9 +111,9 @@ def resolve_source(attrs: dict, asset_path: str, given: str | None = None,
     if given:
         path = given
     elif recorded:
-        if not recorded.lower().endswith(RECORDED_MAP_SUFFIXES):
-            raise FormatError(f"recorded source map {recorded!r} does not name an image "
-                              f"({', '.join(RECORDED_MAP_SUFFIXES)}); give it with {option}")
+        if not recorded.lower().endswith(image_suffixes()):
+            raise FormatError(f"recorded source map {recorded!r} is not named as an image "
+                              f"file OpenImageIO reads; give it with {option}")
         folder = os.path.dirname(os.path.abspath(asset_path))
         path = os.path.join(folder, recorded)
     else:

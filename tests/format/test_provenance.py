@@ -123,10 +123,17 @@ class TestResolveSource:
         monkeypatch.setattr(resources, "sha256_of", lambda p: opened.append(p) or "")
         (tmp_path / "secret.txt").write_text("root:x:0:0")
         for recorded in ("/etc/passwd", "secret.txt", "../secret", "map.exr.txt"):
-            with pytest.raises(FormatError, match="does not name an image"):
+            with pytest.raises(FormatError, match="is not named as an image"):
                 resolve_source({"source_path": recorded, "source_sha256": ""},
                                str(tmp_path / "a.h5"))  # fmt: skip
         assert opened == []
+
+    def test_every_format_openimageio_reads_is_followed(self):
+        """A map in any format OpenImageIO reads (BMP, PPM, WebP, …) can be found again."""
+        from shbake.format.provenance import image_suffixes
+
+        assert {".exr", ".hdr", ".bmp", ".ppm", ".webp", ".tif"} <= set(image_suffixes())
+        assert ".null" not in image_suffixes() and ".txt" not in image_suffixes()
 
     def test_path_not_a_string(self, tmp_path):
         from shbake.errors import FormatError

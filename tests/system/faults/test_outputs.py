@@ -323,7 +323,7 @@ class TestSpecialFiles:
             with pytest.raises(ShbakeError, match="not a regular file"):
                 file_hash(str(path))
 
-    @pytest.mark.parametrize(("recorded", "fragment"), [("/dev/zero", "does not name an image"),
+    @pytest.mark.parametrize(("recorded", "fragment"), [("/dev/zero", "is not named as an image"),
                                                         ("zero.exr", "device")])  # fmt: skip
     def test_recorded_source_dev_zero(self, box, recorded, fragment):
         """``/dev/zero`` is not followed (not an image's name); a link named like one is
