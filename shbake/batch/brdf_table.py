@@ -118,7 +118,10 @@ def bake_brdf_table(
     asset.attrs["command_line"] = command_line
     tattrs = asset.dataset_attrs["/table"]
     err = tattrs["error_estimate"]
-    warnings = []
+    spec = brdf.spec
+    fixed = {t for name in params or {} for t in spec.targets(name)}
+    warnings = [f"-p {t} is replaced by the --vary {name} axis"
+                for name, _ in axes for t in spec.targets(name) if t in fixed]  # fmt: skip
     if tol is not None and err > tol:
         bad = int(sum((c.view_errors > tol).sum() for c in convs))
         warnings.append(

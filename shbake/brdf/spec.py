@@ -68,26 +68,28 @@ class ModelSpec:
         allowed = ", ".join(self.param_names + tuple(self.aliases))
         raise ParameterError(f"model {self.name!r} has no parameter {name!r} (allowed: {allowed})")
 
+    def targets(self, name: str) -> tuple[str, ...]:
+        """The parameters ``name`` sets: itself, or an alias's (``alpha → alpha_x, alpha_y``)."""
+        return self.aliases.get(name, (name,))
+
     def check_axes(self, names) -> None:
         """Refuse parameter axes (``--vary``) that are not scalar parameters of the model (an
-        alias such as ``alpha → (alpha_x, alpha_y)`` varies its targets together) or that
-        vary one parameter twice."""
-        varied: list[str] = []
+        alias varies its targets together) or that set a parameter another axis sets."""
+        varied: set[str] = set()
         for name in names:
-            targets = self.aliases.get(name, (name,))
-            for target in targets:
-                if self.param(target).colour:
+            for t in self.targets(name):
+                if self.param(t).colour:
                     raise ParameterError(f"--vary takes scalar parameters; {name} is a colour")
-            if set(targets) & set(varied):
-                raise ParameterError(f"--vary: {name} varies a parameter already varied; each "
-                                     "parameter may be varied once")  # fmt: skip
-            varied += targets
+                if t in varied:
+                    raise ParameterError(f"--vary {name}: {t} is varied already; each "
+                                         "parameter may be varied once")  # fmt: skip
+            varied |= set(self.targets(name))
 
     def resolve(self, values: dict) -> dict:
         """Defaults filled in, aliases expanded, every value checked; ``name → (3,) or float``."""
         out = {p.name: p.default for p in self.params}
         for name, value in values.items():
-            for target in self.aliases.get(name, (name,)):
+            for target in self.targets(name):
                 p = self.param(target)
                 out[p.name] = check_value(self.name, p, value)
         for p in self.params:

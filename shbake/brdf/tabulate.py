@@ -858,6 +858,8 @@ def parse_vary(spec: str) -> tuple[str, np.ndarray]:
         raise ParameterError(f"--vary {spec!r}: expected NAME=lo:hi:N, e.g. nu=10:100:4") from None
     if not 2 <= count <= 64:
         raise ParameterError(f"--vary {spec!r}: N must be in [2, 64]")
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise ParameterError(f"--vary {spec!r}: lo and hi must be finite numbers")
     return name.strip(), np.linspace(lo, hi, count)
 
 

@@ -40,6 +40,7 @@ class TestBrdfTableCli:
         )
         assert code == 0, err
         summary = json.loads(stdout)
+        assert "-p nu is replaced by the --vary nu axis" in summary["warnings"]
         with h5py.File(out) as f:
             assert f.attrs["kind"] == "brdf_table"
             t = f["/table"]
@@ -87,7 +88,9 @@ class TestBrdfTableCli:
             (["ggx", "--vary", "alpha=0.1:0.5:2", "--vary", "alpha_y=0.1:0.5:2"],
              "each parameter may be varied once", 2),
             (["phong", "--vary", "rho_d=0.1:0.5:2"], "rho_d is a colour", 2),
-            (["ggx", "--vary", "alpha_x=nan:1:2"], "alpha_x=nan is outside", 2),
+            (["ggx", "--vary", "alpha_x=nan:1:2"], "lo and hi must be finite", 2),
+            (["ggx", "--vary", "alpha_x=0.1:inf:2"], "lo and hi must be finite", 2),
+            (["ggx", "-p", "alpha_x=nan"], "alpha_x=nan is outside", 2),
             (["ggx", "--size", "1"], "sides must be in", 2),
             (["merl"], "needs a MERL", 1),
         ],
