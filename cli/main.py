@@ -23,7 +23,7 @@ from shbake_cli.guard import guarded_invoke, replace_closed_streams, run
 from shbake import __version__, messages
 from shbake.errors import ParameterError
 from shbake.resources import end_run, parse_size, set_memory_budget, start_run
-from shbake.signals import exit_quietly_on_signal
+from shbake.signals import exit_quietly_on_signal, ignored_during_teardown
 
 COMMANDS = {
     "project-env": "project_env:project_env",
@@ -116,6 +116,7 @@ def main(argv=None) -> int:
         if script:
             workers = sys.modules.get("shbake.batch.workers")  # imported by --jobs runs
             if workers is not None:
+                ignored_during_teardown()
                 workers.stop_server()
             exit_quietly_on_signal()
     if script:

@@ -173,6 +173,14 @@ def die_with_parent(sig: int = signal.SIGKILL, parent: int | None = None) -> Non
         os.kill(os.getpid(), sig)
 
 
+def ignored_during_teardown() -> None:
+    """After the run, while its fork server stops (seconds at most): a late SIGINT/SIGTERM
+    is ignored, so that teardown finishes (the server's socket folder removed) and prints
+    no traceback; :func:`exit_quietly_on_signal` follows."""
+    for sig in EXIT_CODES:
+        signal.signal(sig, signal.SIG_IGN)
+
+
 def exit_quietly_on_signal() -> None:
     """After the run: a late SIGINT/SIGTERM (during interpreter shutdown) ends the process
     with 130/143 and no ``Exception ignored`` noise."""

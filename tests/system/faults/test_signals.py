@@ -294,6 +294,20 @@ class TestPoolWorkers:
                            timeout=TIMEOUT)  # fmt: skip
         assert (p.returncode, p.stdout, p.stderr) == (0, "warm\n", "")
 
+    def test_ctrl_c_while_the_fork_server_stops(self, box):
+        """A Ctrl-C after the run, while its fork server stops: the teardown finishes (no
+        traceback, exit 0: every output was written)."""
+        code = ("import os, signal, sys\nimport shbake.batch.workers as w\nstop = w.stop_server\n"
+                "def interrupted():\n    os.kill(os.getpid(), signal.SIGINT)\n    stop()\n"
+                "w.stop_server = interrupted\nfrom shbake_cli.main import main\n"
+                "sys.argv = ['shbake', *sys.argv[1:]]\nmain()\n")
+        args = ["probe-fit", box / "map.exr", "--out-dir", box / "od", "-q", "--jobs", "2",
+                "--normals", "8", "--views", "4", "--samples", "16"]  # fmt: skip
+        p = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True,
+                           text=True, timeout=TIMEOUT)  # fmt: skip
+        assert (p.returncode, p.stderr) == (0, "")
+        assert os.listdir(box / "od") == ["map.h5"]
+
     def test_no_folder_left_in_tmpdir(self, box, short_tmp):
         """The fork server's socket lives in a ``pymp-*`` folder of ``$TMPDIR``
         (:mod:`shbake.batch.workers`): removed when the command ends (it was left by every
