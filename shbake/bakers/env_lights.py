@@ -73,8 +73,9 @@ CHECK_DIRECTIONS = 65536
 NONNEGATIVE_MARGINS = (1e-3, 4e-3, 1.6e-2, 6.4e-2)
 """Margins ``m`` (fractions of the mean irradiance ``Φ/4``) the constrained solve tries."""
 WEIGHT_FLOOR = 1e-6
-"""Target luminance below this fraction of its largest value is weighted as this fraction
-(a black hemisphere would otherwise get infinite weight)."""
+"""Target luminance below this fraction of its largest value is weighted, and its relative
+error measured, as this fraction (a black hemisphere would otherwise get infinite weight,
+and an error of 1e300)."""
 
 
 class IrradianceTarget(NamedTuple):
@@ -196,7 +197,8 @@ class _Problem:
         self.bands = fitted_bands(lmax)
         y = target.irradiance @ REC709_LUMINANCE
         self.lum = y
-        self.w = 1.0 / np.maximum(y, WEIGHT_FLOOR * max(float(y.max()), 1e-300))
+        self.floored = np.maximum(y, WEIGHT_FLOOR * max(float(y.max()), 1e-300))
+        self.w = 1.0 / self.floored
         if extra_weight is not None:
             self.w = self.w * extra_weight
         self.Y = real_sh(target.normals, lmax)[:, self.bands]
@@ -280,7 +282,7 @@ class _Problem:
         model = self.Y @ e + np.maximum(self.target.normals @ dirs.T, 0.0) @ a
         model += sh[0][None, :] / (2.0 * np.sqrt(np.pi))
         got = model @ REC709_LUMINANCE
-        rel = np.abs(got - self.lum) / np.maximum(self.lum, 1e-300)
+        rel = np.abs(got - self.lum) / self.floored  # relative to the weights' floor
         rms = np.sqrt(np.sum((got - self.lum) ** 2) / max(float(np.sum(self.lum**2)), 1e-300))
         return LightFit(dirs, a, sh, float(rel.mean()), float(rel.max()), float(rms))
 

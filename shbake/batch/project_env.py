@@ -71,7 +71,8 @@ def quality_warnings(asset, summary: dict) -> list[str]:
         fixes.append("--extract-sun")
     if lights and lights.get("met") is False:
         out.append(
-            f"--lights auto: no fit with at most {len(lights['tried']) - 1} lights meets "
+            f"--lights auto: no fit with at most {max(f['count'] for f in lights['tried'])} "
+            "lights meets "
             f"--tol {lights['tolerance']:g}; kept {lights['count']} (mean error "
             f"{lights['mean_error']:.2%}, max {lights['max_error']:.2%})"
         )

@@ -92,6 +92,23 @@ class TestSyntheticLights:
         fit, _ = choose_lights(irradiance_target(env, 256), 0.01)
         assert fit.count == 0 and not fit.sh.any()
 
+    def test_black_map_with_a_bright_patch(self, run_cli, tmp_path):
+        """A 1e5 patch on a black map: half the normals see nothing, so a relative error
+        there is measured against the weights' floor (it was 1.7e300 and the asset was
+        refused as invalid); the patch is found as one light."""
+        px = np.zeros((32, 64, 3))
+        px[8:11, 20:23] = 1e5
+        path = write_test_exr(tmp_path / "patch.exr", px)
+        code, out, err = run_cli("project-env", path, "-o", tmp_path / "p.h5", "--lights", "auto",
+                                 "--json", "-q")  # fmt: skip
+        assert code == 0, err
+        lights = json.loads(out)["lights"]
+        assert lights["count"] >= 1
+        assert all(np.isfinite(f["max_error"]) and f["max_error"] < 1e7 for f in lights["tried"])
+        d = read_asset(str(tmp_path / "p.h5"))["/lights/direction"][0]
+        centre = latlong_directions(32, 64)[9, 21]
+        assert _angle_deg(d, centre) < 8.0  # texels of 5.6°
+
     def test_refuses_bad_counts(self):
         env, _, _ = sky_with_lights(h=16)
         with pytest.raises(ParameterError, match="number of lights"):
