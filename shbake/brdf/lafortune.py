@@ -33,6 +33,22 @@ SKIN = {
 _DOC = {"cxy": "lateral coefficient C_x = C_y", "cz": "normal coefficient C_z", "n": "exponent"}
 _RANGE = {"cxy": (-10.0, 10.0), "cz": (-10.0, 10.0), "n": (0.0, 1e4)}
 
+LOBE_PEAK_LIMIT = 1e8
+"""Largest value (1/sr) a lobe may reach, ``max(|C_xy|, |C_z|)^n``: a normalised lobe of
+exponent 10⁴ peaks near 1600; beyond this the float32 table overflows (``10^10000``)."""
+
+
+def _lobe_peaks(values: dict) -> str | None:
+    """The reason a lobe's peak exceeds :data:`LOBE_PEAK_LIMIT`, else ``None``."""
+    for i in (1, 2, 3):
+        c = np.maximum(np.abs(values[f"cxy{i}"]), np.abs(values[f"cz{i}"]))
+        log_peak = values[f"n{i}"] * np.log10(np.maximum(c, 1e-300))
+        if np.any(log_peak > np.log10(LOBE_PEAK_LIMIT)):
+            return (f"lobe {i} peaks at max(|cxy{i}|, |cz{i}|)^n{i} = 10^{np.max(log_peak):.4g} "
+                    f"1/sr, above {LOBE_PEAK_LIMIT:g}: lower n{i} or the coefficients")
+    return None
+
+
 SPEC = ModelSpec(
     name="lafortune",
     model_id=9,
@@ -46,6 +62,7 @@ SPEC = ModelSpec(
     "of reflectance functions, SIGGRAPH 1997; skin fit: S. Marschner et al., Image-based "
     "BRDF measurement including human skin, EGWR 2000 (values as in pbrt v1)",
     summary="three generalised cosine lobes + diffuse (default: human skin)",
+    check=_lobe_peaks,
 )
 
 

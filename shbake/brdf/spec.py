@@ -6,6 +6,7 @@ values into the flat ``float64`` vector the numba kernels read; colour
 parameters take three consecutive slots.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,6 +57,9 @@ class ModelSpec:
     isotropic: bool = True
     aliases: dict = field(default_factory=dict)
     """Names that set several parameters at once, e.g. ``alpha → (alpha_x, alpha_y)``."""
+    check: Callable[[dict], str | None] | None = None
+    """A rule across parameters: given the resolved values, the reason they are refused
+    (``None``: accepted), for what per-parameter ranges cannot say."""
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -105,6 +109,8 @@ class ModelSpec:
                     f"model {self.name!r}: {terms} = {np.max(total):.4g} > 1 breaks energy "
                     "conservation"
                 )
+        if self.check is not None and (reason := self.check(out)) is not None:
+            raise ParameterError(f"model {self.name!r}: {reason}")
         return out
 
     def pack(self, resolved: dict) -> np.ndarray:

@@ -88,6 +88,8 @@ class TestBrdfTableCli:
             (["ggx", "--vary", "alpha=0.1:0.5:2", "--vary", "alpha_y=0.1:0.5:2"],
              "each parameter may be varied once", 2),
             (["phong", "--vary", "rho_d=0.1:0.5:2"], "rho_d is a colour", 2),
+            (["lafortune", "-p", "cxy3=-10"], "lobe 3 peaks at", 2),
+            (["lafortune", "-p", "n1=10000"], "lobe 1 peaks at", 2),
             (["ggx", "--vary", "alpha_x=nan:1:2"], "lo and hi must be finite", 2),
             (["ggx", "--vary", "alpha_x=0.1:inf:2"], "lo and hi must be finite", 2),
             (["ggx", "-p", "alpha_x=nan"], "alpha_x=nan is outside", 2),
