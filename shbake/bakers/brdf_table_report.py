@@ -50,19 +50,31 @@ def probe_views(count: int = 16, seed: int = 7) -> np.ndarray:
 
 
 def product_energy(brdf: BRDF, views: np.ndarray, n_theta: int = 1024) -> np.ndarray:
-    """``∫ f*(s, v)² ds`` per view and channel by a dense hemisphere product rule."""
+    """``∫ f*(s, v)² ds`` per view and channel: a product rule in polar coordinates about the
+    view's mirror direction ``r``, ``θ' = π u²`` (Gauss–Legendre in ``u``, uniform in
+    ``φ'``), so that a lobe about ``r`` as narrow as ``π / n_theta²`` rad is resolved (a
+    rule about the normal missed a Blinn–Phong lobe of exponent 10⁶: energy 0, and a
+    relative error of 1e147); ``f*`` is 0 below the horizon."""
     x, w = gauss_legendre(n_theta)
-    theta = 0.25 * np.pi * (x + 1.0)
-    wt = 0.25 * np.pi * w * np.sin(theta)
+    u = 0.5 * (x + 1.0)
+    theta = np.pi * u * u
+    wt = 0.5 * w * 2.0 * np.pi * u * np.sin(theta)  # du/dx · dθ'/du · sin θ'
     n_phi = 2 * n_theta
     phi = 2 * np.pi * (np.arange(n_phi) + 0.5) / n_phi
     st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
-    s = np.stack(np.broadcast_arrays(st * np.cos(phi), st * np.sin(phi), ct), -1).reshape(-1, 3)
+    local = np.stack(np.broadcast_arrays(st * np.cos(phi), st * np.sin(phi), ct), -1)
+    local = local.reshape(-1, 3)
     weight = (wt[:, None] * np.full(n_phi, 2 * np.pi / n_phi)).reshape(-1)
     out = []
     for v in views:
-        fs = brdf.evaluate(s, v) * s[:, 2:3]
-        out.append(weight @ (fs * fs))
+        r = np.array([-v[0], -v[1], v[2]])  # the mirror direction about +Z
+        a = np.array([1.0, 0.0, 0.0]) if abs(r[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        t = np.cross(r, a)
+        t /= np.linalg.norm(t)
+        s = local @ np.stack([t, np.cross(r, t), r])
+        up = s[:, 2] > 0.0
+        fs = brdf.evaluate(s[up], v) * s[up, 2:3]
+        out.append(weight[up] @ (fs * fs))
     return np.array(out)
 
 
