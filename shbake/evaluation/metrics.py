@@ -32,6 +32,10 @@ evaluates) above which the command that bakes an asset kind warns and names what
 else names a tolerance."""
 TINY = 1e-300
 """Floor of a denominator (an all-black reference)."""
+BLACK_LEVEL = 1e-20
+"""Radiance at or below which a result counts as black (a probe of a black map shades its
+fit's floor, ~1e-30; half floats flush below 6e-8): against a black reference it is no
+error."""
 
 
 def mean_squared_error(got, ref) -> float:
@@ -46,13 +50,21 @@ def mean_squared_error(got, ref) -> float:
 
 def relative_error_energy(got, ref) -> float:
     """``Σ (got − ref)² / Σ ref²``: the fraction of the reference's energy that is error.
+    Against a black reference: 0 if ``got`` is black too (every value at most
+    :data:`BLACK_LEVEL`), else infinite.
 
     >>> relative_error_energy([1.0, 1.0], [1.0, 2.0])
     0.2
+    >>> relative_error_energy([1e-30, 0.0], [0.0, 0.0])
+    0.0
     """
     r = np.asarray(ref, dtype=np.float64)
-    d = np.asarray(got, dtype=np.float64) - r
-    return float(np.sum(d * d) / max(float(np.sum(r * r)), TINY))
+    g = np.asarray(got, dtype=np.float64)
+    energy = float(np.sum(r * r))
+    if energy == 0.0:
+        return 0.0 if not g.size or float(np.max(np.abs(g))) <= BLACK_LEVEL else float("inf")
+    d = g - r
+    return float(np.sum(d * d) / max(energy, TINY))
 
 
 def relative_rms_error(got, ref) -> float:
