@@ -27,7 +27,7 @@ from shbake_cli.options import (
     warn,
 )
 
-from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, MAX_LIGHTS
+from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, MAX_LIGHTS, SHAPES
 from shbake.batch.project_env import EXPORTS, check_settings, project_environment
 from shbake.conventions import LMAX_LIMIT
 from shbake.envmap.sun import SUN_RADIUS_DEG, SUN_RADIUS_MAX_DEG
@@ -84,6 +84,15 @@ from shbake.sh.windows import WINDOW_METHODS
     help="Fit K directional lights and the SH together by least squares on the irradiance "
     f"(0…{MAX_LIGHTS}); auto: the fewest (0…{AUTO_MAX_LIGHTS}) meeting --tol.",
 )
+@click.option(
+    "--light-shape",
+    type=click.Choice(SHAPES),
+    default="point",
+    show_default=True,
+    help="With --lights: point (directional; what engine exports take) or sphere (each "
+    "light a cap of fitted angular radius, for shbake's shaders: --to webgl; Lambert only, "
+    "so with --no-tangent-irradiance).",
+)
 @tol_opt(
     "with --lights auto, the mean relative luminance error of SH + lights against brute force "
     "(4096 Fibonacci normals) to meet [default: 0.01]"
@@ -129,7 +138,8 @@ def project_env(ctx, maps, output, map_list, out_dir, n_jobs, exr_dir, size, as_
     with usage_errors():
         check_settings(settings["lmax"], settings["irradiance_lmax"], settings["irradiance"],
                        settings["exports"], settings["lights"], settings["light_tol"],
-                       settings["extract_sun"], settings["window"])  # fmt: skip
+                       settings["extract_sun"], settings["window"], settings["light_shape"],
+                       settings["tangent_irradiance"])  # fmt: skip
     if many_maps(maps, output, map_list, out_dir, exr_dir=exr_dir,
                  export=settings["exports"], report=settings["report"]):  # fmt: skip
         settings |= {"irradiance_sh": settings.pop("irradiance"), "quiet": True,
@@ -201,10 +211,13 @@ def print_report(summary: dict, quiet: bool) -> None:
 
 
 def light_line(light: dict) -> str:
-    """One directional light (:func:`shbake.format.env_sh.asset_lights`) on one line."""
+    """One light (:func:`shbake.format.env_sh.asset_lights`) on one line."""
     d = ", ".join(f"{v:.3f}" for v in light["direction"])
     colour = ", ".join(f"{v:.3f}" for v in light["colour"])
-    return (f"{light['name']}: direction ({d}), elevation {light['elevation_deg']:.1f}°, "
+    size = (f", angular radius {light['angular_radius_deg']:.2f}° (a sphere)"
+            if "angular_radius_deg" in light else "")  # fmt: skip
+    return (f"{light['name']}: direction ({d}){size}, "
+            f"elevation {light['elevation_deg']:.1f}°, "
             f"azimuth {light['azimuth_deg']:.1f}° (lat-long u × 360°); colour ({colour}) "
             f"(R, G, B, luminance 1); intensity {light['intensity']:.4g} (luminance of the "
             "irradiance at normal incidence, the map's radiance unit × sr)")  # fmt: skip

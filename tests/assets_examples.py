@@ -127,12 +127,17 @@ def _del(name):
 NAN3 = np.array([np.nan, 0.0, 1.0])
 
 
-def _lights(direction, irradiance, keep_sun=False):
-    """Replace the example's sun by fitted lights (``/lights``) with these values."""
+def _lights(direction, irradiance, keep_sun=False, radii=None, keep_tangent=True):
+    """Replace the example's sun by fitted lights (``/lights``) with these values (sphere
+    lights with ``radii``; ``keep_tangent`` False: without ``/tangent_irradiance``)."""
 
     def fn(f):
         if not keep_sun:
             del f["/sun"]
+        if not keep_tangent:
+            del f["/tangent_irradiance"]
+        if radii is not None:
+            f["/lights/angular_radius"] = np.asarray(radii, dtype=np.float64)
         if direction is not None:
             f["/lights/direction"] = np.asarray(direction, dtype=np.float64)
             attrs = {"requested": "auto", "fit_directions": 4096, "fit_mean_error": 0.01}
@@ -176,6 +181,16 @@ CORRUPTIONS = {
                              "lights/irradiance"),
     "lights-and-sun": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], keep_sun=True),
                        "not both"),
+    "radius-negative": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[-0.1],
+                                          keep_tangent=False), "outside [0, π/2)"),
+    "radius-hemisphere": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[np.pi / 2],
+                                            keep_tangent=False), "outside [0, π/2)"),
+    "radius-count-differs": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[0.1, 0.2],
+                                               keep_tangent=False), "angular_radius"),
+    "radius-with-tangent": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[0.1]),
+                            "no tangent irradiance"),
+    "radius-no-direction": ("env_sh", _lights(None, [[1.0] * 3], radii=[0.1],
+                                              keep_tangent=False), "missing dataset /lights"),
     "knots-equal": ("shexp_probe", _replace("/knots", np.array([0.5, 0.5])), "/knots must"),
     "knots-negative": ("shexp_probe", _replace("/knots", np.array([-1.0, 0.5])), "/knots must"),
     "matrix-333": ("env_sh", _replace("/tangent_irradiance/matrix", np.zeros((3, 3, 3))),

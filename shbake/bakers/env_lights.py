@@ -6,6 +6,9 @@ by projecting radiance. The model, at a unit normal ``n``::
 
     E(n) = Σ_i e_i y_i(n) + Σ_k a_k max(0, n·d_k)
 
+(``--light-shape sphere``: ``max(0, n·d_k)`` becomes a sphere light's horizon-clipped
+:func:`~shbake.shading.sphere_light.sphere_lambert` of angular radius ``σ_k``, fitted too.)
+
 ``e_i``: irradiance SH (``Â_l`` folded in, SPEC §4) of bands ``l ≤ irradiance lmax``
 where ``Â_l ≠ 0`` (``l = 0, 1`` and even ``l``); ``d_k``: unit direction toward light
 ``k``; ``a_k`` (RGB, ``≥ 0``): its irradiance at normal incidence. The target is the
@@ -18,9 +21,10 @@ Constraints:
 
 * **energy**: ``∫ E dn = π ∫ L dω`` holds exactly, so nothing is lost between the lights
   and the residual. With ``∫ max(0, n·d) dn = π`` and ``∫ y_0 dn = 2√π`` this fixes
-  ``e_0 = (Φ − Σ_k a_k) √π / 2`` (``Φ = ∫ L dω`` per channel, the brute force's own sum);
-  the lights enter as zero-mean lobes ``max(0, n·d) − 1/4`` against the fixed constant
-  ``Φ/4``.
+  ``e_0 = (Φ − Σ_k p_k a_k) √π / 2`` (``Φ = ∫ L dω`` per channel, the brute force's own
+  sum; ``p_k`` a light's energy per unit ``a_k``: 1 for a point,
+  :func:`~shbake.shading.sphere_light.sphere_power` for a sphere); the lights enter as
+  zero-mean lobes ``max(0, n·d) − p/4`` against the fixed constant ``Φ/4``.
 * ``a_k ≥ 0`` (NNLS for the intensities once the SH columns are projected out: variable
   projection, so the outer search sees only the ``2K`` direction angles);
 * the **SH part alone is never negative**: a light an engine shadows leaves the SH,
@@ -31,10 +35,12 @@ Constraints:
   :data:`NONNEGATIVE_MARGINS` until the dense check passes (a polynomial constrained only
   at points may dip between them).
 
-Directions are searched by ``scipy.optimize.least_squares`` (trust region) from
-several starts: each ``K`` keeps the ``K − 1`` lights found and adds one at each of
-the map's brightest coarse cells (:data:`MAP_STARTS`) and at the fit normals where the
-``K − 1`` fit falls furthest short (:data:`RESIDUAL_STARTS`); the best optimum wins.
+Directions (and sphere radii, up to :data:`MAX_RADIUS_DEG`) are searched by
+``scipy.optimize.least_squares`` (trust region) from several starts: each ``K`` keeps
+the ``K − 1`` lights found and adds one at each of the map's brightest coarse cells
+(:data:`MAP_STARTS`) and at the fit normals where the ``K − 1`` fit falls furthest short
+(:data:`RESIDUAL_STARTS`); spheres also start from the ``K`` points' optimum; the best
+optimum wins.
 :func:`choose_lights` takes the fewest lights (``0 … max``) whose mean relative
 luminance error on the fit normals is at most the tolerance.
 """
@@ -50,6 +56,7 @@ from shbake.reference.irradiance import brute_force_irradiance
 from shbake.sh.basis import real_sh
 from shbake.sh.kernels import lambert_kernel
 from shbake.sh.point_sets import fibonacci_sphere
+from shbake.shading.sphere_light import sphere_lambert, sphere_power
 
 FIT_DIRECTIONS = 4096
 """Spherical-Fibonacci normals (:func:`~shbake.sh.point_sets.fibonacci_sphere`) the fit
@@ -72,6 +79,13 @@ CHECK_DIRECTIONS = 65536
 """Fibonacci normals at which the SH part is checked to be non-negative."""
 NONNEGATIVE_MARGINS = (1e-3, 4e-3, 1.6e-2, 6.4e-2)
 """Margins ``m`` (fractions of the mean irradiance ``Φ/4``) the constrained solve tries."""
+SHAPES = ("point", "sphere")
+"""Light shapes: ``point`` (directional, what every engine export takes) or ``sphere``
+(a uniform cap of fitted angular radius, shbake's own shaders)."""
+MAX_RADIUS_DEG = 30.0
+"""Largest angular radius of a fitted sphere light, degrees."""
+START_RADIUS_DEG = 5.0
+"""Angular radius a new sphere light starts from (a point's gradient in ``σ`` is 0)."""
 WEIGHT_FLOOR = 1e-6
 """Target luminance below this fraction of its largest value is weighted, and its relative
 error measured, as this fraction (a black hemisphere would otherwise get infinite weight,
@@ -96,13 +110,15 @@ class LightFit(NamedTuple):
     """``K`` lights and the irradiance SH of the residual, with the fit's errors.
 
     ``directions`` (K, 3) unit, toward the lights; ``irradiance`` (K, 3) at normal
-    incidence; ``sh`` ((lmax+1)², 3) irradiance SH ``e_i`` (zero where ``Â_l = 0``);
+    incidence; ``radii`` (K,) angular radii in radians (0: points); ``sh`` ((lmax+1)², 3)
+    irradiance SH ``e_i`` (zero where ``Â_l = 0``);
     errors: relative luminance error on the fit normals (``mean``, ``max``) and the
     relative RMS ``sqrt(Σ (Y − Y_ref)² / Σ Y_ref²)`` (the scene tolerance's measure).
     """
 
     directions: np.ndarray
     irradiance: np.ndarray
+    radii: np.ndarray
     sh: np.ndarray
     mean_error: float
     max_error: float
@@ -209,15 +225,17 @@ class _Problem:
         self.pinv = np.linalg.pinv(Yw) if Yw.shape[1] else np.zeros((0, len(y)))
         self.Tp = self.T - self.Qy @ (self.Qy.T @ self.T)
 
-    def lobes(self, dirs: np.ndarray) -> np.ndarray:
-        """Zero-mean lobes ``max(0, n·d) − 1/4`` at the fit normals, ``(N, K)``."""
-        return np.maximum(self.target.normals @ dirs.T, 0.0) - 0.25
+    def lobes(self, dirs: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """Zero-mean lobes ``K(n·d) − p/4`` at the fit normals, ``(N, K)`` (module
+        docstring; ``radii`` 0: ``max(0, n·d) − 1/4``)."""
+        return sphere_lambert(self.target.normals @ dirs.T, radii[None, :]) - sphere_power(
+            radii)[None, :] / 4.0  # fmt: skip
 
-    def linear(self, dirs: np.ndarray):
+    def linear(self, dirs: np.ndarray, radii: np.ndarray):
         """``(e (bands, 3), a (K, 3))`` minimising the weighted residual, ``a ≥ 0``."""
         from scipy.optimize import nnls
 
-        Cw = self.lobes(dirs) * self.w[:, None]
+        Cw = self.lobes(dirs, radii) * self.w[:, None]
         a = np.zeros((len(dirs), 3))
         if len(dirs):
             Cp = Cw - self.Qy @ (self.Qy.T @ Cw)
@@ -226,30 +244,29 @@ class _Problem:
         e = self.pinv @ (self.T - Cw @ a)
         return e, a
 
-    def residual(self, dirs, e, a) -> np.ndarray:
+    def residual(self, dirs, radii, e, a) -> np.ndarray:
         """Weighted residuals ``(N, 3)``."""
-        return self.Yw @ e + (self.lobes(dirs) * self.w[:, None]) @ a - self.T
+        return self.Yw @ e + (self.lobes(dirs, radii) * self.w[:, None]) @ a - self.T
 
-    def sh_minimum(self, e, a) -> float:
+    def sh_minimum(self, radii, e, a) -> float:
         """The SH part's smallest value over the channels at :data:`CHECK_DIRECTIONS`
-        normals, relative to its mean ``(Φ − Σ a)/4`` (1 for a black map)."""
-        mean = (self.target.energy - a.sum(axis=0)) / 4.0
+        normals, relative to its mean ``(Φ − Σ p a)/4`` (1 for a black map)."""
+        mean = (self.target.energy - sphere_power(radii) @ a) / 4.0
         if float(mean.max()) <= 0.0:
             return 1.0
         low = (mean[None, :] + real_sh(fibonacci_sphere(CHECK_DIRECTIONS), self.lmax)[:, self.bands]
                @ e).min(axis=0)  # fmt: skip
         return float(np.min(low / np.where(mean > 0.0, mean, 1.0)))
 
-    def constrained(self, dirs, e, a, margin: float):
+    def constrained(self, dirs, radii, e, a, margin: float):
         """Solve the linear parameters again with ``SH part ≥ margin Φ/4`` at the fit
         normals and ``a ≥ 0`` (SLSQP)."""
         from scipy.optimize import minimize
 
-        C = self.lobes(dirs)
-        Cw = C * self.w[:, None]
+        Cw = self.lobes(dirs, radii) * self.w[:, None]
         A = np.hstack([self.Yw, Cw])
         nb, k = self.Y.shape[1], len(dirs)
-        G = np.hstack([self.Y, -0.25 * np.ones((len(self.w), k))])
+        G = np.hstack([self.Y, -np.tile(sphere_power(radii) / 4.0, (len(self.w), 1))])
         e2, a2 = e.copy(), a.copy()
         for c in range(3):
             h = self.target.energy[c] / 4.0 * (1.0 - margin)
@@ -271,43 +288,56 @@ class _Problem:
             e2[:, c], a2[:, c] = res.x[:nb], np.maximum(res.x[nb:], 0.0)
         return e2, a2
 
-    def result(self, dirs, e, a) -> LightFit:
+    def result(self, dirs, radii, e, a) -> LightFit:
         keep = a.sum(axis=1) > 0.0
-        dirs, a = dirs[keep], a[keep]
+        dirs, radii, a = dirs[keep], radii[keep], a[keep]
         order = np.argsort(-(a @ REC709_LUMINANCE), kind="stable")
-        dirs, a = dirs[order], a[order]
+        dirs, radii, a = dirs[order], radii[order], a[order]
         sh = np.zeros(((self.lmax + 1) ** 2, 3))
-        sh[0] = (self.target.energy - a.sum(axis=0)) * np.sqrt(np.pi) / 2.0
+        sh[0] = (self.target.energy - sphere_power(radii) @ a) * np.sqrt(np.pi) / 2.0
         sh[self.bands] = e
-        model = self.Y @ e + np.maximum(self.target.normals @ dirs.T, 0.0) @ a
+        model = self.Y @ e + sphere_lambert(self.target.normals @ dirs.T, radii[None, :]) @ a
         model += sh[0][None, :] / (2.0 * np.sqrt(np.pi))
         got = model @ REC709_LUMINANCE
         rel = np.abs(got - self.lum) / self.floored  # relative to the weights' floor
         rms = np.sqrt(np.sum((got - self.lum) ** 2) / max(float(np.sum(self.lum**2)), 1e-300))
-        return LightFit(dirs, a, sh, float(rel.mean()), float(rel.max()), float(rms))
+        return LightFit(dirs, a, radii, sh, float(rel.mean()), float(rel.max()), float(rms))
 
 
-def _search(problem: _Problem, starts: np.ndarray):
-    """Directions (K, 3) and the cost of the least-squares optimum from ``starts``."""
+def _search(problem: _Problem, starts: np.ndarray, start_radii: np.ndarray | None):
+    """Directions (K, 3), radii (K,) and the cost of the least-squares optimum from
+    ``starts``; ``start_radii`` ``None``: point lights (radii 0, not searched)."""
     from scipy.optimize import least_squares
 
     frames = _frames(starts)
+    k = len(starts)
+    spheres = start_radii is not None
 
-    def fun(angles):
-        dirs = _directions(angles, frames)
-        return problem.residual(dirs, *problem.linear(dirs)).ravel()
+    def unpack(x):
+        return _directions(x[: 2 * k], frames), x[2 * k:] if spheres else np.zeros(k)
 
-    x0 = np.tile([np.pi / 2.0, 0.0], len(starts))
-    res = least_squares(fun, x0, method="trf", x_scale=0.1, diff_step=1e-4)
-    return _directions(res.x, frames), float(np.sum(res.fun**2))
+    def fun(x):
+        dirs, radii = unpack(x)
+        return problem.residual(dirs, radii, *problem.linear(dirs, radii)).ravel()
+
+    x0 = np.tile([np.pi / 2.0, 0.0], k)
+    lower, upper = np.full(2 * k, -np.inf), np.full(2 * k, np.inf)
+    if spheres:
+        top = np.radians(MAX_RADIUS_DEG)
+        x0 = np.concatenate([x0, np.clip(start_radii, 0.0, top)])
+        lower = np.concatenate([lower, np.zeros(k)])
+        upper = np.concatenate([upper, np.full(k, top)])
+    res = least_squares(fun, x0, method="trf", x_scale=0.1, diff_step=1e-4, bounds=(lower, upper))
+    return *unpack(res.x), float(np.sum(res.fun**2))
 
 
-def _new_light_starts(problem: _Problem, previous: np.ndarray) -> np.ndarray:
-    """Starts for one more light: bright map cells and the largest shortfalls of ``previous``."""
+def _new_light_starts(problem: _Problem, previous: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """Starts for one more light: bright map cells and the largest shortfalls of the lights
+    ``previous`` (of angular ``radii``)."""
     cells, energy = problem.target.coarse
     picks = list(cells[np.argsort(-energy, kind="stable")])
-    e, a = problem.linear(previous)
-    short = -(problem.residual(previous, e, a) @ REC709_LUMINANCE)
+    e, a = problem.linear(previous, radii)
+    short = -(problem.residual(previous, radii, e, a) @ REC709_LUMINANCE)
     by_short = problem.target.normals[np.argsort(-short, kind="stable")]
     out: list[np.ndarray] = []
     cos_sep = np.cos(np.radians(START_SEPARATION_DEG))
@@ -323,33 +353,48 @@ def _new_light_starts(problem: _Problem, previous: np.ndarray) -> np.ndarray:
 
 
 def fit_lights(target: IrradianceTarget, count: int, lmax: int = 2,
-               previous: np.ndarray | None = None) -> LightFit:  # fmt: skip
+               previous: LightFit | None = None, shape: str = "point",
+               points: LightFit | None = None) -> LightFit:  # fmt: skip
     """The best fit with ``count`` lights (fewer if the optimum turns some off).
 
-    ``previous``: directions of a fit with ``count − 1`` lights to build on (found
-    here when omitted).
+    ``previous``: a fit with ``count − 1`` lights of the same ``shape`` to build on (found
+    here when omitted); ``shape``: one of :data:`SHAPES`. Spheres also start from the
+    directions of the fit with ``count`` ``points`` (found here when omitted), radii
+    :data:`START_RADIUS_DEG`: a sphere of radius 0 is a point, so the sphere fit's
+    least-squares cost is never above the points'.
     """
     if not 0 <= count <= MAX_LIGHTS:
         raise ParameterError(f"number of lights must be in 0…{MAX_LIGHTS}, got {count}")
+    if shape not in SHAPES:
+        raise ParameterError(f"light shape must be one of {', '.join(SHAPES)}, got {shape!r}")
     problem = _Problem(target, lmax)
     if count > 0 and previous is None:
-        previous = fit_lights(target, count - 1, lmax).directions
-    dirs = np.zeros((0, 3))
+        previous = fit_lights(target, count - 1, lmax, shape=shape)
+    dirs, radii = np.zeros((0, 3)), np.zeros(0)
     if count > 0 and float(np.max(target.energy)) > 0.0:
+        starts = [(np.vstack([previous.directions, s[None, :]]),
+                   np.append(previous.radii, np.radians(START_RADIUS_DEG)))
+                  for s in _new_light_starts(problem, previous.directions, previous.radii)]
+        if shape == "sphere":
+            if points is None:
+                points = fit_lights(target, count, lmax)
+            if points.count:
+                start_radius = np.radians(START_RADIUS_DEG)
+                starts.append((points.directions, np.full(points.count, start_radius)))
         best = None
-        for s in _new_light_starts(problem, previous):
-            d, cost = _search(problem, np.vstack([previous, s[None, :]]))
-            if best is None or cost < best[1]:
-                best = (d, cost)
+        for directions, radii in starts:
+            found = _search(problem, directions, radii if shape == "sphere" else None)
+            if best is None or found[2] < best[2]:
+                best = found
         if best is not None:
-            dirs = best[0]
-    e, a = problem.linear(dirs)
-    if problem.sh_minimum(e, a) < 0.0:
+            dirs, radii = best[0], best[1]
+    e, a = problem.linear(dirs, radii)
+    if problem.sh_minimum(radii, e, a) < 0.0:
         for margin in NONNEGATIVE_MARGINS:
-            e, a = problem.constrained(dirs, e, a, margin)
-            if problem.sh_minimum(e, a) >= 0.0:
+            e, a = problem.constrained(dirs, radii, e, a, margin)
+            if problem.sh_minimum(radii, e, a) >= 0.0:
                 break
-    return problem.result(dirs, e, a)
+    return problem.result(dirs, radii, e, a)
 
 
 def choose_lights(
@@ -358,22 +403,25 @@ def choose_lights(
     max_count: int = AUTO_MAX_LIGHTS,
     lmax: int = 2,
     measure: str = "mean_error",
+    shape: str = "point",
 ) -> tuple[LightFit, list[LightFit]]:
-    """The fit with the fewest lights (``0 … max_count``) whose ``measure`` (a
+    """The fit with the fewest lights (``0 … max_count``, of ``shape``) whose ``measure`` (a
     :class:`LightFit` error: ``mean_error`` by default, ``rms_error`` for scene
     tolerances) is at most ``tol``, else the one with the lowest; and every fit tried."""
     if not 0.0 < tol < 1.0:
         raise ParameterError(f"light tolerance must be in (0, 1), got {tol}")
     tried: list[LightFit] = []
-    previous = np.zeros((0, 3))
+    previous = points = None
     for k in range(max_count + 1):
-        fit = fit_lights(target, k, lmax, previous)
+        if shape == "sphere":
+            points = fit_lights(target, k, lmax, points)
+        fit = fit_lights(target, k, lmax, previous, shape, points)
         tried.append(fit)
         if getattr(fit, measure) <= tol:
             return fit, tried
         if fit.count < k:  # the optimum turned a light off: more starts find no more
             break
-        previous = fit.directions
+        previous = fit
     return min(tried, key=lambda f: getattr(f, measure)), tried
 
 
@@ -383,6 +431,8 @@ __all__ = [
     "IrradianceTarget",
     "LightFit",
     "MAX_LIGHTS",
+    "MAX_RADIUS_DEG",
+    "SHAPES",
     "choose_lights",
     "fit_lights",
     "fitted_bands",

@@ -16,6 +16,7 @@ from shbake.bakers.env_lights import (
     AUTO_MAX_LIGHTS,
     FIT_DIRECTIONS,
     MAX_LIGHTS,
+    SHAPES,
     choose_lights,
     fit_lights,
     irradiance_target,
@@ -26,11 +27,11 @@ from shbake.envmap.sun import SUN_RADIUS_DEG, Sun, extract_sun
 from shbake.errors import ParameterError
 from shbake.format.asset import Asset
 from shbake.format.provenance import map_source
-from shbake.sh.basis import real_sh
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 from shbake.sh.rotation import rotate
 from shbake.sh.tangent_irradiance import matrix_form
 from shbake.sh.windows import WINDOW_METHODS, dering_window, window
+from shbake.shading.sphere_light import lights_sh, sphere_power
 
 REPORT_LMAX = 64
 """Band up to which ``--report`` projects to estimate what truncation loses."""
@@ -155,6 +156,7 @@ def bake_env_sh(
     rotation: np.ndarray | None = None,
     lights: int | str | None = None,
     light_tol: float = 0.01,
+    light_shape: str = "point",
     projection: Projection | None = None,
 ) -> tuple[Asset, dict]:
     """Bake an ``env_sh`` asset.
@@ -180,6 +182,10 @@ def bake_env_sh(
         on the irradiance (:mod:`shbake.bakers.env_lights`): that many lights, or with
         ``"auto"`` the fewest (up to 3) whose mean relative error meets ``light_tol``.
         Not with ``sun`` nor a window (the fit is the irradiance).
+    light_shape : one of ``point, sphere``
+        ``sphere``: each light a uniform cap of fitted angular radius (``/lights/angular_radius``),
+        shaded by its horizon-clipped irradiance (:mod:`shbake.shading.sphere_light`); the
+        Lambert term only, so not with ``tangent``.
     projection : Projection, optional
         :func:`project_lighting` of this ``env`` at ``lmax`` (and ``sun_radius_deg`` with
         ``sun``), made earlier (a scene's plan): used instead of projecting again. Not with
@@ -203,18 +209,20 @@ def bake_env_sh(
     dattrs: dict = {}
     light = None
     fit = None
-    check_lights(lights, light_tol, sun, window_name)
+    check_lights(lights, light_tol, sun, window_name, light_shape, tangent)
     radius = sun_radius_deg if sun else None  # what a projection of these settings holds
     if projection is not None and (
             lights is not None or projection.sh.shape[0] != (lmax + 1) ** 2
             or projection.sun_radius_deg != radius):  # fmt: skip
         raise ParameterError("the projection given is not one of these settings")
     if lights is not None:
-        fit, summary["lights"] = _fit(env, lights, light_tol, irradiance_lmax)
+        fit, summary["lights"] = _fit(env, lights, light_tol, irradiance_lmax, light_shape)
     if fit is not None and fit.count:  # no light found: the SH alone (fitted), no /lights
         directions = fit.directions if rotation is None else fit.directions @ np.asarray(rotation).T
         datasets["/lights/direction"] = directions
         datasets["/lights/irradiance"] = fit.irradiance
+        if light_shape == "sphere":
+            datasets["/lights/angular_radius"] = fit.radii
         dattrs["/lights/direction"] = {
             "requested": str(lights),
             **({"tolerance": float(light_tol)} if lights == "auto" else {}),
@@ -282,9 +290,14 @@ def bake_env_sh(
     return Asset("env_sh", attrs, datasets, dattrs), summary
 
 
-def check_lights(lights, tol: float, sun: bool, window_name: str) -> None:
+def check_lights(lights, tol: float, sun: bool, window_name: str, shape: str = "point",
+                 tangent: bool = False) -> None:  # fmt: skip
     """Refuse light settings :func:`bake_env_sh` cannot honour (before any map is read)."""
+    if shape not in SHAPES:
+        raise ParameterError(f"--light-shape must be one of {', '.join(SHAPES)}, got {shape!r}")
     if lights is None:
+        if shape != "point":
+            raise ParameterError("--light-shape applies to --lights only")
         return
     if lights != "auto" and not (
         isinstance(lights, int) and not isinstance(lights, bool) and 0 <= lights <= MAX_LIGHTS
@@ -297,14 +310,18 @@ def check_lights(lights, tol: float, sun: bool, window_name: str) -> None:
                              "(--lights 1 fits one light to the irradiance)")  # fmt: skip
     if window_name != "none":
         raise ParameterError("--lights fits the irradiance itself: no --window with it")
+    if shape == "sphere" and tangent:
+        raise ParameterError("--light-shape sphere models the lights' Lambert irradiance only: "
+                             "add --no-tangent-irradiance")  # fmt: skip
 
 
-def _fit(env: Environment, lights, tol: float, lmax: int):
+def _fit(env: Environment, lights, tol: float, lmax: int, shape: str):
     """The light fit ``--lights`` asks for and its summary (each fit tried: its errors)."""
     if lights == "auto":
-        fit, tried = choose_lights(irradiance_target(env), tol, AUTO_MAX_LIGHTS, lmax)
+        fit, tried = choose_lights(irradiance_target(env), tol, AUTO_MAX_LIGHTS, lmax,
+                                   shape=shape)  # fmt: skip
     else:
-        fit = fit_lights(irradiance_target(env), lights, lmax)
+        fit = fit_lights(irradiance_target(env), lights, lmax, shape=shape)
         tried = [fit]
     summary = {
         "requested": lights,
@@ -315,7 +332,8 @@ def _fit(env: Environment, lights, tol: float, lmax: int):
         "fit_directions": FIT_DIRECTIONS,
         "tried": [{"count": f.count, "mean_error": f.mean_error, "max_error": f.max_error}
                   for f in tried],  # fmt: skip
-        "energy_fraction": (fit.irradiance.sum(axis=0)
+        "shape": shape,
+        "energy_fraction": ((sphere_power(fit.radii) @ fit.irradiance)
                             / np.where(env.total_energy() > 0, env.total_energy(), 1.0)).tolist(),
     }  # fmt: skip
     if lights == "auto":
@@ -325,11 +343,12 @@ def _fit(env: Environment, lights, tol: float, lmax: int):
 
 
 def _with_fit(L: np.ndarray, fit, irradiance_lmax: int) -> np.ndarray:
-    """The residual's lighting SH with lights: the map's projection less the lights as
-    delta lights, then the bands the Lambert kernel sees up to ``irradiance_lmax``
-    replaced by the fitted irradiance SH over ``Â_l``."""
+    """The residual's lighting SH with lights: the map's projection less the lights (delta
+    lights of their energy; spheres: times their band factors ``g_l``), then the bands the
+    Lambert kernel sees up to ``irradiance_lmax`` replaced by the fitted irradiance SH over
+    ``Â_l``."""
     lmax = lmax_of(L.shape[0])
-    out = L - real_sh(fit.directions, lmax).T @ fit.irradiance
+    out = L - lights_sh(fit.directions, fit.irradiance, fit.radii, lmax)
     a = lambert_kernel(irradiance_lmax)[band_of_index(irradiance_lmax)]
     seen = np.flatnonzero(a != 0.0)
     out[seen] = fit.sh[seen] / a[seen, None]

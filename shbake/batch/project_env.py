@@ -148,7 +148,8 @@ def export_folder(output: str, target: str) -> str:
 def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh: bool = True,
                    exports: tuple[str, ...] = (), lights: int | str | None = None,
                    light_tol: float = 0.01, extract_sun: bool = False,
-                   window: str = "none") -> int:  # fmt: skip
+                   window: str = "none", light_shape: str = "point",
+                   tangent_irradiance: bool = False) -> int:  # fmt: skip
     """The band limits and light settings of :func:`project_environment` checked before any
     input is read (a :class:`~shbake.errors.ParameterError` names the first bad one); returns
     the irradiance ``lmax`` (default ``min(lmax, 2)``, at most ``lmax``; an export needs 2)."""
@@ -157,7 +158,10 @@ def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh:
     check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
     if exports and (not irradiance_sh or irradiance_lmax < 2):
         raise ParameterError("--export needs --irradiance with irradiance lmax >= 2")
-    check_lights(lights, light_tol, extract_sun, window)
+    check_lights(lights, light_tol, extract_sun, window, light_shape, tangent_irradiance)
+    if light_shape != "point" and exports:
+        raise ParameterError(f"--export: engines shade lights as points, not --light-shape "
+                             f"{light_shape} (export --to webgl draws them)")  # fmt: skip
     return irradiance_lmax
 
 
@@ -179,6 +183,7 @@ def project_environment_asset(
     sun_radius: float = sun_light.SUN_RADIUS_DEG,
     lights: int | str | None = None,
     light_tol: float = 0.01,
+    light_shape: str = "point",
     exr_dir: str | None = None,
     map_size: int = 128,
     float_exr: bool = False,
@@ -213,14 +218,14 @@ def project_environment_asset(
     ``report``: per-band energy, truncation and the error against brute force, the
     headline ``error`` that of what a consumer evaluates (:func:`headline_error`; with
     ``exports`` or ``measure_export``, the SH exports' 9 coefficients and lights).
-    ``lights``/``light_tol``: directional lights fitted with the SH to the irradiance
+    ``lights``/``light_tol``/``light_shape``: lights fitted with the SH to the irradiance
     (:func:`shbake.bakers.env_sh.bake_env_sh`). ``projection``: the map's
     :class:`~shbake.bakers.env_sh.Projection` at these settings, made earlier (a scene's
     plan), which the bake then does not make again.
     """
-    irradiance_lmax = check_settings(
-        lmax, irradiance_lmax, irradiance_sh, exports, lights, light_tol, extract_sun, window
-    )
+    irradiance_lmax = check_settings(lmax, irradiance_lmax, irradiance_sh, exports, lights,
+                                     light_tol, extract_sun, window, light_shape,
+                                     tangent_irradiance)  # fmt: skip
     check_output_path(output)
     if exr_dir is not None:
         check_output_dir(exr_dir, "--exr-dir")
@@ -254,6 +259,7 @@ def project_environment_asset(
         rotation=rotation,
         lights=lights,
         light_tol=light_tol,
+        light_shape=light_shape,
         projection=projection,
     )
     maps = {}

@@ -2,7 +2,9 @@
 
 Version 3 (issue 33) added ``/lights/*``: directional lights fitted to the irradiance
 (:mod:`shbake.bakers.env_lights`); a version-2 reader would have ignored them and shaded
-without their energy, hence the new version.
+without their energy, hence the new version. Version 4 added ``/lights/angular_radius``
+(sphere lights, ``project-env --light-shape sphere``): a version-3 reader would shade them
+as points.
 
 Built by :func:`shbake.bakers.env_sh.bake_env_sh`, shaded by :mod:`shbake.shading.env_sh`.
 """
@@ -42,6 +44,12 @@ def _check(attrs, shapes, dattrs, symbols):
         raise FormatError("missing dataset /lights/direction (required with /lights/irradiance)")
     if "/lights/direction" in shapes and "/sun/direction" in shapes:
         raise FormatError("an env_sh asset holds /sun or /lights, not both")
+    if "/lights/angular_radius" in shapes and "/lights/direction" not in shapes:
+        raise FormatError("missing dataset /lights/direction (required with "
+                          "/lights/angular_radius)")  # fmt: skip
+    if "/lights/angular_radius" in shapes and "/tangent_irradiance/sh" in shapes:
+        raise FormatError("sphere lights (/lights/angular_radius) have no tangent irradiance: "
+                          "an asset holds one or the other")  # fmt: skip
 
 
 def check_sun(direction: np.ndarray) -> None:
@@ -60,6 +68,14 @@ def check_light_directions(directions: np.ndarray) -> None:
                           f"(length {n[bad[0]]:.6g})")  # fmt: skip
 
 
+def check_light_radii(radii: np.ndarray) -> None:
+    """Refuse sphere-light radii outside ``[0, π/2)`` (a cap of half the sky or more is no
+    light: its irradiance formula no longer holds)."""
+    r = np.asarray(radii, dtype=np.float64)
+    if np.any((r < 0.0) | (r >= np.pi / 2.0)):
+        raise FormatError("dataset /lights/angular_radius has values outside [0, π/2)")
+
+
 def check_light_irradiance(irradiance: np.ndarray) -> None:
     """Refuse negative light irradiance (a light cannot take energy away)."""
     if np.any(np.asarray(irradiance) < 0.0):
@@ -72,8 +88,8 @@ _KERNEL = Attr("kernel", "str", "the kernel `L` was convolved with", required=Fa
 
 ENV_SH = register(Kind(
     name="env_sh",
-    version=3,
-    reads=(2,),  # version 3 added the optional /lights: a version 2 file has none
+    version=4,
+    reads=(2, 3),  # 3 added the optional /lights, 4 their /lights/angular_radius
     title="SH lighting and irradiance of an environment map (`project-env`)",
     attrs=SOURCE_MAP_ATTRS + MAP_POLICY_ATTRS,
     datasets=(
@@ -123,6 +139,9 @@ ENV_SH = register(Kind(
         Data("/lights/irradiance", ("K", 3), "float64", "RGB irradiance at normal incidence "
              "(radiance × sr), ≥ 0", required=False, with_="/lights/direction",
              values=check_light_irradiance),
+        Data("/lights/angular_radius", ("K",), "float64", "angular radius σ of each light, "
+             "radians in [0, π/2): a sphere light (uniform cap); absent: every light a point",
+             required=False, values=check_light_radii),
     ),
     notes=(
         "When `/sun/*` is present, consumers MUST add the light to the SH irradiance: "
@@ -135,6 +154,12 @@ ENV_SH = register(Kind(
         "together by least squares on the irradiance, so neither is meaningful alone, but "
         "the SH irradiance is non-negative by itself (a shadowed light leaves a valid SH) "
         "and `∫ E dn` of SH + lights is `π ∫ L dω` of the map (energy conserved).",
+        "When `/lights/angular_radius` is present, consumers MUST shade light `k` as a "
+        "sphere of radius `σ_k`: `E(n) += irradiance_k·K(n·d_k, σ_k)`, `K` the horizon-clipped "
+        "irradiance of a uniform cap per unit irradiance at normal incidence (Snyder 1996; "
+        "docs/CONVENTIONS.md), and an exporter whose target shades lights as points MUST "
+        "refuse the asset; such an asset has no `/tangent_irradiance/*`. The light's energy "
+        "is `2·irradiance_k/(1 + cos σ_k)`.",
         "An asset holds `/sun` or `/lights`, never both; every `/lights/direction` row "
         "MUST be a unit vector (to 1e-3) and `/lights/irradiance` MUST be ≥ 0.",
     ),
@@ -148,8 +173,8 @@ def asset_lights(asset) -> list[dict]:
     (``/lights``), each with its world ``direction`` (unit, toward the light),
     ``elevation_deg`` above the horizon (+Y up) and ``azimuth_deg`` (the lat-long map's
     ``u × 360°``: 0 at −Z, 90 at +X, SPEC §3), ``irradiance`` (R, G, B), ``intensity`` (its
-    Rec.709 luminance) and ``colour`` (``irradiance / intensity``: luminance 1). Empty when
-    the asset has neither."""
+    Rec.709 luminance) and ``colour`` (``irradiance / intensity``: luminance 1); sphere
+    lights also their ``angular_radius_deg``. Empty when the asset has neither."""
     if "/sun/direction" in asset:
         sun_irradiance = np.asarray(asset["/sun/radiance"]) * float(asset["/sun/solid_angle"])
         found = [("sun", asset["/sun/direction"], sun_irradiance)]
@@ -158,8 +183,10 @@ def asset_lights(asset) -> list[dict]:
         found = [(f"light {k}", d, e) for k, (d, e) in enumerate(pairs)]
     else:
         return []
+    radii = (np.degrees(np.asarray(asset["/lights/angular_radius"], dtype=np.float64)).ravel()
+             if "/lights/angular_radius" in asset else None)  # fmt: skip
     out = []
-    for name, direction, irradiance in found:
+    for k, (name, direction, irradiance) in enumerate(found):
         d = np.asarray(direction, dtype=np.float64).reshape(3)
         e = np.asarray(irradiance, dtype=np.float64).reshape(-1)
         intensity = float(e @ REC709_LUMINANCE) if e.size == 3 else float(e.mean())
@@ -170,4 +197,6 @@ def asset_lights(asset) -> list[dict]:
             "irradiance": e.tolist(), "intensity": intensity,
             "colour": (e / intensity).tolist() if intensity > 0 else e.tolist(),
         })  # fmt: skip
+        if radii is not None:
+            out[-1]["angular_radius_deg"] = float(radii[k])
     return out

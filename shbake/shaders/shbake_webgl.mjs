@@ -21,7 +21,7 @@ const FRAME = "transpose(mat3(t, cross(n, t), n))";  // world -> local: rows t, 
 const PIXEL = "ivec2(gl_FragCoord.xy - uViewport.xy)";
 export const PASSES = {
   irradiance: {
-    shade: `return shbakeIrradiance(uIrradiance, uIrradianceLmax, n, ${LIGHTS}) / SHBAKE_PI;`,
+    shade: `return shbakeIrradiance(uIrradiance, uIrradianceLmax, n, ${LIGHTS}, uLightRadius) / SHBAKE_PI;`,
   },
   "tangent-sh": {
     shade: `return shbakeTangentIrradianceSH(uTangentSH, uTangentLmax, t, ${LIGHTS});`,

@@ -24,7 +24,6 @@ from shbake.brdf.sampling import fibre_frames
 from shbake.conventions import lmax_of
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
-from shbake.sh.basis import real_sh
 from shbake.sh.rotation import (
     block_offsets,
     p_rows,
@@ -33,6 +32,7 @@ from shbake.sh.rotation import (
 )
 from shbake.shading.env_sh import lights_of
 from shbake.shading.shader import Shader, Texture
+from shbake.shading.sphere_light import lights_sh
 from shbake.texture.parabolic import fetch_flat_into, fetch_into
 
 PIXEL_BLOCK = 64
@@ -251,7 +251,8 @@ def dot_world(coeffs_world, L, out):
 
 def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
     """``(n, 3)`` world lighting coefficients of an ``env_sh`` asset, its lights (sun or
-    fitted) folded in as SH of delta lights."""
+    fitted) folded in as SH of delta lights (sphere lights: of their energy, band ``l``
+    times the cap's :func:`~shbake.shading.sphere_light.cap_band_factors`, exact)."""
     L = np.asarray(env_asset["/lighting/sh"], dtype=float)
     n = (lmax + 1) ** 2
     if L.shape[0] < n:
@@ -260,9 +261,9 @@ def lighting_with_sun(env_asset, lmax: int) -> np.ndarray:
             f"the environment asset has lighting to lmax {have}; the table needs {lmax}"
         )
     L = L[:n].copy()
-    dirs, energy = lights_of(env_asset)
+    dirs, energy, radii = lights_of(env_asset)
     if len(dirs):
-        L += real_sh(dirs, lmax).T @ energy
+        L += lights_sh(dirs, energy, radii, lmax)
     return np.ascontiguousarray(L)
 
 

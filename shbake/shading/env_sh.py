@@ -8,6 +8,10 @@ Lambert (``/irradiance/sh``, ``Â_l`` folded in, SPEC §4)::
 
     E(n) = Σ_i c_i y_i(n) + Σ_k max(0, n·s_k) E_k
 
+(a sphere light, ``/lights/angular_radius`` ``σ_k > 0``: ``max(0, n·s_k)`` becomes its
+horizon-clipped :func:`~shbake.shading.sphere_light.sphere_lambert`; such an asset has no
+tangent irradiance)
+
 Kajiya–Kay tangent irradiance (Mehta et al. 2012), from ``/tangent_irradiance/sh``
 (``A_l`` folded in) or the 4×4 matrix of eq. 23–24 (``/tangent_irradiance/matrix``)::
 
@@ -25,6 +29,7 @@ from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.sh.basis import evaluate
 from shbake.shading.shader import Shader, Texture, Uniform
+from shbake.shading.sphere_light import sphere_lambert
 
 INV_PI = 1.0 / np.pi
 INV_PI2 = 1.0 / (np.pi * np.pi)
@@ -61,19 +66,22 @@ def _matrix_with_lights(tangents, M, light_dirs, light_energy, out, b0, b1):
 
 
 def lights_of(asset):
-    """``(directions (K, 3), E (K, 3))`` of an ``env_sh`` asset's lights: its sun
-    (``E = radiance × solid_angle``) or its fitted ``/lights``; ``K = 0`` without."""
+    """``(directions (K, 3), E (K, 3), radii (K,))`` of an ``env_sh`` asset's lights: its
+    sun (``E = radiance × solid_angle``) or its fitted ``/lights``; ``radii``: sphere
+    lights' angular radii in radians (``/lights/angular_radius``), 0 for points; ``K = 0``
+    without."""
     if "/sun/direction" in asset:
         return (
             np.asarray(asset["/sun/direction"], float).reshape(1, 3),
             (np.asarray(asset["/sun/radiance"], float) * float(asset["/sun/solid_angle"]))[None],
+            np.zeros(1),
         )
     if "/lights/direction" in asset:
-        return (
-            np.asarray(asset["/lights/direction"], float).reshape(-1, 3),
-            np.asarray(asset["/lights/irradiance"], float).reshape(-1, 3),
-        )
-    return np.zeros((0, 3)), np.zeros((0, 3))
+        dirs = np.asarray(asset["/lights/direction"], float).reshape(-1, 3)
+        radii = (np.asarray(asset["/lights/angular_radius"], float).reshape(-1)
+                 if "/lights/angular_radius" in asset else np.zeros(len(dirs)))  # fmt: skip
+        return dirs, np.asarray(asset["/lights/irradiance"], float).reshape(-1, 3), radii
+    return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
 
 
 def _flat(dirs):
@@ -88,6 +96,8 @@ LIGHT_INPUTS = (
     Uniform("light_irradiance", "radiance × sr, RGB (K, 3)",
             "/sun/radiance × /sun/solid_angle + /lights/irradiance",
             "each light's irradiance at normal incidence E_k"),
+    Uniform("light_radii", "radians (K,), [0, π/2)", "/lights/angular_radius",
+            "sphere lights' angular radii σ_k (0: a point; always 0 with tangent irradiance)"),
 )  # fmt: skip
 """The directional lights every ``env_sh`` shader adds (:func:`lights_of`)."""
 
@@ -117,10 +127,11 @@ class IrradianceShader(Shader):
     truth = "irradiance"
     dataset = "/irradiance/sh"
 
-    def __init__(self, coeffs, light_directions, light_irradiance):
+    def __init__(self, coeffs, light_directions, light_irradiance, light_radii):
         self.coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
         self.light_directions = np.ascontiguousarray(light_directions, dtype=np.float64)
         self.light_irradiance = np.ascontiguousarray(light_irradiance, dtype=np.float64)
+        self.light_radii = np.ascontiguousarray(light_radii, dtype=np.float64)
 
     @classmethod
     def from_asset(cls, asset, **companions):
@@ -132,14 +143,16 @@ class IrradianceShader(Shader):
         """``E (..., 3)`` at unit ``dirs (..., 3)`` (radiance × sr), lights included."""
         d, flat = _flat(dirs)
         out = evaluate(self.coeffs, flat)  # fused and blocked (numpy for small jobs): sh.basis
-        factor = self.light_factor.py_func
-        for direction, energy in zip(self.light_directions, self.light_irradiance, strict=True):
+        lights = zip(self.light_directions, self.light_irradiance, self.light_radii, strict=True)
+        for direction, energy, radius in lights:
             if energy.any():
-                out += factor(flat @ direction)[:, None] * energy
+                out += self.light_factor(flat @ direction, radius)[:, None] * energy
         return out.reshape(d.shape[:-1] + (3,))
 
-    light_factor = staticmethod(sun_lambert)
-    """A light's factor ``max(0, n·s)``."""
+    @staticmethod
+    def light_factor(c, radius):
+        """A light's factor at ``c = n·s``: ``max(0, c)``, a sphere's :func:`sphere_lambert`."""
+        return sphere_lambert(c, radius) if radius > 0.0 else sun_lambert.py_func(c)
 
     def shade(self, normals, views, albedo=1.0):
         return self.irradiance(normals) * (np.asarray(albedo, dtype=np.float64) * INV_PI)
@@ -162,7 +175,11 @@ class TangentSHShader(IrradianceShader):
     truth = "tangent"
     tangents = True
     dataset = "/tangent_irradiance/sh"
-    light_factor = staticmethod(sun_tangent)
+
+    @staticmethod
+    def light_factor(c, radius):
+        """A (point) light's factor at ``c = t·s``: ``sqrt(1 − c²)/π²``."""
+        return sun_tangent.py_func(c)
 
     def shade(self, normals, views, tangents=None, kd=1.0):
         return self.irradiance(tangents) * np.asarray(kd, dtype=np.float64)
@@ -186,7 +203,8 @@ class TangentShader(Shader):
     truth = "tangent"
     tangents = True
 
-    def __init__(self, matrix, light_directions, light_irradiance):
+    def __init__(self, matrix, light_directions, light_irradiance, light_radii):
+        self.light_radii = np.ascontiguousarray(light_radii, dtype=np.float64)
         self.matrix = np.ascontiguousarray(matrix, dtype=np.float64)
         self.light_directions = np.ascontiguousarray(light_directions, dtype=np.float64)
         self.light_irradiance = np.ascontiguousarray(light_irradiance, dtype=np.float64)

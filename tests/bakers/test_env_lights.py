@@ -162,7 +162,7 @@ class TestAsset:
         path = str(tmp_path / "a.h5")
         write_asset(path, asset)
         a = read_asset(path)
-        assert a.attrs["format_version"] == 3 and a["/lights/direction"].shape == (2, 3)
+        assert a.attrs["format_version"] == 4 and a["/lights/direction"].shape == (2, 3)
         assert a["/lighting/sh"].shape == (25, 3)
         q = fibonacci_sphere(2048)
         d, om, L = env.samples()

@@ -128,15 +128,18 @@ class TestReadValidation:
         assert "\n" not in msg and len(msg) < 400
         assert fragment in msg, msg
 
-    def test_older_version_still_read(self, tiny_map, tmp_path):
-        """An env_sh file of version 2 (before ``/lights``) is read as it was written."""
-        path = tmp_path / "v2.h5"
+    @pytest.mark.parametrize("version", [2, 3])
+    def test_older_version_still_read(self, version, tiny_map, tmp_path):
+        """An env_sh file of version 2 (before ``/lights``) or 3 (before
+        ``/lights/angular_radius``) is read as it was written."""
+        path = tmp_path / "old.h5"
         write_asset(str(path), example("env_sh", tiny_map))
         now = read_asset(str(path))
         with h5py.File(path, "r+") as f:
-            f.attrs["format_version"] = np.int64(2)
+            f.attrs["format_version"] = np.int64(version)
         back = read_asset(str(path))
-        assert back.attrs["format_version"] == 2 and registry.kind_of("env_sh").reads == (2,)
+        assert back.attrs["format_version"] == version
+        assert registry.kind_of("env_sh").reads == (2, 3)
         assert back.datasets.keys() == now.datasets.keys()
         assert all(np.array_equal(back[k], now[k]) for k in now.datasets)
 

@@ -185,6 +185,10 @@ def load_source(
         omega = float(asset["/sun/solid_angle"])
         src.sun_solid_angle = omega
         src.sun_irradiance = np.asarray(asset["/sun/radiance"], dtype=np.float64) * omega
+    if "/lights/angular_radius" in asset and np.any(np.asarray(asset["/lights/angular_radius"])):
+        raise InputError(f"{path}: its lights are spheres (project-env --light-shape sphere) and "
+                         "engines shade lights as points: bake with --light-shape point, or "
+                         "export --to webgl (shbake's shaders)")  # fmt: skip
     if "/lights/direction" in asset:
         d = np.asarray(asset["/lights/direction"], dtype=np.float64).reshape(-1, 3) @ R.T
         src.light_directions = d / np.linalg.norm(d, axis=1, keepdims=True)

@@ -91,14 +91,16 @@ def coefficient_texture(coeffs: np.ndarray) -> np.ndarray:
 
 
 def _lights(lights) -> dict:
-    dirs, energy = lights
+    dirs, energy, radii = lights
     d = np.zeros((MAX_LIGHTS, 3))
     e = np.zeros((MAX_LIGHTS, 3))
-    d[: len(dirs)], e[: len(dirs)] = dirs, energy
+    r = np.zeros(MAX_LIGHTS)
+    d[: len(dirs)], e[: len(dirs)], r[: len(dirs)] = dirs, energy, radii
     return {
         "uLightDir": {"type": "vec3[]", "length": MAX_LIGHTS, "value": d.tolist()},
         "uLightE": {"type": "vec3[]", "length": MAX_LIGHTS, "value": e.tolist()},
         "uLightCount": {"type": "int", "value": len(dirs)},
+        "uLightRadius": {"type": "float[]", "length": MAX_LIGHTS, "value": r.tolist()},
     }
 
 
