@@ -18,11 +18,12 @@ Settings: ``L2`` (plain projection); ``L2+sun`` (``--extract-sun``, today's sing
 (25 coefficients per channel, no lights, shbake's evaluation), ``ZH3`` (Roughton et al.
 2024, L1 + one zonal quadratic coefficient per channel along the shared luminance axis,
 computed from the map's L2 projection) and ``ZH3+auto`` (the ``L2+auto`` residual in ZH3
-with the same lights), ``caps3`` (three spherical-cap lights with fitted angular radii
-plus an L2 residual, least squares on the same fit normals as ``--lights``: what an area
-light would give; evaluated by quadrature over each cap) and ``rects3`` (the same with
+with the same lights), ``spheres+auto`` and ``spheres3`` (``--lights auto|3 --light-shape
+sphere``: sphere lights of fitted angular radius + L2, evaluated by the asset's irradiance
+shader, the CPU twin of ``irradiance.glsl`` that ``--to webgl`` draws, checked against it
+in Chromium by ``tests/system/test_webgl_shaders.py``) and ``rects3`` (three lights with
 three.js's / Babylon.js's rectangular area lights as their shaders light a diffuse surface,
-:func:`rect_kernel`).
+:func:`rect_kernel`, fitted here as ``--lights`` fits points).
 
 For the maps where three lights miss 1 % (``--search``, default night and studio), the
 best fit that can be computed: the ``--lights 3`` optimum and ``--starts`` random triples of
@@ -40,7 +41,8 @@ acceptance's pair: the least mean of a fit whose every error is at most
 :data:`ACCEPT_MAX`, over all those direction sets (none where no fit can keep the max).
 
 Writes ``PREFIX.json``, ``PREFIX.md`` and ``PREFIX.png`` (error vs number of lights);
-default prefix ``bench/results/irradiance_lights``.
+default prefix ``bench/results/irradiance_lights``. A map's entries of an existing
+``PREFIX.json`` that this run does not measure (``search3`` of a map not searched) are kept.
 """
 
 import argparse
@@ -58,7 +60,6 @@ HDRI = ROOT.parent / "shared" / "hdri"
 RESULTS = ROOT / "bench" / "results"
 ENGINES = ROOT / "tests" / "engines"
 EVAL_DIRECTIONS = 2048
-CAP_POINTS = 256
 ACCEPT_MAX = 0.10
 L1_STEPS = 5
 L1_FLOOR = 2e-3
@@ -102,21 +103,6 @@ def zh3_irradiance(L9: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     return E + (np.pi / 4.0) * zonal[:, None] * z[None, :]
 
 
-def cap_kernel(normals: np.ndarray, direction: np.ndarray, radius: float) -> np.ndarray:
-    """``(1/Ω) ∫_cap max(0, n·ω) dω`` for a spherical cap of angular ``radius`` (quadrature)."""
-    from shbake.sh.point_sets import fibonacci_square
-
-    u = fibonacci_square(CAP_POINTS)
-    z = 1.0 - u[:, 0] * (1.0 - np.cos(radius))  # uniform in solid angle over the cap
-    s = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    local = np.stack([s * np.cos(2 * np.pi * u[:, 1]), s * np.sin(2 * np.pi * u[:, 1]), z], 1)
-    a = np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    b = np.cross(direction, a)
-    b /= np.linalg.norm(b)
-    world = local @ np.stack([b, np.cross(direction, b), direction])
-    return np.maximum(normals @ world.T, 0.0).mean(axis=1)
-
-
 def rect_kernel(normals: np.ndarray, direction: np.ndarray, form_factor: float) -> np.ndarray:
     """The diffuse term of a distant rectangular area light as three.js and Babylon.js shade
     it, per unit irradiance at normal incidence: ``max(0, (n·d + l)/(1 + l))``.
@@ -131,11 +117,10 @@ def rect_kernel(normals: np.ndarray, direction: np.ndarray, form_factor: float) 
     return np.maximum(0.0, (c + form_factor) / (1.0 + form_factor))
 
 
-def area_lights(env, count: int, dirs_eval: np.ndarray, kind: str):
-    """K area lights (``kind`` ``cap``: spherical caps, free radius; ``rect``: three.js's /
-    Babylon's rectangle, free form factor :func:`rect_kernel`) + L2 residual, fitted as
-    ``--lights`` fits points; returns the irradiance at ``dirs_eval`` and each light's size
-    (cap radius in degrees, rectangle form factor ``l``)."""
+def rect_lights(env, count: int, dirs_eval: np.ndarray):
+    """K of three.js's / Babylon's rectangle lights (free form factor, :func:`rect_kernel`)
+    + L2 residual, fitted as ``--lights`` fits points; returns the irradiance at
+    ``dirs_eval`` and each light's form factor ``l``."""
     from scipy.optimize import least_squares
 
     from shbake.bakers import env_lights
@@ -146,27 +131,27 @@ def area_lights(env, count: int, dirs_eval: np.ndarray, kind: str):
     start = env_lights.fit_lights(target, count).directions
     frames = env_lights._frames(start)
     sizes = np.full(len(start), 0.05)
-    kernel = cap_kernel if kind == "cap" else rect_kernel
+    none = np.zeros(len(start))
 
     def lobes(normals, dirs, x):  # per unit irradiance at normal incidence, mean removed
-        k = np.stack([kernel(normals, d, v) for d, v in zip(dirs, x, strict=True)], 1)
-        return k - (0.25 if kind == "cap" else (1.0 + x) / 4.0)
+        k = np.stack([rect_kernel(normals, d, v) for d, v in zip(dirs, x, strict=True)], 1)
+        return k - (1.0 + x) / 4.0
 
-    problem.lobes = lambda dirs: lobes(target.normals, dirs, sizes)
+    problem.lobes = lambda dirs, _radii: lobes(target.normals, dirs, sizes)
 
     def fun(x):
         sizes[:] = np.abs(x[2 * len(start) :])
         d = env_lights._directions(x[: 2 * len(start)], frames)
-        return problem.residual(d, *problem.linear(d)).ravel()
+        return problem.residual(d, none, *problem.linear(d, none)).ravel()
 
     x0 = np.concatenate([np.tile([np.pi / 2, 0.0], len(start)), sizes])
     res = least_squares(fun, x0, method="trf", x_scale=0.1, diff_step=1e-4)
     sizes[:] = np.abs(res.x[2 * len(start) :])
     d = env_lights._directions(res.x[: 2 * len(start)], frames)
-    e, a = problem.linear(d)
+    e, a = problem.linear(d, none)
     E = target.energy[None, :] / 4.0 + real_sh(dirs_eval, 2)[:, problem.bands] @ e
     E = E + lobes(dirs_eval, d, sizes) @ a
-    return E, (np.degrees(sizes) if kind == "cap" else sizes.copy())
+    return E, sizes.copy()
 
 
 def best_luminance_fit(dirs: np.ndarray, normals: np.ndarray, ref_lum: np.ndarray, energy: float,
@@ -216,9 +201,9 @@ def l1_directions(target, dirs: np.ndarray, steps: int = L1_STEPS) -> np.ndarray
     extra = None
     for _ in range(steps):
         problem = env_lights._Problem(target, 2, extra)
-        dirs, _ = env_lights._search(problem, dirs)
-        e, a = problem.linear(dirs)
-        rel = np.abs(problem.residual(dirs, e, a) @ REC709_LUMINANCE) / problem.w * (
+        dirs, points, _ = env_lights._search(problem, dirs, None)
+        e, a = problem.linear(dirs, points)
+        rel = np.abs(problem.residual(dirs, points, e, a) @ REC709_LUMINANCE) / problem.w * (
             1.0 / problem.lum)  # fmt: skip
         extra = 1.0 / np.sqrt(np.maximum(rel, L1_FLOOR))
     return dirs
@@ -265,8 +250,8 @@ def multistart(env, count: int, starts: int, dirs: np.ndarray, ref_lum: np.ndarr
         return best_luminance_fit(d, dirs, ref_lum, energy, "mean", ACCEPT_MAX)
 
     for s in initial:
-        d, cost = env_lights._search(problem, s)
-        fit = problem.result(d, *problem.linear(d))
+        d, points, cost = env_lights._search(problem, s, None)
+        fit = problem.result(d, points, *problem.linear(d, points))
         E = real_sh(dirs, 2) @ fit.sh + np.maximum(dirs @ fit.directions.T, 0.0) @ fit.irradiance
         d1 = l1_directions(target, d)
         found.append({"cost": cost, "fit": errors(E @ REC709_LUMINANCE, ref_lum), "dirs": d,
@@ -334,10 +319,16 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
     E = E + np.maximum(dirs @ lights[0].T, 0.0) @ lights[1]
     out["ZH3+auto"] = errors(E @ REC709_LUMINANCE, ref_lum) | {
         "lights": len(lights[0]), "floats": 15 + 6 * len(lights[0])}  # fmt: skip
-    E, radii = area_lights(env, 3, dirs, "cap")
-    out["caps3"] = errors(E @ REC709_LUMINANCE, ref_lum) | {
-        "lights": 3, "floats": 27 + 7 * 3, "radii_deg": radii.round(2).tolist()}  # fmt: skip
-    E, form = area_lights(env, 3, dirs, "rect")
+    for key, lights in (("spheres+auto", "auto"), ("spheres3", 3)):
+        asset = os.path.join(tmp, f"{name}_{key}.h5")
+        project_environment(path, asset, lights=lights, light_shape="sphere",
+                            tangent_irradiance=False, quiet=True)  # fmt: skip
+        a = read_asset(asset)
+        radii = np.degrees(a["/lights/angular_radius"]) if "/lights/angular_radius" in a else []
+        got = shader(a, "irradiance").irradiance(dirs) @ REC709_LUMINANCE
+        out[key] = errors(got, ref_lum) | {"lights": len(radii), "floats": 27 + 7 * len(radii),
+                                           "radii_deg": np.round(radii, 2).tolist()}  # fmt: skip
+    E, form = rect_lights(env, 3, dirs)
     out["rects3"] = errors(E @ REC709_LUMINANCE, ref_lum) | {
         "lights": 3, "floats": 27 + 7 * 3, "form_factor": form.round(4).tolist()}  # fmt: skip
     if starts:
@@ -347,13 +338,13 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
 
 def markdown(results: dict, max_lights: int) -> str:
     keys = ["L2", "L2+sun", "L2+auto"] + [f"L2+{k}" for k in range(max_lights + 1)]
-    keys += ["lmax4", "ZH3", "ZH3+auto", "caps3", "rects3"]
+    keys += ["lmax4", "ZH3", "ZH3+auto", "spheres+auto", "spheres3", "rects3"]
     lines = ["| map | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]
     for m, r in results.items():
         cells = []
         for k in keys:
             v = r[k]
-            extra = f" ({v['lights']})" if k in ("L2+auto", "ZH3+auto") else ""
+            extra = f" ({v['lights']})" if k in ("L2+auto", "ZH3+auto", "spheres+auto") else ""
             cells.append(f"{v['mean']:.2%} / {v['max']:.1%}{extra}")
         lines.append(f"| {m} | " + " | ".join(cells) + " |")
     lines.append("")
@@ -364,9 +355,10 @@ def markdown(results: dict, max_lights: int) -> str:
     lines.append("| setting | floats per probe |")
     lines.append("|---|---|")
     for k in keys:
-        if k not in ("L2+sun", "L2+auto", "ZH3+auto"):
+        if k not in ("L2+sun", "L2+auto", "ZH3+auto", "spheres+auto"):
             lines.append(f"| {k} | {max(r[k]['floats'] for r in results.values())} |")
     lines.append("| L2+sun, L2+auto, ZH3+auto | 27 / 27 / 15, + 6 per light |")
+    lines.append("| spheres+auto | 27, + 7 per light |")
     searched = {m: r["search3"] for m, r in results.items() if "search3" in r}
     if searched:
         lines += ["", "| map | starts | 3 lights: least-squares optimum | lowest mean of all "
@@ -420,9 +412,12 @@ def main():
     ap.add_argument("--starts", type=int, default=60)
     ap.add_argument("--out", default=str(RESULTS / "irradiance_lights"))
     args = ap.parse_args()
+    stored = Path(args.out + ".json")
+    results = json.loads(stored.read_text()) if stored.exists() else {}
     with tempfile.TemporaryDirectory() as tmp:
-        results = {m: measure(m, args.max_lights, tmp, args.starts if m in args.search else 0)
-                   for m in args.maps}  # fmt: skip
+        for m in args.maps:
+            new = measure(m, args.max_lights, tmp, args.starts if m in args.search else 0)
+            results[m] = results.get(m, {}) | new
     Path(args.out + ".json").write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
     report = markdown(results, args.max_lights)
     Path(args.out + ".md").write_text(report)

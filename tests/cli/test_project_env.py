@@ -237,3 +237,72 @@ class TestAssetReader:
         code, _, err = run_cli("preview", trunc, "-o", tmp_path / "p.exr")
         assert one_line_error(code, err)
         assert not (tmp_path / "p.exr").exists()
+
+
+class TestLightShape:
+    """``--light-shape sphere``: what takes it, what refuses it (one line, nothing written)."""
+
+    @pytest.fixture(scope="class")
+    @classmethod
+    def disc_map(cls, tmp_path_factory):
+        """A grey sky with a disc of 10° (radiance 500) at 30° elevation."""
+        from shbake.envmap.layouts import latlong_directions
+
+        d = latlong_directions(48, 96)
+        s = np.array([0.0, 0.5, -np.sqrt(0.75)])
+        img = np.where(((d @ s) > np.cos(np.radians(10.0)))[..., None], 500.0, 0.5)
+        return write_test_exr(tmp_path_factory.mktemp("disc") / "disc.exr", img * np.ones(3))
+
+    @pytest.fixture(scope="class")
+    @classmethod
+    def sphere_asset(cls, disc_map, tmp_path_factory):
+        from click.testing import CliRunner
+        from shbake_cli.main import cli
+
+        out = tmp_path_factory.mktemp("sphere") / "disc.h5"
+        r = CliRunner().invoke(cli, ["project-env", str(disc_map), "-o", str(out), "--lights",
+                                     "1", "--light-shape", "sphere", "--no-tangent-irradiance",
+                                     "-q"])  # fmt: skip
+        assert r.exit_code == 0, r.output
+        return out
+
+    @pytest.mark.parametrize("args, fragment", [
+        (["--lights", "1", "--light-shape", "sphere"], "--no-tangent-irradiance"),
+        (["--light-shape", "sphere", "--no-tangent-irradiance"], "--lights only"),
+        (["--lights", "1", "--light-shape", "sphere", "--no-tangent-irradiance", "--export",
+          "threejs"], "points"),
+    ])  # fmt: skip
+    def test_refused(self, run_cli, tmp_path, disc_map, args, fragment):
+        before = set(tmp_path.rglob("*"))
+        code, _, err = run_cli("project-env", disc_map, "-o", tmp_path / "out.h5", *args)
+        assert one_line_error(code, err) and fragment in err, err
+        assert set(tmp_path.rglob("*")) == before
+
+    def test_json_and_asset(self, run_cli, tmp_path, disc_map):
+        code, out, err = run_cli("project-env", disc_map, "-o", tmp_path / "a.h5", "--lights", "1",
+                                 "--light-shape", "sphere", "--no-tangent-irradiance", "--json",
+                                 "-q")  # fmt: skip
+        assert code == 0, err
+        lights = json.loads(out)["lights"]
+        assert lights["shape"] == "sphere"
+        radius = lights["lights"][0]["angular_radius_deg"]
+        assert radius == pytest.approx(10.0, abs=1.0)  # texels of 3.75°
+        got = read_asset(str(tmp_path / "a.h5"))["/lights/angular_radius"]
+        assert np.degrees(got[0]) == pytest.approx(radius, rel=1e-12)
+
+    @pytest.mark.parametrize("target, name", [("threejs", "x"), ("gltf", "x.gltf"),
+                                              ("babylon", "x.gltf"), ("filament", "x_sh.txt"),
+                                              ("unity", "x")])  # fmt: skip
+    def test_engine_exports_refuse_the_asset(self, run_cli, tmp_path, sphere_asset, target, name):
+        code, _, err = run_cli("export", sphere_asset, "--to", target, "-o", tmp_path / name)
+        assert one_line_error(code, err) and "spheres" in err, err
+        assert not any(tmp_path.iterdir())
+
+    def test_webgl_export_carries_the_radii(self, run_cli, tmp_path, sphere_asset):
+        code, _, err = run_cli("export", sphere_asset, "--to", "webgl", "-o", tmp_path / "w")
+        assert code == 0, err
+        manifest = json.loads((tmp_path / "w" / "shbake.json").read_text())
+        radii = manifest["uniforms"]["uLightRadius"]["value"]
+        want = read_asset(str(sphere_asset))["/lights/angular_radius"]
+        np.testing.assert_allclose(radii[:1], want, rtol=1e-6)
+        assert radii[1:] == [0.0] * (len(radii) - 1)

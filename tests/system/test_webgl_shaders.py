@@ -41,6 +41,7 @@ from shbake.conventions import DFG_MU_MIN, ROUGHNESS_MIN
 from shbake.envmap import load_environment
 from shbake.format.asset import read_asset, write_asset
 from shbake.format.brdf_table import table_at
+from shbake.format.exports.webgl import MAX_LIGHTS as SHBAKE_MAX_LIGHTS
 from shbake.format.shrm import build_shrm_asset
 from shbake.preview.passes import render_pass
 from shbake.preview.sphere import sphere_geometry
@@ -330,6 +331,46 @@ class TestBrokenConventionFails:
             want = env_previews(exported["env"])
         name = next(iter(got))
         assert relative_rms(got[name], want[name]) > 10 * FLOAT_TOL
+
+
+@pytest.fixture(scope="module")
+def sphere_export(tmp_path_factory):
+    """An env_sh asset with two sphere lights (``--light-shape sphere``, radii near 12° and
+    25°: a sky with two discs) and its ``--to webgl`` folder."""
+    from shbake.envmap.layouts import latlong_directions
+    from tests.helpers import write_test_exr
+
+    d = tmp_path_factory.mktemp("webgl-spheres")
+    dirs = latlong_directions(64, 128)
+    img = 0.2 + 0.1 * dirs[..., 1:2] * np.ones(3)
+    for s, radius, radiance in (([0.6, 0.0, 0.8], 12.0, 60.0), ([0.0, 0.6, -0.8], 25.0, 8.0)):
+        img = np.where(((dirs @ np.array(s)) > np.cos(np.radians(radius)))[..., None],
+                       radiance, img)  # fmt: skip
+    env = load_environment(str(write_test_exr(d / "discs.exr", img)), quiet=True)
+    asset, _ = bake_env_sh(env, lights=2, tangent=False, light_shape="sphere",
+                           provenance={"command_line": "test"})  # fmt: skip
+    h5 = str(d / "discs.h5")
+    write_asset(h5, asset)
+    export_assets([h5], "webgl", str(d / "webgl"))
+    return h5, str(d / "webgl")
+
+
+def test_sphere_lights_pass(engine_browser, sphere_export, tmp_path):
+    """shbakeSphereLambert (irradiance.glsl) draws what the preview's twin does
+    (:func:`shbake.shading.sphere_light.sphere_lambert`); the same export with its radii
+    zeroed (points) is far off, so the comparison sees the spheres."""
+    h5, folder = sphere_export
+    want = preview(read_asset(h5), "irradiance")
+    assert np.degrees(read_asset(h5)["/lights/angular_radius"]).min() > 5.0
+    got = render(engine_browser, folder, ENV_JOBS[:1])["irradiance"]
+    assert relative_rms(got, want) <= FLOAT_TOL
+    points = copy_export(folder, tmp_path / "points")
+    path = os.path.join(points, "shbake.json")
+    manifest = json.loads(open(path).read())
+    manifest["uniforms"]["uLightRadius"]["value"] = [0.0] * SHBAKE_MAX_LIGHTS
+    open(path, "w").write(json.dumps(manifest))
+    got = render(engine_browser, points, ENV_JOBS[:1])["irradiance"]
+    assert relative_rms(got, want) > 10 * FLOAT_TOL
 
 
 def half_bound(h5: str) -> float:
