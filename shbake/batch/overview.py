@@ -85,7 +85,7 @@ def _is_sun(sun) -> bool:
     def vector(v):
         return isinstance(v, list) and len(v) == 3 and all(_number(c) for c in v)
 
-    numbers = ("intensity", "elevation_deg", "azimuth_deg", "contrast")
+    numbers = ("intensity", "elevation_deg", "azimuth_deg", "contrast", "angular_radius_deg")
     return all(_optional(sun, k, vector) for k in ("direction", "colour")) and all(
         _optional(sun, k, _number) for k in numbers
     )

@@ -116,9 +116,11 @@ def _sun(sun: dict | None) -> str | None:
 
 
 def _light(sun: dict) -> str:
-    """A directional light (the sun, a fitted light): its fields in words."""
+    """A light (the sun, a fitted directional or sphere light): its fields in words."""
     vec = lambda v: "(" + ", ".join(f"{c:.3f}" for c in v) + ")"  # noqa: E731
     parts = [f"direction {vec(sun['direction'])}" if "direction" in sun else "",
+             f"angular radius {sun['angular_radius_deg']:.2f}° (a sphere)"
+             if "angular_radius_deg" in sun else "",
              f"elevation {sun['elevation_deg']:.1f}°" if "elevation_deg" in sun else "",
              f"azimuth {sun['azimuth_deg']:.1f}°" if "azimuth_deg" in sun else "",
              f"colour {vec(sun['colour'])}" if "colour" in sun else "",

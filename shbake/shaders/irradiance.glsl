@@ -21,7 +21,7 @@ float shbakeSphereLambert(float c, float sigma) {
   if (abs(c) >= sinS) return max(c, 0.0);
   float cosS = cos(sigma);
   float sinT = sqrt(1.0 - c * c);
-  float y = -(cosS / sinS) * c / sinT;
+  float y = clamp(-(cosS / sinS) * c / sinT, -1.0, 1.0);
   float root = sqrt(max(0.0, 1.0 - y * y));
   float z = sinT * root * sinS / cosS;
   float w = z * z;

@@ -52,7 +52,7 @@ def sphere_lambert(cos_theta, radius) -> np.ndarray:
         return out.reshape(shape)
     cb, sb, kb = c[band], sin_s[band], cos_s[band]
     sin_t = np.sqrt(1.0 - cb * cb)
-    y = -(kb / sb) * cb / sin_t
+    y = np.clip(-(kb / sb) * cb / sin_t, -1.0, 1.0)  # |y| < 1 but for rounding at the edges
     root = np.sqrt(np.maximum(0.0, 1.0 - y * y))
     z = sin_t * root * sb / kb
     w = z * z

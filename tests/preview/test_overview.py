@@ -136,6 +136,16 @@ class TestSummaryTable:
         page = Page(render(tmp_path))
         lines = [x for _, x in page.of("p") if "light 1: direction (0.000, 1.000, 0.000)" in x]
         assert len(lines) == 1 and "colour (1.000, 0.500, 0.250), intensity 2.5" in lines[0]
+        light["angular_radius_deg"] = 12.5  # a sphere light (--light-shape sphere)
+        (tmp_path / "a.json").write_text(json.dumps(summary))
+        page = Page(render(tmp_path))
+        assert any("(0.000, 1.000, 0.000), angular radius 12.50° (a sphere)" in x
+                   for _, x in page.of("p"))  # fmt: skip
+        light["angular_radius_deg"] = "<b>"
+        (tmp_path / "a.json").write_text(json.dumps(summary))
+        with pytest.raises(Exception, match="nothing to show"):
+            render(tmp_path)
+        light["angular_radius_deg"] = 12.5
         light["colour"] = ["<b>", 0, 0]
         (tmp_path / "a.json").write_text(json.dumps(summary))
         with pytest.raises(Exception, match="nothing to show"):
