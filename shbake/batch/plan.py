@@ -9,7 +9,8 @@ Rules (one asset per map or per BRDF, shared by every material that needs it):
 * ``glossy`` (GGX) → one SH-exp probe per map covering the materials whose
   GGX width α = r² starts at :data:`SHEXP_MIN_ALPHA` or above, when the fit's
   predicted error meets ``glossy_probe``; a split-sum probe per map for the
-  rest (low roughness, or a fit that misses the tolerance) — except a material
+  rest (low roughness, or a fit that misses the tolerance: the note names the
+  materials, the fit's residual and the tolerance) — except a material
   with ONE roughness whose SHRM orders meet ``shrm``: it gets an SHRM. A
   dielectric (``params.F0`` below :data:`SHEXP_DIELECTRIC_F0`) whose range starts
   below :data:`SHEXP_DIELECTRIC_ALPHA` goes to the split-sum (or SHRM) too, the
@@ -494,6 +495,7 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                     and m not in low_dielectrics]  # fmt: skip
             low = [m for m in glossy if ggx_alpha(m.roughness[0]) < SHEXP_MIN_ALPHA]
             low += low_dielectrics
+            missed = None  # the SH-exp fit's predicted error when it misses the tolerance
             if high:
                 lo = min(m.roughness[0] for m in high)
                 hi = max(m.roughness[1] for m in high)
@@ -510,6 +512,7 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                         used[m.name].append(aid)
                 else:
                     low += high
+                    missed = ([m.name for m in high], p["predicted_error"]["glossy_probe"])
             # one GGX roughness the probe misses: an SHRM of GGX at that width and the
             # material's F0 (the SHRM bakes the whole BRDF, Schlick Fresnel included; the
             # probes leave F0 to shading) when its orders meet `shrm`
@@ -530,10 +533,16 @@ def plan_scene(scene: Scene, cache: dict | None = None) -> dict:
                     cache[key]["work_seconds"] += load_s
                 aid = f"splitsum/{env.name}"
                 why = [m.name for m in low_dielectrics if m in low]
-                p = cache[key] if not why else cache[key] | {"note": cache[key]["note"] + (
-                    f"; {', '.join(why)}: dielectric below α {SHEXP_DIELECTRIC_ALPHA:g}, where "
-                    "SH-exp loses to split-sum in more than 10 % of the shared-map "
-                    "cases")}  # fmt: skip
+                note = cache[key]["note"]
+                if why:
+                    note += (f"; {', '.join(why)}: dielectric below α {SHEXP_DIELECTRIC_ALPHA:g}, "
+                             "where SH-exp loses to split-sum in more than 10 % of the "
+                             "shared-map cases")  # fmt: skip
+                fitted = [m.name for m in low if missed is not None and m.name in missed[0]]
+                if fitted:
+                    note += (f"; {', '.join(fitted)}: the SH-exp fit misses glossy_probe (its "
+                             f"RMS log residual {missed[1]:.3g} > {tol:g})")  # fmt: skip
+                p = cache[key] | {"note": note}
                 add(aid, "splitsum", p, [env.map], {"map": digest}, key, {}, env)
                 for m in low:
                     used[m.name].append(aid)

@@ -98,3 +98,22 @@ def test_planner_sends_low_alpha_dielectrics_to_split_sum(tmp_path):
     assert plan["materials"]["varnish"] == ["splitsum/city"]
     note = next(a["note"] for a in plan["assets"] if a["id"] == "splitsum/city")
     assert "varnish" in note and f"{SHEXP_DIELECTRIC_ALPHA:g}" in note and "10 %" in note
+
+
+def test_planner_says_when_the_fit_misses_the_tolerance(tmp_path):
+    """studio's fit (RMS log residual 0.68 when written) misses glossy_probe 0.3: the
+    split-sum it gets names the material and both numbers."""
+    import re
+
+    shutil.copy(map_path("studio"), tmp_path / "studio.exr")
+    (tmp_path / "scene.toml").write_text(
+        '[scene]\nname = "glossy"\n[tolerances]\nglossy_probe = 0.3\n'
+        '[[environments]]\nmap = "studio.exr"\n'
+        '[[materials]]\nname = "steel"\nkind = "glossy"\nroughness = [0.5, 0.9]\n'
+    )
+    plan = plan_scene(load_scene(str(tmp_path / "scene.toml")))
+    assert plan["materials"]["steel"] == ["splitsum/studio"]
+    note = next(a["note"] for a in plan["assets"] if a["id"] == "splitsum/studio")
+    found = re.search(r"steel: the SH-exp fit misses glossy_probe \(its RMS log residual "
+                      r"([0-9.]+) > 0.3\)", note)  # fmt: skip
+    assert found and float(found.group(1)) > 0.3, note
