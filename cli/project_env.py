@@ -90,8 +90,7 @@ from shbake.sh.windows import WINDOW_METHODS
     default="point",
     show_default=True,
     help="With --lights: point (directional; what engine exports take) or sphere (each "
-    "light a cap of fitted angular radius, for shbake's shaders: --to webgl; Lambert only, "
-    "so with --no-tangent-irradiance).",
+    "light a cap of fitted angular radius, for shbake's shaders: --to webgl).",
 )
 @tol_opt(
     "with --lights auto, the mean relative luminance error of SH + lights against brute force "
@@ -138,8 +137,8 @@ def project_env(ctx, maps, output, map_list, out_dir, n_jobs, exr_dir, size, as_
     with usage_errors():
         check_settings(settings["lmax"], settings["irradiance_lmax"], settings["irradiance"],
                        settings["exports"], settings["lights"], settings["light_tol"],
-                       settings["extract_sun"], settings["window"], settings["light_shape"],
-                       settings["tangent_irradiance"])  # fmt: skip
+                       settings["extract_sun"], settings["window"],
+                       settings["light_shape"])  # fmt: skip
     if many_maps(maps, output, map_list, out_dir, exr_dir=exr_dir,
                  export=settings["exports"], report=settings["report"]):  # fmt: skip
         settings |= {"irradiance_sh": settings.pop("irradiance"), "quiet": True,

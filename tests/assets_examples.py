@@ -187,8 +187,6 @@ CORRUPTIONS = {
                                             keep_tangent=False), "outside [0, π/2)"),
     "radius-count-differs": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[0.1, 0.2],
                                                keep_tangent=False), "angular_radius"),
-    "radius-with-tangent": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[0.1]),
-                            "no tangent irradiance"),
     "radius-no-direction": ("env_sh", _lights(None, [[1.0] * 3], radii=[0.1],
                                               keep_tangent=False), "missing dataset /lights"),
     "knots-equal": ("shexp_probe", _replace("/knots", np.array([0.5, 0.5])), "/knots must"),

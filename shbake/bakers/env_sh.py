@@ -184,8 +184,8 @@ def bake_env_sh(
         Not with ``sun`` nor a window (the fit is the irradiance).
     light_shape : one of ``point, sphere``
         ``sphere``: each light a uniform cap of fitted angular radius (``/lights/angular_radius``),
-        shaded by its horizon-clipped irradiance (:mod:`shbake.shading.sphere_light`); the
-        Lambert term only, so not with ``tangent``.
+        shaded by its horizon-clipped irradiance and its cap-averaged Kajiya–Kay term
+        (:mod:`shbake.shading.sphere_light`).
     projection : Projection, optional
         :func:`project_lighting` of this ``env`` at ``lmax`` (and ``sun_radius_deg`` with
         ``sun``), made earlier (a scene's plan): used instead of projecting again. Not with
@@ -209,7 +209,7 @@ def bake_env_sh(
     dattrs: dict = {}
     light = None
     fit = None
-    check_lights(lights, light_tol, sun, window_name, light_shape, tangent)
+    check_lights(lights, light_tol, sun, window_name, light_shape)
     radius = sun_radius_deg if sun else None  # what a projection of these settings holds
     if projection is not None and (
             lights is not None or projection.sh.shape[0] != (lmax + 1) ** 2
@@ -290,8 +290,8 @@ def bake_env_sh(
     return Asset("env_sh", attrs, datasets, dattrs), summary
 
 
-def check_lights(lights, tol: float, sun: bool, window_name: str, shape: str = "point",
-                 tangent: bool = False) -> None:  # fmt: skip
+def check_lights(lights, tol: float, sun: bool, window_name: str,
+                 shape: str = "point") -> None:  # fmt: skip
     """Refuse light settings :func:`bake_env_sh` cannot honour (before any map is read)."""
     if shape not in SHAPES:
         raise ParameterError(f"--light-shape must be one of {', '.join(SHAPES)}, got {shape!r}")
@@ -310,9 +310,6 @@ def check_lights(lights, tol: float, sun: bool, window_name: str, shape: str = "
                              "(--lights 1 fits one light to the irradiance)")  # fmt: skip
     if window_name != "none":
         raise ParameterError("--lights fits the irradiance itself: no --window with it")
-    if shape == "sphere" and tangent:
-        raise ParameterError("--light-shape sphere models the lights' Lambert irradiance only: "
-                             "add --no-tangent-irradiance")  # fmt: skip
 
 
 def _fit(env: Environment, lights, tol: float, lmax: int, shape: str):

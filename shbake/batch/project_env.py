@@ -148,8 +148,7 @@ def export_folder(output: str, target: str) -> str:
 def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh: bool = True,
                    exports: tuple[str, ...] = (), lights: int | str | None = None,
                    light_tol: float = 0.01, extract_sun: bool = False,
-                   window: str = "none", light_shape: str = "point",
-                   tangent_irradiance: bool = False) -> int:  # fmt: skip
+                   window: str = "none", light_shape: str = "point") -> int:  # fmt: skip
     """The band limits and light settings of :func:`project_environment` checked before any
     input is read (a :class:`~shbake.errors.ParameterError` names the first bad one); returns
     the irradiance ``lmax`` (default ``min(lmax, 2)``, at most ``lmax``; an export needs 2)."""
@@ -158,7 +157,7 @@ def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh:
     check_lmax(irradiance_lmax, "--irradiance-lmax", limit=lmax)
     if exports and (not irradiance_sh or irradiance_lmax < 2):
         raise ParameterError("--export needs --irradiance with irradiance lmax >= 2")
-    check_lights(lights, light_tol, extract_sun, window, light_shape, tangent_irradiance)
+    check_lights(lights, light_tol, extract_sun, window, light_shape)
     if light_shape != "point" and exports:
         raise ParameterError(f"--export: engines shade lights as points, not --light-shape "
                              f"{light_shape} (export --to webgl draws them)")  # fmt: skip
@@ -224,8 +223,7 @@ def project_environment_asset(
     plan), which the bake then does not make again.
     """
     irradiance_lmax = check_settings(lmax, irradiance_lmax, irradiance_sh, exports, lights,
-                                     light_tol, extract_sun, window, light_shape,
-                                     tangent_irradiance)  # fmt: skip
+                                     light_tol, extract_sun, window, light_shape)  # fmt: skip
     check_output_path(output)
     if exr_dir is not None:
         check_output_dir(exr_dir, "--exr-dir")

@@ -47,9 +47,6 @@ def _check(attrs, shapes, dattrs, symbols):
     if "/lights/angular_radius" in shapes and "/lights/direction" not in shapes:
         raise FormatError("missing dataset /lights/direction (required with "
                           "/lights/angular_radius)")  # fmt: skip
-    if "/lights/angular_radius" in shapes and "/tangent_irradiance/sh" in shapes:
-        raise FormatError("sphere lights (/lights/angular_radius) have no tangent irradiance: "
-                          "an asset holds one or the other")  # fmt: skip
 
 
 def check_sun(direction: np.ndarray) -> None:
@@ -156,10 +153,11 @@ ENV_SH = register(Kind(
         "and `∫ E dn` of SH + lights is `π ∫ L dω` of the map (energy conserved).",
         "When `/lights/angular_radius` is present, consumers MUST shade light `k` as a "
         "sphere of radius `σ_k`: `E(n) += irradiance_k·K(n·d_k, σ_k)`, `K` the horizon-clipped "
-        "irradiance of a uniform cap per unit irradiance at normal incidence (Snyder 1996; "
-        "docs/CONVENTIONS.md), and an exporter whose target shades lights as points MUST "
-        "refuse the asset; such an asset has no `/tangent_irradiance/*`. The light's energy "
-        "is `2·irradiance_k/(1 + cos σ_k)`.",
+        "irradiance of a uniform cap per unit irradiance at normal incidence (Snyder 1996), "
+        "and `E_t(t) += irradiance_k·J(t·d_k, σ_k)/π²`, `J` the cap's mean of "
+        "`sqrt(1 − (t·ω)²)` times its energy factor (docs/CONVENTIONS.md); an exporter whose "
+        "target shades lights as points MUST refuse the asset. The light's energy is "
+        "`2·irradiance_k/(1 + cos σ_k)`.",
         "An asset holds `/sun` or `/lights`, never both; every `/lights/direction` row "
         "MUST be a unit vector (to 1e-3) and `/lights/irradiance` MUST be ≥ 0.",
     ),

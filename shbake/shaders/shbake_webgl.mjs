@@ -15,13 +15,13 @@ precision highp sampler2DArray;
 // Per pass: the function `vec3 shade(vec3 n, vec3 v, vec3 t)` (world normal, unit vector
 // toward the viewer, longitude-line tangent) and whether grazing pixels (n.v <= 1e-3) are
 // left black, as the preview's glossy passes do (the probe shaders' min_nv, shbake.shading).
-const LIGHTS = "uLightDir, uLightE, uLightCount";
+const LIGHTS = "uLightDir, uLightE, uLightCount, uLightRadius";
 const KAUTZ = "uKautzTable, uKautzH, uKautzW, uKautzL, uKautzLmax";
 const FRAME = "transpose(mat3(t, cross(n, t), n))";  // world -> local: rows t, b = n x t, n
 const PIXEL = "ivec2(gl_FragCoord.xy - uViewport.xy)";
 export const PASSES = {
   irradiance: {
-    shade: `return shbakeIrradiance(uIrradiance, uIrradianceLmax, n, ${LIGHTS}, uLightRadius) / SHBAKE_PI;`,
+    shade: `return shbakeIrradiance(uIrradiance, uIrradianceLmax, n, ${LIGHTS}) / SHBAKE_PI;`,
   },
   "tangent-sh": {
     shade: `return shbakeTangentIrradianceSH(uTangentSH, uTangentLmax, t, ${LIGHTS});`,

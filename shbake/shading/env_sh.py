@@ -9,8 +9,8 @@ Lambert (``/irradiance/sh``, ``Â_l`` folded in, SPEC §4)::
     E(n) = Σ_i c_i y_i(n) + Σ_k max(0, n·s_k) E_k
 
 (a sphere light, ``/lights/angular_radius`` ``σ_k > 0``: ``max(0, n·s_k)`` becomes its
-horizon-clipped :func:`~shbake.shading.sphere_light.sphere_lambert`; such an asset has no
-tangent irradiance)
+horizon-clipped :func:`~shbake.shading.sphere_light.sphere_lambert`, and
+``sqrt(1 − (t·s_k)²)/π²`` its cap average :func:`~shbake.shading.sphere_light.sphere_tangent`)
 
 Kajiya–Kay tangent irradiance (Mehta et al. 2012), from ``/tangent_irradiance/sh``
 (``A_l`` folded in) or the 4×4 matrix of eq. 23–24 (``/tangent_irradiance/matrix``)::
@@ -29,7 +29,7 @@ from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.sh.basis import evaluate
 from shbake.shading.shader import Shader, Texture, Uniform
-from shbake.shading.sphere_light import sphere_lambert
+from shbake.shading.sphere_light import sphere_lambert, sphere_tangent
 
 INV_PI = 1.0 / np.pi
 INV_PI2 = 1.0 / (np.pi * np.pi)
@@ -97,7 +97,7 @@ LIGHT_INPUTS = (
             "/sun/radiance × /sun/solid_angle + /lights/irradiance",
             "each light's irradiance at normal incidence E_k"),
     Uniform("light_radii", "radians (K,), [0, π/2)", "/lights/angular_radius",
-            "sphere lights' angular radii σ_k (0: a point; always 0 with tangent irradiance)"),
+            "sphere lights' angular radii σ_k (0: a point)"),
 )  # fmt: skip
 """The directional lights every ``env_sh`` shader adds (:func:`lights_of`)."""
 
@@ -178,8 +178,9 @@ class TangentSHShader(IrradianceShader):
 
     @staticmethod
     def light_factor(c, radius):
-        """A (point) light's factor at ``c = t·s``: ``sqrt(1 − c²)/π²``."""
-        return sun_tangent.py_func(c)
+        """A light's factor at ``c = t·s``: ``sqrt(1 − c²)/π²``, a sphere's
+        :func:`~shbake.shading.sphere_light.sphere_tangent`."""
+        return sphere_tangent(c, radius) if radius > 0.0 else sun_tangent.py_func(c)
 
     def shade(self, normals, views, tangents=None, kd=1.0):
         return self.irradiance(tangents) * np.asarray(kd, dtype=np.float64)
@@ -219,7 +220,11 @@ class TangentShader(Shader):
     def shade(self, normals, views, tangents=None, kd=1.0):
         d, flat = _flat(tangents)
         out = np.empty((flat.shape[0], 3))
-        work = flat.shape[0] * (110.0 + 20.0 * len(self.light_directions))
+        points = self.light_radii == 0.0  # in the kernel; spheres after it
+        work = flat.shape[0] * (110.0 + 20.0 * int(points.sum()))
         run_blocks(_matrix_with_lights, flat.shape[0], work, flat, self.matrix,
-                   self.light_directions, self.light_irradiance, out)  # fmt: skip
+                   self.light_directions[points], self.light_irradiance[points], out)  # fmt: skip
+        for k in np.flatnonzero(~points):
+            out += (sphere_tangent(flat @ self.light_directions[k], self.light_radii[k])[:, None]
+                    * self.light_irradiance[k])  # fmt: skip
         return out.reshape(d.shape[:-1] + (3,)) * np.asarray(kd, dtype=np.float64)

@@ -26,6 +26,9 @@ import numpy as np
 
 SERIES_BELOW = 0.01
 """``z²`` under which ``h`` is its four-term series (truncation below 1e-9)."""
+TANGENT_NODES = 8
+"""Gauss–Legendre nodes of :func:`sphere_tangent`'s band integral (error below 1e-8 of the
+value for radii up to 30°, against adaptive quadrature)."""
 
 
 def sphere_power(radius) -> np.ndarray:
@@ -67,6 +70,34 @@ def sphere_lambert(cos_theta, radius) -> np.ndarray:
     return out.reshape(shape)
 
 
+def sphere_tangent(cos_theta, radius) -> np.ndarray:
+    """Kajiya–Kay diffuse factor of a sphere light per unit irradiance at normal incidence
+    (Mehta et al. 2012's ``sqrt(1 − (t·s)²)/π²`` of a point, averaged over the cap):
+    ``J(s, σ)/π²``, ``s = sqrt(1 − (t·d)²)``, dimensionless.
+
+    ``|t × ω| = ¼ ∫₀^{2π} |u(φ)·ω| dφ`` over the unit vectors ``u ⊥ t``, and a cap's mean of
+    ``max(0, u·ω)`` is :func:`sphere_lambert` over :func:`sphere_power`, so the energy
+    factor cancels and ``J = ∫₀^{π/2} [K(s cos φ) + K(−s cos φ)] dφ`` (``K`` =
+    :func:`sphere_lambert`): ``s sin φ₁`` where ``s cos φ ≥ sin σ`` (``K(x) + K(−x) = |x|``
+    there), the rest by :data:`TANGENT_NODES`-point Gauss–Legendre. ``σ = 0``: ``s``.
+
+    ``cos_theta``: ``t·d`` in ``[-1, 1]``; ``radius``: ``σ`` in radians, ``[0, π/2)``.
+    """
+    c, sigma = np.broadcast_arrays(np.asarray(cos_theta, dtype=np.float64),
+                                   np.asarray(radius, dtype=np.float64))  # fmt: skip
+    s = np.sqrt(np.maximum(0.0, 1.0 - c * c))
+    b = np.sin(sigma)
+    lit = s > b  # part of the circle of u sees the cap whole on one side
+    start = np.where(lit, np.arccos(np.minimum(1.0, b / np.where(lit, s, 1.0))), 0.0)
+    x, w = np.polynomial.legendre.leggauss(TANGENT_NODES)
+    half = (np.pi / 2.0 - start) / 2.0
+    phi = start[..., None] + half[..., None] * (x + 1.0)
+    u = s[..., None] * np.cos(phi)
+    band = sphere_lambert(u, sigma[..., None]) + sphere_lambert(-u, sigma[..., None])
+    j = np.where(lit, s * np.sin(start), 0.0) + half * (band @ w)
+    return j / (np.pi * np.pi)
+
+
 def cap_band_factors(lmax: int, radius) -> np.ndarray:
     """``g_l = ⟨P_l⟩`` over a cap of angular ``radius`` (radians), ``l = 0 … lmax``: a
     sphere light's SH are a point light's of the same energy times ``g_l``,
@@ -98,4 +129,4 @@ def lights_sh(directions, irradiance, radii, lmax: int) -> np.ndarray:
     return (real_sh(np.asarray(directions, dtype=np.float64), lmax) * g).T @ energy
 
 
-__all__ = ["cap_band_factors", "lights_sh", "sphere_lambert", "sphere_power"]
+__all__ = ["cap_band_factors", "lights_sh", "sphere_lambert", "sphere_power", "sphere_tangent"]

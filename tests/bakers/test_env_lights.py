@@ -170,17 +170,18 @@ class TestSphereLights:
                                    np.pi * (L * om[:, None]).sum(axis=0), rtol=1e-4)  # fmt: skip
 
     def test_asset_shades_them(self, caps, tmp_path):
-        """The asset (``/lights/angular_radius``, no tangent irradiance) read back and shaded
-        by the registry's irradiance shader, against brute force; its lighting SH is the
-        map's less the caps' exact SH (bands the fit does not replace: 3 and 4), within the
-        1e-3 by which the discs of texels are not caps (as points: 6 % of the caps' SH)."""
+        """The asset (``/lights/angular_radius``) read back and shaded by the registry's
+        irradiance and tangent shaders (SH and matrix forms), against brute force; its lighting
+        SH is the map's less the caps' exact SH (bands the fit does not replace: 3 and 4),
+        within the 1e-3 by which the discs of texels are not caps (as points: 6 % of the
+        caps' SH)."""
         env, _, sky = caps
-        asset, summary = bake_env_sh(env, lmax=4, lights=2, tangent=False, light_shape="sphere",
+        asset, summary = bake_env_sh(env, lmax=4, lights=2, light_shape="sphere",
                                      provenance={"command_line": "test"})  # fmt: skip
         path = str(tmp_path / "a.h5")
         write_asset(path, asset)
         a = read_asset(path)
-        assert a.attrs["format_version"] == 4 and "/tangent_irradiance/sh" not in a
+        assert a.attrs["format_version"] == 4
         np.testing.assert_allclose(np.degrees(a["/lights/angular_radius"]), self.RADIUS_DEG,
                                    atol=0.3)  # fmt: skip
         q = fibonacci_sphere(2048)
@@ -189,6 +190,15 @@ class TestSphereLights:
         got = shader(a, "irradiance").irradiance(q) @ REC709_LUMINANCE
         assert (np.abs(got - ref) / ref).max() < 3e-2
         assert summary["lights"]["shape"] == "sphere"
+        ref_t = brute_force_irradiance(d, om, L, q, tangent=True) @ REC709_LUMINANCE
+        for got_t in (shader(a, "tangent-sh").irradiance(q),
+                      shader(a, "tangent").shade(q, None, tangents=q)):  # fmt: skip
+            rel_t = np.abs(got_t @ REC709_LUMINANCE - ref_t) / ref_t
+            assert rel_t.mean() < 1e-3 and rel_t.max() < 5e-3  # 1.8e-4, 1.5e-3 when written
+        as_points = shader(a, "tangent-sh")
+        as_points.light_radii = np.zeros_like(as_points.light_radii)
+        rel_p = np.abs(as_points.irradiance(q) @ REC709_LUMINANCE - ref_t) / ref_t
+        assert rel_p.max() > 20 * rel_t.max()  # the caps as points: 15 %
         sky_sh = Environment(sky.astype(np.float32), "latlong").project(4)
         caps_sh = env.project(4) - sky_sh
         np.testing.assert_allclose(a["/lighting/sh"][9:], sky_sh[9:],
@@ -206,9 +216,9 @@ class TestSphereLights:
         rel = np.abs(got - ref["irradiance"]) / ref["irradiance"]
         assert rel.mean() <= 0.01 and rel.max() <= 0.10
 
-    def test_refused_with_tangent_irradiance(self, caps):
-        with pytest.raises(ParameterError, match="--no-tangent-irradiance"):
-            bake_env_sh(caps[0], lights=1, light_shape="sphere")
+    def test_refuses_an_unknown_shape(self, caps):
+        with pytest.raises(ParameterError, match="--light-shape"):
+            bake_env_sh(caps[0], lights=1, light_shape="disc")
 
 
 class TestConstraints:

@@ -261,16 +261,14 @@ class TestLightShape:
 
         out = tmp_path_factory.mktemp("sphere") / "disc.h5"
         r = CliRunner().invoke(cli, ["project-env", str(disc_map), "-o", str(out), "--lights",
-                                     "1", "--light-shape", "sphere", "--no-tangent-irradiance",
-                                     "-q"])  # fmt: skip
+                                     "1", "--light-shape", "sphere", "-q"])  # fmt: skip
         assert r.exit_code == 0, r.output
         return out
 
     @pytest.mark.parametrize("args, fragment", [
-        (["--lights", "1", "--light-shape", "sphere"], "--no-tangent-irradiance"),
-        (["--light-shape", "sphere", "--no-tangent-irradiance"], "--lights only"),
-        (["--lights", "1", "--light-shape", "sphere", "--no-tangent-irradiance", "--export",
-          "threejs"], "points"),
+        (["--light-shape", "sphere"], "--lights only"),
+        (["--lights", "1", "--light-shape", "sphere", "--export", "threejs"], "points"),
+        (["--lights", "1", "--light-shape", "cap"], "cap"),
     ])  # fmt: skip
     def test_refused(self, run_cli, tmp_path, disc_map, args, fragment):
         before = set(tmp_path.rglob("*"))
@@ -280,8 +278,7 @@ class TestLightShape:
 
     def test_json_and_asset(self, run_cli, tmp_path, disc_map):
         code, out, err = run_cli("project-env", disc_map, "-o", tmp_path / "a.h5", "--lights", "1",
-                                 "--light-shape", "sphere", "--no-tangent-irradiance", "--json",
-                                 "-q")  # fmt: skip
+                                 "--light-shape", "sphere", "--json", "-q")  # fmt: skip
         assert code == 0, err
         lights = json.loads(out)["lights"]
         assert lights["shape"] == "sphere"

@@ -336,7 +336,8 @@ class TestBrokenConventionFails:
 @pytest.fixture(scope="module")
 def sphere_export(tmp_path_factory):
     """An env_sh asset with two sphere lights (``--light-shape sphere``, radii near 12° and
-    25°: a sky with two discs) and its ``--to webgl`` folder."""
+    25°: a sky with two discs; irradiance and tangent irradiance) and its ``--to webgl``
+    folder."""
     from shbake.envmap.layouts import latlong_directions
     from tests.helpers import write_test_exr
 
@@ -347,7 +348,7 @@ def sphere_export(tmp_path_factory):
         img = np.where(((dirs @ np.array(s)) > np.cos(np.radians(radius)))[..., None],
                        radiance, img)  # fmt: skip
     env = load_environment(str(write_test_exr(d / "discs.exr", img)), quiet=True)
-    asset, _ = bake_env_sh(env, lights=2, tangent=False, light_shape="sphere",
+    asset, _ = bake_env_sh(env, lights=2, light_shape="sphere",
                            provenance={"command_line": "test"})  # fmt: skip
     h5 = str(d / "discs.h5")
     write_asset(h5, asset)
@@ -356,21 +357,24 @@ def sphere_export(tmp_path_factory):
 
 
 def test_sphere_lights_pass(engine_browser, sphere_export, tmp_path):
-    """shbakeSphereLambert (irradiance.glsl) draws what the preview's twin does
-    (:func:`shbake.shading.sphere_light.sphere_lambert`); the same export with its radii
-    zeroed (points) is far off, so the comparison sees the spheres."""
+    """shbakeSphereLambert (irradiance.glsl) and shbakeSphereTangent (tangent_irradiance.glsl)
+    draw what the preview's twins do (:mod:`shbake.shading.sphere_light`), in the
+    irradiance and both tangent passes; the same export with its radii zeroed (points) is
+    far off in each, so the comparison sees the spheres."""
     h5, folder = sphere_export
-    want = preview(read_asset(h5), "irradiance")
+    want = env_previews(h5)
     assert np.degrees(read_asset(h5)["/lights/angular_radius"]).min() > 5.0
-    got = render(engine_browser, folder, ENV_JOBS[:1])["irradiance"]
-    assert relative_rms(got, want) <= FLOAT_TOL
+    got = render(engine_browser, folder, ENV_JOBS)
+    errors = {k: relative_rms(got[k], want[k]) for k in want}
+    assert max(errors.values()) <= FLOAT_TOL, errors
     points = copy_export(folder, tmp_path / "points")
     path = os.path.join(points, "shbake.json")
     manifest = json.loads(open(path).read())
     manifest["uniforms"]["uLightRadius"]["value"] = [0.0] * SHBAKE_MAX_LIGHTS
     open(path, "w").write(json.dumps(manifest))
-    got = render(engine_browser, points, ENV_JOBS[:1])["irradiance"]
-    assert relative_rms(got, want) > 10 * FLOAT_TOL
+    got = render(engine_browser, points, ENV_JOBS)
+    errors = {k: relative_rms(got[k], want[k]) for k in want}
+    assert min(errors.values()) > 10 * FLOAT_TOL, errors
 
 
 def half_bound(h5: str) -> float:
