@@ -11,6 +11,7 @@ from shbake.shading.sphere_light import (
     lights_sh,
     sphere_lambert,
     sphere_power,
+    sphere_tangent,
 )
 
 CAP_POINTS = 200_000
@@ -83,6 +84,28 @@ class TestSpherePower:
         d = np.array([0.36, 0.48, 0.8])
         mean = sphere_lambert(fibonacci_sphere(200_000) @ d, radius).mean()
         assert 4.0 * np.pi * mean == pytest.approx(np.pi * sphere_power(radius), rel=2e-5)
+
+
+class TestSphereTangent:
+    @pytest.mark.parametrize("radius", [0.05, 0.3, 0.52, 1.2])
+    @pytest.mark.parametrize("where", [0.0, 0.5, 1.5, 3.0])
+    def test_equals_quadrature_over_the_cap(self, radius, where):
+        """``p ⟨sqrt(1 − (t·ω)²)⟩/π²`` over the cap's points, the tangent ``where · σ`` from
+        its centre (inside the cap, at its rim, outside) and at 90° (``where`` 0 → t ⊥ d)."""
+        angle = np.pi / 2 if where == 0.0 else where * radius
+        t = np.array([np.sin(angle), 0.0, np.cos(angle)])
+        pts, _ = cap_points([0.0, 0.0, 1.0], radius)
+        want = sphere_power(radius) * np.sqrt(np.maximum(0.0, 1.0 - (pts @ t) ** 2)).mean()
+        got = float(sphere_tangent(np.cos(angle), radius))
+        assert got == pytest.approx(want / np.pi**2, rel=2e-6)
+
+    def test_point_symmetry_and_tiny_radius(self):
+        c = np.linspace(-1.0, 1.0, 401)
+        np.testing.assert_allclose(sphere_tangent(c, 0.0), np.sqrt(1.0 - c * c) / np.pi**2,
+                                   atol=1e-16)  # fmt: skip
+        np.testing.assert_array_equal(sphere_tangent(c, 0.4), sphere_tangent(-c, 0.4))
+        np.testing.assert_allclose(sphere_tangent(c, 1e-7), np.sqrt(1.0 - c * c) / np.pi**2,
+                                   atol=1e-8)  # fmt: skip
 
 
 class TestCapBandFactors:
