@@ -127,15 +127,13 @@ def _del(name):
 NAN3 = np.array([np.nan, 0.0, 1.0])
 
 
-def _lights(direction, irradiance, keep_sun=False, radii=None, keep_tangent=True):
+def _lights(direction, irradiance, keep_sun=False, radii=None):
     """Replace the example's sun by fitted lights (``/lights``) with these values (sphere
-    lights with ``radii``; ``keep_tangent`` False: without ``/tangent_irradiance``)."""
+    lights with ``radii``)."""
 
     def fn(f):
         if not keep_sun:
             del f["/sun"]
-        if not keep_tangent:
-            del f["/tangent_irradiance"]
         if radii is not None:
             f["/lights/angular_radius"] = np.asarray(radii, dtype=np.float64)
         if direction is not None:
@@ -181,14 +179,15 @@ CORRUPTIONS = {
                              "lights/irradiance"),
     "lights-and-sun": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], keep_sun=True),
                        "not both"),
-    "radius-negative": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[-0.1],
-                                          keep_tangent=False), "outside [0, π/2)"),
-    "radius-hemisphere": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[np.pi / 2],
-                                            keep_tangent=False), "outside [0, π/2)"),
-    "radius-count-differs": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], radii=[0.1, 0.2],
-                                               keep_tangent=False), "angular_radius"),
-    "radius-no-direction": ("env_sh", _lights(None, [[1.0] * 3], radii=[0.1],
-                                              keep_tangent=False), "missing dataset /lights"),
+    **{f"radius-{name}": ("env_sh", _lights(direction, [[1.0] * 3], radii=radii), fragment)
+       for name, direction, radii, fragment in (
+           ("negative", [[0.0, 1.0, 0.0]], [-0.1], "outside [0, π/2)"),
+           ("hemisphere", [[0.0, 1.0, 0.0]], [np.pi / 2], "outside [0, π/2)"),
+           ("nan", [[0.0, 1.0, 0.0]], [np.nan], "non-finite"),
+           ("2d", [[0.0, 1.0, 0.0]], [[0.1]], "angular_radius"),
+           ("count-differs", [[0.0, 1.0, 0.0]], [0.1, 0.2], "angular_radius"),
+           ("no-direction", None, [0.1], "missing dataset /lights"),
+       )},
     "knots-equal": ("shexp_probe", _replace("/knots", np.array([0.5, 0.5])), "/knots must"),
     "knots-negative": ("shexp_probe", _replace("/knots", np.array([-1.0, 0.5])), "/knots must"),
     "matrix-333": ("env_sh", _replace("/tangent_irradiance/matrix", np.zeros((3, 3, 3))),
