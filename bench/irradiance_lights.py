@@ -18,10 +18,11 @@ Settings: ``L2`` (plain projection); ``L2+sun`` (``--extract-sun``, today's sing
 (25 coefficients per channel, no lights, shbake's evaluation), ``ZH3`` (Roughton et al.
 2024, L1 + one zonal quadratic coefficient per channel along the shared luminance axis,
 computed from the map's L2 projection) and ``ZH3+auto`` (the ``L2+auto`` residual in ZH3
-with the same lights), ``spheres+auto`` and ``spheres3`` (``--lights auto|3 --light-shape
-sphere``: sphere lights of fitted angular radius + L2, evaluated by the asset's irradiance
-shader, the CPU twin of ``irradiance.glsl`` that ``--to webgl`` draws, checked against it
-in Chromium by ``tests/system/test_webgl_shaders.py``) and ``rects3`` (three lights with
+with the same lights), ``spheres+auto`` and ``spheres+K`` (``--lights auto|K
+--light-shape sphere``, ``K = 1 …``: sphere lights of fitted angular radius + L2, evaluated
+by the asset's irradiance shader, the CPU twin of ``irradiance.glsl`` that ``--to webgl``
+draws, checked against it in Chromium by ``tests/system/test_webgl_shaders.py``) and
+``rects3`` (three lights with
 three.js's / Babylon.js's rectangular area lights as their shaders light a diffuse surface,
 :func:`rect_kernel`, fitted here as ``--lights`` fits points).
 
@@ -319,7 +320,8 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
     E = E + np.maximum(dirs @ lights[0].T, 0.0) @ lights[1]
     out["ZH3+auto"] = errors(E @ REC709_LUMINANCE, ref_lum) | {
         "lights": len(lights[0]), "floats": 15 + 6 * len(lights[0])}  # fmt: skip
-    for key, lights in (("spheres+auto", "auto"), ("spheres3", 3)):
+    for key, lights in [("spheres+auto", "auto")] + [(f"spheres+{k}", k)
+                                                     for k in range(1, max_lights + 1)]:
         asset = os.path.join(tmp, f"{name}_{key}.h5")
         project_environment(path, asset, lights=lights, light_shape="sphere",
                             tangent_irradiance=False, quiet=True)  # fmt: skip
@@ -338,7 +340,8 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
 
 def markdown(results: dict, max_lights: int) -> str:
     keys = ["L2", "L2+sun", "L2+auto"] + [f"L2+{k}" for k in range(max_lights + 1)]
-    keys += ["lmax4", "ZH3", "ZH3+auto", "spheres+auto", "spheres3", "rects3"]
+    keys += ["lmax4", "ZH3", "ZH3+auto", "spheres+auto"]
+    keys += [f"spheres+{k}" for k in range(1, max_lights + 1)] + ["rects3"]
     lines = ["| map | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]
     for m, r in results.items():
         cells = []
@@ -385,14 +388,18 @@ def plot(results: dict, max_lights: int, path: str) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharex=True)
     ks = list(range(max_lights + 1))
-    for m, r in results.items():
+    for i, (m, r) in enumerate(results.items()):
+        colour = f"C{i}"
         for ax, stat in zip(axes, ("mean", "max"), strict=True):
-            ax.semilogy(ks, [r[f"L2+{k}"][stat] * 100 for k in ks], "o-", label=m)
+            ax.semilogy(ks, [r[f"L2+{k}"][stat] * 100 for k in ks], "o-", color=colour, label=m)
+            ax.semilogy(ks, [r["L2+0" if k == 0 else f"spheres+{k}"][stat] * 100 for k in ks],
+                        "s--", color=colour, alpha=0.6)  # fmt: skip
     for ax, stat, limit in zip(axes, ("mean", "max"), (1.0, 10.0), strict=True):
         ax.axhline(limit, color="k", ls="--", lw=0.8)
-        ax.set_xlabel("directional lights K (+ 9 SH coefficients per channel)")
+        ax.set_xlabel("lights K (+ 9 SH coefficients per channel)")
         ax.set_ylabel(f"{stat} relative irradiance error, %")
-        ax.set_title(f"three.js export vs brute force: {stat}")
+        ax.set_title(f"{stat}: points, three.js export (o-); spheres, shbake (s--)",
+                     fontsize=9)  # fmt: skip
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend()
     fig.tight_layout()
