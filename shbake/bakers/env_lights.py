@@ -227,9 +227,11 @@ class _Problem:
 
     def lobes(self, dirs: np.ndarray, radii: np.ndarray) -> np.ndarray:
         """Zero-mean lobes ``K(n·d) − p/4`` at the fit normals, ``(N, K)`` (module
-        docstring; ``radii`` 0: ``max(0, n·d) − 1/4``)."""
-        return sphere_lambert(self.target.normals @ dirs.T, radii[None, :]) - sphere_power(
-            radii)[None, :] / 4.0  # fmt: skip
+        docstring; ``radii`` 0: ``max(0, n·d) − 1/4``, the search's inner loop for points)."""
+        c = self.target.normals @ dirs.T
+        if not radii.any():
+            return np.maximum(c, 0.0) - 0.25
+        return sphere_lambert(c, radii[None, :]) - sphere_power(radii)[None, :] / 4.0
 
     def linear(self, dirs: np.ndarray, radii: np.ndarray):
         """``(e (bands, 3), a (K, 3))`` minimising the weighted residual, ``a ≥ 0``."""
