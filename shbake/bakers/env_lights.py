@@ -290,6 +290,11 @@ class _Problem:
             e2[:, c], a2[:, c] = res.x[:nb], np.maximum(res.x[nb:], 0.0)
         return e2, a2
 
+    def cost(self, fit: LightFit) -> float:
+        """The weighted least-squares cost (the search's objective) of a finished fit."""
+        r = self.residual(fit.directions, fit.radii, fit.sh[self.bands], fit.irradiance)
+        return float(np.sum(r**2))
+
     def result(self, dirs, radii, e, a) -> LightFit:
         keep = a.sum(axis=1) > 0.0
         dirs, radii, a = dirs[keep], radii[keep], a[keep]
@@ -361,9 +366,10 @@ def fit_lights(target: IrradianceTarget, count: int, lmax: int = 2,
 
     ``previous``: a fit with ``count − 1`` lights of the same ``shape`` to build on (found
     here when omitted); ``shape``: one of :data:`SHAPES`. Spheres also start from the
-    directions of the fit with ``count`` ``points`` (found here when omitted), radii
-    :data:`START_RADIUS_DEG`: a sphere of radius 0 is a point, so the sphere fit's
-    least-squares cost is never above the points'.
+    directions of the fit with ``count`` ``points`` (found here when omitted), every radius
+    :data:`START_RADIUS_DEG`; and since a sphere of radius 0 is a point, that fit is
+    returned when its weighted least-squares cost (after the SH part is held non-negative,
+    which can cost a sphere fit more than the points') is the lower.
     """
     if not 0 <= count <= MAX_LIGHTS:
         raise ParameterError(f"number of lights must be in 0…{MAX_LIGHTS}, got {count}")
@@ -396,7 +402,10 @@ def fit_lights(target: IrradianceTarget, count: int, lmax: int = 2,
             e, a = problem.constrained(dirs, radii, e, a, margin)
             if problem.sh_minimum(radii, e, a) >= 0.0:
                 break
-    return problem.result(dirs, radii, e, a)
+    fit = problem.result(dirs, radii, e, a)
+    if points is not None and problem.cost(points) <= problem.cost(fit):
+        return points
+    return fit
 
 
 def choose_lights(
