@@ -81,7 +81,8 @@ from shbake.sh.windows import WINDOW_METHODS
     "--lights",
     type=click.Choice(["auto"] + [str(k) for k in range(MAX_LIGHTS + 1)]),
     default=None,
-    help="Fit K directional lights and the SH together by least squares on the irradiance "
+    help="Fit K lights (directional, or spheres: --light-shape) and the SH together by least "
+    "squares on the irradiance "
     f"(0…{MAX_LIGHTS}); auto: the fewest (0…{AUTO_MAX_LIGHTS}) meeting --tol.",
 )
 @click.option(

@@ -26,7 +26,8 @@ Constraints:
   :func:`~shbake.shading.sphere_light.sphere_power` for a sphere); the lights enter as
   zero-mean lobes ``max(0, n·d) − p/4`` against the fixed constant ``Φ/4``.
 * ``a_k ≥ 0`` (NNLS for the intensities once the SH columns are projected out: variable
-  projection, so the outer search sees only the ``2K`` direction angles);
+  projection, so the outer search sees only the ``2K`` direction angles, and the ``K``
+  radii of spheres);
 * the **SH part alone is never negative**: a light an engine shadows leaves the SH,
   which must still be a valid irradiance. It is checked at :data:`CHECK_DIRECTIONS`
   normals (16× denser than the fit's); when the unconstrained optimum breaks it, the

@@ -94,7 +94,7 @@ ENV_SH = register(Kind(
              "`L_lm = ∫ L y_lm dω`, raw projection (of the residual if a sun was extracted); "
              "with `/lights`, the residual's SH: bands the Lambert kernel sees up to the "
              "irradiance lmax fitted (`E_i / Â_l`), the others projected from the map less "
-             "the lights as directional (delta) lights",
+             "the lights as directional (delta) lights, sphere lights as their caps' SH",
              attrs=(_LMAX, Attr("sun_removed", "bool", "a sun was extracted first"),
                     Attr("quadrature", "str", "how the integral was computed", required=False),
                     Attr("lights_fitted", "bool", "`/lights` were fitted with this residual",
@@ -156,7 +156,8 @@ ENV_SH = register(Kind(
         "irradiance of a uniform cap per unit irradiance at normal incidence (Snyder 1996), "
         "and `E_t(t) += irradiance_k·J(t·d_k, σ_k)/π²`, `J` the cap's mean of "
         "`sqrt(1 − (t·ω)²)` times its energy factor (docs/CONVENTIONS.md); an exporter whose "
-        "target shades lights as points MUST refuse the asset. The light's energy is "
+        "target shades lights as points MUST refuse the asset when a radius is not 0. The "
+        "light's energy is "
         "`2·irradiance_k/(1 + cos σ_k)`.",
         "An asset holds `/sun` or `/lights`, never both; every `/lights/direction` row "
         "MUST be a unit vector (to 1e-3) and `/lights/irradiance` MUST be ≥ 0.",

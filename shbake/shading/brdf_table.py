@@ -280,9 +280,9 @@ class KautzShader(Shader):
     inputs = (
         Texture("lighting_sh", "sh-vector", ("(lmax+1)**2", 3),
                 "/lighting/sh + /sun/direction + /sun/radiance × /sun/solid_angle + "
-                "/lights/direction + /lights/irradiance",
+                "/lights/direction + /lights/irradiance + /lights/angular_radius",
                 "radiance SH L_lm of the env_sh asset to the table's lmax, each light (the sun "
-                "or the fitted ones) added as E_k y_i(s_k)"),
+                "or the fitted ones) added as E_k y_i(s_k), a sphere as its cap's SH"),
         Texture("brdf_table", "parabolic", ("*lead", "H", "W", "(lmax+1)**2"),
                 "brdf_table: /table", "c_i(v) = ∫ y_i(s) f(s, v) max(0, s_z) ds over the view "
                 "hemisphere; lead: RGB channels and varied parameters (one point is shaded)"),

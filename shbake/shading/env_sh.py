@@ -99,7 +99,7 @@ LIGHT_INPUTS = (
     Uniform("light_radii", "radians (K,), [0, π/2)", "/lights/angular_radius",
             "sphere lights' angular radii σ_k (0: a point)"),
 )  # fmt: skip
-"""The directional lights every ``env_sh`` shader adds (:func:`lights_of`)."""
+"""The lights (directional, or spheres) every ``env_sh`` shader adds (:func:`lights_of`)."""
 
 
 class IrradianceShader(Shader):
