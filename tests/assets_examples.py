@@ -127,6 +127,17 @@ def _del(name):
 NAN3 = np.array([np.nan, 0.0, 1.0])
 
 
+def _group_at(path):
+    """A group where the kind declares the dataset ``path`` (the dataset removed, if any)."""
+
+    def fn(f):
+        if path in f:
+            del f[path]
+        f.create_group(path)
+
+    return fn
+
+
 def _lights(direction, irradiance, keep_sun=False, radii=None):
     """Replace the example's sun by fitted lights (``/lights``) with these values (sphere
     lights with ``radii``)."""
@@ -179,10 +190,13 @@ CORRUPTIONS = {
                              "lights/irradiance"),
     "lights-and-sun": ("env_sh", _lights([[0.0, 1.0, 0.0]], [[1.0] * 3], keep_sun=True),
                        "not both"),
+    "radius-group": ("env_sh", _group_at("/lights/angular_radius"), "is a group, not a dataset"),
+    "irradiance-group": ("env_sh", _group_at("/irradiance/sh"), "is a group, not a dataset"),
     **{f"radius-{name}": ("env_sh", _lights(direction, [[1.0] * 3], radii=radii), fragment)
        for name, direction, radii, fragment in (
-           ("negative", [[0.0, 1.0, 0.0]], [-0.1], "outside [0, π/2)"),
-           ("hemisphere", [[0.0, 1.0, 0.0]], [np.pi / 2], "outside [0, π/2)"),
+           ("negative", [[0.0, 1.0, 0.0]], [-0.1], "outside [0, π/3]"),
+           ("wide", [[0.0, 1.0, 0.0]], [np.pi / 3 + 1e-9], "outside [0, π/3]"),
+           ("near-hemisphere", [[0.0, 1.0, 0.0]], [1.5707963], "outside [0, π/3]"),
            ("nan", [[0.0, 1.0, 0.0]], [np.nan], "non-finite"),
            ("2d", [[0.0, 1.0, 0.0]], [[0.1]], "angular_radius"),
            ("count-differs", [[0.0, 1.0, 0.0]], [0.1, 0.2], "angular_radius"),

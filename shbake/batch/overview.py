@@ -85,10 +85,13 @@ def _is_sun(sun) -> bool:
     def vector(v):
         return isinstance(v, list) and len(v) == 3 and all(_number(c) for c in v)
 
-    numbers = ("intensity", "elevation_deg", "azimuth_deg", "contrast", "angular_radius_deg")
-    return all(_optional(sun, k, vector) for k in ("direction", "colour")) and all(
-        _optional(sun, k, _number) for k in numbers
-    )
+    def radius(r):  # a sphere light's, degrees: [0, 90)
+        return _number(r) and 0.0 <= r < 90.0
+
+    numbers = ("intensity", "elevation_deg", "azimuth_deg", "contrast")
+    return (all(_optional(sun, k, vector) for k in ("direction", "colour"))
+            and all(_optional(sun, k, _number) for k in numbers)
+            and _optional(sun, "angular_radius_deg", radius))  # fmt: skip
 
 
 def _is_lights(lights) -> bool:

@@ -406,14 +406,19 @@ def read_asset(path: str, kinds: tuple[str, ...] | None = None,
                     f"supported by shbake {__version__} (reads version "
                     f"{', '.join(map(str, sorted(readable)))})"
                 )
-            shapes = {}
+            shapes, groups = {}, set()
 
             def visit(name, obj):
                 if isinstance(obj, h5py.Dataset):
                     shapes["/" + name] = (obj.shape, obj.dtype)
+                else:
+                    groups.add("/" + name)
 
             try:
                 f.visititems(visit)
+                for spec in kind.datasets:  # a group where a dataset belongs is not "absent"
+                    if spec.path in groups:
+                        raise FormatError(f"{where}{spec.path} is a group, not a dataset")
                 attrs, dattrs_ok, selected = registry.validate(
                     kind, raw, shapes, _LazyAttrs(f, where), where
                 )

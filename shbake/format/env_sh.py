@@ -22,6 +22,8 @@ from shbake.format.registry import (
     register,
 )
 
+RADIUS_LIMIT = np.pi / 3.0
+"""Largest angular radius ``/lights/angular_radius`` holds (60°; the fit's is 30°)."""
 SUN_NORM_TOLERANCE = 1e-3
 """``| |s| − 1 |`` above this refuses ``/sun/direction``."""
 
@@ -66,11 +68,12 @@ def check_light_directions(directions: np.ndarray) -> None:
 
 
 def check_light_radii(radii: np.ndarray) -> None:
-    """Refuse sphere-light radii outside ``[0, π/2)`` (a cap of half the sky or more is no
-    light: its irradiance formula no longer holds)."""
+    """Refuse sphere-light radii outside ``[0, π/3]``: the fit stops at 30°; a cap near half
+    the sky is no light, and at ``σ → π/2`` a float32 shader's ``cos σ`` is round-off (the
+    WebGL pass drew 0 for 0.25 at 1.5707963)."""
     r = np.asarray(radii, dtype=np.float64)
-    if np.any((r < 0.0) | (r >= np.pi / 2.0)):
-        raise FormatError("dataset /lights/angular_radius has values outside [0, π/2)")
+    if np.any((r < 0.0) | (r > RADIUS_LIMIT)):
+        raise FormatError("dataset /lights/angular_radius has values outside [0, π/3]")
 
 
 def check_light_irradiance(irradiance: np.ndarray) -> None:
@@ -137,7 +140,7 @@ ENV_SH = register(Kind(
              "(radiance × sr), ≥ 0", required=False, with_="/lights/direction",
              values=check_light_irradiance),
         Data("/lights/angular_radius", ("K",), "float64", "angular radius σ of each light, "
-             "radians in [0, π/2): a sphere light (uniform cap); absent: every light a point",
+             "radians in [0, π/3]: a sphere light (uniform cap); absent: every light a point",
              required=False, values=check_light_radii),
     ),
     notes=(

@@ -96,7 +96,7 @@ LIGHT_INPUTS = (
     Uniform("light_irradiance", "radiance × sr, RGB (K, 3)",
             "/sun/radiance × /sun/solid_angle + /lights/irradiance",
             "each light's irradiance at normal incidence E_k"),
-    Uniform("light_radii", "radians (K,), [0, π/2)", "/lights/angular_radius",
+    Uniform("light_radii", "radians (K,), [0, π/3]", "/lights/angular_radius",
             "sphere lights' angular radii σ_k (0: a point)"),
 )  # fmt: skip
 """The lights (directional, or spheres) every ``env_sh`` shader adds (:func:`lights_of`)."""

@@ -110,6 +110,20 @@ class TestSyntheticLights:
         centre = latlong_directions(32, 64)[9, 21]
         assert _angle_deg(d, centre) < 8.0  # texels of 5.6°
 
+    def test_round_off_is_not_ringing(self, run_cli, tmp_path):
+        """One 1e5 texel on a black 16×32 map: with a light fitted the SH part's minimum is
+        −1e-13 against a mean of 849 (round-off, no warning); projected plainly it rings at
+        −135, and that is still reported."""
+        px = np.zeros((16, 32, 3))
+        px[5, 10] = 1e5
+        path = write_test_exr(tmp_path / "spike.exr", px)
+        for extra, rings in ((["--lights", "1"], False), ([], True)):
+            code, out, err = run_cli("project-env", path, "-o", tmp_path / "s.h5", "--json", "-q",
+                                     *extra)  # fmt: skip
+            assert code == 0, err
+            warned = [w for w in json.loads(out)["warnings"] if "rings below zero" in w]
+            assert bool(warned) == rings, warned
+
     def test_refuses_bad_counts(self):
         env, _, _ = sky_with_lights(h=16)
         with pytest.raises(ParameterError, match="number of lights"):

@@ -295,6 +295,24 @@ class TestLightShape:
         assert one_line_error(code, err) and "spheres" in err, err
         assert not any(tmp_path.iterdir())
 
+    def test_webgl_export_refuses_more_lights_than_its_shader_holds(self, run_cli, tmp_path,
+                                                                     sphere_asset):  # fmt: skip
+        """Nine lights (a valid asset: the format has no limit; three.js takes them)."""
+        import shutil
+
+        path = tmp_path / "nine.h5"
+        shutil.copy(sphere_asset, path)
+        with h5py.File(path, "r+") as f:
+            for name in ("direction", "irradiance", "angular_radius"):
+                data, attrs = f[f"/lights/{name}"][()], dict(f[f"/lights/{name}"].attrs)
+                del f[f"/lights/{name}"]
+                f[f"/lights/{name}"] = np.repeat(data[:1], 9, axis=0)
+                f[f"/lights/{name}"].attrs.update(attrs)
+        read_asset(str(path))
+        code, _, err = run_cli("export", path, "--to", "webgl", "-o", tmp_path / "w")
+        assert one_line_error(code, err) and "at most 8 lights" in err, err
+        assert not (tmp_path / "w").exists()
+
     def test_webgl_export_carries_the_radii(self, run_cli, tmp_path, sphere_asset):
         code, _, err = run_cli("export", sphere_asset, "--to", "webgl", "-o", tmp_path / "w")
         assert code == 0, err

@@ -141,10 +141,11 @@ class TestSummaryTable:
         page = Page(render(tmp_path))
         assert any("(0.000, 1.000, 0.000), angular radius 12.50° (a sphere)" in x
                    for _, x in page.of("p"))  # fmt: skip
-        light["angular_radius_deg"] = "<b>"
-        (tmp_path / "a.json").write_text(json.dumps(summary))
-        with pytest.raises(Exception, match="nothing to show"):
-            render(tmp_path)
+        for bad in ("<b>", -5.0, 90.0):
+            light["angular_radius_deg"] = bad
+            (tmp_path / "a.json").write_text(json.dumps(summary))
+            with pytest.raises(Exception, match="nothing to show"):
+                render(tmp_path)
         light["angular_radius_deg"] = 12.5
         light["colour"] = ["<b>", 0, 0]
         (tmp_path / "a.json").write_text(json.dumps(summary))

@@ -15,13 +15,13 @@ counter-clockwise seen from above (right-hand rule). Directions map as
 """
 
 import os
-import sys
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from shbake.envmap.turn import turn_matrix
 from shbake.errors import InputError, ParameterError
+from shbake.messages import warn
 from shbake.sh.rotation import rotate
 
 FRAMES = ("y-up", "z-up")
@@ -124,10 +124,9 @@ class ExportSource:
             )  # fmt: skip
             short = float(report["shortfall_fraction"])
             if short > LIGHT_SHORTFALL_WARNING:
-                print(f"shbake: warning: {self.name}: {short:.1%} of the lights' energy is not "
-                      f"within {sun_radius_deg:g}° of them in the map; the cube maps keep it "
-                      "too (the lights were fitted to the diffuse irradiance)",
-                      file=sys.stderr)  # fmt: skip
+                warn(f"{self.name}: {short:.1%} of the lights' energy is not within "
+                     f"{sun_radius_deg:g}° of them in the map; the cube maps keep it too (the "
+                     "lights were fitted to the diffuse irradiance)")  # fmt: skip
             return residual
         if self.sun_irradiance is None:
             return env

@@ -92,6 +92,9 @@ def coefficient_texture(coeffs: np.ndarray) -> np.ndarray:
 
 def _lights(lights) -> dict:
     dirs, energy, radii = lights
+    if len(dirs) > MAX_LIGHTS:
+        raise InputError(f"--to webgl draws at most {MAX_LIGHTS} lights (SHBAKE_MAX_LIGHTS); "
+                         f"the asset has {len(dirs)}")  # fmt: skip
     d = np.zeros((MAX_LIGHTS, 3))
     e = np.zeros((MAX_LIGHTS, 3))
     r = np.zeros(MAX_LIGHTS)
