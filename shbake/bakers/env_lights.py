@@ -415,6 +415,18 @@ def fit_lights(target: IrradianceTarget, count: int, lmax: int = 2,
     return fit
 
 
+def light_chain(target: IrradianceTarget, max_count: int, lmax: int = 2, shape: str = "point"):
+    """The fits with ``0 … max_count`` lights, each built on the one before (spheres beside
+    the points' own chain, which they also start from): what :func:`fit_lights` finds
+    alone, without fitting the shorter chains again."""
+    previous = points = None
+    for k in range(max_count + 1):
+        if shape == "sphere":
+            points = fit_lights(target, k, lmax, points)
+        previous = fit_lights(target, k, lmax, previous, shape, points)
+        yield previous
+
+
 def choose_lights(
     target: IrradianceTarget,
     tol: float,
@@ -429,17 +441,12 @@ def choose_lights(
     if not 0.0 < tol < 1.0:
         raise ParameterError(f"light tolerance must be in (0, 1), got {tol}")
     tried: list[LightFit] = []
-    previous = points = None
-    for k in range(max_count + 1):
-        if shape == "sphere":
-            points = fit_lights(target, k, lmax, points)
-        fit = fit_lights(target, k, lmax, previous, shape, points)
+    for k, fit in enumerate(light_chain(target, max_count, lmax, shape)):
         tried.append(fit)
         if getattr(fit, measure) <= tol:
             return fit, tried
         if fit.count < k:  # the optimum turned a light off: more starts find no more
             break
-        previous = fit
     return min(tried, key=lambda f: getattr(f, measure)), tried
 
 
@@ -455,4 +462,5 @@ __all__ = [
     "fit_lights",
     "fitted_bands",
     "irradiance_target",
+    "light_chain",
 ]

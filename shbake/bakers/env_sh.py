@@ -18,8 +18,8 @@ from shbake.bakers.env_lights import (
     MAX_LIGHTS,
     SHAPES,
     choose_lights,
-    fit_lights,
     irradiance_target,
+    light_chain,
 )
 from shbake.conventions import band_of_index, check_lmax, lmax_of
 from shbake.envmap.environment import Environment
@@ -318,7 +318,7 @@ def _fit(env: Environment, lights, tol: float, lmax: int, shape: str):
         fit, tried = choose_lights(irradiance_target(env), tol, AUTO_MAX_LIGHTS, lmax,
                                    shape=shape)  # fmt: skip
     else:
-        fit = fit_lights(irradiance_target(env), lights, lmax, shape=shape)
+        *_, fit = light_chain(irradiance_target(env), lights, lmax, shape)
         tried = [fit]
     summary = {
         "requested": lights,
