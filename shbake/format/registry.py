@@ -430,7 +430,10 @@ def validate(kind: Kind, attrs: dict, shapes: dict, dattrs: dict, where: str = "
                                   f"(required in a {kind.name} asset)")  # fmt: skip
             continue
         out_attrs[spec.name] = check_attr(spec, attrs[spec.name], where, symbols)
-    selected = expand(kind, out_attrs, lambda p: p in shapes, dattrs)
+    try:
+        selected = expand(kind, out_attrs, lambda p: p in shapes, dattrs)
+    except FormatError as e:
+        raise FormatError(f"{where}{e}") from None
     out_dattrs = {}
     for spec, path in selected:
         local = dict(symbols) if "{" in spec.path else symbols
@@ -445,7 +448,10 @@ def validate(kind: Kind, attrs: dict, shapes: dict, dattrs: dict, where: str = "
         check_shape(spec, path, shape, dtype, local, where)
         out_dattrs[path] = da
     if kind.check is not None:
-        kind.check(out_attrs, {p: shapes[p][0] for _, p in selected}, out_dattrs, symbols)
+        try:
+            kind.check(out_attrs, {p: shapes[p][0] for _, p in selected}, out_dattrs, symbols)
+        except FormatError as e:
+            raise FormatError(f"{where}{e}") from None
     return out_attrs, out_dattrs, selected
 
 

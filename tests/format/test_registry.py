@@ -127,6 +127,7 @@ class TestReadValidation:
         msg = str(e.value)
         assert "\n" not in msg and len(msg) < 400
         assert fragment in msg, msg
+        assert msg.startswith(f"{path}: "), msg  # every line names the file
 
     @pytest.mark.parametrize("version", [2, 3])
     def test_older_version_still_read(self, version, tiny_map, tmp_path):
