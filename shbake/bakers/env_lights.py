@@ -91,6 +91,10 @@ On a half-black map the radii drift along a flat valley (two spheres took 41 s, 
 with the cap); the six sample maps' fits converge within it, to the same lights."""
 START_RADIUS_DEG = 5.0
 """Angular radius a new sphere light starts from (a point's gradient in ``σ`` is 0)."""
+LIGHT_FLOOR = 1e-12
+"""A fitted light whose luminous energy is at most this fraction of the map's is round-off of
+the intensities' solve, not a light: dropped (a one-texel map × 1e-30 got a second light of
+1.6e-17 of its energy, where the same map × 1 got none)."""
 WEIGHT_FLOOR = 1e-6
 """Target luminance below this fraction of its largest value is weighted, and its relative
 error measured, as this fraction (a black hemisphere would otherwise get infinite weight,
@@ -267,7 +271,16 @@ class _Problem:
 
     def constrained(self, dirs, radii, e, a, margin: float):
         """Solve the linear parameters again with ``SH part ≥ margin Φ/4`` at the fit
-        normals and ``a ≥ 0`` (SLSQP)."""
+        normals and ``a ≥ 0`` (SLSQP).
+
+        Each channel is solved in units of its mean irradiance ``|Φ_c|/4`` (1 for a black
+        channel): the unknowns (``e``, ``a``), the constraint (``SH part ≥ margin`` in those
+        units) and the objective (residuals relative to the target, over their largest) are
+        then free of the map's scale, as SLSQP needs (its tolerance is absolute and its first
+        step a unit one). In the map's own units it could not meet the tolerance on a map
+        × 1e30 (200 steps a solve, the SH part still negative: ``--lights 3`` on a black map
+        with two texels of 1e30 took 136 s, 1.6 s in these units) and gave up at once on a map
+        × 1e-30 (its SH off by 1e34)."""
         from scipy.optimize import minimize
 
         Cw = self.lobes(dirs, radii) * self.w[:, None]
@@ -276,11 +289,13 @@ class _Problem:
         G = np.hstack([self.Y, -np.tile(sphere_power(radii) / 4.0, (len(self.w), 1))])
         e2, a2 = e.copy(), a.copy()
         for c in range(3):
-            h = self.target.energy[c] / 4.0 * (1.0 - margin)
-            x0 = np.concatenate([e[:, c], a[:, c]])
+            mean = float(self.target.energy[c]) / 4.0
+            unit = abs(mean) or 1.0
+            h = mean / unit * (1.0 - margin)
+            x0 = np.concatenate([e[:, c], a[:, c]]) / unit
             scale = max(float(np.abs(self.T[:, c]).max()), 1e-300)
             t = self.T[:, c] / scale
-            As = A / scale
+            As = A * (unit / scale)
             res = minimize(
                 lambda x, As=As, t=t: float(np.sum((As @ x - t) ** 2)),
                 x0,
@@ -292,7 +307,8 @@ class _Problem:
                 ],  # fmt: skip
                 options={"maxiter": 200, "ftol": 1e-12},
             )
-            e2[:, c], a2[:, c] = res.x[:nb], np.maximum(res.x[nb:], 0.0)
+            x = res.x * unit
+            e2[:, c], a2[:, c] = x[:nb], np.maximum(x[nb:], 0.0)
         return e2, a2
 
     def cost(self, fit: LightFit) -> float:
@@ -301,7 +317,8 @@ class _Problem:
         return float(np.sum(r**2))
 
     def result(self, dirs, radii, e, a) -> LightFit:
-        keep = a.sum(axis=1) > 0.0
+        total = max(float(self.target.energy @ REC709_LUMINANCE), 0.0)
+        keep = sphere_power(radii) * (a @ REC709_LUMINANCE) > LIGHT_FLOOR * total
         dirs, radii, a = dirs[keep], radii[keep], a[keep]
         order = np.argsort(-(a @ REC709_LUMINANCE), kind="stable")
         dirs, radii, a = dirs[order], radii[order], a[order]
