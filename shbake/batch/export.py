@@ -17,7 +17,7 @@ from shbake.errors import ParameterError
 from shbake.evaluation.cube_chain import chain_errors, chain_warnings
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.exports import check_ending, target_module
-from shbake.format.exports.source import load_source, require_sh
+from shbake.format.exports.source import ExportSource, load_source, require_sh
 
 TARGET_OPTIONS = {
     "env_path": "--env",
@@ -72,6 +72,22 @@ def cube_settings(target: str, size=None, floor=None, samples=None, mapping=None
     cfg = dict(cubes) | {k: v for k, v in given.items() if v is not None}
     check_chain(cfg["size"], cfg["floor"], cfg["samples"])
     return cfg
+
+
+def load_sources(assets: list[str], target: str, frame: str = "y-up", rotate_deg: float = 0.0,
+                 env_path: str | None = None) -> list[ExportSource]:  # fmt: skip
+    """Read every asset of a batch for ``target`` and check it before any export work
+    (:func:`~shbake.format.exports.source.load_source`: its kind, its irradiance SH, lights
+    engines cannot shade — sphere lights; :func:`~shbake.format.exports.source.require_sh`:
+    SH, for every target but ``ktx2``), so that an asset the target refuses stops the batch
+    before an earlier one's cube chain is baked or its files written. Returns the source of
+    each, in the target frame."""
+    sources = [load_source(path, frame=frame, rotate_deg=rotate_deg, env_path=env_path)
+               for path in assets]  # fmt: skip
+    if target != "ktx2":  # ktx2 carries cube maps, no SH
+        for src in sources:
+            require_sh(src, target)
+    return sources
 
 
 def export_assets(
@@ -133,8 +149,8 @@ def export_assets(
     else:
         check_output_dir(out, "--out-dir")
     written = []
-    for path in assets:
-        src = load_source(path, frame=frame, rotate_deg=rotate_deg, env_path=env_path)
+    sources = load_sources(assets, target, frame, rotate_deg, env_path)
+    for path, src in zip(assets, sources, strict=True):
         if one_file:
             dest = out
         else:
@@ -144,8 +160,6 @@ def export_assets(
         extra = dict(options)
         cfg = cube_settings(target, size, floor, samples, mapping)
         if cfg is not None:
-            if target != "ktx2":
-                require_sh(src, target)  # refuse before baking cube maps for nothing
             env = src.environment(sun_radius_deg)
             start = time.perf_counter()
             levels, rough = prefilter_chain(
@@ -250,5 +264,6 @@ __all__ = [
     "cube_settings",
     "export_assets",
     "export_error",
+    "load_sources",
     "options_of_target",
 ]

@@ -10,7 +10,12 @@ where to keep it.
 
 import os
 
-from shbake.batch.export import check_target_options, export_assets, export_error
+from shbake.batch.export import (
+    check_target_options,
+    export_assets,
+    export_error,
+    load_sources,
+)
 from shbake.batch.project_env import check_settings, headline_error, project_environment
 from shbake.errors import ParameterError
 from shbake.format.asset import is_asset_file
@@ -63,7 +68,9 @@ def export_inputs(
     measured asset input], "glossy": [the chain report of each input]}``. Settings of
     :data:`MAP_OPTIONS` named in ``explicit`` without a map input, or of
     :data:`TARGET_OPTIONS` the target does not read, raise
-    :class:`~shbake.errors.ParameterError` before anything is baked.
+    :class:`~shbake.errors.ParameterError` before anything is baked; an asset input the
+    target cannot take (:func:`~shbake.batch.export.load_sources`: sphere lights, no SH) is
+    refused then too, whatever its place among the inputs.
     """
     check_target_options(target, explicit)
     one_file = not (many if many is not None else len(inputs) > 1)
@@ -81,6 +88,8 @@ def export_inputs(
                    settings["extract_sun"], settings["window"])  # fmt: skip
     if not one_file:
         check_output_dir(out, "--out-dir")
+    if target != "webgl":  # every asset input checked before any map is baked or exported
+        load_sources([p for p in inputs if p not in maps], target)
     written, bakes, measured = [], [], []
     glossy = [] if report and target_module(target).CUBES is not None else None
     with transaction() as t:

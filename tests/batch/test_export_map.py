@@ -14,6 +14,7 @@ import h5py
 import numpy as np
 import pytest
 
+from tests.faults import assert_failed, unchanged
 from tests.helpers import map_path, write_test_exr
 
 KTX2_IDENTIFIER = b"\xabKTX 20\xbb\r\n\x1a\n"
@@ -132,3 +133,88 @@ class TestGlossyReport:
                                  "--report", "--json", "-q")  # fmt: skip
         assert code == 0, err
         assert json.loads(out)["glossy"] == []
+
+
+class TestBatchCheckedFirst:
+    """``export GOOD.h5 MAP SPHERES.h5 --to ENGINE --out-dir D``: the engines shade lights as
+    points and refuse an asset with sphere lights (``/lights/angular_radius`` > 0). Every asset
+    of the batch is checked before any export work: the one-line refusal comes before the
+    good asset is exported or the map baked (it came after both), and the old outputs stay as
+    they were, no temporary beside them."""
+
+    @pytest.fixture(scope="class")
+    @classmethod
+    def assets(cls, tmp_path_factory, sky):
+        """``(good, spheres)``: the sky baked plainly, and a sky with a 10° disc (radiance
+        500) baked with one sphere light (its radius fitted near 10°)."""
+        from shbake.bakers.env_sh import bake_env_sh
+        from shbake.envmap import load_environment
+        from shbake.envmap.layouts import latlong_directions
+        from shbake.format.asset import read_asset, write_asset
+
+        folder = tmp_path_factory.mktemp("batch")
+        d = latlong_directions(32, 64)
+        s = np.array([0.0, 0.5, -np.sqrt(0.75)])
+        disc = np.where(((d @ s) > np.cos(np.radians(10.0)))[..., None], 500.0, 0.5)
+        disc_map = write_test_exr(folder / "disc.exr", disc * np.ones(3))
+        good, spheres = str(folder / "good.h5"), str(folder / "spheres.h5")
+        write_asset(good, bake_env_sh(load_environment(sky, quiet=True))[0])
+        write_asset(spheres, bake_env_sh(load_environment(str(disc_map), quiet=True), lights=1,
+                                         light_shape="sphere")[0])  # fmt: skip
+        assert read_asset(spheres)["/lights/angular_radius"][0] > np.radians(5.0)
+        return good, spheres
+
+    @staticmethod
+    def watch(monkeypatch, target) -> list:
+        """Record every export step (the map's bake, a cube chain, the target's writer) in the
+        list returned; each still runs."""
+        from shbake.batch import export, export_map
+        from shbake.format.exports import target_module
+
+        calls = []
+
+        def recorded(owner, name):
+            original = getattr(owner, name)
+
+            def call(*args, **kwargs):
+                calls.append(name)
+                return original(*args, **kwargs)
+
+            monkeypatch.setattr(owner, name, call)
+
+        recorded(export_map, "project_environment")
+        recorded(export, "prefilter_chain")
+        recorded(target_module(target), "write")
+        return calls
+
+    @pytest.mark.parametrize("target", ["threejs", "gltf", "babylon", "filament", "unity"])
+    def test_refused_before_any_work(self, tmp_path, run_cli, monkeypatch, sky, assets, target):
+        from shbake.format.exports import target_module
+
+        good, spheres = assets
+        out = tmp_path / "out"
+        out.mkdir()
+        ext = target_module(target).EXTENSION
+        for name in ("good", "sky", "spheres"):
+            (out / f"{name}{ext}").write_text(f"old {name}")
+        calls = self.watch(monkeypatch, target)
+        small = ["--size", "8", "--floor", "2", "--samples", "16"]
+        small = small if target_module(target).CUBES is not None else []
+        with unchanged(tmp_path):
+            result = run_cli("export", good, sky, spheres, "--to", target, "--out-dir", out,
+                             *small)  # fmt: skip
+        line = assert_failed(result, 1, "its lights are spheres")
+        assert spheres in line
+        assert calls == []
+
+    def test_library_batch_refused_before_any_work(self, tmp_path, monkeypatch, assets):
+        """:func:`shbake.batch.export.export_assets` outside a command's transaction (each
+        file committed on its own): the good asset's export was left behind."""
+        from shbake.batch.export import export_assets
+        from shbake.errors import InputError
+
+        out = tmp_path / "out"
+        calls = self.watch(monkeypatch, "threejs")
+        with unchanged(tmp_path), pytest.raises(InputError, match="spheres"):
+            export_assets(list(assets), "threejs", str(out))
+        assert calls == []
