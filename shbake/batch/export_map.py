@@ -117,10 +117,11 @@ def export_inputs(
                                                 "colorspace")},
                 progress=progress,
             )  # fmt: skip
+            own = options
             if target_module(target).CUBES is not None:  # the cube chain's map: this one
-                options = options | {"env_path": options.get("env_path") or path}
+                own = options | {"env_path": options.get("env_path") or path}
             files = export_assets([asset], target, out, many=not one_file, explicit=explicit,
-                                  glossy_report=glossy, **options)  # fmt: skip
+                                  glossy_report=glossy, **own)  # fmt: skip
             if glossy:
                 glossy[-1]["input"] = path
             if keep_asset is None:

@@ -76,6 +76,21 @@ class TestOneStep:
         assert code == 0, err
         assert listing(tmp_path / "o") == ["night.json", "studio.json"]
 
+    def test_several_maps_each_chain_from_its_map(self, tmp_path, run_cli, sky):
+        """A target with cube maps bakes each map input's chain from that map: the second map's
+        export was refused ("its SHA-256 differs"), the first map's path having become the
+        ``--env`` of every later input. Each file is the bytes of the map's export alone."""
+        other = str(write_test_exr(tmp_path / "other.exr", np.full((32, 64, 3), 0.25)))
+        small = ["--size", "16", "--floor", "4", "--samples", "16", "-q"]
+        code, _, err = run_cli("export", sky, other, "--to", "threejs-pmrem", "--out-dir",
+                               tmp_path / "o", *small)  # fmt: skip
+        assert code == 0, err
+        assert listing(tmp_path / "o") == ["other_pmrem.ktx2", "sky_pmrem.ktx2"]
+        for name, path in (("sky", sky), ("other", other)):
+            alone = tmp_path / f"{name}.ktx2"
+            assert run_cli("export", path, "--to", "threejs-pmrem", "-o", alone, *small)[0] == 0
+            assert (tmp_path / "o" / f"{name}_pmrem.ktx2").read_bytes() == alone.read_bytes()
+
 
 class TestRefused:
     @pytest.mark.parametrize("content", [b"not an image at all", b"\x89HDF\r\n\x1a\ngarbage"])
