@@ -15,7 +15,7 @@ from shbake.bakers.cube_prefilter import mirror_cube, mirror_supersample
 from shbake.bakers.dfg import dfg_table
 from shbake.errors import ParameterError
 from shbake.evaluation.cube_chain import chain_errors, chain_warnings
-from shbake.format.atomic import check_output_dir, check_output_path, makedirs
+from shbake.format.atomic import check_output_dir, check_output_path, makedirs, transaction
 from shbake.format.exports import check_ending, target_module
 from shbake.format.exports.source import ExportSource, load_source, require_sh
 
@@ -224,25 +224,27 @@ def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 204
     return export_irradiance_errors(asset, env, ref, rotation=turn), methods
 
 
-def _export_webgl(assets, out, one_file, frame, rotate_deg, env_path) -> list[str]:
-    """``--to webgl``: one folder per asset (``out`` itself for one), shbake's world frame;
-    ``env_path``: the ``env_sh`` asset that lights ``brdf_table`` assets (the kautz pass)."""
+def load_webgl(assets: list[str], env_path: str | None = None) -> list[tuple[dict, dict]]:
+    """Read every asset of a ``--to webgl`` batch and build its export
+    (:func:`shbake.format.exports.webgl.build_export`, which runs every check of its kind: at
+    most 8 lights, of either shape; a table's lmax; the probe's levels and sets), so that an
+    asset the target refuses stops the batch before any file is written. ``env_path``: the
+    ``env_sh`` asset that lights the batch's ``brdf_table`` assets (the kautz pass), given
+    exactly when the batch holds one (else :class:`~shbake.errors.ParameterError`) and read
+    for them alone. Returns ``(manifest, textures)`` of each asset, in order."""
     from shbake.format.asset import read_asset
     from shbake.format.brdf_table import table_at
-    from shbake.format.exports.webgl import TEXTURES_OF_KIND, write_export
+    from shbake.format.exports.webgl import TEXTURES_OF_KIND, build_export
     from shbake.shading.brdf_table import lighting_with_sun
     from shbake.shading.env_sh import lights_of
 
-    if frame != "y-up" or rotate_deg != 0.0:
-        raise ParameterError("--to webgl writes shbake's world frame: no --frame z-up or --rotate")
-    check_output_dir(out, "-o/--output" if one_file else "--out-dir")
     read = [(path, read_asset(path, kinds=tuple(TEXTURES_OF_KIND))) for path in assets]
     tables = any(asset.kind == "brdf_table" for _, asset in read)
     if tables != (env_path is not None):
         raise ParameterError("--to webgl: a brdf_table needs --env ENV_SH.h5 (its lighting); "
                              "--env is read for brdf_table assets only")  # fmt: skip
     env = read_asset(env_path, kinds=("env_sh",)) if tables else None
-    written = []
+    exports = []
     for path, asset in read:
         if asset.kind == "env_sh":
             context = lights_of(asset)
@@ -251,9 +253,25 @@ def _export_webgl(assets, out, one_file, frame, rotate_deg, env_path) -> list[st
             context = (table, lighting_with_sun(env, table.lmax))
         else:
             context = None
-        name = os.path.basename(path)
-        dest = out if one_file else os.path.join(out, os.path.splitext(name)[0])
-        written += write_export(asset, name, dest, context)
+        exports.append(build_export(asset, os.path.basename(path), context))
+    return exports
+
+
+def _export_webgl(assets, out, one_file, frame, rotate_deg, env_path) -> list[str]:
+    """``--to webgl``: one folder per asset (``out`` itself for one), shbake's world frame,
+    in one transaction once every asset is checked (:func:`load_webgl`)."""
+    from shbake.format.exports.webgl import write_export
+
+    if frame != "y-up" or rotate_deg != 0.0:
+        raise ParameterError("--to webgl writes shbake's world frame: no --frame z-up or --rotate")
+    check_output_dir(out, "-o/--output" if one_file else "--out-dir")
+    exports = load_webgl(assets, env_path)
+    written = []
+    with transaction():
+        for path, (manifest, textures) in zip(assets, exports, strict=True):
+            stem = os.path.splitext(os.path.basename(path))[0]
+            dest = out if one_file else os.path.join(out, stem)
+            written += write_export(manifest, textures, dest)
     return written
 
 
@@ -265,5 +283,6 @@ __all__ = [
     "export_assets",
     "export_error",
     "load_sources",
+    "load_webgl",
     "options_of_target",
 ]

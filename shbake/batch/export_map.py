@@ -15,6 +15,7 @@ from shbake.batch.export import (
     export_assets,
     export_error,
     load_sources,
+    load_webgl,
 )
 from shbake.batch.project_env import check_settings, headline_error, project_environment
 from shbake.errors import ParameterError
@@ -69,8 +70,11 @@ def export_inputs(
     :data:`MAP_OPTIONS` named in ``explicit`` without a map input, or of
     :data:`TARGET_OPTIONS` the target does not read, raise
     :class:`~shbake.errors.ParameterError` before anything is baked; an asset input the
-    target cannot take (:func:`~shbake.batch.export.load_sources`: sphere lights, no SH) is
-    refused then too, whatever its place among the inputs.
+    target cannot take (:func:`~shbake.batch.export.load_sources`: sphere lights, no SH;
+    :func:`~shbake.batch.export.load_webgl`: more than 8 lights, …) is refused then too,
+    whatever its place among the inputs. ``webgl``: the asset inputs are exported together, one
+    batch whose ``brdf_table`` assets the ``--env`` asset lights (it needs one, and ``--env``
+    needs a table), before the maps; a map's ``env_sh`` asset does not read ``--env``.
     """
     check_target_options(target, explicit)
     one_file = not (many if many is not None else len(inputs) > 1)
@@ -88,16 +92,24 @@ def export_inputs(
                    settings["extract_sun"], settings["window"])  # fmt: skip
     if not one_file:
         check_output_dir(out, "--out-dir")
-    if target != "webgl":  # every asset input checked before any map is baked or exported
-        load_sources([p for p in inputs if p not in maps], target)
+    assets = [p for p in inputs if p not in maps]
+    webgl = target == "webgl"  # --env lights the brdf_table assets of the whole batch
+    if webgl:  # every asset input checked before any map is baked or exported
+        load_webgl(assets, options.get("env_path"))
+    else:
+        load_sources(assets, target)
     written, bakes, measured = [], [], []
     glossy = [] if report and target_module(target).CUBES is not None else None
     with transaction() as t:
+        if webgl and assets:  # one batch, the one the --env rule reads
+            written += export_assets(assets, target, out, many=not one_file, explicit=explicit,
+                                     **options)  # fmt: skip
         for path in inputs:
             if path not in maps:
-                written += export_assets([path], target, out, many=not one_file,
-                                         explicit=explicit, glossy_report=glossy,
-                                         **options)  # fmt: skip
+                if not webgl:
+                    written += export_assets([path], target, out, many=not one_file,
+                                             explicit=explicit, glossy_report=glossy,
+                                             **options)  # fmt: skip
                 if report and target != "ktx2":  # ktx2 carries cube maps, no SH
                     errors, _ = export_error(path, options.get("env_path"))
                     measured.append({"input": path, "error": headline_error({"export": errors})})
@@ -120,6 +132,8 @@ def export_inputs(
             own = options
             if target_module(target).CUBES is not None:  # the cube chain's map: this one
                 own = options | {"env_path": options.get("env_path") or path}
+            if webgl:  # an env_sh asset: --env lights the batch's brdf_table assets alone
+                own = options | {"env_path": None}
             files = export_assets([asset], target, out, many=not one_file, explicit=explicit,
                                   glossy_report=glossy, **own)  # fmt: skip
             if glossy:

@@ -34,6 +34,11 @@ def listing(folder) -> list[str]:
     return sorted(os.listdir(folder))
 
 
+def contents(folder) -> dict[str, bytes]:
+    """``name → bytes`` of the files in ``folder``."""
+    return {name: (folder / name).read_bytes() for name in listing(folder)}
+
+
 class TestOneStep:
     def test_same_bytes_as_two_commands(self, tmp_path, run_cli, sky):
         one, two = tmp_path / "one", tmp_path / "two"
@@ -150,34 +155,53 @@ class TestGlossyReport:
         assert json.loads(out)["glossy"] == []
 
 
+@pytest.fixture(scope="module")
+def assets(tmp_path_factory, sky):
+    """``(good, spheres)``: the sky baked plainly, and a sky with a 10° disc (radiance
+    500) baked with one sphere light (its radius fitted near 10°)."""
+    from shbake.bakers.env_sh import bake_env_sh
+    from shbake.envmap import load_environment
+    from shbake.envmap.layouts import latlong_directions
+    from shbake.format.asset import read_asset, write_asset
+
+    folder = tmp_path_factory.mktemp("batch")
+    d = latlong_directions(32, 64)
+    s = np.array([0.0, 0.5, -np.sqrt(0.75)])
+    disc = np.where(((d @ s) > np.cos(np.radians(10.0)))[..., None], 500.0, 0.5)
+    disc_map = write_test_exr(folder / "disc.exr", disc * np.ones(3))
+    good, spheres = str(folder / "good.h5"), str(folder / "spheres.h5")
+    write_asset(good, bake_env_sh(load_environment(sky, quiet=True))[0])
+    write_asset(spheres, bake_env_sh(load_environment(str(disc_map), quiet=True), lights=1,
+                                     light_shape="sphere")[0])  # fmt: skip
+    assert read_asset(spheres)["/lights/angular_radius"][0] > np.radians(5.0)
+    return good, spheres
+
+
+def watch(monkeypatch, *steps) -> list:
+    """Record each call of the functions ``steps`` (``(module, name)``) by name in the list
+    returned; each still runs."""
+    calls = []
+
+    def recorded(owner, name):
+        original = getattr(owner, name)
+
+        def call(*args, **kwargs):
+            calls.append(name)
+            return original(*args, **kwargs)
+
+        monkeypatch.setattr(owner, name, call)
+
+    for owner, name in steps:
+        recorded(owner, name)
+    return calls
+
+
 class TestBatchCheckedFirst:
     """``export GOOD.h5 MAP SPHERES.h5 --to ENGINE --out-dir D``: the engines shade lights as
     points and refuse an asset with sphere lights (``/lights/angular_radius`` > 0). Every asset
     of the batch is checked before any export work: the one-line refusal comes before the
     good asset is exported or the map baked (it came after both), and the old outputs stay as
     they were, no temporary beside them."""
-
-    @pytest.fixture(scope="class")
-    @classmethod
-    def assets(cls, tmp_path_factory, sky):
-        """``(good, spheres)``: the sky baked plainly, and a sky with a 10° disc (radiance
-        500) baked with one sphere light (its radius fitted near 10°)."""
-        from shbake.bakers.env_sh import bake_env_sh
-        from shbake.envmap import load_environment
-        from shbake.envmap.layouts import latlong_directions
-        from shbake.format.asset import read_asset, write_asset
-
-        folder = tmp_path_factory.mktemp("batch")
-        d = latlong_directions(32, 64)
-        s = np.array([0.0, 0.5, -np.sqrt(0.75)])
-        disc = np.where(((d @ s) > np.cos(np.radians(10.0)))[..., None], 500.0, 0.5)
-        disc_map = write_test_exr(folder / "disc.exr", disc * np.ones(3))
-        good, spheres = str(folder / "good.h5"), str(folder / "spheres.h5")
-        write_asset(good, bake_env_sh(load_environment(sky, quiet=True))[0])
-        write_asset(spheres, bake_env_sh(load_environment(str(disc_map), quiet=True), lights=1,
-                                         light_shape="sphere")[0])  # fmt: skip
-        assert read_asset(spheres)["/lights/angular_radius"][0] > np.radians(5.0)
-        return good, spheres
 
     @staticmethod
     def watch(monkeypatch, target) -> list:
@@ -186,21 +210,8 @@ class TestBatchCheckedFirst:
         from shbake.batch import export, export_map
         from shbake.format.exports import target_module
 
-        calls = []
-
-        def recorded(owner, name):
-            original = getattr(owner, name)
-
-            def call(*args, **kwargs):
-                calls.append(name)
-                return original(*args, **kwargs)
-
-            monkeypatch.setattr(owner, name, call)
-
-        recorded(export_map, "project_environment")
-        recorded(export, "prefilter_chain")
-        recorded(target_module(target), "write")
-        return calls
+        return watch(monkeypatch, (export_map, "project_environment"),
+                     (export, "prefilter_chain"), (target_module(target), "write"))  # fmt: skip
 
     @pytest.mark.parametrize("target", ["threejs", "gltf", "babylon", "filament", "unity"])
     def test_refused_before_any_work(self, tmp_path, run_cli, monkeypatch, sky, assets, target):
@@ -232,4 +243,103 @@ class TestBatchCheckedFirst:
         calls = self.watch(monkeypatch, "threejs")
         with unchanged(tmp_path), pytest.raises(InputError, match="spheres"):
             export_assets(list(assets), "threejs", str(out))
+        assert calls == []
+
+
+class TestWebglBatch:
+    """``export ENV.h5 TABLE.h5 --to webgl --out-dir D --env ENV.h5``: ``--env`` lights the
+    ``brdf_table`` assets of the batch (a table needs it; it needs a table), so the batch is
+    read as one. It was refused ("--env is read for brdf_table assets only"): each input was
+    exported on its own, ENV.h5 seen without the table. The webgl checks of every asset (at
+    most 8 lights; sphere lights drawn) still come before any file is written or map baked."""
+
+    @pytest.fixture(scope="class")
+    @classmethod
+    def batch(cls, tmp_path_factory, sky, assets):
+        """``assets``, a Phong table (:mod:`tests.assets_examples`) and ``nine``: the sphere-light
+        asset with its light repeated nine times (a valid asset; the shader holds 8)."""
+        import shutil
+
+        from shbake.format.asset import read_asset, write_asset
+        from tests.assets_examples import example
+
+        good, spheres = assets
+        folder = tmp_path_factory.mktemp("webgl")
+        table, nine = str(folder / "table.h5"), str(folder / "nine.h5")
+        write_asset(table, example("brdf_table", sky))
+        shutil.copy(spheres, nine)
+        with h5py.File(nine, "r+") as f:
+            for name in ("direction", "irradiance", "angular_radius"):
+                data, attrs = f[f"/lights/{name}"][()], dict(f[f"/lights/{name}"].attrs)
+                del f[f"/lights/{name}"]
+                f[f"/lights/{name}"] = np.repeat(data[:1], 9, axis=0)
+                f[f"/lights/{name}"].attrs.update(attrs)
+        read_asset(nine)
+        return {"good": good, "spheres": spheres, "table": table, "nine": nine}
+
+    @staticmethod
+    def watch(monkeypatch) -> list:
+        """Record the map's bake and each webgl folder written; each still runs."""
+        from shbake.batch import export_map
+        from shbake.format.exports import webgl
+
+        return watch(monkeypatch, (export_map, "project_environment"),
+                     (webgl, "write_export"))  # fmt: skip
+
+    @pytest.mark.parametrize("light", ["good", "spheres", "map"])
+    def test_env_and_table_in_one_batch(self, tmp_path, run_cli, sky, batch, light):
+        """Each folder of the batch is the bytes of its asset's export alone; the ``env_sh``
+        input is the sky with its sun, the asset with a sphere light (drawn by webgl) or a map
+        baked on the way (which does not read ``--env``)."""
+        first = sky if light == "map" else batch[light]
+        env = batch["good" if light == "map" else light]
+        code, _, err = run_cli("export", first, batch["table"], "--to", "webgl", "--out-dir",
+                               tmp_path / "d", "--env", env, "-q")  # fmt: skip
+        assert code == 0, err
+        stem = os.path.splitext(os.path.basename(first))[0]
+        assert listing(tmp_path / "d") == sorted([stem, "table"])
+        alone = {stem: [first], "table": [batch["table"], "--env", env]}
+        for name, args in alone.items():
+            assert run_cli("export", *args, "--to", "webgl", "-o", tmp_path / name, "-q")[0] == 0
+            assert contents(tmp_path / "d" / name) == contents(tmp_path / name)
+        manifest = json.loads((tmp_path / "d" / stem / "shbake.json").read_text())
+        assert manifest["asset"]["kind"] == "env_sh"
+        radius = manifest["uniforms"]["uLightRadius"]["value"][0]
+        assert (radius > np.radians(5.0)) == (light == "spheres")
+
+    def test_refused_before_any_write(self, tmp_path, run_cli, monkeypatch, sky, batch):
+        """Nine lights in the last asset: one line naming it, before the good asset or the
+        table is written or the map baked; the earlier exports in ``D`` byte-identical, no
+        temporary."""
+        out = tmp_path / "d"
+        args = ("--to", "webgl", "--out-dir", out, "--env", batch["good"])
+        assert run_cli("export", batch["good"], batch["table"], *args, "-q")[0] == 0
+        calls = self.watch(monkeypatch)
+        with unchanged(tmp_path):
+            result = run_cli("export", batch["good"], batch["table"], sky, batch["nine"], *args)
+        line = assert_failed(result, 1, "at most 8 lights")
+        assert "nine.h5: " in line
+        assert calls == []
+
+    def test_library_batch_refused_before_any_write(self, tmp_path, monkeypatch, batch):
+        """:func:`shbake.batch.export.export_assets` outside a command's transaction: the
+        folders of the assets before the refused one were committed."""
+        from shbake.batch.export import export_assets
+        from shbake.errors import InputError
+
+        calls = self.watch(monkeypatch)
+        with unchanged(tmp_path), pytest.raises(InputError, match="at most 8 lights"):
+            export_assets([batch["good"], batch["table"], batch["nine"]], "webgl",
+                          str(tmp_path / "d"), env_path=batch["good"])  # fmt: skip
+        assert calls == []
+
+    def test_env_without_a_table_refused_before_the_bake(self, tmp_path, run_cli, monkeypatch,
+                                                         sky, batch):  # fmt: skip
+        """A map is baked into an ``env_sh`` asset, never a table: ``--env`` with maps alone is
+        refused before the map is baked (it was refused after)."""
+        calls = self.watch(monkeypatch)
+        with unchanged(tmp_path):
+            result = run_cli("export", sky, "--to", "webgl", "--out-dir", tmp_path / "d",
+                             "--env", batch["good"])  # fmt: skip
+        assert_failed(result, 1, "--env is read for brdf_table assets only")
         assert calls == []

@@ -324,12 +324,14 @@ def viewer_page(title: str) -> str:
     return env.get_template("viewer.html").render(title=title)
 
 
-def write_export(asset, name: str, out: str, context=None) -> list[str]:
-    """Export ``asset`` (a kind of :data:`TEXTURES_OF_KIND`, read from the file ``name``) as the
-    folder ``out`` (replacing an earlier export there, :func:`check_replaceable`); the
-    files written, as they are named once committed. ``context``: what the kind's pass reads from
-    elsewhere — an ``env_sh`` asset's lights ``(directions (K, 3), E (K, 3))``
-    (:func:`shbake.shading.env_sh.lights_of`), a ``brdf_table``'s ``(BRDFTable, L)``."""
+def build_export(asset, name: str, context=None) -> tuple[dict, dict]:
+    """The export of ``asset`` (a kind of :data:`TEXTURES_OF_KIND`, read from the file
+    ``name``) without writing anything: ``(manifest, {texture name: texels})``. Every check of
+    its kind runs here (at most :data:`MAX_LIGHTS` lights, a table's lmax, the levels and
+    coefficient sets the shaders hold: an :class:`~shbake.errors.InputError` naming ``name``).
+    ``context``: what the kind's pass reads from elsewhere — an ``env_sh`` asset's lights
+    ``(directions (K, 3), E (K, 3), radii (K,))`` (:func:`shbake.shading.env_sh.lights_of`),
+    a ``brdf_table``'s ``(BRDFTable, L)``."""
     try:
         textures, uniforms, passes, params = TEXTURES_OF_KIND[asset.kind](asset, context)
     except InputError as e:
@@ -343,26 +345,36 @@ def write_export(asset, name: str, out: str, context=None) -> list[str]:
         "textures": {k: _texture_entry(k, t) for k, t in textures.items()},
         "uniforms": uniforms,
     }
+    return manifest, textures
+
+
+def write_export(manifest: dict, textures: dict, out: str) -> list[str]:
+    """Write an export (:func:`build_export`) as the folder ``out`` (replacing an earlier
+    export there, :func:`check_replaceable`); the files written, as they are named once
+    committed."""
     out = os.path.abspath(out)
     check_replaceable(out)
-    names = [k + KTX2 for k in textures] + [*SHADERS[asset.kind], *VIEWER_FILES]
-    names += [MANIFEST, "index.html"]
+    shaders = tuple(manifest["shaders"])
+    names = [k + KTX2 for k in textures] + [*shaders, *VIEWER_FILES, MANIFEST, "index.html"]
+    asset = manifest["asset"]
     with transaction():
         makedirs(os.path.dirname(out))
         with atomic_folder(out) as folder:
             for k, t in textures.items():
                 write_ktx2(os.path.join(folder, k + KTX2), [t], cube=False, type_size=4,
                            layered=t.ndim == 4)  # fmt: skip
-            for f in SHADERS[asset.kind] + VIEWER_FILES:
+            for f in shaders + VIEWER_FILES:
                 _copy_package_file(f, os.path.join(folder, f))
             write_text(os.path.join(folder, MANIFEST),
                        json.dumps(manifest, indent=1, sort_keys=True) + "\n")  # fmt: skip
-            write_text(os.path.join(folder, "index.html"), viewer_page(f"{name} ({asset.kind})"))
+            write_text(os.path.join(folder, "index.html"),
+                       viewer_page(f"{asset['name']} ({asset['kind']})"))  # fmt: skip
     return [os.path.join(out, n) for n in names]
 
 
 __all__ = [
     "TEXTURES_OF_KIND",
+    "build_export",
     "check_replaceable",
     "coefficient_texture",
     "viewer_page",
