@@ -59,8 +59,20 @@ def bright_texels(flat: np.ndarray, height: int, width: int):
 
 
 @jit
+def _pair_sum(x, y):
+    """``x + y`` of two float32 texels as a float64: their float32 sum where that is finite
+    (the rounding the pyramid has always had), else their float64 sum — two texels near the
+    float32 limit (3.4e38, radiance) overflow float32, never float64."""
+    s = x + y
+    if np.isinf(s):
+        return np.float64(x) + np.float64(y)
+    return np.float64(s)
+
+
+@jit
 def _downsample(src, height, width, dst):
-    """One pyramid step: 2×2 texels averaged with their solid angles."""
+    """One pyramid step: 2×2 texels averaged with their solid angles (a mean of finite
+    texels, finite)."""
     for i in range(height // 2):
         w0 = row_solid_angle(2 * i, height, width)
         w1 = row_solid_angle(2 * i + 1, height, width)
@@ -69,7 +81,8 @@ def _downsample(src, height, width, dst):
             a, b = (2 * i) * width + 2 * j, (2 * i + 1) * width + 2 * j
             for c in range(3):
                 dst[i * (width // 2) + j, c] = s * (
-                    w0 * (src[a, c] + src[a + 1, c]) + w1 * (src[b, c] + src[b + 1, c])
+                    w0 * _pair_sum(src[a, c], src[a + 1, c])
+                    + w1 * _pair_sum(src[b, c], src[b + 1, c])
                 )
 
 

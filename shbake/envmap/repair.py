@@ -22,9 +22,10 @@ def repair_nonfinite(pixels: np.ndarray, repair: str | None, name: str) -> tuple
     ``black`` sets every non-finite channel value to 0; ``box3`` replaces it
     by the mean of the finite values among its 3×3 neighbours (0 if none).
     """
-    # One pass when all are finite: NaN/Inf make the sum non-finite; a sum that only
-    # overflows takes the exact check below (and finds nothing).
-    if np.isfinite(pixels.sum()):
+    # One pass when all are finite: NaN/Inf make the sum non-finite. It accumulates in
+    # float64, where no sum of finite float32 values overflows (a float32 sum of texels near
+    # 3.4e38 did: numpy warned, and the check below found nothing).
+    if np.isfinite(pixels.sum(dtype=np.float64)):
         return pixels, 0
     bad = ~np.isfinite(pixels)
     count = int(np.any(bad, axis=2).sum())

@@ -1,11 +1,11 @@
 """Stability at the extremes (``make test-extremes``): every baker on degenerate inputs.
 
 Maps: black, constant, a one-texel 1e5 sun on a dim sky, a 1e-6 dim real map,
-a tiny (4 × 8) and a large (1024 × 2048) map. Settings: lmax 0 and 64,
-GGX width at both ends (SH-exp fit α 0.05 … 1, split-sum α 0.0025 … 1, GGX tables 1e-4 … 1),
-exponents to 1e4, views grazing to 1e-4. Nothing non-finite in any asset,
-and where a closed form exists the value is checked against it (constant map:
-E = π c; black map: zeros).
+a tiny (4 × 8) and a large (1024 × 2048) map, texels near the float32 limit (3e38).
+Settings: lmax 0 and 64, GGX width at both ends (SH-exp fit α 0.05 … 1, split-sum
+α 0.0025 … 1, GGX tables 1e-4 … 1), exponents to 1e4, views grazing to 1e-4. Nothing
+non-finite in any asset, and where a closed form exists the value is checked against it
+(constant map: E = π c; black map: zeros).
 """
 
 import json
@@ -334,3 +334,45 @@ class TestHugeAndTinyMaps:
                            normals=16, views=16)  # fmt: skip
         probe = FitPlan(config, env.shape).fit(env.pixels)
         assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
+
+
+class TestFloat32Limit:
+    """Texels of 3e38, near the float32 limit (3.4e38): no sum over the map's texels
+    overflows (float64 where float32 would) and no numpy warning escapes. The non-finite
+    check of every map read (``envmap.repair.repair_nonfinite``) summed the map in float32
+    ("overflow encountered in reduce" on every command), and the importance pyramid
+    (``envmap.importance.latlong_pyramid``) summed texel pairs in float32: its levels held
+    inf, and so did the filtered split-sum levels; on a map of such texels everywhere the
+    SH-exp fit's targets were NaN (the probe refused as invalid)."""
+
+    @pytest.mark.parametrize("where", ["patches", "everywhere"])
+    def test_no_overflow_and_no_warning(self, tmp_path, where):
+        import warnings
+
+        from shbake.envmap.importance import latlong_pyramid, level_offsets, pyramid_levels
+        from shbake.envmap.layouts import latlong_solid_angles
+
+        px = np.full((H, 2 * H, 3), 3e38 if where == "everywhere" else 0.5, np.float32)
+        px[8:10, 20:22] = 3e38  # one texel of the pyramid's first level: a 2×2 mean of 3e38
+        px[20, 40:44] = 3e38  # two pairs of one row: each pair's sum 6e38
+        path = str(write_test_exr(tmp_path / "limit.exr", px))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            env = load_environment(path, quiet=True)
+            assert env.pixels.max() == np.float32(3e38)
+            levels = pyramid_levels(env.shape)
+            offsets = level_offsets(env.shape, levels)
+            pyramid = latlong_pyramid(env.pixels.reshape(-1, 3), env.shape, levels)
+            totals = [
+                np.einsum("pc,p->c", pyramid[offsets[k] : offsets[k + 1]].astype(float),
+                          latlong_solid_angles(H >> k, 2 * H >> k).reshape(-1))
+                for k in range(levels)
+            ]  # fmt: skip
+            np.testing.assert_allclose(totals, np.tile(totals[0], (levels, 1)), rtol=1e-6)
+            config = FitConfig(alpha_min=0.05, alpha_max=1.0, alpha_count=3, sets=1,
+                               samples=64, normals=16, views=16)  # fmt: skip
+            probe = FitPlan(config, env.shape).fit(env.pixels)
+            assert np.all(np.isfinite(probe.p)) and np.all(np.isfinite(probe.q))
+            config = SplitSumConfig(top=16, min_size=8, alphas=(0.01, 1.0), samples=64,
+                                    prefilter="filtered")  # fmt: skip
+            assert all(np.all(np.isfinite(lv)) for lv in prefilter_chain(env.pixels, config))
