@@ -41,7 +41,8 @@ directions); **the least max error** likewise (the linear programme's minimax, t
 acceptance's pair: the least mean of a fit whose every error is at most
 :data:`ACCEPT_MAX`, over all those direction sets (none where no fit can keep the max).
 
-Writes ``PREFIX.json``, ``PREFIX.md`` and ``PREFIX.png`` (error vs number of lights);
+Writes ``PREFIX.json``, ``PREFIX.md``, ``PREFIX.png`` (error vs number of lights) and
+``PREFIX-bytes.png`` (error vs bytes per probe; ``--replot`` redraws both from ``PREFIX.json``);
 default prefix ``bench/results/irradiance_lights``. A map's entries of an existing
 ``PREFIX.json`` that this run does not measure (``search3`` of a map not searched) are kept.
 """
@@ -406,6 +407,43 @@ def plot(results: dict, max_lights: int, path: str) -> None:
     fig.savefig(path, dpi=100)
 
 
+BYTES_PER_FLOAT = 4
+"""A probe's numbers as an engine uploads them: float32."""
+
+
+def plot_bytes(results: dict, max_lights: int, path: str) -> None:
+    """Error vs bytes per probe (``floats × 4``): points from the three.js export (``L2+K``,
+    ``K = 0 …``), spheres in shbake's shader (``spheres+K``), ``lmax4`` and ``ZH3``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ks = range(1, max_lights + 1)
+    chains = (("L2", "o-", 1.0), ("spheres", "s--", 0.6))  # L2+K: points, spheres+K: spheres
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharex=True)
+    for i, (m, r) in enumerate(results.items()):
+        colour = f"C{i}"
+        for ax, stat in zip(axes, ("mean", "max"), strict=True):
+            for prefix, style, alpha in chains:
+                keys = ["L2+0"] + [f"{prefix}+{k}" for k in ks]
+                ax.semilogy([r[k]["floats"] * BYTES_PER_FLOAT for k in keys],
+                            [r[k][stat] * 100 for k in keys], style, color=colour, alpha=alpha,
+                            label=m if prefix == "L2" else None)  # fmt: skip
+            for k, marker in (("lmax4", "^"), ("ZH3", "v")):
+                ax.semilogy(r[k]["floats"] * BYTES_PER_FLOAT, r[k][stat] * 100, marker,
+                            color=colour, mfc="none")  # fmt: skip
+    for ax, stat, limit in zip(axes, ("mean", "max"), (1.0, 10.0), strict=True):
+        ax.axhline(limit, color="k", ls="--", lw=0.8)
+        ax.set_xlabel("bytes per probe (float32)")
+        ax.set_ylabel(f"{stat} relative irradiance error, %")
+        ax.set_title(f"{stat}: points (o-), spheres (s--), lmax 4 (^), ZH3 (v)", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("maps", nargs="*", default=list(MAPS))
@@ -418,17 +456,20 @@ def main():
     )
     ap.add_argument("--starts", type=int, default=60)
     ap.add_argument("--out", default=str(RESULTS / "irradiance_lights"))
+    ap.add_argument("--replot", action="store_true",
+                    help="measure nothing: report and plot PREFIX.json")  # fmt: skip
     args = ap.parse_args()
     stored = Path(args.out + ".json")
     results = json.loads(stored.read_text()) if stored.exists() else {}
     with tempfile.TemporaryDirectory() as tmp:
-        for m in args.maps:
+        for m in [] if args.replot else args.maps:
             new = measure(m, args.max_lights, tmp, args.starts if m in args.search else 0)
             results[m] = results.get(m, {}) | new
     Path(args.out + ".json").write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
     report = markdown(results, args.max_lights)
     Path(args.out + ".md").write_text(report)
     plot(results, args.max_lights, args.out + ".png")
+    plot_bytes(results, args.max_lights, args.out + "-bytes.png")
     print(report)
 
 
