@@ -193,7 +193,7 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
     )
     written = result["written"]
     for m in result["measured"]:
-        info(f"{m['input']}: " + headline_line(m["error"]), quiet)
+        info(f"{m['input']}: " + measured_line(m), quiet)
     for summary in result["bakes"]:
         info(bake_line(summary), quiet)
         for w in summary["warnings"]:
@@ -207,6 +207,21 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
                    "measured": result["measured"], "glossy": result["glossy"]})  # fmt: skip
     else:
         info(f"wrote {written[0]} ({target})" + also_wrote(written[1:]), quiet)
+
+
+def measured_line(entry: dict) -> str:
+    """An asset input's ``--report`` entry (:func:`shbake.batch.export_map.measure_asset`) on
+    one line: the headline error of what the engine evaluates, a BRDF table's error (``webgl``)
+    with its parts, or why nothing was measured."""
+    error = entry["error"]
+    if error is None:
+        return f"not measured ({entry['kind']}: {entry['note']})"
+    if entry.get("kind") != "brdf_table":
+        return headline_line(error)
+    return (f"error {error['value']:.2e} (relative L2 over the sphere, mean of {error['views']} "
+            f"views) of the {error['quantity']}; parts: truncation at lmax {error['lmax']} "
+            f"{error['truncation']:.2e}, coefficients (quadrature + bilinear look-up) "
+            f"{error['coefficients']:.2e}")  # fmt: skip
 
 
 def bake_line(summary: dict) -> str:

@@ -67,6 +67,22 @@ def table_error(brdf, table: np.ndarray, lmax: int, reference_samples: int) -> d
             "views": len(views)}  # fmt: skip
 
 
+def written_table_error(asset) -> dict | None:
+    """:func:`table_error` of a ``brdf_table`` asset as read back, at the parameter point its
+    consumers take unless told (each axis's first value,
+    :func:`~shbake.format.brdf_table.table_at`), the BRDF rebuilt from the asset's record:
+    the headline ``brdf-table`` printed when it wrote the asset, with the table's ``lmax``.
+    ``None`` for a measured (``merl``) BRDF: the MERL file the asset records is not read (an
+    asset makes shbake read no file but its hash-checked source map, docs/SECURITY.md §3)."""
+    from shbake.batch.plan import REFERENCE_SAMPLES  # the scene bake's reference (start-up)
+
+    table = table_at(asset)
+    if table.model == "merl":
+        return None
+    errors = table_error(table.make_brdf(), table.coeffs, table.lmax, REFERENCE_SAMPLES)
+    return errors | {"lmax": table.lmax}
+
+
 def bake_brdf_table(
     model: str,
     output: str,

@@ -195,16 +195,18 @@ def _chain_report(path, cfg, env, levels, rotation, bake_s) -> dict:
 
 
 def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 2048,
-                 scene_check: bool = False) -> tuple[dict, dict]:  # fmt: skip
+                 scene_check: bool = False, whole: bool = False) -> tuple[dict, dict]:  # fmt: skip
     """The error of what an engine evaluates from any SH export of the ``env_sh`` asset (its
-    9 irradiance coefficients and lights) against brute force of its source map (the
-    recorded one, or ``env_path``; hash-checked), in the asset's pose, at ``n_dirs``
-    Fibonacci directions (:func:`shbake.evaluation.env_sh.export_irradiance_errors`), and
-    how it was measured (``{"irradiance": method}``). ``scene_check``: the scene bake's
-    reference, as cheap as the bake (:func:`shbake.evaluation.env_sh.check_reference`, its
-    own direction count), instead of the texel-by-texel sum."""
+    9 irradiance coefficients and lights; ``whole``: all its irradiance coefficients, what
+    ``--to webgl`` draws) against brute force of its source map (the recorded one, or
+    ``env_path``; hash-checked), in the asset's pose, at ``n_dirs`` Fibonacci directions
+    (:func:`shbake.evaluation.env_sh.export_irradiance_errors`), and how it was measured
+    (``{"irradiance": method}``). ``scene_check``: the scene bake's reference, as cheap as
+    the bake (:func:`shbake.evaluation.env_sh.check_reference`, its own direction count),
+    instead of the texel-by-texel sum."""
     from shbake.envmap.turn import turn_matrix
     from shbake.evaluation.env_sh import (
+        EXPORT_COEFFS,
         brute_force_reference,
         check_reference,
         export_irradiance_errors,
@@ -221,7 +223,8 @@ def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 204
     else:
         ref = brute_force_reference(env, n_dirs=n_dirs, names=("irradiance",))
         methods = {"irradiance": "brute-force"}
-    return export_irradiance_errors(asset, env, ref, rotation=turn), methods
+    coeffs = None if whole else EXPORT_COEFFS
+    return export_irradiance_errors(asset, env, ref, rotation=turn, coeffs=coeffs), methods
 
 
 def load_webgl(assets: list[str], env_path: str | None = None) -> list[tuple[dict, dict]]:

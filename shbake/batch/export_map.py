@@ -62,11 +62,11 @@ def export_inputs(
 
     The baked asset is an output of the run's transaction, read back by the export and
     then discarded; ``keep_asset`` (one map input) keeps it there. ``report``: an asset
-    input's export is measured too (:func:`shbake.batch.export.export_error`; a map's
-    always is; a target with cube maps: each input's chain as its engine reads it,
+    input's export is measured too (:func:`measure_asset`; a map's always is; a target with
+    cube maps: each input's chain as its engine reads it,
     :func:`shbake.batch.export.export_assets` ``glossy_report``). Returns ``{"written": files,
-    "bakes": [the project-env summary of each map], "measured": [{"input", "error"} of each
-    measured asset input], "glossy": [the chain report of each input]}``. Settings of
+    "bakes": [the project-env summary of each map], "measured": [the :func:`measure_asset`
+    entry of each asset input], "glossy": [the chain report of each input]}``. Settings of
     :data:`MAP_OPTIONS` named in ``explicit`` without a map input, or of
     :data:`TARGET_OPTIONS` the target does not read, raise
     :class:`~shbake.errors.ParameterError` before anything is baked; an asset input the
@@ -111,8 +111,7 @@ def export_inputs(
                                              explicit=explicit, glossy_report=glossy,
                                              **options)  # fmt: skip
                 if report and target != "ktx2":  # ktx2 carries cube maps, no SH
-                    errors, _ = export_error(path, options.get("env_path"))
-                    measured.append({"input": path, "error": headline_error({"export": errors})})
+                    measured.append(measure_asset(path, target, options.get("env_path")))
                 continue
             folder = out if not one_file else os.path.dirname(os.path.abspath(out))
             stem = os.path.splitext(os.path.basename(path))[0]
@@ -148,4 +147,52 @@ def export_inputs(
     return {"written": written, "bakes": bakes, "measured": measured, "glossy": glossy or []}
 
 
-__all__ = ["MAP_DEFAULTS", "MAP_OPTIONS", "export_inputs"]
+WEBGL_NOT_MEASURED = {
+    "shexp_probe": "probe-fit prints its error against brute force",
+    "shexp_probe_set": "probe-fit prints each probe's error against brute force",
+    "splitsum_probe": "shbake has no error model for split-sum",
+    "shrm": "shrm --report measures it against brute force",
+}
+"""Why ``export --to webgl --report`` measures no asset of these kinds: the export draws the
+asset's own coefficients, whose error the command that baked it reports."""
+WEBGL_TABLE = ("BRDF table the kautz pass reads (f* rebuilt from its look-up vs f* itself, "
+               "the brdf-table headline)")  # fmt: skip
+"""What ``export --to webgl --report`` measures of a ``brdf_table`` asset."""
+
+
+def measure_asset(path: str, target: str, env_path: str | None = None) -> dict:
+    """The ``--report`` entry ``{"input", "error"}`` of the asset input ``path`` exported to
+    ``target`` (not ``ktx2``: cube maps, no SH): the headline
+    (:func:`~shbake.batch.project_env.headline_error`) of what the engine evaluates
+    (:func:`~shbake.batch.export.export_error`: 9 irradiance coefficients and the lights,
+    against brute force of ``env_path`` or the recorded source map).
+
+    ``webgl`` (``"kind"`` added) measures by the asset's kind, and ``env_path`` there is the
+    ``env_sh`` asset lighting the tables, never a source map: an ``env_sh`` asset's whole
+    irradiance SH and lights, what the webgl passes draw, against its recorded source map; a
+    ``brdf_table`` at the point the export draws (:data:`WEBGL_TABLE`,
+    :func:`~shbake.batch.brdf_table.written_table_error`: ``{"quantity", "value",
+    "truncation", "coefficients", "views", "lmax"}``); where nothing is measured (a measured
+    MERL BRDF, :data:`WEBGL_NOT_MEASURED`) ``error`` is ``None`` and ``note`` says why."""
+    if target != "webgl":
+        errors, _ = export_error(path, env_path)
+        return {"input": path, "error": headline_error({"export": errors})}
+    from shbake.format.asset import read_asset
+    from shbake.format.exports.webgl import TEXTURES_OF_KIND
+
+    asset = read_asset(path, kinds=tuple(TEXTURES_OF_KIND))
+    entry = {"input": path, "kind": asset.kind, "error": None}
+    if asset.kind == "env_sh":
+        errors, _ = export_error(path, whole=True)
+        return entry | {"error": headline_error({"irradiance": errors})}
+    if asset.kind != "brdf_table":
+        return entry | {"note": WEBGL_NOT_MEASURED[asset.kind]}
+    from shbake.batch.brdf_table import written_table_error
+
+    errors = written_table_error(asset)
+    if errors is None:
+        return entry | {"note": "a measured BRDF, whose MERL file export does not read"}
+    return entry | {"error": {"quantity": WEBGL_TABLE, "value": errors.pop("error"), **errors}}
+
+
+__all__ = ["MAP_DEFAULTS", "MAP_OPTIONS", "WEBGL_NOT_MEASURED", "export_inputs", "measure_asset"]

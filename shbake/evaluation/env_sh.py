@@ -104,14 +104,15 @@ def irradiance_errors(
 
 def export_irradiance_errors(
     asset: Asset, env: Environment, reference: dict | None = None, progress=NO_PROGRESS,
-    rotation=None,
+    rotation=None, coeffs: int | None = EXPORT_COEFFS,
 ) -> dict:  # fmt: skip
-    """Luminance errors of the irradiance an engine evaluates from any SH export of the asset
-    (:data:`EXPORT_COEFFS` coefficients of ``/irradiance/sh`` and the asset's directional
-    lights, what every target writes) against brute force of ``env``, as
-    :func:`irradiance_errors` measures the asset's own: ``{"mean", "max", "relative_rms"}``.
-    The frame a target turns both into changes none of them."""
+    """Luminance errors of the irradiance an engine evaluates from an SH export of the asset
+    (the first ``coeffs`` coefficients of ``/irradiance/sh`` — :data:`EXPORT_COEFFS`, what
+    every engine target writes; ``None``: all of them, what ``--to webgl`` draws — and the
+    asset's lights) against brute force of ``env``, as :func:`irradiance_errors` measures the
+    asset's own: ``{"mean", "max", "relative_rms"}``. The frame a target turns both into
+    changes none of them."""
     cut = Asset(asset.kind, asset.attrs, {
-        k: (v[:EXPORT_COEFFS] if k == "/irradiance/sh" else v)
+        k: (v[:coeffs] if k == "/irradiance/sh" else v)
         for k, v in asset.datasets.items() if not k.startswith("/tangent_irradiance")})  # fmt: skip
     return irradiance_errors(cut, env, reference, progress, rotation)["irradiance"]

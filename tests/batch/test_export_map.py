@@ -343,3 +343,86 @@ class TestWebglBatch:
                              "--env", batch["good"])  # fmt: skip
         assert_failed(result, 1, "--env is read for brdf_table assets only")
         assert calls == []
+
+
+class TestWebglReport:
+    """``export … --to webgl --report``: each asset input measured by its kind. It failed in
+    one line for any table (read as an ``env_sh`` asset) and for an ``env_sh`` asset beside
+    one (measured against the ``--env`` asset, taken for its source map)."""
+
+    @pytest.fixture(scope="class")
+    @classmethod
+    def inputs(cls, tmp_path_factory, sky):
+        """The sky baked at lmax 4 with its whole irradiance SH (``--irradiance-lmax 4``, its
+        ``project-env --report`` summary beside it), a Phong table baked as ``brdf-table``
+        bakes it (its summary), a table of a constant MERL BRDF and an SH-exp probe
+        (:mod:`tests.assets_examples`)."""
+        from shbake.batch.brdf_table import bake_brdf_table
+        from shbake.batch.project_env import project_environment
+        from shbake.format.asset import write_asset
+        from tests.assets_examples import example
+        from tests.helpers import write_merl
+
+        folder = tmp_path_factory.mktemp("webgl-report")
+        env, table, merl, probe = (str(folder / n) for n in ("env.h5", "table.h5", "merl.h5",
+                                                             "probe.h5"))  # fmt: skip
+        write_asset(probe, example("shexp_probe", sky))
+        write_merl(folder / "flat.binary", np.full((3, 90, 90, 180), 0.1))
+        bake_brdf_table("merl", merl, merl_path=str(folder / "flat.binary"), lmax=2, size=(4, 4),
+                        samples=64)  # fmt: skip
+        return {
+            "env": env, "table": table, "merl": merl, "probe": probe, "sky": sky,
+            "env_summary": project_environment(sky, env, lmax=4, irradiance_lmax=4,
+                                               report=True, quiet=True),
+            "table_summary": bake_brdf_table("phong", table, {"n": "8"}, lmax=2, size=(8, 8),
+                                             samples=64),
+        }  # fmt: skip
+
+    def test_table_alone(self, tmp_path, run_cli, inputs):
+        """The filed case: a table alone, lit by ``--env``; its error is the one
+        ``brdf-table`` printed when it wrote it."""
+        code, out, err = run_cli("export", inputs["table"], "--to", "webgl", "-o", tmp_path / "d",
+                                 "--env", inputs["env"], "--report", "--json")  # fmt: skip
+        assert code == 0, err
+        (m,) = json.loads(out)["measured"]
+        assert (m["input"], m["kind"]) == (inputs["table"], "brdf_table")
+        assert m["error"]["value"] == pytest.approx(inputs["table_summary"]["error"], rel=1e-9)
+        assert m["error"]["lmax"] == 2 and m["error"]["views"] == 32
+        assert err.startswith(f"{inputs['table']}: error {m['error']['value']:.2e} ")
+
+    @pytest.mark.parametrize("first", ["env", "sky"])
+    def test_env_and_table_batch(self, tmp_path, run_cli, inputs, first):
+        """``ENV.h5 TABLE.h5 --env ENV.h5`` (and a map beside the table): the ``env_sh`` asset
+        is measured against its own source map, the whole irradiance SH webgl draws (lmax 4:
+        what ``project-env --report`` measured of the asset, not the 9 coefficients of the
+        engine targets); no file left but the exports."""
+        code, out, err = run_cli("export", inputs[first], inputs["table"], "--to", "webgl",
+                                 "--out-dir", tmp_path / "d", "--env", inputs["env"], "--report",
+                                 "--json")  # fmt: skip
+        assert code == 0, err
+        assert listing(tmp_path / "d") == sorted([first, "table"])
+        summary = json.loads(out)
+        kinds = [m["kind"] for m in summary["measured"]]
+        assert kinds == (["env_sh", "brdf_table"] if first == "env" else ["brdf_table"])
+        if first == "env":
+            head = summary["measured"][0]["error"]
+            parts = inputs["env_summary"]["report"]["error_vs_brute_force"]
+            assert head["value"] == pytest.approx(parts["irradiance"]["relative_rms"], rel=1e-9)
+            assert head["quantity"] == "irradiance of the asset (its irradiance SH + lights)"
+        else:
+            assert [b["input"] for b in summary["bakes"]] == [inputs["sky"]]
+
+    @pytest.mark.parametrize("name", ["probe", "merl"])
+    def test_unmeasured_input_says_so(self, tmp_path, run_cli, inputs, name):
+        """A probe's webgl export draws its coefficients, whose error probe-fit reports; a MERL
+        table's BRDF is a file export does not read: one line says it is not measured, and
+        why; exit 0."""
+        env = ["--env", inputs["env"]] if name == "merl" else []
+        code, out, err = run_cli("export", inputs[name], "--to", "webgl", "-o", tmp_path / "d",
+                                 *env, "--report", "--json")  # fmt: skip
+        assert code == 0, err
+        (m,) = json.loads(out)["measured"]
+        kind, why = {"probe": ("shexp_probe", "probe-fit prints its error"),
+                     "merl": ("brdf_table", "a measured BRDF, whose MERL file")}[name]  # fmt: skip
+        assert (m["kind"], m["error"]) == (kind, None)
+        assert err.startswith(f"{inputs[name]}: not measured ({kind}: {why}")
