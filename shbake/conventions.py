@@ -15,7 +15,7 @@ Units
 
 import numpy as np
 
-from shbake.errors import ParameterError
+from shbake.errors import InputError, ParameterError
 
 LMAX_LIMIT = 128
 """Largest ``lmax`` shbake accepts anywhere."""
@@ -131,6 +131,39 @@ def check_samples(n, lo: int = 16, hi: int = SAMPLES_LIMIT, name: str = "samples
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or not lo <= n <= hi:
         raise ParameterError(f"{name} must be an integer in [{lo}, {hi}], got {n}")
     return int(n)
+
+
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+"""Largest finite float32 (3.4028235e38): the most a map's texel (decoded as float32) or a
+float32 dataset, texture or image holds."""
+
+
+def to_float32(values, source: str, step: str) -> np.ndarray:
+    """``values`` as float32, refused in one line (:class:`~shbake.errors.InputError`:
+    ``SOURCE: values too large to store in float32 after STEP (largest …)``) where a finite
+    value rounds beyond :data:`FLOAT32_MAX`, which a plain cast stores as ±inf with numpy's
+    "overflow encountered in cast"; NaN and ±inf already there pass as they are.
+    ``source`` names the input the values come from (a map), ``step`` what made them.
+
+    >>> to_float32([1.0, 3e38], "sky.exr", "x").dtype
+    dtype('float32')
+    >>> to_float32([1e39], "m.exr", "x")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    shbake.errors.InputError: m.exr: values too large to store in float32 after x (largest 1e+39...
+    """
+    a = np.asarray(values)
+    with np.errstate(over="ignore"):
+        out = a.astype(np.float32)
+    if np.isfinite(out).all():
+        return out
+    over = np.isinf(out) & np.isfinite(a)
+    if over.any():
+        peak = float(np.abs(a[over]).max())
+        raise InputError(f"{source}: values too large to store in float32 after {step} "
+                         f"(largest {peak:.4g}; float32 holds at most {FLOAT32_MAX:.4g}): "
+                         "scale the map down")  # fmt: skip
+    return out
 
 
 CUBE_FACES = (

@@ -40,7 +40,7 @@ from shbake.brdf.reflection import (
     check_P,
     select_orders,
 )
-from shbake.conventions import n_coeffs
+from shbake.conventions import n_coeffs, to_float32
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
 from shbake.resources import check_memory
@@ -363,7 +363,10 @@ def bake_shrm(env, rb: ReflectionBRDF, eps: float = 0.03, F=None, P=None, face_s
     face size from ``F`` unless given (:func:`auto_face_size`). ``coeffs_full``
     may pass precomputed coefficients to ``(F_LIMIT, P_search)`` (benchmarks).
     ``rotation``: turn the environment by ``R`` first (a scene probe's pose,
-    :mod:`shbake.envmap.turn`): the lighting becomes ``M(R) L``, exactly.
+    :mod:`shbake.envmap.turn`): the lighting becomes ``M(R) L``, exactly. A cube whose
+    coefficients float32 cannot hold (a map near the float32 limit: a constant map's ``L_00``
+    is ``√(4π)`` times its radiance) is refused in one line naming the map
+    (:func:`~shbake.conventions.to_float32`).
     """
     eps = check_eps(eps)
     F, P = check_F(F), check_P(P)
@@ -391,6 +394,7 @@ def bake_shrm(env, rb: ReflectionBRDF, eps: float = 0.03, F=None, P=None, face_s
     t2 = time.perf_counter()
     cube = shrm_cube(L, coeffs, size, rb.kind)
     t3 = time.perf_counter()
+    stored = to_float32(cube, env.meta.get("path", "the map"), "the SHRM projection")
     bound = residual_bound(L, light_energy, coeffs, orders.F, orders.P)
     timings = {"brdf": t1 - t0, "light": t2 - t1, "shrm": t3 - t2, "total": t3 - t0}
-    return ShrmBake(cube.astype(np.float32), rb, orders, size, coeffs, bound, timings, L)
+    return ShrmBake(stored, rb, orders, size, coeffs, bound, timings, L)

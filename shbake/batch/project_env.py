@@ -14,7 +14,7 @@ import numpy as np
 
 from shbake.bakers.env_lights import MAX_LIGHTS
 from shbake.bakers.env_sh import bake_env_sh, check_lights, truncation_report
-from shbake.conventions import check_lmax
+from shbake.conventions import check_lmax, to_float32
 from shbake.envmap import load_environment
 from shbake.envmap import sun as sun_light
 from shbake.envmap.layouts import latlong_directions
@@ -274,6 +274,7 @@ def project_environment_asset(
             peak = float(np.abs(img).max())
             if not float_exr and peak > HALF_MAX:
                 raise OutputError(f"{name}: value {peak:.6g} overflows half float; use --float-exr")
+            to_float32(img, env_path, f"the --exr-dir map {name}")  # before any output
     if report:
         projected = environment
         if extract_sun and summary.get("sun", {}).get("extracted"):

@@ -186,7 +186,7 @@ def _load_environment(path, layout, colorspace, negative, fix_nonfinite, quiet) 
     layout = check_layout(layout, h, w) if layout else detect_layout(h, w, info["envmap"])
     rgb, nonfinite = repair_nonfinite(rgb, fix_nonfinite, path)
     if colorspace:
-        rgb = to_working_space(rgb, colorspace)
+        rgb = to_working_space(rgb, colorspace, path)
     if layout == "latlong":  # every texel is valid; one solid angle per row
         omega = np.broadcast_to(latlong_row_solid_angles(h, w)[:, None], (h, w))
         rgb = rgb.astype(np.float32, copy=False)

@@ -26,6 +26,7 @@ from shbake.format.asset import write_asset
 from shbake.format.exports import TARGETS
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.shader import shader
+from tests.faults import assert_failed, unchanged
 from tests.helpers import ktx2_levels, map_path, write_test_exr
 
 pytestmark = pytest.mark.extremes
@@ -343,7 +344,9 @@ class TestFloat32Limit:
     ("overflow encountered in reduce" on every command), and the importance pyramid
     (``envmap.importance.latlong_pyramid``) summed texel pairs in float32: its levels held
     inf, and so did the filtered split-sum levels; on a map of such texels everywhere the
-    SH-exp fit's targets were NaN (the probe refused as invalid)."""
+    SH-exp fit's targets were NaN (the probe refused as invalid). What a step makes beyond
+    float32 from such texels is refused in one line naming the map and the step
+    (:func:`shbake.conventions.to_float32`)."""
 
     @pytest.mark.parametrize("where", ["patches", "everywhere"])
     def test_no_overflow_and_no_warning(self, tmp_path, where):
@@ -376,3 +379,47 @@ class TestFloat32Limit:
             config = SplitSumConfig(top=16, min_size=8, alphas=(0.01, 1.0), samples=64,
                                     prefilter="filtered")  # fmt: skip
             assert all(np.all(np.isfinite(lv)) for lv in prefilter_chain(env.pixels, config))
+
+    @pytest.mark.parametrize("command", ["shrm", "probe-eval", "project-env"])
+    def test_stored_float32_overflow_is_one_line(self, tmp_path, run_cli, command):
+        """A map of 3.4e38 everywhere: its SHRM coefficients (``L_00`` is ``√(4π)`` times
+        the radiance) and its irradiance (``π`` times) are beyond float32. ``shrm`` refused
+        the asset for "non-finite values", ``probe-eval`` printed "RuntimeWarning: overflow
+        encountered in cast" (exit 0, its SHRM's errors inf) and ``project-env --exr-dir
+        --float-exr`` refused "to write non-finite values"; each is one line naming the map
+        and the step, exit 1, no warning, the old outputs byte-identical, nothing new."""
+        path = write_test_exr(tmp_path / "limit.exr", np.full((H, 2 * H, 3), 3.4e38, np.float32))
+        out = tmp_path / "out"
+        out.mkdir()
+        for name in ("old.h5", "old.md"):
+            (out / name).write_text("old")
+        args = {
+            "shrm": ["shrm", path, "-o", out / "old.h5", "--brdf", "phong", "-p", "n=8"],
+            "probe-eval": ["probe-eval", path, "--size", "8", "--samples", "32", "--roughness",
+                           "0.5", "--face-size", "8", "-o", out / "old.md"],
+            "project-env": ["project-env", path, "-o", out / "old.h5", "--exr-dir",
+                            out / "maps", "--float-exr"],
+        }[command]  # fmt: skip
+        step = "the --exr-dir map irradiance.exr" if command == "project-env" else "the SHRM"
+        with unchanged(tmp_path):
+            result = run_cli(*args)
+        assert_failed(result, 1, f"{path}: values too large to store in float32 after {step}")
+        assert "warning" not in result[2], result[2]
+
+    @pytest.mark.parametrize("command", ["project-env", "shrm", "export"])
+    def test_colour_conversion_overflow_is_one_line(self, tmp_path, run_cli, command):
+        """A 3e38 ACEScg red texel is 5.1e38 in linear Rec.709: the conversion made it inf
+        after the map's NaN/Inf check, and the bake refused its "invalid asset … non-finite
+        values". It is refused at the conversion: one line naming the map and the conversion,
+        exit 1, nothing written."""
+        px = np.ones((H, 2 * H, 3), np.float32)
+        px[8:10, 20:22] = (3e38, 0.0, 0.0)
+        path = write_test_exr(tmp_path / "red.exr", px)
+        output = {"project-env": "red.h5", "shrm": "red.h5", "export": "red.json"}[command]
+        target = ["--to", "threejs"] if command == "export" else []
+        with unchanged(tmp_path):
+            result = run_cli(command, path, *target, "-o", tmp_path / output, "--colorspace",
+                             "ACEScg")  # fmt: skip
+        assert_failed(result, 1, f"{path}: values too large to store in float32 after the "
+                                 "colour conversion from ACEScg to linear Rec.709 ")  # fmt: skip
+        assert "warning" not in result[2], result[2]
