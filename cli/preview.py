@@ -64,7 +64,7 @@ from shbake.batch.preview import ALL_PASSES, preview_asset
     "merl_path",
     type=click.Path(dir_okay=False),
     default=None,
-    help="MERL file of a merl table (default: the recorded path).",
+    help="MERL file of a merl table or SHRM (its reference and --diff need it).",
 )
 @roughness_opts(0.5, "Probes: the sphere's GGX roughness, within the probe's fitted range")
 @click.option(

@@ -52,14 +52,23 @@ KIND_OPTIONS = {
 _PROBE_OPTIONS = frozenset(("roughness", "alpha", "f0", "samples"))
 OPTIONS_OF_KIND = {
     "env_sh": frozenset(("table_path", "at", "merl_path")),
-    "shrm": frozenset(),
+    "shrm": frozenset(("merl_path",)),
     "shexp_probe": _PROBE_OPTIONS,
     "splitsum_probe": _PROBE_OPTIONS,
     "shexp_probe_set": _PROBE_OPTIONS | {"index"},
 }
 """The :data:`KIND_OPTIONS` an asset of each kind reads: env_sh the Kautz table's
 (``--table``, ``--at``, ``--merl``), probes the glossy sphere's (``--roughness``/
-``--alpha``, ``--f0``, ``--samples``; sets also ``--index``), shrm none."""
+``--alpha``, ``--f0``, ``--samples``; sets also ``--index``), shrm a measured BRDF's
+``--merl``."""
+
+
+def _measured(sh) -> bool:
+    """Whether the ground truth of shader ``sh`` is a measured (MERL) BRDF: a Kautz table's
+    or an SHRM's, whose MERL file only ``--merl`` names (docs/SECURITY.md §3)."""
+    if sh.truth == "brdf":
+        return sh.table.model == "merl"
+    return sh.truth == "reflection" and sh.brdf()[0] == "merl"
 
 
 PIXEL_BYTES = 256
@@ -175,6 +184,10 @@ def preview_asset(
     sh = shader(asset, technique, **companions)
     material, summary, text = _material(sh, roughness, f0)
     needs_source = reference or diff
+    if needs_source and merl_path is None and _measured(sh):
+        raise ParameterError(f"{table_path if sh.truth == 'brdf' else asset_path}: a measured "
+                             f"(merl) BRDF: give its MERL file with --merl (the path the asset "
+                             f"records is not followed)")  # fmt: skip
     coeffs = 0 if reference else sh.point_coeffs  # a reference pass runs no shader
     check_preview_memory(size, diff, coeffs)
     src = reload_source(asset, asset_path, source) if needs_source else None

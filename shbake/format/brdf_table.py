@@ -196,11 +196,13 @@ class BRDFTable:
     attrs: dict
 
     def make_brdf(self, merl_path: str | None = None) -> "BRDF":
-        """The tabulated BRDF, rebuilt from the recorded model and parameters."""
+        """The tabulated BRDF, rebuilt from the recorded model and parameters; a measured
+        (``merl``) one from ``merl_path``, the MERL file the user gave: the path the asset
+        records (``source``) is never followed (docs/SECURITY.md §3)."""
         from shbake.brdf.model import make_brdf
 
         if self.model == "merl":
-            return make_brdf("merl", merl_path=merl_path or self.source, **self.params)
+            return make_brdf("merl", merl_path=merl_path, **self.params)
         return make_brdf(self.model, **self.params)
 
 

@@ -10,12 +10,14 @@ shader's :meth:`~shbake.shading.shader.Shader.shade` approximates, in the same u
     ``k_d E(t)``, the Kajiya–Kay tangent irradiance, same function;
 ``brdf``
     :func:`~shbake.reference.brdf_shading.brute_force_shading` with the BRDF a Kautz
-    table tabulates (``merl_path``: its measured data), in the shader's frames;
+    table tabulates (``merl_path``: its measured data, the file the user gave), in the
+    shader's frames;
 ``ggx``
     ``F0 E0 + (1 − F0) E1`` by :func:`~shbake.reference.ggx.ggx_integrals` (``samples``
     per pixel; lat-long maps);
 ``reflection``
-    :func:`~shbake.reference.reflection.brute_force_reflection` of the BRDF an SHRM baked.
+    :func:`~shbake.reference.reflection.brute_force_reflection` of the BRDF an SHRM baked
+    (``merl_path``: a measured one's data).
 
 Each takes ``(shader, env, normals, views, tangents, **settings)`` and reads from the
 shader only what describes the BRDF (never its coefficients): the references stay
@@ -68,11 +70,12 @@ def ggx_truth(shader, env, normals, views, tangents=None, rotation=None, alpha=N
     return f0 * e0 + (1.0 - f0) * e1
 
 
-def reflection_truth(shader, env, normals, views, tangents=None, rotation=None, **settings):
-    model, params, source = shader.brdf()
+def reflection_truth(shader, env, normals, views, tangents=None, rotation=None, merl_path=None,
+                     **settings):  # fmt: skip
+    model, params, _ = shader.brdf()  # the recorded MERL source is not followed (``merl_path``)
     view = np.asarray(views, dtype=np.float64).reshape(-1, 3)[0]
     return brute_force_reflection(*_samples(env, rotation), shader.kind, model, params,
-                                  normals, view, tangents, source)  # fmt: skip
+                                  normals, view, tangents, merl_path or "")  # fmt: skip
 
 
 TRUTHS = {

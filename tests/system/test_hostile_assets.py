@@ -19,6 +19,7 @@ from shbake.errors import FormatError
 from shbake.format.asset import LINKS_MAX, read_asset, write_asset
 from tests.assets_examples import example, write_map
 from tests.faults import PREVIEW_OF_KIND, assert_failed, shbake, unchanged
+from tests.helpers import write_merl
 
 ROOT = Path(__file__).resolve().parents[2]
 SH = "/lighting/sh"
@@ -244,6 +245,42 @@ class TestCommands:
             assert_failed(run_cli("preview", ws / "env.h5", "--pass", "kautz", "--table", path,
                                   "-o", tmp_path / "p.exr", "--size", 8),
                           fragment="dataset /table keeps its bytes")  # fmt: skip
+
+    def test_recorded_merl_not_followed(self, run_cli, ws, tmp_path):
+        """A measured table records its MERL file; the reference of ``preview --pass kautz``
+        read whatever file was found there (no hash, not an image). It needs ``--merl``."""
+        merl = tmp_path / "m.binary"
+        write_merl(merl, np.full((3, 90, 90, 180), 1.0 / np.pi))
+        table = tmp_path / "t.h5"
+        assert run_cli("brdf-table", "merl", "--merl", merl, "--size", 4, "--samples", 16,
+                       "--lmax", 2, "-o", table, "-q")[0] == 0  # fmt: skip
+        write_merl(merl, np.full((3, 90, 90, 180), 0.5 / np.pi))  # another file, same path
+        for how in (["--pass", "kautz", "--diff"], ["--pass", "reference"]):
+            with unchanged(tmp_path):
+                msg = assert_failed(run_cli("preview", ws / "env.h5", "--table", table, *how,
+                                            "--size", 8, "-o", tmp_path / "p.exr"))  # fmt: skip
+            assert f"{table}: a measured (merl) BRDF: give its MERL file with --merl" in msg
+        merl.unlink()
+        code, _, err = run_cli("preview", ws / "env.h5", "--table", table, "--pass", "kautz",
+                               "--diff", "--size", 8, "--merl", tmp_path / "given.binary",
+                               "-o", tmp_path / "p.exr")  # fmt: skip
+        assert code == 1 and "given.binary" in err, err  # only the file given is opened
+
+    def test_recorded_merl_of_an_shrm_not_followed(self, run_cli, ws, tmp_path):
+        """An SHRM of a measured BRDF: its reference read the recorded MERL file too."""
+        merl = tmp_path / "m.binary"
+        write_merl(merl, np.full((3, 90, 90, 180), 1.0 / np.pi))
+        shrm = tmp_path / "s.h5"
+        assert run_cli("shrm", ws / "map.exr", "--brdf", "merl", "--merl", merl, "--F", 2,
+                       "--P", 1, "-o", shrm, "-q")[0] == 0  # fmt: skip
+        merl.unlink()
+        with unchanged(tmp_path):
+            msg = assert_failed(run_cli("preview", shrm, "--diff", "--size", 8,
+                                        "-o", tmp_path / "p.exr"))  # fmt: skip
+        assert f"{shrm}: a measured (merl) BRDF: give its MERL file with --merl" in msg
+        write_merl(tmp_path / "given.binary", np.full((3, 90, 90, 180), 1.0 / np.pi))
+        assert run_cli("preview", shrm, "--diff", "--size", 8, "--merl", tmp_path / "given.binary",
+                       "-o", tmp_path / "p.exr", "-q")[0] == 0  # fmt: skip
 
     @pytest.mark.parametrize("case", ["external-storage", "virtual", "external-link"])
     def test_fifo_never_opened(self, ws, tmp_path, case):
