@@ -256,7 +256,7 @@ def load_webgl(assets: list[str], env_path: str | None = None) -> list[tuple[dic
             context = (table, lighting_with_sun(env, table.lmax))
         else:
             context = None
-        exports.append(build_export(asset, os.path.basename(path), context))
+        exports.append(build_export(asset, os.path.basename(path), context, path))
     return exports
 
 

@@ -406,6 +406,30 @@ class TestFloat32Limit:
         assert_failed(result, 1, f"{path}: values too large to store in float32 after {step}")
         assert "warning" not in result[2], result[2]
 
+    @pytest.mark.parametrize("target", ["webgl", "ktx2"])
+    def test_export_of_an_asset_beyond_float32(self, tmp_path, run_cli, target):
+        """An env_sh asset baked from a map of 3.4e38 everywhere holds irradiance SH beyond
+        float32 (float64 in the asset): ``export --to webgl`` refused "KTX2 level has values
+        that float32 cannot hold", naming no file. One line naming the asset and the
+        texture, exit 1, no warning, the old export byte-identical; ``ktx2`` (half floats,
+        clamped with a warning naming the asset) still writes."""
+        path = write_test_exr(tmp_path / "limit.exr", np.full((H, 2 * H, 3), 3.4e38, np.float32))
+        asset = tmp_path / "limit.h5"
+        assert run_cli("project-env", path, "-o", asset, "-q")[0] == 0
+        if target == "ktx2":
+            code, _, err = run_cli("export", asset, "--to", "ktx2", "-o", tmp_path / "e.ktx2")
+            assert code == 0 and "overflow" not in err, err
+            return
+        ok = write_test_exr(tmp_path / "ok.exr", np.ones((H, 2 * H, 3), np.float32))
+        out = tmp_path / "web"
+        assert run_cli("project-env", ok, "-o", tmp_path / "ok.h5", "-q")[0] == 0
+        assert run_cli("export", tmp_path / "ok.h5", "--to", "webgl", "-o", out, "-q")[0] == 0
+        with unchanged(tmp_path):
+            result = run_cli("export", asset, "--to", "webgl", "-o", out)
+        assert_failed(result, 1, f"{asset}: values too large to store in float32 after the "
+                                 "webgl texture uIrradiance")  # fmt: skip
+        assert "warning" not in result[2].lower(), result[2]
+
     @pytest.mark.parametrize("command", ["project-env", "shrm", "export"])
     def test_colour_conversion_overflow_is_one_line(self, tmp_path, run_cli, command):
         """A 3e38 ACEScg red texel is 5.1e38 in linear Rec.709: the conversion made it inf

@@ -33,6 +33,7 @@ from importlib import resources
 
 import numpy as np
 
+from shbake.conventions import to_float32
 from shbake.errors import InputError, OutputError
 from shbake.format.atomic import atomic_folder, atomic_path, makedirs, transaction, write_text
 from shbake.format.exports.ktx2 import EXTENSION as KTX2
@@ -69,9 +70,10 @@ SHADERS = {
 
 
 def _rgba(a: np.ndarray) -> np.ndarray:
-    """``(..., C)`` → ``(..., 4)`` float32, channels past ``C`` zero."""
+    """``(..., C)`` → ``(..., 4)`` float64, channels past ``C`` zero (stored as float32 by
+    :func:`build_export`)."""
     a = np.asarray(a, dtype=np.float64)
-    out = np.zeros(a.shape[:-1] + (4,), dtype="<f4")
+    out = np.zeros(a.shape[:-1] + (4,))
     out[..., : a.shape[-1]] = a
     return out
 
@@ -85,7 +87,7 @@ def coefficient_texture(coeffs: np.ndarray) -> np.ndarray:
     flat = np.asarray(coeffs, dtype=np.float64).reshape(-1, np.shape(coeffs)[-1])
     width = min(flat.shape[0], max(COEFF_ROW, math.isqrt(flat.shape[0] - 1) + 1))
     rows = -(-flat.shape[0] // width)
-    out = np.zeros((rows * width, 4), dtype="<f4")
+    out = np.zeros((rows * width, 4))
     out[: flat.shape[0]] = _rgba(flat)
     return out.reshape(rows, width, 4)
 
@@ -145,7 +147,7 @@ def _splitsum(asset, _lights):
         raise InputError(f"the split-sum probe has {n} levels; the shader holds {MAX_LEVELS}")
     levels = [np.asarray(asset[f"/levels/{k}"]) for k in range(n)]
     top = max(lv.shape[0] for lv in levels)
-    layers = np.zeros((n, top, top, 4), dtype="<f4")
+    layers = np.zeros((n, top, top, 4))
     for k, lv in enumerate(levels):
         layers[k, : lv.shape[0], : lv.shape[1]] = _rgba(lv)
     alphas = np.asarray(asset["/level_alpha"], dtype=np.float64)
@@ -324,18 +326,23 @@ def viewer_page(title: str) -> str:
     return env.get_template("viewer.html").render(title=title)
 
 
-def build_export(asset, name: str, context=None) -> tuple[dict, dict]:
+def build_export(asset, name: str, context=None, source: str | None = None
+                 ) -> tuple[dict, dict]:  # fmt: skip
     """The export of ``asset`` (a kind of :data:`TEXTURES_OF_KIND`, read from the file
-    ``name``) without writing anything: ``(manifest, {texture name: texels})``. Every check of
-    its kind runs here (at most :data:`MAX_LIGHTS` lights, a table's lmax, the levels and
-    coefficient sets the shaders hold: an :class:`~shbake.errors.InputError` naming ``name``).
+    ``name``) without writing anything: ``(manifest, {texture name: float32 texels})``. Every
+    check of its kind runs here (at most :data:`MAX_LIGHTS` lights, a table's lmax, the levels
+    and coefficient sets the shaders hold, texels float32 holds —
+    :func:`shbake.conventions.to_float32`: an :class:`~shbake.errors.InputError` naming
+    ``source``, the file as given, default ``name``).
     ``context``: what the kind's pass reads from elsewhere — an ``env_sh`` asset's lights
     ``(directions (K, 3), E (K, 3), radii (K,))`` (:func:`shbake.shading.env_sh.lights_of`),
     a ``brdf_table``'s ``(BRDFTable, L)``."""
     try:
         textures, uniforms, passes, params = TEXTURES_OF_KIND[asset.kind](asset, context)
     except InputError as e:
-        raise InputError(f"{name}: {e}") from None
+        raise InputError(f"{source or name}: {e}") from None
+    textures = {k: to_float32(t, source or name, f"the webgl texture {k}")
+                for k, t in textures.items()}  # fmt: skip
     manifest = {
         "format": "shbake-webgl",
         "version": 2,
