@@ -57,7 +57,7 @@ def example(kind: str, map_path) -> "object":
         conv = SimpleNamespace(view_errors=np.full((h, w), 1e-4), error=1e-4, samples=64,
                                seconds=0.0)  # fmt: skip
         return build_table_asset(
-            make_brdf("phong"), tables, [conv, conv], [("exponent", np.array([2.0, 8.0]))], 2,
+            make_brdf("phong", n=2.0), tables, [conv, conv], [("n", np.array([2.0, 8.0]))], 2,
             record_time=False,
         )  # fmt: skip
     config = FitConfig()
@@ -225,7 +225,7 @@ CORRUPTIONS = {
     "table-axes-missing": ("brdf_table", lambda f: f["/table"].attrs.__delitem__("axes"),
                            "axes"),
     "table-model-missing": ("brdf_table", _del("brdf_model"), "brdf_model"),
-    "table-axis-missing": ("brdf_table", _del("/axes/exponent"), "/axes/exponent"),
+    "table-axis-missing": ("brdf_table", _del("/axes/n"), "/axes/n"),
     "table-3d": ("brdf_table", _replace("/table", np.zeros((4, 4, 9), np.float32)), "axes"),
 }  # fmt: skip
 

@@ -64,6 +64,17 @@ class TestRoundTrip:
         for kind in registry.kinds():
             assert example(kind, tiny_map).kind == kind
 
+    def test_example_table_rebuilds_its_brdf(self, tiny_map, tmp_path):
+        """The example table varied an ``exponent`` Phong does not have: its BRDF could not
+        be rebuilt from the asset (a usage error). Every axis is a parameter of its model."""
+        from shbake.format.brdf_table import table_at
+
+        path = tmp_path / "t.h5"
+        write_asset(str(path), example("brdf_table", tiny_map))
+        for at in ({}, {"n": 8.0}):
+            brdf = table_at(read_asset(str(path)), at).make_brdf()
+            assert brdf.name == "phong" and brdf.values["n"] == at.get("n", 2.0)
+
     def test_same_bytes_twice(self, tiny_map, tmp_path):
         for kind in registry.kinds():
             a, b = tmp_path / "a.h5", tmp_path / "b.h5"
