@@ -96,6 +96,23 @@ def write_merl(path, values: np.ndarray) -> None:
         f.write((v / scales[:, None, None, None]).astype("<f8").tobytes())
 
 
+def repeat_first_light(src, dst, count: int) -> None:
+    """Copy the env_sh asset ``src`` to ``dst`` with its first light (direction, irradiance,
+    angular radius) repeated ``count`` times: a valid asset (the format has no light limit)
+    with more lights than a shader may hold."""
+    import shutil
+
+    import h5py
+
+    shutil.copy(src, dst)
+    with h5py.File(dst, "r+") as f:
+        for name in ("direction", "irradiance", "angular_radius"):
+            data, attrs = f[f"/lights/{name}"][()], dict(f[f"/lights/{name}"].attrs)
+            del f[f"/lights/{name}"]
+            f[f"/lights/{name}"] = np.repeat(data[:1], count, axis=0)
+            f[f"/lights/{name}"].attrs.update(attrs)
+
+
 @contextlib.contextmanager
 def local_cluster():
     """A 2-worker Dask cluster on 127.0.0.1 (processes, one thread each, logs silenced);

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from tests.faults import assert_failed, unchanged
-from tests.helpers import map_path, write_test_exr
+from tests.helpers import map_path, repeat_first_light, write_test_exr
 
 KTX2_IDENTIFIER = b"\xabKTX 20\xbb\r\n\x1a\n"
 """KTX 2.0 §3.1: the file's first 12 bytes."""
@@ -258,7 +258,6 @@ class TestWebglBatch:
     def batch(cls, tmp_path_factory, sky, assets):
         """``assets``, a Phong table (:mod:`tests.assets_examples`) and ``nine``: the sphere-light
         asset with its light repeated nine times (a valid asset; the shader holds 8)."""
-        import shutil
 
         from shbake.format.asset import read_asset, write_asset
         from tests.assets_examples import example
@@ -267,13 +266,7 @@ class TestWebglBatch:
         folder = tmp_path_factory.mktemp("webgl")
         table, nine = str(folder / "table.h5"), str(folder / "nine.h5")
         write_asset(table, example("brdf_table", sky))
-        shutil.copy(spheres, nine)
-        with h5py.File(nine, "r+") as f:
-            for name in ("direction", "irradiance", "angular_radius"):
-                data, attrs = f[f"/lights/{name}"][()], dict(f[f"/lights/{name}"].attrs)
-                del f[f"/lights/{name}"]
-                f[f"/lights/{name}"] = np.repeat(data[:1], 9, axis=0)
-                f[f"/lights/{name}"].attrs.update(attrs)
+        repeat_first_light(spheres, nine, 9)
         read_asset(nine)
         return {"good": good, "spheres": spheres, "table": table, "nine": nine}
 

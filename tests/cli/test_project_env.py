@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from shbake.format.asset import read_asset
-from tests.helpers import map_path, write_test_exr
+from tests.helpers import map_path, repeat_first_light, write_test_exr
 
 ESPLANADE = map_path("esplanade")
 
@@ -298,16 +298,8 @@ class TestLightShape:
     def test_webgl_export_refuses_more_lights_than_its_shader_holds(self, run_cli, tmp_path,
                                                                      sphere_asset):  # fmt: skip
         """Nine lights (a valid asset: the format has no limit; three.js takes them)."""
-        import shutil
-
         path = tmp_path / "nine.h5"
-        shutil.copy(sphere_asset, path)
-        with h5py.File(path, "r+") as f:
-            for name in ("direction", "irradiance", "angular_radius"):
-                data, attrs = f[f"/lights/{name}"][()], dict(f[f"/lights/{name}"].attrs)
-                del f[f"/lights/{name}"]
-                f[f"/lights/{name}"] = np.repeat(data[:1], 9, axis=0)
-                f[f"/lights/{name}"].attrs.update(attrs)
+        repeat_first_light(sphere_asset, path, 9)
         read_asset(str(path))
         code, _, err = run_cli("export", path, "--to", "webgl", "-o", tmp_path / "w")
         assert one_line_error(code, err) and "at most 8 lights" in err, err
