@@ -39,13 +39,23 @@ class TestJsonSummary:
         summary = _strict_json(capsys.readouterr().out)
         assert summary["samples_study"][0]["target_log_rms"] is None
 
-    def test_python_warnings_are_listed_also_under_quiet(self, tmp_path, capsys):
-        """numpy's overflow on a map of 3e38: one line on stderr after the run, and in the
-        summary's ``warnings`` with and without ``-q`` (docs/CLI.md ``--json``)."""
-        m = write_test_exr(tmp_path / "huge.exr", np.full((16, 32, 3), 3e38))
+    def test_python_warnings_are_listed_also_under_quiet(self, tmp_path, capsys, monkeypatch):
+        """A numpy warning raised inside the bake (a float32 overflow, put into the map's
+        loading: shbake's own sums no longer overflow on any finite map): one line on stderr
+        after the run, and in the summary's ``warnings`` with and without ``-q``
+        (docs/CLI.md ``--json``)."""
+        import shbake.batch.project_env as project_env
+
+        def overflowing(*args, **kwargs):
+            np.full(2, 3e38, dtype=np.float32).sum()
+            return load(*args, **kwargs)
+
+        load = project_env.load_environment
+        monkeypatch.setattr(project_env, "load_environment", overflowing)
+        m = write_test_exr(tmp_path / "map.exr", np.full((16, 32, 3), 0.5))
         for quiet in ([], ["-q"]):
-            assert main(["project-env", str(m), "-o", str(tmp_path / "h.h5"), "--lights", "3",
-                         "--json", *quiet]) == 0  # fmt: skip
+            assert main(["project-env", str(m), "-o", str(tmp_path / "h.h5"), "--json",
+                         *quiet]) == 0  # fmt: skip
             out, err = capsys.readouterr()
             listed = [w for w in _strict_json(out)["warnings"] if "overflow" in w]
             assert listed == ["RuntimeWarning: overflow encountered in reduce"]
