@@ -218,6 +218,7 @@ class TestSphereLights:
         np.testing.assert_allclose(a["/lighting/sh"][9:], sky_sh[9:],
                                    atol=2e-3 * np.abs(caps_sh[9:]).max())  # fmt: skip
 
+    @pytest.mark.slow
     @pytest.mark.parametrize("name", ["night", "studio"])
     def test_three_spheres_within_one_percent(self, name):
         """The two maps no point lights fit within 1 % (docs/BENCHMARKS.md): three spheres
