@@ -17,11 +17,9 @@ Writes ``PREFIX.json`` and ``PREFIX.md`` (default ``bench/results/irradiance_lig
 """
 
 import argparse
-import json
-from pathlib import Path
 
+import irradiance_lights as lights
 import numpy as np
-from irradiance_lights import ACCEPT_MAX, EVAL_DIRECTIONS, HDRI, RESULTS, best_luminance_fit
 
 POOL = 600_000
 
@@ -33,8 +31,8 @@ def measure(name: str, radii: list[float]) -> dict:
     from shbake.evaluation.env_sh import brute_force_reference
     from shbake.sh.point_sets import fibonacci_sphere
 
-    env = load_environment(str(HDRI / f"{name}.exr"), quiet=True)
-    ref = brute_force_reference(env, n_dirs=EVAL_DIRECTIONS)
+    env = load_environment(str(lights.HDRI / f"{name}.exr"), quiet=True)
+    ref = brute_force_reference(env, n_dirs=lights.EVAL_DIRECTIONS)
     normals, ref_lum = ref["dirs"], ref["irradiance"]
     target = env_lights.irradiance_target(env)
     energy = float(target.energy @ REC709_LUMINANCE)
@@ -43,7 +41,8 @@ def measure(name: str, radii: list[float]) -> dict:
     rows = []
     for r in radii:
         inside = (pool @ centres.T >= np.cos(np.radians(r))).any(axis=1)
-        fit = best_luminance_fit(pool[inside], normals, ref_lum, energy, "mean", ACCEPT_MAX)
+        fit = lights.best_luminance_fit(pool[inside], normals, ref_lum, energy, "mean",
+                                        lights.ACCEPT_MAX)  # fmt: skip
         rows.append({"radius_deg": r, "lights": int(inside.sum()), "least_mean_within_max": fit})
         print(name, rows[-1], flush=True)
     return {"centres": centres.round(4).tolist(), "caps": rows}
@@ -64,13 +63,10 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("maps", nargs="*", default=["studio"])
     ap.add_argument("--radii", nargs="*", type=float, default=[1.0, 2.0, 3.0, 4.0])
-    ap.add_argument("--out", default=str(RESULTS / "irradiance_light_caps"))
+    ap.add_argument("--out", default=str(lights.RESULTS / "irradiance_light_caps"))
     args = ap.parse_args()
     results = {m: measure(m, args.radii) for m in args.maps}
-    Path(args.out + ".json").write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
-    report = markdown(results)
-    Path(args.out + ".md").write_text(report)
-    print(report)
+    lights.write_results(args.out, results, markdown(results))
 
 
 if __name__ == "__main__":

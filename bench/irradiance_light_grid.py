@@ -21,11 +21,16 @@ Writes ``PREFIX.json`` and ``PREFIX.md`` (default ``bench/results/irradiance_lig
 """
 
 import argparse
-import json
-from pathlib import Path
 
 import numpy as np
-from irradiance_lights import ACCEPT_MAX, EVAL_DIRECTIONS, HDRI, RESULTS, best_luminance_fit
+from irradiance_lights import (
+    ACCEPT_MAX,
+    EVAL_DIRECTIONS,
+    HDRI,
+    RESULTS,
+    best_luminance_fit,
+    write_results,
+)
 
 IRLS_STEPS = 6
 IRLS_FLOOR = 2e-3
@@ -203,10 +208,7 @@ def main():
     ap.add_argument("--out", default=str(RESULTS / "irradiance_light_grid"))
     args = ap.parse_args()
     results = {m: measure(m, args.grid, args.top, args.refined) for m in args.maps}
-    Path(args.out + ".json").write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
-    report = markdown(results)
-    Path(args.out + ".md").write_text(report)
-    print(report)
+    write_results(args.out, results, markdown(results))
 
 
 if __name__ == "__main__":

@@ -407,6 +407,13 @@ def plot(results: dict, max_lights: int, path: str) -> None:
     fig.savefig(path, dpi=100)
 
 
+def write_results(prefix: str, results: dict, report: str) -> None:
+    """``PREFIX.json`` (sorted, indented) and ``PREFIX.md`` of a run; the report printed."""
+    Path(prefix + ".json").write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
+    Path(prefix + ".md").write_text(report)
+    print(report)
+
+
 BYTES_PER_FLOAT = 4
 """A probe's numbers as an engine uploads them: float32."""
 
@@ -465,12 +472,9 @@ def main():
         for m in [] if args.replot else args.maps:
             new = measure(m, args.max_lights, tmp, args.starts if m in args.search else 0)
             results[m] = results.get(m, {}) | new
-    Path(args.out + ".json").write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
-    report = markdown(results, args.max_lights)
-    Path(args.out + ".md").write_text(report)
     plot(results, args.max_lights, args.out + ".png")
     plot_bytes(results, args.max_lights, args.out + "-bytes.png")
-    print(report)
+    write_results(args.out, results, markdown(results, args.max_lights))
 
 
 if __name__ == "__main__":
