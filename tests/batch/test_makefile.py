@@ -312,9 +312,9 @@ def check_dry_runs(layout: Layout) -> None:
 
 
 @pytest.mark.heavy
-@pytest.mark.parametrize("examples", [1000, pytest.param(10000, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("examples", [500, pytest.param(10000, marks=pytest.mark.slow)])
 def test_make_dry_run_argv_exact(examples):
-    """``make -n`` of fragments of drawn scenes (module docstring): 1000 of them (10000 more
+    """``make -n`` of fragments of drawn scenes (module docstring): 500 of them (10000 more
     with ``make test-all``)."""
 
     @settings(max_examples=examples, **SETTINGS)
@@ -344,11 +344,11 @@ exec /bin/sh "$@"
 
 
 @pytest.mark.heavy
-@pytest.mark.parametrize("examples", [1000, pytest.param(5000, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("examples", [500, pytest.param(5000, marks=pytest.mark.slow)])
 def test_make_runs_exactly_the_expected_commands(examples):
     """A real ``make scene-assets``: one shell per recipe, each running the command with
     exactly the expected argv (the drawn ``--shbake`` words after the recorder's path);
-    1000 drawn scenes (5000 more with ``make test-all``)."""
+    500 drawn scenes (5000 more with ``make test-all``)."""
 
     tools = Path(tempfile.mkdtemp(prefix="shbake-tools-"))
     recorder, logger = tools / "record", tools / "sh-log"
