@@ -64,7 +64,8 @@ from shbake.batch.preview import ALL_PASSES, preview_asset
     "merl_path",
     type=click.Path(dir_okay=False),
     default=None,
-    help="MERL file of a merl table or SHRM (its reference and --diff need it).",
+    help="MERL file of a merl table or SHRM (its reference and --diff need it): the one it "
+    "was baked from, SHA-256 checked.",
 )
 @roughness_opts(0.5, "Probes: the sphere's GGX roughness, within the probe's fitted range")
 @click.option(

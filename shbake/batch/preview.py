@@ -2,14 +2,15 @@
 write images.
 
 :func:`preview_asset` reads the asset (and, for references, the original map
-it records, hash-checked: :func:`shbake.format.provenance.reload_source`), takes the
-pass's shader from the registry (:func:`shbake.shading.shader.shader`: a pass is a
-technique of the asset's kind, or a ``reference`` pass — the ground truth of one),
-renders it on a sphere (:mod:`shbake.preview.passes`), and writes the
-float32 EXR of the pass, with ``diff`` the reference and the signed error as
-EXRs too, and always a labelled contact sheet ``<stem>-sheet.png``
-(:mod:`shbake.preview.contact_sheet`); ``png`` adds a plain tone-mapped PNG
-beside every EXR. It never overwrites the source map.
+it records, hash-checked: :func:`shbake.format.provenance.reload_source`, and a measured
+BRDF's MERL file from ``--merl`` alone, checked against the SHA-256 the asset records of
+it: :func:`_check_merl`), takes the pass's shader from the registry
+(:func:`shbake.shading.shader.shader`: a pass is a technique of the asset's kind, or a
+``reference`` pass — the ground truth of one), renders it on a sphere
+(:mod:`shbake.preview.passes`), and writes the float32 EXR of the pass, with ``diff`` the
+reference and the signed error as EXRs too, and always a labelled contact sheet
+``<stem>-sheet.png`` (:mod:`shbake.preview.contact_sheet`); ``png`` adds a plain
+tone-mapped PNG beside every EXR. It never overwrites the source map.
 """
 
 import os
@@ -22,7 +23,7 @@ from shbake.evaluation.metrics import mean_squared_error, relative_rms_error
 from shbake.format.asset import read_asset
 from shbake.format.brdf_table import table_at
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
-from shbake.format.provenance import reload_source
+from shbake.format.provenance import given_input, reload_source
 from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import beyond_scale, write_contact_sheet
 from shbake.preview.passes import render_pass
@@ -69,6 +70,22 @@ def _measured(sh) -> bool:
     if sh.truth == "brdf":
         return sh.table.model == "merl"
     return sh.truth == "reflection" and sh.brdf()[0] == "merl"
+
+
+def _check_merl(measured, path: str, merl_path: str | None) -> None:
+    """Refuse the ground truth of a measured BRDF unless ``merl_path`` (``--merl``) is the
+    MERL file that ``measured``, the Kautz table or SHRM at ``path``, was baked from: the
+    path it records is never followed, and the file given must have the SHA-256 it records
+    (a table's ``source_sha256``, an SHRM's ``brdf_source_sha256``), else the reference and
+    its error figures would silently be another BRDF's. An SHRM written before
+    ``brdf_source_sha256`` records none: its ``--merl`` is read as given, unchecked."""
+    if merl_path is None:
+        raise ParameterError(f"{path}: a measured (merl) BRDF: give its MERL file with --merl "
+                             f"(the path the asset records is not followed)")  # fmt: skip
+    key = "source_sha256" if measured.kind == "brdf_table" else "brdf_source_sha256"
+    want = measured.attrs.get(key)
+    if want is not None:
+        given_input(merl_path, want, "--merl", "MERL file")
 
 
 PIXEL_BYTES = 256
@@ -164,10 +181,10 @@ def preview_asset(
         raise ParameterError(f"{', '.join(stray)}: not read for a {asset.kind} asset")
     if asset.kind == "shexp_probe_set":
         asset = probe_from_set(asset, index)
-    companions = {}
+    companions, table = {}, None
     if table_path is not None:
-        companions["table"] = table_at(read_asset(table_path, kinds=("brdf_table",)),
-                                       {k: float(v) for k, v in (at or {}).items()})  # fmt: skip
+        table = read_asset(table_path, kinds=("brdf_table",))
+        companions["table"] = table_at(table, {k: float(v) for k, v in (at or {}).items()})
     reference = pass_name in REFERENCE_PASSES
     if reference and diff:
         raise ParameterError("--diff compares a shading pass with its reference")
@@ -184,10 +201,9 @@ def preview_asset(
     sh = shader(asset, technique, **companions)
     material, summary, text = _material(sh, roughness, f0)
     needs_source = reference or diff
-    if needs_source and merl_path is None and _measured(sh):
-        raise ParameterError(f"{table_path if sh.truth == 'brdf' else asset_path}: a measured "
-                             f"(merl) BRDF: give its MERL file with --merl (the path the asset "
-                             f"records is not followed)")  # fmt: skip
+    if needs_source and _measured(sh):  # a Kautz table's BRDF, or an SHRM's
+        measured = (table, table_path) if sh.truth == "brdf" else (asset, asset_path)
+        _check_merl(*measured, merl_path)
     coeffs = 0 if reference else sh.point_coeffs  # a reference pass runs no shader
     check_preview_memory(size, diff, coeffs)
     src = reload_source(asset, asset_path, source) if needs_source else None

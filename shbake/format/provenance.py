@@ -108,30 +108,41 @@ def resolve_source(attrs: dict, asset_path: str, given: str | None = None,
     recorded = attrs.get("source_path", "")
     if not isinstance(recorded, str):
         raise FormatError("attribute source_path must be a string")
+    want = attrs.get("source_sha256", "")
     if given:
-        path = given
-    elif recorded:
-        if not recorded.lower().endswith(image_suffixes()):
-            raise FormatError(f"recorded source map {recorded!r} is not named as an image "
-                              f"file OpenImageIO reads; give it with {option}")
-        folder = os.path.dirname(os.path.abspath(asset_path))
-        path = os.path.join(folder, recorded)
-    else:
+        return given_input(given, want, option)
+    if not recorded:
         raise ImageReadError(f"the asset records no source map; give it with {option}")
+    if not recorded.lower().endswith(image_suffixes()):
+        raise FormatError(f"recorded source map {recorded!r} is not named as an image "
+                          f"file OpenImageIO reads; give it with {option}")  # fmt: skip
+    path = os.path.join(os.path.dirname(os.path.abspath(asset_path)), recorded)
     if not os.path.exists(path):
-        if given:
-            raise ImageReadError(f"{given}: no such file ({option})")
         raise ImageReadError(
             f"source map {recorded!r} (recorded relative to the asset) not found at {path}; "
             f"give it with {option}"
         )
-    resources.check_regular_file(path, option if given else "recorded source map")
-    digest = resources.sha256_of(path)
-    want = attrs.get("source_sha256", "")
-    if digest != want:  # the digest found is not shown: a file the user did not name
+    resources.check_regular_file(path, "recorded source map")
+    return _baked_from(path, want, "map")
+
+
+def given_input(given: str, want: str, option: str, what: str = "map") -> str:
+    """``given``, the file the user named with ``option`` as the ``what`` (``map``,
+    ``MERL file``) an asset was baked from, once it is a regular file (FIFOs, devices and
+    folders refused before opening) whose SHA-256 is ``want``, the one the asset records.
+    Raises :class:`ImageReadError` (not found) or :class:`FormatError` (hash differs): a
+    file of the same name but other bytes would give a silently wrong result."""
+    resources.check_regular_file(given, option)
+    return _baked_from(given, want, what)
+
+
+def _baked_from(path: str, want: str, what: str) -> str:
+    """``path`` if its SHA-256 (bounded by its size) is ``want``; else one line naming it."""
+    if resources.sha256_of(path) != want:
+        # the digest found is not shown: a recorded path may name a file the user did not
         raise FormatError(
             f"{path}: its SHA-256 differs from the one recorded in the asset "
-            f"({str(want)[:12]}…); not the map this asset was baked from"
+            f"({str(want)[:12]}…); not the {what} this asset was baked from"
         )
     return path
 

@@ -9,10 +9,10 @@ Datasets
     ``/brdf_coefficients`` float64 ``(F+1, P+1, P+1, 3)``: ``ρ̂[l, p, |q|, c]``.
     ``/lighting/sh`` float64 ``((F+1)², 3)``: the map's ``L_lm`` used.
 Root attributes
-    ``brdf_model``, ``brdf_kind``, ``brdf_parameters`` (JSON), ``brdf_source``,
-    ``F``, ``P``, ``eps``, ``eps_brdf`` (BRDF energy left out), ``eps_bound``
-    (appendix B bound, worst channel), ``residual`` (JSON per channel),
-    ``face_size``, ``layout``, ``coefficients`` (``global`` or
+    ``brdf_model``, ``brdf_kind``, ``brdf_parameters`` (JSON), ``brdf_source`` (and
+    for measured data ``brdf_source_sha256``), ``F``, ``P``, ``eps``, ``eps_brdf`` (BRDF
+    energy left out), ``eps_bound`` (appendix B bound, worst channel), ``residual`` (JSON
+    per channel), ``face_size``, ``layout``, ``coefficients`` (``global`` or
     ``tangent_q0``), ``view_convention``, ``method`` and the map's provenance
     ``source_*`` (the common block, FORMAT §2).
 
@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from shbake import resources
 from shbake.conventions import LMAX_LIMIT, lmax_of
 from shbake.errors import FormatError
 from shbake.format.asset import Asset, read_asset, write_asset
@@ -57,6 +58,9 @@ SHRM_KIND = register(Kind(
         Attr("brdf_kind", "str", "`surface`, `lobe` (radially symmetric) or `tangent`"),
         Attr("brdf_parameters", "json", "the model's parameters", json_type=dict),
         Attr("brdf_source", "str", "measured data file, `\"\"` for analytic models"),
+        Attr("brdf_source_sha256", "str", "hex SHA-256 of the measured data file, which "
+             "`preview --merl` must match; absent for analytic models (and in files written "
+             "before it)", required=False),
         Attr("F", "int", "lighting × BRDF order (highest band l)", range=(0, LMAX_LIMIT),
              symbol="F"),
         Attr("P", "int", "view order (highest band p)", range=(0, LMAX_LIMIT), symbol="P"),
@@ -109,6 +113,8 @@ def build_shrm_asset(bake, env_meta: dict) -> Asset:
         "view_convention": VIEW_CONVENTION,
         "method": "Ramamoorthi & Hanrahan 2002, frequency-space prefiltering (appendix C)",
     }
+    if rb.source:  # analytic SHRMs keep their bytes
+        attrs["brdf_source_sha256"] = resources.sha256_of(rb.source)
     attrs.update(map_source(env_meta))
     datasets = {
         "/shrm": np.ascontiguousarray(bake.cube, dtype=np.float32),

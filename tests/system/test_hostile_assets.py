@@ -248,18 +248,29 @@ class TestCommands:
 
     def test_recorded_merl_not_followed(self, run_cli, ws, tmp_path):
         """A measured table records its MERL file; the reference of ``preview --pass kautz``
-        read whatever file was found there (no hash, not an image). It needs ``--merl``."""
+        read whatever file was found there (no hash, not an image). It needs ``--merl``,
+        and that file must be the one the table was baked from (its ``source_sha256``)."""
         merl = tmp_path / "m.binary"
         write_merl(merl, np.full((3, 90, 90, 180), 1.0 / np.pi))
         table = tmp_path / "t.h5"
         assert run_cli("brdf-table", "merl", "--merl", merl, "--size", 4, "--samples", 16,
                        "--lmax", 2, "-o", table, "-q")[0] == 0  # fmt: skip
+        (tmp_path / "baked.binary").write_bytes(merl.read_bytes())
         write_merl(merl, np.full((3, 90, 90, 180), 0.5 / np.pi))  # another file, same path
         for how in (["--pass", "kautz", "--diff"], ["--pass", "reference"]):
             with unchanged(tmp_path):
                 msg = assert_failed(run_cli("preview", ws / "env.h5", "--table", table, *how,
                                             "--size", 8, "-o", tmp_path / "p.exr"))  # fmt: skip
             assert f"{table}: a measured (merl) BRDF: give its MERL file with --merl" in msg
+            with unchanged(tmp_path):  # given, but not the file it was baked from
+                msg = assert_failed(run_cli("preview", ws / "env.h5", "--table", table, *how,
+                                            "--size", 8, "--merl", merl,
+                                            "-o", tmp_path / "p.exr"))  # fmt: skip
+            assert f"{merl}: its SHA-256 differs" in msg
+            assert msg.endswith("not the MERL file this asset was baked from"), msg
+        assert run_cli("preview", ws / "env.h5", "--table", table, "--pass", "kautz", "--diff",
+                       "--size", 8, "--merl", tmp_path / "baked.binary",
+                       "-o", tmp_path / "p.exr", "-q")[0] == 0  # fmt: skip
         merl.unlink()
         code, _, err = run_cli("preview", ws / "env.h5", "--table", table, "--pass", "kautz",
                                "--diff", "--size", 8, "--merl", tmp_path / "given.binary",
@@ -267,7 +278,9 @@ class TestCommands:
         assert code == 1 and "given.binary" in err, err  # only the file given is opened
 
     def test_recorded_merl_of_an_shrm_not_followed(self, run_cli, ws, tmp_path):
-        """An SHRM of a measured BRDF: its reference read the recorded MERL file too."""
+        """An SHRM of a measured BRDF: its reference read the recorded MERL file too. The
+        file given must be the one it was baked from (``brdf_source_sha256``); an SHRM
+        written before that attribute reads the file given unchecked, as it did."""
         merl = tmp_path / "m.binary"
         write_merl(merl, np.full((3, 90, 90, 180), 1.0 / np.pi))
         shrm = tmp_path / "s.h5"
@@ -278,8 +291,20 @@ class TestCommands:
             msg = assert_failed(run_cli("preview", shrm, "--diff", "--size", 8,
                                         "-o", tmp_path / "p.exr"))  # fmt: skip
         assert f"{shrm}: a measured (merl) BRDF: give its MERL file with --merl" in msg
+        other = tmp_path / "other.binary"
+        write_merl(other, np.full((3, 90, 90, 180), 0.5 / np.pi))
+        for how in (["--diff"], ["--pass", "reference"]):
+            with unchanged(tmp_path):
+                msg = assert_failed(run_cli("preview", shrm, *how, "--size", 8, "--merl", other,
+                                            "-o", tmp_path / "p.exr"))  # fmt: skip
+            assert f"{other}: its SHA-256 differs" in msg
+            assert msg.endswith("not the MERL file this asset was baked from"), msg
         write_merl(tmp_path / "given.binary", np.full((3, 90, 90, 180), 1.0 / np.pi))
         assert run_cli("preview", shrm, "--diff", "--size", 8, "--merl", tmp_path / "given.binary",
+                       "-o", tmp_path / "p.exr", "-q")[0] == 0  # fmt: skip
+        with h5py.File(shrm, "r+") as f:  # as written before brdf_source_sha256
+            del f.attrs["brdf_source_sha256"]
+        assert run_cli("preview", shrm, "--diff", "--size", 8, "--merl", other,
                        "-o", tmp_path / "p.exr", "-q")[0] == 0  # fmt: skip
 
     @pytest.mark.parametrize("case", ["external-storage", "virtual", "external-link"])
