@@ -1,11 +1,12 @@
 """Scene files, ``shbake plan`` and ``shbake bake``: validation, plans, pipelines, the lock.
 
-The pipeline tests bake a two-map scene (tests/scenes/two-maps.toml) with
-make -j2 from the emitted fragment, ``bake --jobs 2`` and a 2-worker Dask
+The pipeline tests bake a two-map scene (tests/scenes/two-maps.toml, its maps at half
+resolution) with make -j2 from the emitted fragment, ``bake --jobs 2`` and a 2-worker Dask
 LocalCluster, and compare bytes; errors are measured against brute force
 (irradiance) and a converged projection (BRDF table), independent of the plan.
 """
 
+import functools
 import hashlib
 import json
 import os
@@ -19,7 +20,7 @@ import numpy as np
 import pytest
 
 from shbake import __version__
-from shbake.batch.plan import irradiance_truncation, plan_scene
+from shbake.batch.plan import irradiance_truncation, plan_scene, plan_scene_kept
 from shbake.batch.scene import SceneError, key_lines, load_scene
 from shbake.batch.scene_bake import bake_scene
 from shbake.envmap.image_io import read_image
@@ -30,15 +31,34 @@ SHBAKE = str(Path(sys.executable).with_name("shbake"))
 TWO_MAPS = ROOT / "tests" / "scenes" / "two-maps.toml"
 
 
+@functools.cache
+def half_map(name: str) -> np.ndarray:
+    """Shared map ``name`` at half resolution (means of 2 × 2 pixels: 128 × 256): the two-map
+    scene plans the same assets with the same settings as on the full maps (their suns
+    kept), and its projections, brute-force checks and SHRM shading read a quarter of the
+    pixels."""
+    px, _ = read_image(str(map_path(name)))
+    h, w, c = px.shape
+    return px.reshape(h // 2, 2, w // 2, 2, c).mean(axis=(1, 3))
+
+
 def make_scene(folder: Path, text: str | None = None) -> Path:
-    """The two-map scene in ``folder`` with its maps copied beside it (so tests may touch them)."""
+    """The two-map scene in ``folder`` with its maps (:func:`half_map`) beside it (so tests
+    may touch them)."""
     maps = folder / "maps"
     maps.mkdir(exist_ok=True)
     for name in ("studio", "sunset"):
-        shutil.copy(map_path(name), maps / f"{name}.exr")
+        write_test_exr(maps / f"{name}.exr", half_map(name))
     path = folder / "scene.toml"
     path.write_text((text or TWO_MAPS.read_text()).replace("MAPS/", "maps/"))
     return path
+
+
+def one_material(name: str, text: str | None = None) -> str:
+    """The two-map scene's text (or ``text``) with material ``name`` alone: a plan that
+    measures only what that material needs."""
+    head, *materials = (text or TWO_MAPS.read_text()).split("[[materials]]")
+    return head + "[[materials]]" + next(m for m in materials if f'name = "{name}"' in m)
 
 
 def hashes(folder: Path) -> dict:
@@ -197,7 +217,7 @@ class TestLoadScene:
 
     def test_unreachable_tolerance_names_its_key(self, tmp_path, run_cli):
         text = TWO_MAPS.read_text().replace("brdf_table = 0.25", "brdf_table = 0.001")
-        path = make_scene(tmp_path, text)
+        path = make_scene(tmp_path, one_material("brushed", text))  # no asset of the maps
         code, _, err = run_cli("plan", path, "--quiet")
         assert code == 2 and err.count("\n") == 1
         assert f"{path}:9: tolerances.brdf_table: impossible tolerance 0.001" in err
@@ -239,7 +259,7 @@ class TestPlan:
     @ONE_BAKE
     def test_assets_per_material_kind(self, baked):
         _, _, scene, summary = baked
-        plan = plan_scene(scene)
+        plan = plan_scene_kept(scene)  # the rules on the units the bake's plan measured
         ids = [a["id"] for a in plan["assets"]]
         assert {"env_sh/studio", "splitsum/studio", "export/threejs/studio"} <= set(ids)
         assert "brdf_table/brushed" in ids and ids.count("brdf_table/brushed") == 1
@@ -265,7 +285,7 @@ class TestPlan:
     @ONE_BAKE
     def test_shrm_for_glossy_non_ggx(self, baked):
         _, _, scene, summary = baked
-        plan = plan_scene(scene)
+        plan = plan_scene_kept(scene)
         assert plan["materials"]["satin"] == ["shrm/satin/studio", "shrm/satin/dusk"]
         a = next(x for x in plan["assets"] if x["id"] == "shrm/satin/dusk")
         assert a["settings"]["pose"] == {"position": [1.0, 2.0, 3.0], "rotation_deg": 90.0}
@@ -317,7 +337,7 @@ class TestPipelines:
         by_jobs = hashes(out)
         assert len(by_jobs) >= 7
         lock = json.loads((out / "scene.lock.json").read_text())
-        assert set(lock["assets"]) == {a["id"] for a in plan_scene(scene)["assets"]}
+        assert set(lock["assets"]) == {a["id"] for a in plan_scene_kept(scene)["assets"]}
 
         # a second bake does nothing
         again = bake_scene(load_scene(str(path)), jobs=2)
@@ -336,15 +356,18 @@ class TestPipelines:
         q = subprocess.run(["make", "-q", "scene-assets"], cwd=folder)
         assert q.returncode == 0
         # touching one map rebuilds only its assets
-        os.utime(folder / "maps" / "sunset.exr")
+        sunset = folder / "maps" / "sunset.exr"
+        times = os.stat(sunset)
+        os.utime(sunset)
         dry = subprocess.run(["make", "-n", "scene-assets"], cwd=folder, capture_output=True,
                              text=True, check=True).stdout  # fmt: skip
         rebuilt = sorted(line.split("--asset ")[1].split()[0] for line in dry.splitlines()
                          if "--asset" in line)  # fmt: skip
         assert rebuilt == sorted(a for a in lock["assets"] if a.endswith("/dusk"))
+        os.utime(sunset, ns=(times.st_atime_ns, times.st_mtime_ns))  # up to date again
+        assert subprocess.run(["make", "-q", "scene-assets"], cwd=folder).returncode == 0
         # a changed tolerance re-plans (the fragment remakes itself, --shbake kept) and
         # rebuilds only what it affects (irradiance: env_sh assets)
-        subprocess.run(["make", "scene-assets"], cwd=folder, check=True, capture_output=True)
         path.write_text(path.read_text().replace("irradiance = 0.05", "irradiance = 0.01"))
         dry = subprocess.run(["make", "-n", "scene-assets"], cwd=folder, capture_output=True,
                              text=True, check=True).stdout  # fmt: skip
@@ -400,7 +423,9 @@ class TestPortableState:
         assert bake_scene(load_scene(str(copy / "scene.toml")))["baked"] == []
 
     def test_include_replans_when_the_scene_or_shbake_changes(self, tmp_path):
-        path = make_scene(tmp_path)
+        # the diffuse material alone, without exports: a plan of two env_sh assets
+        text = one_material("plaster").replace('exports = ["threejs"]\n', "")
+        path = make_scene(tmp_path, text)
         frag = tmp_path / "scene.mk"
         subprocess.run([SHBAKE, "plan", "scene.toml", "--emit-make", "scene.mk", "--quiet",
                         "--shbake", SHBAKE], cwd=tmp_path, check=True)  # fmt: skip
@@ -412,16 +437,19 @@ class TestPortableState:
             return dry.split()[:2]
 
         assert first_command() == [SHBAKE, "bake"]  # the fragment is current
-        later = os.stat(frag).st_mtime + 10
-        path.write_text(path.read_text().replace("brdf_table = 0.25", "brdf_table = 0.2"))
-        os.utime(path, (later, later))
+        # the scene newer in any file system's ticks: the fragment made older (a scene stamped
+        # in the future stayed newer than each fragment the re-plan wrote, and make planned
+        # again and again until the clock passed it)
+        earlier = os.stat(frag).st_mtime - 10
+        os.utime(frag, (earlier, earlier))
+        path.write_text(path.read_text().replace("irradiance = 0.05", "irradiance = 0.04"))
         assert first_command() == [SHBAKE, "plan"]
         assert f"SHBAKE ?= {SHBAKE}\n" in frag.read_text()
-        # a fragment another version of shbake wrote: planned again by this one
+        # a fragment another version of shbake wrote (newer than the scene): planned again by
+        # this one
         mark = f"--version 2>/dev/null)),{__version__})"
         assert mark in frag.read_text()
         frag.write_text(frag.read_text().replace(mark, mark.replace(__version__, "0.0.0")))
-        os.utime(frag, (later + 10, later + 10))
         assert first_command() == [SHBAKE, "plan"] and mark in frag.read_text()
 
 
