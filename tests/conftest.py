@@ -27,8 +27,12 @@ from tests.helpers import GOLDEN, smooth_map, write_test_exr  # noqa: E402
 
 @pytest.fixture(scope="session", autouse=True)
 def plan_cache(tmp_path_factory):
-    """Keep shbake's plan cache (SHBAKE_CACHE_DIR) inside the test session."""
-    folder = tmp_path_factory.mktemp("plan-cache")
+    """Keep shbake's plan cache (SHBAKE_CACHE_DIR) inside the test session: one folder for
+    both xdist workers, as for the ``shbake`` processes of a ``make -j`` (each worker built
+    the same quadrature plans and measured the same recipe costs)."""
+    base = tmp_path_factory.getbasetemp()
+    folder = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "plan-cache"
+    folder.mkdir(exist_ok=True)
     os.environ["SHBAKE_CACHE_DIR"] = str(folder)
     return folder
 
