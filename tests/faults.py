@@ -1,12 +1,14 @@
 """What every failure case checks, shared by the fault tests (test_faults, test_full_disk,
-test_hostile_assets, test_scene_safety, test_scheduler): a run in a subprocess, a snapshot
-of folders, "failed with one line" and "left everything as it was", and full disks."""
+test_hostile_assets, test_scene_safety, test_scheduler, test_teardown): a run in a
+subprocess, a run busy in its kernel, a snapshot of folders, "failed with one line" and
+"left everything as it was", and full disks."""
 
 import contextlib
 import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 TIMEOUT = 120
@@ -35,6 +37,32 @@ def shbake(*args, timeout=TIMEOUT, stdout=subprocess.PIPE, env=None, preexec=Non
         preexec_fn=preexec,
     )  # fmt: skip
     return p.returncode, p.stdout or "", p.stderr
+
+
+def computing(p: subprocess.Popen, cpu_seconds: float = 1.0) -> bool:
+    """Wait until the main thread of ``p`` has run ``cpu_seconds`` of CPU time without a read
+    system call (Linux ``/proc``, the thread's ``stat`` and ``io``): its imports, numba's
+    cached kernels and its inputs are loaded (all read files) and it computes, inside a long
+    kernel. Unlike a fixed sleep this holds on a loaded machine. ``False`` if ``p`` ended
+    first, or (killed) after :data:`TIMEOUT` seconds."""
+    task = f"/proc/{p.pid}/task/{p.pid}"
+    tick = os.sysconf("SC_CLK_TCK")
+    reads = since = None
+    deadline = time.monotonic() + TIMEOUT
+    while p.poll() is None:  # a zombie's files stay readable until this poll reaps it
+        stat = Path(f"{task}/stat").read_text().rsplit(")", 1)[1].split()
+        cpu = (int(stat[11]) + int(stat[12])) / tick  # utime + stime
+        syscr = int(Path(f"{task}/io").read_text().split("syscr:")[1].split()[0])
+        if syscr != reads:
+            reads, since = syscr, cpu
+        elif cpu - since >= cpu_seconds:
+            return True
+        if time.monotonic() > deadline:
+            p.kill()
+            p.wait()
+            return False
+        time.sleep(0.05)
+    return False
 
 
 def snapshot(*folders) -> dict:

@@ -5,7 +5,8 @@ exit 2) and connected before any planning (nothing listening: one line, exit 1).
 workers of a 2-worker ``LocalCluster`` on 127.0.0.1 (processes, started here) write
 nothing where outputs go: they return their outputs' bytes and the client writes them in
 its own transaction, so an interrupted ``bake --scheduler`` leaves the out_dir exactly as
-it was, at exit and 10 s later (docs/SCENES.md, Dask).
+it was, at exit and once the workers have finished the tasks it left running
+(docs/SCENES.md, Dask).
 """
 
 import hashlib
@@ -70,6 +71,23 @@ def write_scene(folder: Path, n_maps: int, maps: str = "*.exr") -> Path:
     scene = folder / "scene.toml"
     scene.write_text(SCENE.format(maps=maps))
     return scene
+
+
+def idle(address: str) -> bool:
+    """Wait until the scheduler at ``address`` holds no task and no worker holds one: the
+    tasks of a client that has gone finish on their worker (Dask cannot stop them), then
+    are forgotten. ``False`` after :data:`TIMEOUT` seconds."""
+    from distributed import Client
+
+    with Client(address, set_as_default=False) as client:
+        deadline = time.monotonic() + TIMEOUT
+        while time.monotonic() < deadline:
+            held = client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks))
+            held += sum(client.run(lambda dask_worker: len(dask_worker.state.tasks)).values())
+            if not held:
+                return True
+            time.sleep(0.1)
+    return False
 
 
 def sha256(path: Path) -> str:
@@ -241,8 +259,8 @@ class TestInterrupt:
     @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
     def test_interrupted_bake_leaves_the_out_dir_as_it_was(self, cluster, tmp_path, sig, code):
         """Exit 130/143 and one line; the out_dir (lock, assets, stamps) byte-identical to
-        before the run, no temporary, at exit and 10 s later (the workers' tasks still
-        running then finish into their own scratch folders); the lock matches the files."""
+        before the run, no temporary, at exit and once the workers' tasks still running then
+        have finished (into their own scratch folders); the lock matches the files."""
         from shbake.batch.scene import load_scene
         from shbake.batch.scene_bake import bake_scene
 
@@ -273,7 +291,7 @@ class TestInterrupt:
         assert_failed((p.returncode, "", err), code=code, fragment="interrupted")
         assert err == "shbake: error: interrupted\n"
         at_exit = snapshot(out)
-        time.sleep(10.0)
+        assert idle(cluster), "the workers' tasks did not finish"
         assert snapshot(out) == at_exit == before
         lock = json.loads((out / "scene.lock.json").read_text())
         hashes = {f: sha256(f) for f in out.rglob("*") if f.is_file()}

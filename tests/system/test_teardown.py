@@ -24,6 +24,7 @@ import time
 import numpy as np
 import pytest
 
+from tests.faults import computing
 from tests.helpers import local_cluster, write_test_exr
 
 TIMEOUT = 240
@@ -58,10 +59,6 @@ FAMILIES = {  # arguments, exit status, its own lines, its last line
     "SIGINT": (["preview", "{big}", "--pass", "reference", "--size", "1024", "-o", "{tmp}/r.exr"],
                130, r"(?!)", r"shbake: error: interrupted"),
 }  # fmt: skip
-INTERRUPT_AFTER = 8.0
-"""Seconds after which the ``SIGINT`` family (minutes of brute-force reference) is
-interrupted through pipes (no bar draws there; under a terminal it is interrupted as soon
-as its first bar draws)."""
 
 
 @pytest.fixture(scope="module")
@@ -131,13 +128,13 @@ def run_in_terminal(args: list[str], interrupt: bool) -> tuple[int, str]:
 
 def run_through_pipes(args: list[str], interrupt: bool) -> tuple[int, str, str]:
     """Run ``args`` with stdout and stderr on pipes; ``(status, stdout, stderr)``.
-    ``interrupt``: SIGINT after :data:`INTERRUPT_AFTER` seconds."""
+    ``interrupt``: SIGINT once it computes in its kernel (the ``SIGINT`` family: minutes of
+    brute-force reference; through pipes no bar draws to wait for, as under a terminal)."""
     p = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, env=ENV)  # fmt: skip
     try:
         if interrupt:
-            time.sleep(INTERRUPT_AFTER)
-            assert p.poll() is None, p.communicate()[1][-2000:]
+            assert computing(p), p.communicate()[1][-2000:]
             p.send_signal(signal.SIGINT)
         out, err = p.communicate(timeout=TIMEOUT)
     finally:
