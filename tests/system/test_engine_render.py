@@ -38,8 +38,8 @@ from tests.engine_browser import inner_pixels, quad_derivatives
 from tests.engine_cases import (
     BABYLON_CUBES,
     DIFFUSE_TOL,
+    FAST_MAPS,
     FILAMENT_CUBES,
-    FILAMENT_DEEP_CUBES,
     FILAMENT_MIN_ROUGHNESS,
     FOV_DEG,
     LAMBERT,
@@ -77,19 +77,18 @@ REBAKED_FAULT = pytest.param("roughness-mapping", marks=pytest.mark.slow, id="ro
 """Levels baked at glTF-IBL-Sampler's even spacing: a second chain, so ``make test-all``."""
 
 RENDER_SAMPLES = 256
-"""GGX samples per texel of the chains rendered here (the exports' default: 512). Half the
-bake; on forest every material's median and p95 moved by at most 0.7 points from 512's
-(three.js mirror p95 7.3 → 8.0 %, Filament r 0.3 p95 2.8 → 3.2 %), far inside 5 % / 15 %."""
+"""GGX samples per texel of the chains ``make test`` renders (:data:`FAST_MAPS`; the exports'
+default is 512). Half the bake; on forest every material's median and p95 moved by at most
+0.7 points from 512's (three.js mirror p95 7.3 → 8.0 %, Filament r 0.3 p95 2.8 → 3.2 %), far
+inside 5 % / 15 %."""
 
 
-def rendered(cubes: dict) -> dict:
-    """``cubes`` baked with :data:`RENDER_SAMPLES`, except Filament's ten-level chain (its
-    mirror on studio sits at the 15 % bound with 512)."""
-    return cubes if cubes is FILAMENT_DEEP_CUBES else {**cubes, "samples": RENDER_SAMPLES}
+def rendered(cubes: dict, name: str) -> dict:
+    """``cubes`` as map ``name`` is rendered: with :data:`RENDER_SAMPLES` in ``make test``; the
+    six-map study (``make test-all``) at the exports' default, whose figures
+    docs/BENCHMARKS.md records."""
+    return {**cubes, "samples": RENDER_SAMPLES} if name in FAST_MAPS else cubes
 
-
-THREE = rendered(THREE_CUBES)
-BABYLON = rendered(BABYLON_CUBES)
 
 pytestmark = pytest.mark.xdist_group("engine-render")
 """One worker runs this module (``make test``: ``--dist loadgroup``), so each map's chains
@@ -159,7 +158,8 @@ class TestThree:
     @classmethod
     def three(cls, baked, engine_browser):
         out = str(baked["dir"] / "t_pmrem.ktx2")
-        pmrem, chain = export_recording(baked["h5"], "threejs-pmrem", out, **THREE)
+        pmrem, chain = export_recording(baked["h5"], "threejs-pmrem", out,
+                                        **rendered(THREE_CUBES, baked["name"]))
         files = [export_assets([baked["h5"]], "threejs", str(baked["dir"] / "t.json"))[0], pmrem[0]]
         white = white_environment(baked["dir"], chain_sizes(THREE_CUBES))
         renders = render_three_glossy(engine_browser, files[1], white)
@@ -245,7 +245,8 @@ class TestThree:
                 "shbake.batch.export.prefilter_chain",
                 lambda *a, **k: (chain["levels"], chain["roughness"]),
             )
-            files = export_assets([baked["h5"]], "threejs-pmrem", out, **THREE)
+            files = export_assets([baked["h5"]], "threejs-pmrem", out,
+                                  **rendered(THREE_CUBES, baked["name"]))
         render = engine_browser.render(
             "three.html", VIEWS, SIZE, FOV_DEG, pmrem=engine_browser.url(files[0]),
             materials=sphere_materials(("metal",)),
@@ -261,11 +262,12 @@ class TestBabylon:
     @pytest.fixture(scope="class")
     @classmethod
     def babylon(cls, baked, engine_browser):
+        cubes = rendered(BABYLON_CUBES, baked["name"])
         files, chain = export_recording(baked["h5"], "babylon", str(baked["dir"] / "b.env"),
-                                        **BABYLON)  # fmt: skip
+                                        **cubes)  # fmt: skip
         env_file = files[0]
         gltf_file = export_recording(baked["h5"], "babylon", str(baked["dir"] / "b.gltf"),
-                                     chain=chain, **BABYLON)[0][0]  # fmt: skip
+                                     chain=chain, **cubes)[0][0]  # fmt: skip
         materials = [LAMBERT, *sphere_materials()]
         renders = {
             "env": render_babylon(engine_browser, materials, env=env_file),
@@ -329,8 +331,9 @@ class TestBabylon:
             ]
         else:
             faulty = {"levels": levels, "roughness": chain["roughness"]}
+            cubes = rendered(BABYLON_CUBES, baked["name"])  # the chain is the fixture's
             files["gltf"] = export_recording(baked["h5"], "babylon", out, chain=faulty,
-                                             **BABYLON)[0][0]  # fmt: skip
+                                             **cubes)[0][0]  # fmt: skip
         render = render_babylon(engine_browser, sphere_materials(("metal",)), **files)
         errors = glossy_errors(against_expected(babylon["expected"]["gltf"], render,
                                                 babylon["pick"]))  # fmt: skip
@@ -345,7 +348,7 @@ class TestFilament:
     @pytest.fixture(scope="class")
     @classmethod
     def filament(cls, baked, engine_browser):
-        cubes = rendered(filament_cubes(baked["name"]))
+        cubes = rendered(filament_cubes(baked["name"]), baked["name"])
         files, chain = export_recording(baked["h5"], "filament", str(baked["dir"] / "f_sh.txt"),
                                         **cubes)  # fmt: skip
         ibl = next(f for f in files if f.endswith("_ibl.ktx"))
