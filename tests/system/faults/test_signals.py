@@ -44,12 +44,17 @@ def interrupt(p: subprocess.Popen, sig: int) -> str:
 
 @pytest.fixture(scope="module")
 def big(tmp_path_factory):
-    """A 256x512 map (probe-fit's input)."""
+    """A 256x512 map with an env_sh asset baked from it (references read the map), and a
+    1024x2048 map (a long --report sweep)."""
+    from shbake_cli.main import main
+
     from tests.helpers import write_test_exr
 
     root = tmp_path_factory.mktemp("big")
     rng = np.random.default_rng(7)
     write_test_exr(root / "big.exr", 0.2 + rng.random((256, 512, 3)))
+    write_test_exr(root / "huge.exr", 0.2 + rng.random((1024, 2048, 3)))
+    assert main(["project-env", str(root / "big.exr"), "-o", str(root / "big.h5"), "-q"]) == 0
     return root
 
 
@@ -82,9 +87,37 @@ class TestSignals:
         this, :meth:`test_interrupt_long_kernel` (brdf-table, SIGINT and SIGTERM) and
         :meth:`test_watcher_removes_temporaries_of_a_run_held_in_a_kernel` prove it for every
         kernel; project-env --report, shrm and preview's reference return to Python every
-        few seconds at most, where the interrupt is Python's own."""
+        few seconds at most (:meth:`test_sigint_mid_run`)."""
         (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
         args = [a.format(big=big, box=box) for a in PROBE_FIT]
+        with unchanged(box, big):
+            p = subprocess.Popen(
+                [sys.executable, "-m", "shbake_cli.main", *args],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                env=dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR="off"),
+            )  # fmt: skip
+            assert computing(p), p.communicate()[1][-2000:]
+            err = interrupt(p, signal.SIGINT)
+        assert_failed((p.returncode, "", err), code=130, fragment="interrupted")
+
+    MID_RUN = {  # kernels that hand back to Python every few seconds at most
+        "projection-report": ["project-env", "{big}/huge.exr", "-o", "{box}/old.h5", "--lmax", "64",
+                              "--report"],
+        "shrm": ["shrm", "{big}/big.exr", "-o", "{box}/old.h5", "--brdf", "phong", "--F", "48",
+                 "--P", "16", "--face-size", "128"],
+        "preview-reference": ["preview", "{big}/big.h5", "--pass", "reference", "--size", "1024",
+                              "-o", "{box}/old.exr"],
+    }  # fmt: skip
+
+    @pytest.mark.parametrize("name", list(MID_RUN))
+    def test_sigint_mid_run(self, box, big, name):
+        """Exit 130 with one line after SIGINT, old outputs byte-identical, no temporary:
+        the signal lands while the command computes (its kernels return to Python between
+        blocks, where the interrupt may be Python's own or the watcher's; the watcher alone
+        is proven by :meth:`test_sigint_in_kernel`)."""
+        (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
+        (box / "old.exr").write_bytes((box / "map.exr").read_bytes())
+        args = [a.format(big=big, box=box) for a in self.MID_RUN[name]]
         with unchanged(box, big):
             p = subprocess.Popen(
                 [sys.executable, "-m", "shbake_cli.main", *args],
