@@ -42,6 +42,21 @@ def interrupt(p: subprocess.Popen, sig: int) -> str:
         pytest.fail(f"still running {WATCHER_LIMIT} s after the signal: no watcher stopped it")
 
 
+def sigint_while_computing(box, big, template: list[str]) -> None:
+    """Run ``shbake`` with ``template`` (``{box}``, ``{big}`` filled in), SIGINT once it
+    computes (:func:`interrupt`): exit 130 with one line, ``box`` and ``big`` unchanged."""
+    args = [a.format(big=big, box=box) for a in template]
+    with unchanged(box, big):
+        p = subprocess.Popen(
+            [sys.executable, "-m", "shbake_cli.main", *args],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            env=dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR="off"),
+        )  # fmt: skip
+        assert computing(p), p.communicate()[1][-2000:]
+        err = interrupt(p, signal.SIGINT)
+    assert_failed((p.returncode, "", err), code=130, fragment="interrupted")
+
+
 @pytest.fixture(scope="module")
 def big(tmp_path_factory):
     """A 256x512 map with an env_sh asset baked from it (references read the map), and a
@@ -89,16 +104,7 @@ class TestSignals:
         kernel; project-env --report, shrm and preview's reference return to Python every
         few seconds at most (:meth:`test_sigint_mid_run`)."""
         (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
-        args = [a.format(big=big, box=box) for a in PROBE_FIT]
-        with unchanged(box, big):
-            p = subprocess.Popen(
-                [sys.executable, "-m", "shbake_cli.main", *args],
-                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                env=dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR="off"),
-            )  # fmt: skip
-            assert computing(p), p.communicate()[1][-2000:]
-            err = interrupt(p, signal.SIGINT)
-        assert_failed((p.returncode, "", err), code=130, fragment="interrupted")
+        sigint_while_computing(box, big, PROBE_FIT)
 
     MID_RUN = {  # kernels that hand back to Python every few seconds at most
         "projection-report": ["project-env", "{big}/huge.exr", "-o", "{box}/old.h5", "--lmax", "64",
@@ -117,16 +123,7 @@ class TestSignals:
         is proven by :meth:`test_sigint_in_kernel`)."""
         (box / "old.h5").write_bytes((box / "env.h5").read_bytes())
         (box / "old.exr").write_bytes((box / "map.exr").read_bytes())
-        args = [a.format(big=big, box=box) for a in self.MID_RUN[name]]
-        with unchanged(box, big):
-            p = subprocess.Popen(
-                [sys.executable, "-m", "shbake_cli.main", *args],
-                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                env=dict(os.environ, NUMBA_NUM_THREADS="1", SHBAKE_CACHE_DIR="off"),
-            )  # fmt: skip
-            assert computing(p), p.communicate()[1][-2000:]
-            err = interrupt(p, signal.SIGINT)
-        assert_failed((p.returncode, "", err), code=130, fragment="interrupted")
+        sigint_while_computing(box, big, self.MID_RUN[name])
 
     WATCHED = """
 import sys, numba
