@@ -139,7 +139,7 @@ def given_input(given: str, want: str, option: str, what: str = "map") -> str:
 def _baked_from(path: str, want: str, what: str) -> str:
     """``path`` if its SHA-256 (bounded by its size) is ``want``; else one line naming it."""
     if resources.sha256_of(path) != want:
-        # the digest found is not shown: a recorded path may name a file the user did not
+        # the digest found is not shown: a recorded path may name a file the user did not name
         raise FormatError(
             f"{path}: its SHA-256 differs from the one recorded in the asset "
             f"({str(want)[:12]}…); not the {what} this asset was baked from"
