@@ -11,7 +11,7 @@ import os
 import re
 import stat
 
-from shbake.errors import ImageReadError, ParameterError, ResourceError
+from shbake.errors import FormatError, ImageReadError, ParameterError, ResourceError
 
 DEFAULT_BUDGET_FRACTION = 0.8
 """Share of the available memory a run may plan to use by default."""
@@ -220,6 +220,28 @@ def read_bounded(path: str, limit: int, what: str = "input") -> bytes:
     if len(data) > limit:
         raise ResourceError(f"{path}: larger than the {human(limit)} a {what} can be")
     return data
+
+
+def file_identity(path: str) -> tuple | None:
+    """``(inode, size, mtime ns)`` of ``path``, or ``None`` when it cannot be stat'ed: equal
+    before and after a read when no one wrote the file in between."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_ino, st.st_size, st.st_mtime_ns)
+
+
+def check_digest(path: str, got: str, want: str, what: str) -> None:
+    """Refuse ``path``, the ``what`` (``map``, ``MERL file``) an asset was baked from, when
+    the SHA-256 of the bytes read from it, ``got``, is not ``want``, the one the asset
+    records: a file of the same name but other bytes gives a silently wrong result. The
+    digest found is not shown: a recorded path may name a file the user did not name."""
+    if got != want:
+        raise FormatError(
+            f"{path}: its SHA-256 differs from the one recorded in the asset "
+            f"({str(want)[:12]}…); not the {what} this asset was baked from"
+        )
 
 
 def sha256_of(path: str, own_output: bool = False) -> str:

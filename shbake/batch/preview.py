@@ -3,8 +3,8 @@ write images.
 
 :func:`preview_asset` reads the asset (and, for references, the original map
 it records, hash-checked: :func:`shbake.format.provenance.reload_source`, and a measured
-BRDF's MERL file from ``--merl`` alone, checked against the SHA-256 the asset records of
-it: :func:`_check_merl`), takes the pass's shader from the registry
+BRDF's MERL file from ``--merl`` alone, its bytes read checked against the SHA-256 the
+asset records of it: :func:`_merl_digest`), takes the pass's shader from the registry
 (:func:`shbake.shading.shader.shader`: a pass is a technique of the asset's kind, or a
 ``reference`` pass — the ground truth of one), renders it on a sphere
 (:mod:`shbake.preview.passes`), and writes the float32 EXR of the pass, with ``diff`` the
@@ -23,12 +23,12 @@ from shbake.evaluation.metrics import mean_squared_error, relative_rms_error
 from shbake.format.asset import read_asset
 from shbake.format.brdf_table import table_at
 from shbake.format.images import auto_exposure, tonemap_to_srgb8, write_exr, write_png
-from shbake.format.provenance import given_input, reload_source
+from shbake.format.provenance import reload_source
 from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import beyond_scale, write_contact_sheet
 from shbake.preview.passes import render_pass
 from shbake.progress import NO_PROGRESS
-from shbake.resources import check_memory
+from shbake.resources import check_memory, check_regular_file
 from shbake.shading.shader import DEFAULT_OF_KIND, shader, shader_classes, shaders_of_kind
 
 REFERENCE_PASSES = {"reference": None, "reference-tangent": "tangent"}
@@ -72,20 +72,20 @@ def _measured(sh) -> bool:
     return sh.truth == "reflection" and sh.brdf()[0] == "merl"
 
 
-def _check_merl(measured, path: str, merl_path: str | None) -> None:
-    """Refuse the ground truth of a measured BRDF unless ``merl_path`` (``--merl``) is the
-    MERL file that ``measured``, the Kautz table or SHRM at ``path``, was baked from: the
-    path it records is never followed, and the file given must have the SHA-256 it records
-    (a table's ``source_sha256``, an SHRM's ``brdf_source_sha256``), else the reference and
-    its error figures would silently be another BRDF's. An SHRM written before
-    ``brdf_source_sha256`` records none: its ``--merl`` is read as given, unchecked."""
+def _merl_digest(measured, path: str, merl_path: str | None) -> str | None:
+    """The SHA-256 that ``measured``, the Kautz table or SHRM at ``path``, records of the
+    MERL file it was baked from (a table's ``source_sha256``, an SHRM's
+    ``brdf_source_sha256``), which the bytes read from ``merl_path`` (``--merl``) must have
+    (:func:`~shbake.brdf.model.make_brdf`), else the reference and its error figures would
+    silently be another BRDF's. The path the asset records is never followed. An SHRM
+    written before ``brdf_source_sha256`` records none (``None``): its ``--merl`` is read
+    as given, unchecked."""
     if merl_path is None:
         raise ParameterError(f"{path}: a measured (merl) BRDF: give its MERL file with --merl "
                              f"(the path the asset records is not followed)")  # fmt: skip
+    check_regular_file(merl_path, "--merl")
     key = "source_sha256" if measured.kind == "brdf_table" else "brdf_source_sha256"
-    want = measured.attrs.get(key)
-    if want is not None:
-        given_input(merl_path, want, "--merl", "MERL file")
+    return measured.attrs.get(key)
 
 
 PIXEL_BYTES = 256
@@ -201,14 +201,15 @@ def preview_asset(
     sh = shader(asset, technique, **companions)
     material, summary, text = _material(sh, roughness, f0)
     needs_source = reference or diff
+    merl_sha256 = None
     if needs_source and _measured(sh):  # a Kautz table's BRDF, or an SHRM's
         measured = (table, table_path) if sh.truth == "brdf" else (asset, asset_path)
-        _check_merl(*measured, merl_path)
+        merl_sha256 = _merl_digest(*measured, merl_path)
     coeffs = 0 if reference else sh.point_coeffs  # a reference pass runs no shader
     check_preview_memory(size, diff, coeffs)
     src = reload_source(asset, asset_path, source) if needs_source else None
     check_preview_memory(size, diff, coeffs, src)
-    truth = {"samples": samples, "merl_path": merl_path}
+    truth = {"samples": samples, "merl_path": merl_path, "merl_sha256": merl_sha256}
     name = pass_name or technique
     if reference:
         img, timing = render_pass(sh, size, material, src, progress, **truth)

@@ -45,12 +45,16 @@ SPEC = ModelSpec(
 )
 
 
-def read_merl(path: str) -> np.ndarray:
-    """Read a MERL ``.binary`` file; return ``(3, 90, 90, 180)`` float64 BRDF values (1/sr).
+def read_merl(path: str) -> tuple[np.ndarray, str]:
+    """Read a MERL ``.binary`` file; return its ``(3, 90, 90, 180)`` float64 BRDF values
+    (1/sr) and the hex SHA-256 of the bytes they were decoded from (read once: what an
+    asset records of the file is what was baked, even if the file changes afterwards).
 
     Raises :class:`~shbake.errors.InputError` for a missing, truncated or
     malformed file, or non-finite values.
     """
+    import hashlib  # as in resources.sha256_of: only a measured BRDF pays for it
+
     expected = 12 + 3 * 8 * N_TH * N_TD * N_PD
     try:  # special files refused before opening; never more than the format's size read
         raw = resources.read_bounded(os.fspath(path), expected, "MERL file (--merl)")
@@ -75,7 +79,8 @@ def read_merl(path: str) -> np.ndarray:
     vals = np.frombuffer(raw[12:], dtype="<f8").reshape(3, N_TH, N_TD, N_PD)
     if not np.all(np.isfinite(vals)):
         raise InputError(f"{path}: MERL file holds NaN or Inf values")
-    return np.ascontiguousarray(np.maximum(vals, 0.0) * SCALES[:, None, None, None])
+    values = np.ascontiguousarray(np.maximum(vals, 0.0) * SCALES[:, None, None, None])
+    return values, hashlib.sha256(raw).hexdigest()
 
 
 def half_diff_grid() -> tuple[np.ndarray, np.ndarray]:

@@ -20,6 +20,7 @@ from shbake.brdf.dispatch import brdf_eval
 from shbake.brdf.spec import ModelSpec
 from shbake.errors import ParameterError
 from shbake.jit import jit, run_blocks
+from shbake.resources import check_digest
 
 MODELS: dict[str, ModelSpec] = {
     m.SPEC.name: m.SPEC
@@ -55,12 +56,15 @@ class BRDF:
         Measured data (MERL) or a placeholder.
     source : str
         Where measured data came from (path), else ``""``.
+    source_sha256 : str
+        Hex SHA-256 of the bytes ``data`` was decoded from, else ``""``.
     """
 
     spec: ModelSpec
     values: dict
     data: np.ndarray = field(default_factory=lambda: NO_DATA)
     source: str = ""
+    source_sha256: str = ""
 
     @property
     def name(self) -> str:
@@ -81,7 +85,8 @@ class BRDF:
         """A copy with some parameters changed (validated)."""
         given = {k: v for k, v in self.values.items()}
         given.update(changes)
-        return BRDF(self.spec, self.spec.resolve(given), self.data, self.source)
+        return BRDF(self.spec, self.spec.resolve(given), self.data, self.source,
+                    self.source_sha256)  # fmt: skip
 
     def evaluate(self, s, v) -> np.ndarray:
         """``f(s, v)`` per channel (1/sr) at local unit directions ``(..., 3)``; 0 below horizon."""
@@ -110,10 +115,14 @@ def model_spec(name: str) -> ModelSpec:
         ) from None
 
 
-def make_brdf(name: str, merl_path: str | None = None, **values) -> BRDF:
+def make_brdf(name: str, merl_path: str | None = None, merl_sha256: str | None = None,
+               **values) -> BRDF:  # fmt: skip
     """Build a :class:`BRDF` from a model name and parameter values (strings or numbers).
 
-    ``merl_path`` is required for (and only accepted by) the ``merl`` model.
+    ``merl_path`` is required for (and only accepted by) the ``merl`` model;
+    ``merl_sha256``, the digest an asset records of its MERL file, refuses a file whose
+    bytes read differ (:func:`shbake.resources.check_digest`, a
+    :class:`~shbake.errors.FormatError`).
     """
     spec = model_spec(name)
     if (name == "merl") != (merl_path is not None):
@@ -122,7 +131,9 @@ def make_brdf(name: str, merl_path: str | None = None, **values) -> BRDF:
             if name == "merl"
             else f"a MERL file is only used by the merl model, not {name!r}"
         )
-    data, source = NO_DATA, ""
-    if merl_path is not None:
-        data, source = merl.read_merl(merl_path), str(merl_path)
-    return BRDF(spec, spec.resolve(values), data, source)
+    if merl_path is None:
+        return BRDF(spec, spec.resolve(values))
+    data, digest = merl.read_merl(merl_path)
+    if merl_sha256 is not None:
+        check_digest(merl_path, digest, merl_sha256, "MERL file")
+    return BRDF(spec, spec.resolve(values), data, str(merl_path), digest)

@@ -85,6 +85,8 @@ class ReflectionBRDF:
         Measured data (MERL) or a placeholder.
     source : str
         Path of measured data, else ``""``.
+    source_sha256 : str
+        Hex SHA-256 of the bytes ``data`` was decoded from, else ``""``.
     """
 
     name: str
@@ -94,6 +96,7 @@ class ReflectionBRDF:
     values: dict
     data: np.ndarray = field(default_factory=lambda: NO_DATA)
     source: str = ""
+    source_sha256: str = ""
 
     @property
     def kind_id(self) -> int:
@@ -142,7 +145,7 @@ def make_reflection_brdf(name: str, params: dict | None = None, merl_path: str |
             )
     kind = "tangent" if name in TANGENT_MODELS else "surface"
     return ReflectionBRDF(name, kind, brdf.spec.model_id, brdf.packed, brdf.values,
-                          brdf.data, brdf.source)  # fmt: skip
+                          brdf.data, brdf.source, brdf.source_sha256)  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------------

@@ -15,7 +15,9 @@ from shbake.envmap.layouts import (
     texels,
 )
 from shbake.envmap.repair import DEFAULT_NEGATIVE, apply_negative_policy, repair_nonfinite
+from shbake.errors import ImageReadError
 from shbake.messages import warn
+from shbake.resources import file_identity
 from shbake.sh.projection import fejer_row_weights, project_latlong, project_samples
 
 
@@ -141,11 +143,10 @@ def decoded_once():
 
 
 def _decode_key(path, *policies):
-    try:
-        st = os.stat(path)
-    except OSError:
+    identity = file_identity(path)
+    if identity is None:
         return None  # the decode says what is wrong
-    return (os.path.abspath(path), st.st_ino, st.st_size, st.st_mtime_ns, *policies)
+    return (os.path.abspath(path), *identity, *policies)
 
 
 def load_environment(
@@ -177,6 +178,7 @@ def load_environment(
 
 
 def _load_environment(path, layout, colorspace, negative, fix_nonfinite, quiet) -> Environment:
+    identity = file_identity(path)  # the pixels, the hash and the size are three reads
     raw, info = read_image(path)
     if info.get("display_referred") and colorspace is None:
         warn(f"{path}: {info['format']} pixels are display-referred, read as linear radiance; "
@@ -197,10 +199,13 @@ def _load_environment(path, layout, colorspace, negative, fix_nonfinite, quiet) 
     rgb, n_negative, energy_change = apply_negative_policy(
         rgb, omega, negative, path, quiet, inplace=True
     )
+    digest = sha256_of(path)
+    if file_identity(path) != identity:
+        raise ImageReadError(f"{path}: changed while it was read; run again once it is written")
     meta = {
         "path": str(path),
-        "sha256": sha256_of(path),
-        "size": os.stat(path).st_size,
+        "sha256": digest,
+        "size": identity[1],
         "width": w,
         "height": h,
         "layout": layout,

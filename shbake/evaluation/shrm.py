@@ -36,7 +36,8 @@ class ShrmCheck:
         if rb.kind != "tangent":
             self.ref = brute_force_reflection(dirs, om, rad, rb.kind, rb.name,
                                               rb.describe()["parameters"], n, VIEW,
-                                              source=rb.source)  # fmt: skip
+                                              source=rb.source,
+                                              source_sha256=rb.source_sha256)  # fmt: skip
 
     def rel_energy(self, asset) -> float:
         """``Σ (shaded − ref)² / Σ ref²`` (:func:`~shbake.evaluation.metrics.

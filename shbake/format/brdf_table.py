@@ -84,7 +84,7 @@ def build_table_asset(
         "brdf_source": desc["source"],
         "brdf_coloured": coloured,
     }
-    attrs |= file_source(brdf.source) if brdf.source else no_source()
+    attrs |= file_source(brdf.source, brdf.source_sha256) if brdf.source else no_source()
     return Asset("brdf_table", attrs, datasets, dattrs)
 
 
@@ -195,14 +195,15 @@ class BRDFTable:
     source: str
     attrs: dict
 
-    def make_brdf(self, merl_path: str | None = None) -> "BRDF":
+    def make_brdf(self, merl_path: str | None = None, merl_sha256: str | None = None) -> "BRDF":
         """The tabulated BRDF, rebuilt from the recorded model and parameters; a measured
-        (``merl``) one from ``merl_path``, the MERL file the user gave: the path the asset
-        records (``source``) is never followed (docs/SECURITY.md §3)."""
+        (``merl``) one from ``merl_path``, the MERL file the user gave, whose bytes must hash
+        to ``merl_sha256`` when given: the path the asset records (``source``) is never
+        followed (docs/SECURITY.md §3)."""
         from shbake.brdf.model import make_brdf
 
         if self.model == "merl":
-            return make_brdf("merl", merl_path=merl_path, **self.params)
+            return make_brdf("merl", merl_path, merl_sha256, **self.params)
         return make_brdf(self.model, **self.params)
 
 

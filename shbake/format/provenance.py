@@ -50,11 +50,12 @@ def no_source() -> dict:
     }
 
 
-def file_source(path: str) -> dict:
-    """The provenance block of a non-map input file (a MERL BRDF): path, size, SHA-256."""
+def file_source(path: str, sha256: str) -> dict:
+    """The provenance block of a non-map input file (a MERL BRDF): path, size and
+    ``sha256``, the SHA-256 of the bytes the bake read (``BRDF.source_sha256``)."""
     return no_source() | {
         "source_path": os.path.abspath(path),
-        "source_sha256": resources.sha256_of(path),
+        "source_sha256": sha256,
         "source_size": os.stat(path).st_size,
     }
 
@@ -98,19 +99,18 @@ def relativise(attrs: dict, asset_path: str) -> dict:
 def resolve_source(attrs: dict, asset_path: str, given: str | None = None,
                    option: str = "--source") -> str:  # fmt: skip
     """The input file of an asset: ``given`` (the command's ``option``) if any, else
-    ``source_path`` relative to the asset's folder; its SHA-256 must match ``source_sha256``.
-
-    The hash is bounded by the file size; FIFOs, devices and folders are refused
+    ``source_path`` relative to the asset's folder. FIFOs, devices and folders are refused
     before opening, and a recorded path is followed only to an image
     (:func:`image_suffixes`). Raises :class:`ImageReadError` (not found) or
-    :class:`FormatError` (hash differs).
+    :class:`FormatError`. Whether it holds the bytes the asset was baked from is checked
+    on the bytes read (:func:`reload_source`).
     """
     recorded = attrs.get("source_path", "")
     if not isinstance(recorded, str):
         raise FormatError("attribute source_path must be a string")
-    want = attrs.get("source_sha256", "")
     if given:
-        return given_input(given, want, option)
+        resources.check_regular_file(given, option)
+        return given
     if not recorded:
         raise ImageReadError(f"the asset records no source map; give it with {option}")
     if not recorded.lower().endswith(image_suffixes()):
@@ -123,33 +123,13 @@ def resolve_source(attrs: dict, asset_path: str, given: str | None = None,
             f"give it with {option}"
         )
     resources.check_regular_file(path, "recorded source map")
-    return _baked_from(path, want, "map")
-
-
-def given_input(given: str, want: str, option: str, what: str = "map") -> str:
-    """``given``, the file the user named with ``option`` as the ``what`` (``map``,
-    ``MERL file``) an asset was baked from, once it is a regular file (FIFOs, devices and
-    folders refused before opening) whose SHA-256 is ``want``, the one the asset records.
-    Raises :class:`ImageReadError` (not found) or :class:`FormatError` (hash differs): a
-    file of the same name but other bytes would give a silently wrong result."""
-    resources.check_regular_file(given, option)
-    return _baked_from(given, want, what)
-
-
-def _baked_from(path: str, want: str, what: str) -> str:
-    """``path`` if its SHA-256 (bounded by its size) is ``want``; else one line naming it."""
-    if resources.sha256_of(path) != want:
-        # the digest found is not shown: a recorded path may name a file the user did not name
-        raise FormatError(
-            f"{path}: its SHA-256 differs from the one recorded in the asset "
-            f"({str(want)[:12]}…); not the {what} this asset was baked from"
-        )
     return path
 
 
 def reload_source(asset, asset_path: str, given: str | None = None, option: str = "--source"):
     """The map ``asset`` was baked from, read as the bake read it: the file of
-    :func:`resolve_source` (``given``, else the recorded path; SHA-256 checked) with every
+    :func:`resolve_source` (``given``, else the recorded path), refused unless the bytes
+    decoded hash to the asset's ``source_sha256`` (a :class:`FormatError`), with every
     input policy the provenance block records — layout, input colourspace, non-finite
     repair and negative policy (``source_*`` attributes, FORMAT.md §3) — so its pixels are
     the ones the asset was computed from. ``option`` names the command's option in messages.
@@ -160,7 +140,7 @@ def reload_source(asset, asset_path: str, given: str | None = None, option: str 
     path = resolve_source(a, asset_path, given, option)
     cs_in = a.get("source_colorspace_in")
     nonfinite = a.get("source_nonfinite_policy")
-    return load_environment(
+    env = load_environment(
         path,
         a.get("source_layout"),
         None if cs_in in (None, a.get("source_colorspace")) else cs_in,
@@ -168,3 +148,5 @@ def reload_source(asset, asset_path: str, given: str | None = None, option: str 
         None if nonfinite in (None, "", "error") else nonfinite,
         quiet=True,
     )
+    resources.check_digest(path, env.meta["sha256"], a.get("source_sha256", ""), "map")
+    return env

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shbake import resources
 from shbake.conventions import LMAX_LIMIT, lmax_of
 from shbake.errors import FormatError
 from shbake.format.asset import Asset, read_asset, write_asset
@@ -114,7 +113,7 @@ def build_shrm_asset(bake, env_meta: dict) -> Asset:
         "method": "Ramamoorthi & Hanrahan 2002, frequency-space prefiltering (appendix C)",
     }
     if rb.source:  # analytic SHRMs keep their bytes
-        attrs["brdf_source_sha256"] = resources.sha256_of(rb.source)
+        attrs["brdf_source_sha256"] = rb.source_sha256
     attrs.update(map_source(env_meta))
     datasets = {
         "/shrm": np.ascontiguousarray(bake.cube, dtype=np.float32),

@@ -47,9 +47,9 @@ def render_pass(shader, size: int, material: dict | None = None, source=None,
     """Draw ``shader`` with ``material`` on a ``size``² sphere; ``(image (size, size, 3),
     timing)``. Timing: ``seconds``/``fps`` of the first update regime, and ``modes`` (each
     regime's) when the shader has several. ``source``: draw its ground truth under that map
-    instead (``truth_settings``: ``samples``, ``merl_path``), in :data:`TRUTH_CHUNKS`
-    blocks of pixels counted on ``progress`` (each pixel's integral is its own: the same
-    bits as one call)."""
+    instead (``truth_settings``: ``samples``, ``merl_path``, ``merl_sha256``), in
+    :data:`TRUTH_CHUNKS` blocks of pixels counted on ``progress`` (each pixel's integral is
+    its own: the same bits as one call)."""
     material = dict(material or {})
     n, t, v, mask = sphere_points(size, shader.min_nv)
     tangents = {"tangents": t} if shader.tangents else {}

@@ -39,14 +39,16 @@ def brute_force_reflection(
     view,
     tangents=None,
     source: str = "",
+    source_sha256: str | None = None,
 ) -> np.ndarray:
-    """Outgoing radiance ``(N, 3)`` of the BRDF ``model`` (``params``; ``source``: MERL file)
+    """Outgoing radiance ``(N, 3)`` of the BRDF ``model`` (``params``; ``source``: MERL file,
+    whose bytes must hash to ``source_sha256`` when given: :func:`~shbake.brdf.model.make_brdf`)
     reparameterised as ``kind``, at ``normals (N, 3)`` (``tangents`` for the tangent kind)
     seen from the unit world ``view (3,)``, summed over the texels ``dirs``, ``omega``,
     ``radiance`` (``Environment.samples()``, world frame)."""
     view = np.asarray(view, dtype=float)
     if kind == "surface":
-        brdf = make_brdf(model, source or None, **params)
+        brdf = make_brdf(model, source or None, source_sha256, **params)
         frames = np.array([np.array([*tangent_frame(*x), x]) for x in normals])
         return brute_force_shading(dirs, omega, radiance, frames, frames @ view, brdf)
     out = np.zeros((len(normals if kind == "lobe" else tangents), 3))

@@ -10,14 +10,14 @@ shader's :meth:`~shbake.shading.shader.Shader.shade` approximates, in the same u
     ``k_d E(t)``, the Kajiya–Kay tangent irradiance, same function;
 ``brdf``
     :func:`~shbake.reference.brdf_shading.brute_force_shading` with the BRDF a Kautz
-    table tabulates (``merl_path``: its measured data, the file the user gave), in the
-    shader's frames;
+    table tabulates (``merl_path``: its measured data, the file the user gave, whose bytes
+    must hash to ``merl_sha256`` when given), in the shader's frames;
 ``ggx``
     ``F0 E0 + (1 − F0) E1`` by :func:`~shbake.reference.ggx.ggx_integrals` (``samples``
     per pixel; lat-long maps);
 ``reflection``
     :func:`~shbake.reference.reflection.brute_force_reflection` of the BRDF an SHRM baked
-    (``merl_path``: a measured one's data).
+    (``merl_path``, ``merl_sha256``: a measured one's data, as for ``brdf``).
 
 Each takes ``(shader, env, normals, views, tangents, **settings)`` and reads from the
 shader only what describes the BRDF (never its coefficients): the references stay
@@ -56,10 +56,10 @@ def tangent_truth(shader, env, normals, views, tangents=None, rotation=None, kd=
 
 
 def brdf_truth(shader, env, normals, views, tangents=None, rotation=None, merl_path=None,
-               **settings):  # fmt: skip
+               merl_sha256=None, **settings):  # fmt: skip
     frames, local = shader.frames(normals, views, tangents)
     return brute_force_shading(*_samples(env, rotation), frames, local,
-                               shader.table.make_brdf(merl_path))  # fmt: skip
+                               shader.table.make_brdf(merl_path, merl_sha256))  # fmt: skip
 
 
 def ggx_truth(shader, env, normals, views, tangents=None, rotation=None, alpha=None, f0=1.0,
@@ -71,11 +71,12 @@ def ggx_truth(shader, env, normals, views, tangents=None, rotation=None, alpha=N
 
 
 def reflection_truth(shader, env, normals, views, tangents=None, rotation=None, merl_path=None,
-                     **settings):  # fmt: skip
+                     merl_sha256=None, **settings):  # fmt: skip
     model, params, _ = shader.brdf()  # the recorded MERL source is not followed (``merl_path``)
     view = np.asarray(views, dtype=np.float64).reshape(-1, 3)[0]
     return brute_force_reflection(*_samples(env, rotation), shader.kind, model, params,
-                                  normals, view, tangents, merl_path or "")  # fmt: skip
+                                  normals, view, tangents, merl_path or "",
+                                  merl_sha256)  # fmt: skip
 
 
 TRUTHS = {

@@ -1,12 +1,14 @@
 """Measured BRDFs (:mod:`shbake.brdf.merl`): a MERL file written from an analytic GGX reads back
-as that model; a truncated file is refused.
+as that model; a truncated file is refused; the digest kept is of the bytes decoded.
 """
+
+import hashlib
 
 import numpy as np
 import pytest
 
-from shbake.brdf import make_brdf
-from shbake.errors import InputError
+from shbake.brdf import make_brdf, merl
+from shbake.errors import FormatError, InputError
 from tests.helpers import hemi
 
 
@@ -34,3 +36,44 @@ class TestMerl:
             make_brdf("merl", merl_path=str(other))
         header = np.frombuffer(other.read_bytes()[:12], "<i4")
         assert not any(str(int(d)) in str(info.value) for d in header)
+
+
+class TestReadMerl:
+    def test_digest_is_of_the_bytes_decoded(self, merl_file):
+        values, digest = merl.read_merl(str(merl_file[0]))
+        assert digest == hashlib.sha256(merl_file[0].read_bytes()).hexdigest()
+        assert values.shape == (3, merl.N_TH, merl.N_TD, merl.N_PD)
+
+
+class TestMakeBrdfDigest:
+    def test_recorded_digest_refuses_other_bytes(self, merl_file):
+        """``merl_sha256`` (what an asset records) is checked on the bytes read, not on a
+        second read of the path: the file decoded is the one the asset was baked from."""
+        path = str(merl_file[0])
+        want = hashlib.sha256(merl_file[0].read_bytes()).hexdigest()
+        assert make_brdf("merl", path, want).source_sha256 == want
+        with pytest.raises(FormatError, match="not the MERL file this asset was baked from"):
+            make_brdf("merl", path, "ab" * 32)
+
+    def test_table_records_the_bytes_it_baked(self, merl_file, tmp_path, monkeypatch):
+        """A MERL file rewritten after the bake read it: the table records the digest of
+        the bytes it tabulated, not of the file as it is afterwards."""
+        from shbake.batch.brdf_table import bake_brdf_table
+        from shbake.format.asset import read_asset
+
+        path = tmp_path / "m.binary"
+        path.write_bytes(merl_file[0].read_bytes())
+        baked = hashlib.sha256(path.read_bytes()).hexdigest()
+        read_merl = merl.read_merl
+
+        def read_then_rewrite(p):
+            out = read_merl(p)
+            path.write_bytes(path.read_bytes()[:12] + bytes(path.stat().st_size - 12))
+            return out
+
+        monkeypatch.setattr(merl, "read_merl", read_then_rewrite)
+        out = tmp_path / "t.h5"
+        bake_brdf_table("merl", str(out), merl_path=str(path), lmax=2, size=(8, 8),
+                        samples=64)  # fmt: skip
+        assert hashlib.sha256(path.read_bytes()).hexdigest() != baked
+        assert read_asset(str(out)).attrs["source_sha256"] == baked

@@ -142,15 +142,21 @@ class TestResolveSource:
         with pytest.raises(FormatError, match="source_path must be a string"):
             resolve_source({"source_path": ["x.exr"]}, str(tmp_path / "a.h5"))
 
-    def test_mismatch_shows_no_digest_of_the_file_found(self, tmp_path):
+
+class TestReloadSource:
+    def test_other_bytes_refused_without_their_digest(self, tmp_path):
+        """A map under the recorded name whose bytes are not the ones baked is refused once
+        read (the check is on the bytes decoded), and the message shows no digest of it."""
         import hashlib
+        from types import SimpleNamespace
 
         from shbake.errors import FormatError
-        from shbake.format.provenance import resolve_source
 
-        (tmp_path / "other.exr").write_bytes(b"not the map")
-        found = hashlib.sha256(b"not the map").hexdigest()
+        write_test_exr(tmp_path / "other.exr", np.ones((8, 16, 3)))
+        found = hashlib.sha256((tmp_path / "other.exr").read_bytes()).hexdigest()
+        asset = SimpleNamespace(attrs={"source_path": "other.exr", "source_sha256": "ab" * 32})
         with pytest.raises(FormatError, match="differs from the one recorded") as info:
-            resolve_source({"source_path": "other.exr", "source_sha256": "ab" * 32},
-                           str(tmp_path / "a.h5"))  # fmt: skip
+            reload_source(asset, str(tmp_path / "a.h5"))
         assert found[:8] not in str(info.value)
+        asset.attrs["source_sha256"] = found
+        assert reload_source(asset, str(tmp_path / "a.h5")).meta["sha256"] == found
