@@ -94,10 +94,9 @@ def test_preview_export_evaluate(run_cli, baked, tmp_path):
     assert errors["irradiance"]["mean"] < 0.05, errors
 
 
+@pytest.mark.parametrize("baked", ["latlong"], indirect=True)  # split-sum takes lat-long maps
 def test_split_sum_probe_export(run_cli, baked, tmp_path):
     """A split-sum probe of the lat-long map (its cube chain prefiltered anew from it)."""
-    if not baked.name.startswith("latlong"):
-        pytest.skip("split-sum takes lat-long maps")
     code, _, err = run_cli("split-sum", baked / "map.exr", "-o", baked / "split.h5", "--size",
                            "16", "--min-size", "8", "--samples", "16", "--fix-nonfinite",
                            "box3", "--negative", "keep", "-q")  # fmt: skip
