@@ -26,16 +26,9 @@ POOL = 600_000
 
 def measure(name: str, radii: list[float]) -> dict:
     from shbake.bakers import env_lights
-    from shbake.conventions import REC709_LUMINANCE
-    from shbake.envmap import load_environment
-    from shbake.evaluation.env_sh import brute_force_reference
     from shbake.sh.point_sets import fibonacci_sphere
 
-    env = load_environment(str(lights.HDRI / f"{name}.exr"), quiet=True)
-    ref = brute_force_reference(env, n_dirs=lights.EVAL_DIRECTIONS)
-    normals, ref_lum = ref["dirs"], ref["irradiance"]
-    target = env_lights.irradiance_target(env)
-    energy = float(target.energy @ REC709_LUMINANCE)
+    normals, ref_lum, energy, target = lights.acceptance_inputs(name)
     centres = env_lights.fit_lights(target, 3).directions
     pool = fibonacci_sphere(POOL)
     rows = []

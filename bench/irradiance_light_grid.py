@@ -20,15 +20,12 @@ fit there can have, the least max, and the least mean with every error ≤ 10 %.
 Writes ``PREFIX.json`` and ``PREFIX.md`` (default ``bench/results/irradiance_light_grid``).
 """
 
-import argparse
-
 import numpy as np
 from irradiance_lights import (
     ACCEPT_MAX,
-    EVAL_DIRECTIONS,
-    HDRI,
-    RESULTS,
+    acceptance_inputs,
     best_luminance_fit,
+    missed_maps_parser,
     write_results,
 )
 
@@ -154,16 +151,9 @@ def bounds(dirs, normals, ref_lum, energy) -> dict:
 
 
 def measure(name: str, grid: int, top: int, refined: int) -> dict:
-    from shbake.bakers import env_lights
-    from shbake.conventions import REC709_LUMINANCE
-    from shbake.envmap import load_environment
-    from shbake.evaluation.env_sh import brute_force_reference
     from shbake.sh.point_sets import fibonacci_sphere
 
-    env = load_environment(str(HDRI / f"{name}.exr"), quiet=True)
-    ref = brute_force_reference(env, n_dirs=EVAL_DIRECTIONS)
-    normals, ref_lum = ref["dirs"], ref["irradiance"]
-    energy = float(env_lights.irradiance_target(env).energy @ REC709_LUMINANCE)
+    normals, ref_lum, energy, _ = acceptance_inputs(name)
     check_scan(normals, ref_lum)
     points = fibonacci_sphere(grid)
     target, kernels = relative_design(normals, ref_lum, points)
@@ -200,12 +190,10 @@ def markdown(results: dict) -> str:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("maps", nargs="*", default=["night", "studio"])
+    ap = missed_maps_parser(__doc__, "irradiance_light_grid")
     ap.add_argument("--grid", type=int, default=1000)
     ap.add_argument("--top", type=int, default=20000)
     ap.add_argument("--refined", type=int, default=25)
-    ap.add_argument("--out", default=str(RESULTS / "irradiance_light_grid"))
     args = ap.parse_args()
     results = {m: measure(m, args.grid, args.top, args.refined) for m in args.maps}
     write_results(args.out, results, markdown(results))

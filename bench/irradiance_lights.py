@@ -157,10 +157,13 @@ def rect_lights(env, count: int, dirs_eval: np.ndarray):
 
 
 def best_luminance_fit(dirs: np.ndarray, normals: np.ndarray, ref_lum: np.ndarray, energy: float,
-                       objective: str, cap: float | None = None) -> dict | None:  # fmt: skip
+                       objective: str, cap: float | None = None,
+                       form_factors=None) -> dict | None:  # fmt: skip
     """The least ``objective`` (``mean`` or ``max``) relative luminance error any
     9 coefficients + lights at ``dirs`` can give at ``normals`` (a linear programme);
     ``cap``: with ``mean``, every normal's error held ``≤ cap`` (``None`` when no fit can).
+    ``form_factors``: each light a rectangle light of that ``l`` (:func:`rect_kernel`,
+    whose sphere mean is ``(1 + l)/4``); ``None``: directional lights (``l = 0``).
 
     A lower bound for those directions: every RGB fit's luminance is such a model (light
     luminances ``≥ 0``, ``e_0`` fixed by the map's luminous ``energy`` as ``--lights``
@@ -171,7 +174,9 @@ def best_luminance_fit(dirs: np.ndarray, normals: np.ndarray, ref_lum: np.ndarra
 
     from shbake.sh.basis import real_sh
 
-    A = np.hstack([real_sh(normals, 2)[:, 1:], np.maximum(normals @ dirs.T, 0.0) - 0.25])
+    ls = np.zeros(len(dirs)) if form_factors is None else np.asarray(form_factors, float)
+    lobes = [rect_kernel(normals, d, v) - (1.0 + v) / 4.0 for d, v in zip(dirs, ls, strict=True)]
+    A = np.hstack([real_sh(normals, 2)[:, 1:], np.stack(lobes, 1)])
     A = sparse.csr_matrix(A / ref_lum[:, None])
     b = 1.0 - energy / 4.0 / ref_lum
     n, k = len(b), len(dirs)
@@ -405,6 +410,35 @@ def plot(results: dict, max_lights: int, path: str) -> None:
     axes[0].legend()
     fig.tight_layout()
     fig.savefig(path, dpi=100)
+
+
+def acceptance_inputs(name: str) -> tuple:
+    """``(normals, ref_lum, energy, target)`` of the shared map ``name``: the
+    :data:`EVAL_DIRECTIONS` acceptance normals, the brute-force irradiance's luminance there,
+    the map's luminous energy (which fixes the SH constant) and ``--lights``'s fit target."""
+    from shbake.bakers import env_lights
+    from shbake.conventions import REC709_LUMINANCE
+    from shbake.envmap import load_environment
+    from shbake.evaluation.env_sh import brute_force_reference
+
+    env = load_environment(str(HDRI / f"{name}.exr"), quiet=True)
+    ref = brute_force_reference(env, n_dirs=EVAL_DIRECTIONS)
+    target = env_lights.irradiance_target(env)
+    energy = float(target.energy @ REC709_LUMINANCE)
+    return ref["dirs"], ref["irradiance"], energy, target
+
+
+MISSED = ("night", "studio")
+"""The maps where ``--lights 3`` misses 1 %: the direction searches' default maps."""
+
+
+def missed_maps_parser(doc: str, name: str) -> argparse.ArgumentParser:
+    """The command line of a direction search (``doc``: its module docstring): the ``maps``
+    (default :data:`MISSED`) and ``--out PREFIX`` (default ``bench/results/NAME``)."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("maps", nargs="*", default=list(MISSED))
+    ap.add_argument("--out", default=str(RESULTS / name))
+    return ap
 
 
 def write_results(prefix: str, results: dict, report: str) -> None:
