@@ -204,7 +204,7 @@ def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 204
     (``{"irradiance": method}``). ``scene_check``: the scene bake's reference, as cheap as
     the bake (:func:`shbake.evaluation.env_sh.check_reference`, its own direction count),
     instead of the texel-by-texel sum."""
-    from shbake.envmap.turn import turn_matrix
+    from shbake.envmap.turn import recorded_turn
     from shbake.evaluation.env_sh import (
         EXPORT_COEFFS,
         brute_force_reference,
@@ -216,7 +216,7 @@ def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 204
 
     asset = read_asset(asset_path, kinds=("env_sh",))
     env = reload_source(asset, asset_path, env_path)
-    turn = turn_matrix(float(asset.attrs.get("probe_rotation_deg", 0.0)))
+    turn = recorded_turn(asset)
     if scene_check:
         ref = check_reference(env, ["irradiance"])
         methods = ref["methods"]

@@ -18,6 +18,7 @@ import os
 import numpy as np
 
 from shbake.conventions import ggx_alpha
+from shbake.envmap.turn import recorded_turn
 from shbake.errors import ParameterError
 from shbake.evaluation.metrics import mean_squared_error, relative_rms_error
 from shbake.format.asset import read_asset
@@ -209,7 +210,8 @@ def preview_asset(
     check_preview_memory(size, diff, coeffs)
     src = reload_source(asset, asset_path, source) if needs_source else None
     check_preview_memory(size, diff, coeffs, src)
-    truth = {"samples": samples, "merl_path": merl_path, "merl_sha256": merl_sha256}
+    truth = {"samples": samples, "merl_path": merl_path, "merl_sha256": merl_sha256,
+             "rotation": recorded_turn(asset)}  # fmt: skip
     name = pass_name or technique
     if reference:
         img, timing = render_pass(sh, size, material, src, progress, **truth)

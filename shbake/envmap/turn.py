@@ -53,6 +53,15 @@ def turn_latlong(pixels: np.ndarray, deg: float) -> np.ndarray:
     return ((1.0 - f) * a.astype(np.float64) + f * b).astype(pixels.dtype)
 
 
+def recorded_turn(asset) -> np.ndarray | None:
+    """The turn ``R`` of the environment that an asset's pose records
+    (``probe_rotation_deg``, a scene probe's; :func:`apply_pose`), ``None`` for none: what a
+    reference of the map the asset records must see (the provenance block keeps the map
+    unturned)."""
+    deg = float(asset.attrs.get("probe_rotation_deg", 0.0))
+    return None if deg % 360.0 == 0.0 else turn_matrix(deg)
+
+
 def apply_pose(env, pose: dict, turn_pixels: bool = False):
     """Record a scene probe's ``pose`` (``{"position": [x, y, z], "rotation_deg": θ}``) in
     ``env.meta`` (``probe_position``, ``probe_rotation_deg``: the provenance block records

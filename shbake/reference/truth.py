@@ -22,12 +22,12 @@ shader's :meth:`~shbake.shading.shader.Shader.shade` approximates, in the same u
 Each takes ``(shader, env, normals, views, tangents, **settings)`` and reads from the
 shader only what describes the BRDF (never its coefficients): the references stay
 independent of the SH machinery they check. ``rotation``: the map seen turned by ``R``
-(a scene probe's pose; the lat-long GGX integrals do not turn).
+(a scene probe's pose): its texel directions turned, or (the lat-long GGX integrals, which
+take the map as it is) the normals and views turned back by ``Rᵀ``, the same integral.
 """
 
 import numpy as np
 
-from shbake.errors import ParameterError
 from shbake.reference.brdf_shading import brute_force_shading
 from shbake.reference.ggx import ggx_integrals
 from shbake.reference.irradiance import brute_force_irradiance
@@ -64,8 +64,10 @@ def brdf_truth(shader, env, normals, views, tangents=None, rotation=None, merl_p
 
 def ggx_truth(shader, env, normals, views, tangents=None, rotation=None, alpha=None, f0=1.0,
               samples=4096, **settings):  # fmt: skip
-    if rotation is not None:
-        raise ParameterError("the GGX ground truth integrates the lat-long map as it is")
+    if rotation is not None:  # the turned map at R d is the map at d: shade Rᵀn, Rᵀv under it
+        turn = np.asarray(rotation, dtype=np.float64)
+        normals = np.ascontiguousarray(np.asarray(normals, dtype=np.float64) @ turn)
+        views = np.ascontiguousarray(np.asarray(views, dtype=np.float64) @ turn)
     e0, e1 = ggx_integrals(env.pixels, views, normals, alpha, samples)
     return f0 * e0 + (1.0 - f0) * e1
 

@@ -145,6 +145,26 @@ class TestPreviewCli:
         for name in ("p.exr", "p-sheet.png", "p-reference.exr", "p-diff.exr"):
             assert (tmp_path / name).exists()
 
+    def test_diff_of_a_turned_probe_sees_the_turned_map(self, run_cli, tmp_path):
+        """A scene probe's asset (``rotation_deg``: its SH turned, its map recorded as it is)
+        is measured against the map seen turned: its error is the unturned asset's, not the
+        46 % of comparing it with the map as it lies (the error before the fix)."""
+        from shbake.batch.project_env import project_environment
+
+        errors = {}
+        for deg in (0.0, 90.0):
+            asset = tmp_path / f"e{deg:g}.h5"
+            project_environment(str(map_path("sunset")), str(asset), lmax=4, quiet=True,
+                                pose={"position": [0, 0, 0], "rotation_deg": deg})  # fmt: skip
+            for pass_name in ("irradiance", "tangent"):
+                code, out, err = run_cli("preview", asset, "--pass", pass_name, "-o",
+                                         tmp_path / f"{pass_name}{deg:g}.exr", "--size", "48",
+                                         "--diff", "--json", "-q")  # fmt: skip
+                assert code == 0, err
+                errors[pass_name, deg] = json.loads(out)["relative_rms_error"]
+        for pass_name in ("irradiance", "tangent"):
+            assert errors[pass_name, 90.0] < 1.2 * errors[pass_name, 0.0] < 0.02, errors
+
     def test_reference_pass_needs_the_original(self, run_cli, tmp_path, dome_asset):
         (tmp_path / "dome.exr").unlink()
         code, _, err = run_cli(
