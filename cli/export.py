@@ -212,10 +212,12 @@ def export(assets, target, output, out_dir, sun_radius_deg, babylon_scene, as_js
 def measured_line(entry: dict) -> str:
     """An asset input's ``--report`` entry (:func:`shbake.batch.export_map.measure_asset`) on
     one line: the headline error of what the engine evaluates, a BRDF table's error (``webgl``)
-    with its parts, or why nothing was measured."""
+    with its parts, a probe's or an SHRM's (``webgl``), or why nothing was measured."""
     error = entry["error"]
     if error is None:
         return f"not measured ({entry['kind']}: {entry['note']})"
+    if "measure" in error:  # a probe's or an SHRM's (webgl)
+        return f"error {error['value']:.2%} ({error['measure']}) of the {error['quantity']}"
     if entry.get("kind") != "brdf_table":
         return headline_line(error)
     return (f"error {error['value']:.2e} (relative L2 over the sphere, mean of {error['views']} "

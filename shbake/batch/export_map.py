@@ -10,6 +10,8 @@ where to keep it.
 
 import os
 
+import numpy as np
+
 from shbake.batch.export import (
     check_target_options,
     export_assets,
@@ -148,16 +150,60 @@ def export_inputs(
 
 
 WEBGL_NOT_MEASURED = {
-    "shexp_probe": "probe-fit prints its error against brute force",
-    "shexp_probe_set": "probe-fit prints each probe's error against brute force",
     "splitsum_probe": "shbake has no error model for split-sum",
-    "shrm": "shrm --report measures it against brute force",
 }
-"""Why ``export --to webgl --report`` measures no asset of these kinds: the export draws the
-asset's own coefficients, whose error the command that baked it reports."""
+"""Why ``export --to webgl --report`` measures no asset of these kinds."""
 WEBGL_TABLE = ("BRDF table the kautz pass reads (f* rebuilt from its look-up vs f* itself, "
                "the brdf-table headline)")  # fmt: skip
 """What ``export --to webgl --report`` measures of a ``brdf_table`` asset."""
+WEBGL_SHRM = ("shrm pass on a 24² sphere seen from +Z, against brute force of its map "
+              "(shrm --report's measured error)")  # fmt: skip
+"""What ``export --to webgl --report`` measures of an ``shrm`` asset."""
+MEASURED_BRDF = "a measured BRDF, whose MERL file export does not read"
+"""Why a Kautz table or SHRM of a MERL BRDF is not measured: an asset makes shbake read no
+file but its hash-checked source map (docs/SECURITY.md §3)."""
+
+
+def _probe_error(asset, path: str) -> dict:
+    """The probe-fit headline (:func:`~shbake.evaluation.probes.glossy_error`) of an SH-exp
+    probe, or of every probe of a set (the worst as ``value``, each in ``by_probe``),
+    against its recorded map seen in its pose."""
+    from shbake.envmap.turn import recorded_turn
+    from shbake.evaluation.probes import glossy_error
+    from shbake.format.provenance import reload_source
+    from shbake.format.shexp import probe_from_set
+
+    if asset.kind == "shexp_probe":
+        probes = [asset]
+    else:
+        probes = [probe_from_set(asset, i) for i in range(int(asset.attrs["probe_count"]))]
+    errors = [glossy_error(p, reload_source(p, path), recorded_turn(p)) for p in probes]
+    worst = max(errors, key=lambda e: e["value"])
+    if len(errors) > 1:
+        worst = worst | {"quantity": f"{worst['quantity']}, the worst of {len(errors)} probes",
+                         "by_probe": [e["value"] for e in errors]}  # fmt: skip
+    return worst | {"measure": "relative RMS of luminance vs brute force"}
+
+
+def _shrm_error(asset, path: str) -> dict:
+    """``{"error"}`` of an SHRM (:data:`WEBGL_SHRM`, the relative RMS of
+    :class:`~shbake.evaluation.shrm.ShrmCheck`), or ``{"note"}`` where none is measured."""
+    from shbake.brdf.reflection import make_reflection_brdf
+    from shbake.envmap.turn import recorded_turn
+    from shbake.evaluation.shrm import ShrmCheck
+    from shbake.format.provenance import reload_source
+    from shbake.shading.shader import shader
+
+    sh = shader(asset)
+    model, params, _ = sh.brdf()
+    if model == "merl":
+        return {"note": MEASURED_BRDF}
+    rb = make_reflection_brdf(model, params)
+    if rb.kind == "tangent":
+        return {"note": "the tangent kind shades no surface (shrm --report measures none)"}
+    check = ShrmCheck(reload_source(asset, path), rb, rotation=recorded_turn(asset))
+    return {"error": {"quantity": WEBGL_SHRM, "value": float(np.sqrt(check.rel_energy(asset))),
+                      "measure": "relative RMS vs brute force"}}  # fmt: skip
 
 
 def measure_asset(path: str, target: str, env_path: str | None = None) -> dict:
@@ -172,8 +218,11 @@ def measure_asset(path: str, target: str, env_path: str | None = None) -> dict:
     irradiance SH and lights, what the webgl passes draw, against its recorded source map; a
     ``brdf_table`` at the point the export draws (:data:`WEBGL_TABLE`,
     :func:`~shbake.batch.brdf_table.written_table_error`: ``{"quantity", "value",
-    "truncation", "coefficients", "views", "lmax"}``); where nothing is measured (a measured
-    MERL BRDF, :data:`WEBGL_NOT_MEASURED`) ``error`` is ``None`` and ``note`` says why."""
+    "truncation", "coefficients", "views", "lmax"}``); an SH-exp probe (or set) by
+    probe-fit's headline and an SHRM by :data:`WEBGL_SHRM`, each against its recorded map
+    in its pose (``{"quantity", "value", "measure"}``; a set adds ``by_probe``); where
+    nothing is measured (a measured MERL BRDF, an SHRM of the tangent kind,
+    :data:`WEBGL_NOT_MEASURED`) ``error`` is ``None`` and ``note`` says why."""
     if target != "webgl":
         errors, _ = export_error(path, env_path)
         return {"input": path, "error": headline_error({"export": errors})}
@@ -185,13 +234,17 @@ def measure_asset(path: str, target: str, env_path: str | None = None) -> dict:
     if asset.kind == "env_sh":
         errors, _ = export_error(path, whole=True)
         return entry | {"error": headline_error({"irradiance": errors})}
+    if asset.kind in ("shexp_probe", "shexp_probe_set"):
+        return entry | {"error": _probe_error(asset, path)}
+    if asset.kind == "shrm":
+        return entry | _shrm_error(asset, path)
     if asset.kind != "brdf_table":
         return entry | {"note": WEBGL_NOT_MEASURED[asset.kind]}
     from shbake.batch.brdf_table import written_table_error
 
     errors = written_table_error(asset)
     if errors is None:
-        return entry | {"note": "a measured BRDF, whose MERL file export does not read"}
+        return entry | {"note": MEASURED_BRDF}
     return entry | {"error": {"quantity": WEBGL_TABLE, "value": errors.pop("error"), **errors}}
 
 

@@ -71,7 +71,7 @@ def _finish(job: ProbeJob, env, probe) -> dict:
 
     asset = build_shexp_asset(probe, job.config, shared_dfg_table(), env.meta)
     summary = {"source": job.source, "output": job.output, "bytes": probe_bytes(asset),
-               "error": glossy_error(asset, env.pixels)}  # fmt: skip
+               "error": glossy_error(asset, env)}  # fmt: skip
     if job.output is None:
         return summary | {"p": probe.p, "q": probe.q, "knots": probe.knots, "stats": probe.stats,
                           "meta": env.meta}  # fmt: skip

@@ -28,6 +28,7 @@ from shbake.format.asset import Asset
 from shbake.preview.contact_sheet import write_contact_sheet
 from shbake.preview.sphere import sphere_geometry
 from shbake.reference.ggx import ggx_integrals
+from shbake.reference.truth import ggx_truth
 from shbake.shading.shader import shader
 
 MATERIALS = {"chrome": 1.0, "dielectric": 0.04}
@@ -154,13 +155,14 @@ def evaluate_cases(pixels, assets: dict, size: int = 32, truth_samples: int = 40
     return rows
 
 
-def glossy_error(asset: Asset, pixels, size: int = HEADLINE_SIZE,
+def glossy_error(asset: Asset, env, rotation=None, size: int = HEADLINE_SIZE,
                  samples: int = HEADLINE_SAMPLES) -> dict:  # fmt: skip
     """The headline error of a glossy probe: what an engine shades from it against brute
     force. ``E0`` (F0 = 1, the lobe alone) shaded by the probe's registry shader on a
     ``size``² sphere seen from +Z (pixels with ``n·v > 10⁻³``) at the ends and the middle of
-    its ``alpha_range``, against :func:`ggx_integrals` of the lat-long ``pixels`` (``samples``
-    per pixel); the relative RMS of luminance over all three (``value``) and each
+    its ``alpha_range``, against :func:`~shbake.reference.truth.ggx_truth` of the lat-long
+    environment ``env`` (``samples`` per pixel; ``rotation``: the map seen turned, a scene
+    probe's pose); the relative RMS of luminance over all three (``value``) and each
     (``by_alpha``)."""
     sh = shader(asset)
     lo, hi = (float(a) for a in asset.attrs["alpha_range"])
@@ -168,8 +170,9 @@ def glossy_error(asset: Asset, pixels, size: int = HEADLINE_SIZE,
     views = np.ascontiguousarray(np.broadcast_to(view, normals.shape))
     alphas = (lo, 0.5 * (lo + hi), hi)
     # one brute-force call for all three widths: the map's sampling tables are built once
-    ref = ggx_integrals(pixels, np.tile(views, (3, 1)), np.tile(normals, (3, 1)),
-                        np.repeat(alphas, len(normals)), samples)[0] @ REC709_LUMINANCE
+    ref = ggx_truth(None, env, np.tile(normals, (3, 1)), np.tile(views, (3, 1)), rotation=rotation,
+                    alpha=np.repeat(alphas, len(normals)), f0=1.0,
+                    samples=samples) @ REC709_LUMINANCE  # fmt: skip
     ref = ref.reshape(3, -1)
     got = np.stack([sh.shade(normals, views, **sh.check(alpha=a, f0=1.0)) @ REC709_LUMINANCE
                     for a in alphas])  # fmt: skip

@@ -405,17 +405,55 @@ class TestWebglReport:
         else:
             assert [b["input"] for b in summary["bakes"]] == [inputs["sky"]]
 
-    @pytest.mark.parametrize("name", ["probe", "merl"])
-    def test_unmeasured_input_says_so(self, tmp_path, run_cli, inputs, name):
-        """A probe's webgl export draws its coefficients, whose error probe-fit reports; a MERL
-        table's BRDF is a file export does not read: one line says it is not measured, and
-        why; exit 0."""
-        env = ["--env", inputs["env"]] if name == "merl" else []
-        code, out, err = run_cli("export", inputs[name], "--to", "webgl", "-o", tmp_path / "d",
-                                 *env, "--report", "--json")  # fmt: skip
+    def test_unmeasured_input_says_so(self, tmp_path, run_cli, inputs):
+        """A MERL table's BRDF is a file export does not read: one line says it is not
+        measured, and why; exit 0."""
+        code, out, err = run_cli("export", inputs["merl"], "--to", "webgl", "-o", tmp_path / "d",
+                                 "--env", inputs["env"], "--report", "--json")  # fmt: skip
         assert code == 0, err
         (m,) = json.loads(out)["measured"]
-        kind, why = {"probe": ("shexp_probe", "probe-fit prints its error"),
-                     "merl": ("brdf_table", "a measured BRDF, whose MERL file")}[name]  # fmt: skip
-        assert (m["kind"], m["error"]) == (kind, None)
-        assert err.startswith(f"{inputs[name]}: not measured ({kind}: {why}")
+        assert (m["kind"], m["error"]) == ("brdf_table", None)
+        assert err.startswith(f"{inputs['merl']}: not measured (brdf_table: a measured BRDF, "
+                              "whose MERL file")  # fmt: skip
+
+    def test_probes_measured_as_probe_fit_measured_them(self, tmp_path, run_cli, sky):
+        """An SH-exp probe and a set of two: probe-fit's headline of each (its error against
+        brute force, printed when it fitted them), the set by its worst probe; one line each."""
+        other = str(write_test_exr(tmp_path / "dim.exr", np.full((32, 64, 3), 0.25)))
+        fitted, probe = {}, tmp_path / "one" / "sky.h5"
+        for name, maps, out_arg in (("one", [sky], ["--out-dir", tmp_path / "one"]),
+                                    ("two", [sky, other], ["-o", tmp_path / "two.h5"])):
+            code, out, err = run_cli("probe-fit", *maps, *out_arg, "--samples", "256", "--json",
+                                     "-q")  # fmt: skip
+            assert code == 0, err
+            fitted[name] = [p["error"]["value"] for p in json.loads(out)["probes"]]
+        code, out, err = run_cli("export", probe, tmp_path / "two.h5", "--to", "webgl",
+                                 "--out-dir", tmp_path / "d", "--report", "--json")  # fmt: skip
+        assert code == 0, err
+        one, two = json.loads(out)["measured"]
+        assert (one["kind"], two["kind"]) == ("shexp_probe", "shexp_probe_set")
+        assert one["error"]["value"] == pytest.approx(fitted["one"][0], rel=1e-9)
+        assert two["error"]["by_probe"] == pytest.approx(fitted["two"], rel=1e-9)
+        assert two["error"]["value"] == pytest.approx(max(fitted["two"]), rel=1e-9)
+        lines = err.splitlines()
+        assert lines[0].startswith(f"{probe}: error {one['error']['value']:.2%} "
+                                   "(relative RMS of luminance vs brute force) of the glossy E0")
+        assert lines[1].endswith("over its α range, the worst of 2 probes")
+
+    def test_shrm_measured_as_its_preview_measures_it(self, tmp_path, run_cli, sky):
+        """An SHRM: its shading of a 24² sphere against brute force of its map, the same
+        figure as ``preview --diff`` of that sphere (the preview's pass and reference, another
+        path through the code)."""
+        shrm = tmp_path / "s.h5"
+        code, _, err = run_cli("shrm", sky, "-o", shrm, "-p", "sigma=0.4", "--face-size", "16",
+                               "-q")  # fmt: skip
+        assert code == 0, err
+        code, out, err = run_cli("export", shrm, "--to", "webgl", "-o", tmp_path / "d",
+                                 "--report", "--json")  # fmt: skip
+        assert code == 0, err
+        (m,) = json.loads(out)["measured"]
+        code, pv, err = run_cli("preview", shrm, "-o", tmp_path / "p.exr", "--size", "24",
+                                "--diff", "--json", "-q")  # fmt: skip
+        assert code == 0, err
+        assert m["error"]["value"] == pytest.approx(json.loads(pv)["relative_rms_error"],
+                                                    rel=1e-6)  # fmt: skip
