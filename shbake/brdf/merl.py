@@ -45,14 +45,34 @@ SPEC = ModelSpec(
 )
 
 
+_last_read: dict = {}
+"""The last MERL file decoded, ``{(absolute path, inode, size, mtime): (values, digest)}``:
+a reference drawn in blocks of pixels (``shbake.preview.passes.TRUTH_CHUNKS``) builds its
+BRDF once per block, and reads the file once."""
+
+
 def read_merl(path: str) -> tuple[np.ndarray, str]:
     """Read a MERL ``.binary`` file; return its ``(3, 90, 90, 180)`` float64 BRDF values
-    (1/sr) and the hex SHA-256 of the bytes they were decoded from (read once: what an
-    asset records of the file is what was baked, even if the file changes afterwards).
+    (1/sr; shared by every BRDF built from the file, never written) and the hex SHA-256 of
+    the bytes they were decoded from (read once: what an asset records of the file is what
+    was baked, even if the file changes afterwards). The same file unchanged since
+    (:data:`_last_read`) is not read again.
 
     Raises :class:`~shbake.errors.InputError` for a missing, truncated or
     malformed file, or non-finite values.
     """
+    identity = resources.file_identity(os.fspath(path))
+    key = None if identity is None else (os.path.abspath(path), *identity)
+    if key in _last_read:
+        return _last_read[key]
+    decoded = _decode_merl(path)
+    if key is not None and resources.file_identity(os.fspath(path)) == identity:
+        _last_read.clear()
+        _last_read[key] = decoded
+    return decoded
+
+
+def _decode_merl(path: str) -> tuple[np.ndarray, str]:
     import hashlib  # as in resources.sha256_of: only a measured BRDF pays for it
 
     expected = 12 + 3 * 8 * N_TH * N_TD * N_PD

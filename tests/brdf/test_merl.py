@@ -44,6 +44,25 @@ class TestReadMerl:
         assert digest == hashlib.sha256(merl_file[0].read_bytes()).hexdigest()
         assert values.shape == (3, merl.N_TH, merl.N_TD, merl.N_PD)
 
+    def test_unchanged_file_read_once_changed_file_again(self, merl_file, tmp_path, monkeypatch):
+        """A reference drawn in blocks builds its BRDF per block: the file is read once while
+        it is unchanged, and read again (with its new digest) once it is rewritten."""
+        from shbake import resources
+
+        path = tmp_path / "m.binary"
+        path.write_bytes(merl_file[0].read_bytes())
+        reads = []
+        read_bounded = resources.read_bounded
+        monkeypatch.setattr(resources, "read_bounded",
+                            lambda *a, **k: reads.append(a[0]) or read_bounded(*a, **k))
+        first = [merl.read_merl(str(path))[1] for _ in range(3)]
+        assert len(reads) == 1 and len(set(first)) == 1
+        data = bytearray(path.read_bytes())
+        data[-8:] = np.float64(0.5).tobytes()
+        path.write_bytes(bytes(data))
+        _, digest = merl.read_merl(str(path))
+        assert len(reads) == 2 and digest == hashlib.sha256(bytes(data)).hexdigest() != first[0]
+
 
 class TestMakeBrdfDigest:
     def test_recorded_digest_refuses_other_bytes(self, merl_file):
@@ -77,3 +96,4 @@ class TestMakeBrdfDigest:
                         samples=64)  # fmt: skip
         assert hashlib.sha256(path.read_bytes()).hexdigest() != baked
         assert read_asset(str(out)).attrs["source_sha256"] == baked
+
