@@ -92,8 +92,8 @@ def fit_alpha_range(alpha_text, roughness_text) -> tuple[float, float]:
               show_default=True,
               help=f"Lighting bands of --targets sh, 1…{SH_TARGETS_LMAX_LIMIT}.")  # fmt: skip
 @report_opt
-@tol_opt("the fewest --samples (256-4096) whose E0 target error (log RMS, first map) is at most "
-         "this")  # fmt: skip
+@tol_opt("the fewest --samples (256-4096, and --samples itself) whose E0 target error (log RMS, "
+         "first map) is at most this")  # fmt: skip
 @click.option("--jobs", "n_jobs", type=click.IntRange(1, JOBS_LIMIT), default=1,
               show_default=True,
               help=f"Local worker processes (1…{JOBS_LIMIT}: four per CPU).")  # fmt: skip

@@ -140,9 +140,11 @@ def bake_brdf_table(
                 for name, _ in axes for t in spec.targets(name) if t in fixed]  # fmt: skip
     if tol is not None and err > tol:
         bad = int(sum((c.view_errors > tol).sum() for c in convs))
+        # the nested rules' first level (1088 points) is used even below --max-samples
+        used = max(max_samples, *(c.samples for c in convs))
         warnings.append(
-            f"{bad} texels did not reach --tol {tol:g} by {max_samples} samples (largest error "
-            f"estimate {err:.2e}, per texel in /error); raise --max-samples"
+            f"{bad} texels did not reach --tol {tol:g} by {used} samples (largest error "
+            f"estimate {err:.2e}, per texel in /error); raise --max-samples above {used}"
         )
     if not tattrs["energy_conserving"]:
         warnings.append(

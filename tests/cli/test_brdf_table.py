@@ -118,6 +118,21 @@ class TestBrdfTableCli:
         np.testing.assert_array_equal(varied[1], single)
         assert not np.array_equal(varied[0], single)
 
+    def test_unmet_tol_names_the_samples_used(self, run_cli, tmp_path):
+        """A ``--tol`` no refinement meets warns with the points per strategy the table
+        actually used: below the nested rules' first level (1088 points) ``--max-samples 64``
+        does not cap it, and the warning says 1088, the asset's ``samples_max``, not 64."""
+        code, stdout, err = run_cli("brdf-table", "ggx", "-p", "alpha=0.3", "--size", 4,
+                                    "--lmax", 2, "--tol", "1e-6", "--max-samples", 64,
+                                    "-o", tmp_path / "t.h5", "--json", "-q")  # fmt: skip
+        assert code == 0, err
+        summary = json.loads(stdout)
+        used = summary["samples_max"]
+        assert used > 64
+        (warning,) = [w for w in summary["warnings"] if "did not reach --tol" in w]
+        assert f"by {used} samples" in warning and "by 64 samples" not in warning, warning
+        assert f"raise --max-samples above {used}" in warning
+
     def test_preview_kautz_with_diff(self, run_cli, tmp_path):
         env, table = tmp_path / "e.h5", tmp_path / "t.h5"
         assert run_cli("project-env", map_path("forest"), "--lmax", 4, "-o", env, "-q")[0] == 0
