@@ -51,6 +51,14 @@ def tradeoff_cmd(kind, map_path, model, params, tol, samples, output, csv_path, 
     if as_json:
         emit_json(result)
     else:
-        info(f"tradeoff: {output}: {len(result['rows'])} settings, chosen "
-             f"{result['chosen'] or 'none (tolerance not met)'}"
+        info(f"tradeoff: {output}: {len(result['rows'])} settings, chosen {chosen_text(result)}"
              + also_wrote([p for p in (csv_path, json_path) if p]), quiet)  # fmt: skip
+
+
+def chosen_text(result: dict) -> str:
+    """The chosen setting with its error, time and bytes, or that none meets the tolerance."""
+    row = next((r for r in result["rows"] if r["setting"] == result["chosen"]), None)
+    if row is None:
+        return "none (tolerance not met)"
+    return (f"{row['setting']} ({result['error_label']} {row['error']:.3g}, "
+            f"{row['seconds'] * 1e3:.3g} ms, {row['bytes']} bytes)")  # fmt: skip

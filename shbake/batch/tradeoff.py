@@ -34,6 +34,7 @@ from shbake.envmap import load_environment
 from shbake.envmap.sun import extract_sun
 from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, check_output_path, write_text
+from shbake.messages import warn
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 
 TRADEOFF_KINDS = ("env_sh", "brdf_table")
@@ -81,6 +82,10 @@ def _finish(kind, rows, tol, error_label, source) -> dict:
     chosen = min(ok, key=lambda r: (r["seconds"], r["bytes"])) if ok else None
     if kind == "env_sh" and ok:
         chosen = min(ok, key=lambda r: r["lmax"])  # the planner's rule: smallest lmax
+    if chosen is None:
+        best = min(rows, key=lambda r: r["error"])
+        warn(f"no setting meets --tol {tol:g} ({error_label}); the least error is "
+             f"{best['error']:.3g}, at {best['setting']}")  # fmt: skip
     return {"kind": kind, "source": source, "tolerance": tol, "error_label": error_label,
             "rows": rows, "chosen": chosen and chosen["setting"]}  # fmt: skip
 

@@ -29,6 +29,9 @@ class TestTradeoffCommand:
         errs = [float(r["error"]) for r in rows]
         L = int(chosen[0]["lmax"])
         assert errs[L] <= 0.02 and all(e > 0.02 for e in errs[:L])
+        # the line names the choice with its error, time and bytes (the CSV's numbers)
+        assert (f"chosen lmax {L} (relative RMS irradiance error (Parseval) {errs[L]:.3g}, "
+                f"{float(rows[L]['seconds']) * 1e3:.3g} ms, {rows[L]['bytes']} bytes)") in err
         # independent of the command: the Lambert error of the sun-free map at that lmax
         env = load_environment(str(map_path("studio")), quiet=True)
         e = irradiance_truncation(extract_sun(env)[1].project(32), lambert_kernel)
@@ -49,6 +52,21 @@ class TestTradeoffCommand:
             rows = [r for r in data["rows"] if r["lmax"] == L]
             assert len({round(r["truncation_error"], 12) for r in rows}) == 1
             assert rows[0]["lookup_error"] > rows[-1]["lookup_error"]
+
+    def test_unmet_tolerance_warns(self, tmp_path, run_cli):
+        """No setting meets the tolerance: one warning (stderr and ``--json``) naming the least
+        error any setting reaches and where, ``chosen`` null; exit 0 (a study, not a bake)."""
+        code, out, err = run_cli("tradeoff", "env_sh", "--map", map_path("sunset"), "--tol",
+                                 "1e-9", "-o", tmp_path / "t.png", "--json")  # fmt: skip
+        assert code == 0, err
+        data = json.loads(out)
+        best = min(data["rows"], key=lambda r: r["error"])
+        assert data["chosen"] is None and all(r["error"] > 1e-9 for r in data["rows"])
+        (warning,) = data["warnings"]
+        assert warning == (f"no setting meets --tol 1e-09 (relative RMS irradiance error "
+                           f"(Parseval)); the least error is {best['error']:.3g}, at "
+                           f"{best['setting']}")  # fmt: skip
+        assert f"shbake: warning: {warning}" in err
 
     def test_needs_its_input(self, tmp_path, run_cli):
         code, _, err = run_cli("tradeoff", "env_sh", "-o", tmp_path / "x.png")
