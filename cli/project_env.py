@@ -29,7 +29,7 @@ from shbake_cli.options import (
 
 from shbake.bakers.env_lights import AUTO_MAX_LIGHTS, MAX_LIGHTS, SHAPES
 from shbake.batch.project_env import EXPORTS, check_settings, project_environment
-from shbake.conventions import LMAX_LIMIT
+from shbake.conventions import LMAX_LIMIT, n_coeffs
 from shbake.envmap.sun import SUN_RADIUS_DEG, SUN_RADIUS_MAX_DEG
 from shbake.sh.windows import WINDOW_METHODS
 
@@ -174,6 +174,9 @@ def print_report(summary: dict, quiet: bool) -> None:
     after = " (after the sun was extracted)" if sun.get("extracted") else ""
     if summary.get("error"):
         info(headline_line(summary["error"]) + "; its parts below", quiet)
+    info(f"cost: baked in {summary['bake_seconds']:.3g} s; {n_coeffs(summary['lmax'])} lighting "
+         f"and {n_coeffs(summary['irradiance_lmax'])} irradiance SH coefficients per channel",
+         quiet)  # fmt: skip
     info("band  energy Σ_m L_lm² (R, G, B)", quiet)
     for l, e in enumerate(rep["band_energy"]):
         info(f"{l:4d}  " + "  ".join(f"{v:.4g}" for v in e), quiet)

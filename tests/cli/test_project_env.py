@@ -50,6 +50,9 @@ class TestProjectEnv:
         )
         assert "KHR_lights_punctual" in gltf["extensionsUsed"]
         assert "vs brute force" in err
+        # what the settings cost, from the run's own figures (--json)
+        assert (f"cost: baked in {summary['bake_seconds']:.3g} s; 81 lighting and 9 irradiance SH "
+                "coefficients per channel") in err.splitlines()
 
     def test_same_inputs_give_identical_bytes(self, run_cli, tmp_path):
         args = [ESPLANADE, "--lmax", "4", "--extract-sun", "--window", "hann", "-q"]
