@@ -37,7 +37,8 @@ SHBAKE_LINE = r"shbake: (warning|error): .*"
 
 FAMILIES = {  # arguments, exit status, its own lines, its last line
     "project-env": (["project-env", "{m0}", "-o", "{tmp}/e.h5", "--report"], 0,
-                    r"error .* vs brute force\) of .*|band .*|\s+\d+\s.*|fraction of .*"
+                    r"error .* vs brute force\) of .*|cost: baked in .*|band .*|\s+\d+\s.*"
+                    r"|fraction of .*"
                     r"|\S+ vs brute force, relative: .*|wrote .*",
                     r"wrote \S+/e\.h5 \(lmax \d+, latlong\)"),
     "brdf-table": (["brdf-table", "phong", "-o", "{tmp}/t.h5", "--size", "8", "--lmax", "2",
