@@ -168,6 +168,7 @@ def _probe_error(asset, path: str) -> dict:
     """The probe-fit headline (:func:`~shbake.evaluation.probes.glossy_error`) of an SH-exp
     probe, or of every probe of a set (the worst as ``value``, each in ``by_probe``),
     against its recorded map seen in its pose."""
+    from shbake.envmap.environment import decoded_once
     from shbake.envmap.turn import recorded_turn
     from shbake.evaluation.probes import glossy_error
     from shbake.format.provenance import reload_source
@@ -177,7 +178,8 @@ def _probe_error(asset, path: str) -> dict:
         probes = [asset]
     else:
         probes = [probe_from_set(asset, i) for i in range(int(asset.attrs["probe_count"]))]
-    errors = [glossy_error(p, reload_source(p, path), recorded_turn(p)) for p in probes]
+    with decoded_once():  # probes of one map (its poses) decode it once
+        errors = [glossy_error(p, reload_source(p, path), recorded_turn(p)) for p in probes]
     worst = max(errors, key=lambda e: e["value"])
     if len(errors) > 1:
         worst = worst | {"quantity": f"{worst['quantity']}, the worst of {len(errors)} probes",
