@@ -27,6 +27,7 @@ from shbake_cli.options import (
 from shbake.bakers.brdf_table_report import format_report
 from shbake.batch.brdf_table import bake_brdf_table, check_parameters
 from shbake.brdf import MODELS, model_spec
+from shbake.brdf.tabulate import FIRST_LEVEL_POINTS, MAX_SAMPLES_LIMIT
 from shbake.conventions import KAUTZ_LMAX_LIMIT
 
 
@@ -95,10 +96,11 @@ def list_params(ctx, _param, value):
 )
 @click.option(
     "--max-samples",
-    type=click.IntRange(16, 1 << 22),
+    type=click.IntRange(FIRST_LEVEL_POINTS, MAX_SAMPLES_LIMIT),
     default=1 << 18,
     show_default=True,
-    help="Refinement stops here even if --tol is not met (reported, per texel in /error).",
+    help="Refinement stops here even if --tol is not met (reported, per texel in /error); at "
+    f"least the nested rules' first level, {FIRST_LEVEL_POINTS} points, which every texel uses.",
 )
 @click.option(
     "--vary",

@@ -29,8 +29,10 @@ from shbake.brdf import MODELS
               help="Model parameter NAME=VALUE (repeatable; brdf_table).")
 @click.option("--tol", type=FiniteRange(0.0, 1.0, min_open=True, max_open=True),
               default=0.05, show_default=True,
-              help="Error tolerance in (0, 1): drawn, and the cheapest setting meeting it is "
-              "marked (env_sh: relative RMS irradiance error; brdf_table: relative L2 of f*).")
+              help="Error tolerance in (0, 1): drawn, and the setting shbake plan picks for "
+              "it is marked, by the errors alone (env_sh: relative RMS irradiance error, the "
+              "smallest lmax meeting it; brdf_table: relative L2 of f*, plan's lmax, then the "
+              "smallest size meeting it).")
 @samples_opt(256, "per strategy per table texel (brdf_table)")
 @output_opt("The plot (PNG)")
 @click.option("--csv", "csv_path", type=click.Path(dir_okay=False), default=None,

@@ -1,5 +1,7 @@
-"""Bounded resources: special files refused before opening, bounded reads and hashes, and the
-memory budget every allocation that scales with parameters or image size is checked against.
+"""Bounded resources: special files refused before opening, bounded reads and hashes, the
+memory budget every allocation that scales with parameters or image size is checked against,
+and the paths the library's entry points take (``str`` or :class:`os.PathLike`,
+:func:`path_arguments`).
 
 The budget is ``--max-memory`` (``shbake --max-memory 4G …``), else the environment variable
 ``SHBAKE_MAX_MEMORY``, else 80 % of the memory the kernel reports available
@@ -7,6 +9,8 @@ The budget is ``--max-memory`` (``shbake --max-memory 4G …``), else the enviro
 it is refused with one line naming the estimate, before anything is allocated.
 """
 
+import functools
+import inspect
 import os
 import re
 import stat
@@ -181,6 +185,41 @@ def start_run() -> None:
     _outputs.clear()
     _by_identity.clear()
     _tracking, _reading_back = True, False
+
+
+def _path_text(value):
+    """``value`` with every path in it as ``str``: a ``str`` or :class:`os.PathLike` through
+    :func:`os.fspath`, a list or tuple item by item (a map list's ``(map, output)`` pairs);
+    anything else (``None``) as it is."""
+    if type(value) in (list, tuple):
+        return type(value)(_path_text(v) for v in value)
+    return os.fspath(value) if isinstance(value, (str, os.PathLike)) else value
+
+
+def path_arguments(*names: str):
+    """Decorator of a library entry point: its arguments ``names`` take a ``str`` or an
+    :class:`os.PathLike` (``pathlib.Path``), also in a list or tuple, and reach the function
+    as ``str`` — converted once, here, for every reader below it (OpenImageIO takes ``str``
+    alone) and every path it records or prints. A name the function does not take is a
+    ``TypeError`` at import."""
+
+    def decorate(fn):
+        signature = inspect.signature(fn)
+        unknown = set(names) - set(signature.parameters)
+        if unknown:
+            raise TypeError(f"{fn.__qualname__} takes no argument {', '.join(sorted(unknown))}")
+
+        @functools.wraps(fn)
+        def call(*args, **kwargs):
+            bound = signature.bind(*args, **kwargs)
+            for name in names:
+                if name in bound.arguments:
+                    bound.arguments[name] = _path_text(bound.arguments[name])
+            return fn(*bound.args, **bound.kwargs)
+
+        return call
+
+    return decorate
 
 
 def check_regular_file(path: str, what: str = "input", own_output: bool = False) -> os.stat_result:

@@ -20,6 +20,7 @@ from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.brdf_table import build_table_asset, table_at
 from shbake.format.kautz_images import write_band_exrs, write_sheet
 from shbake.progress import NO_PROGRESS
+from shbake.resources import path_arguments
 
 
 def check_parameters(model: str, params: dict, vary: tuple[str, ...] = ()) -> None:
@@ -83,6 +84,7 @@ def written_table_error(asset) -> dict | None:
     return errors | {"lmax": table.lmax}
 
 
+@path_arguments("output", "merl_path", "exr_dir")
 def bake_brdf_table(
     model: str,
     output: str,
@@ -105,8 +107,10 @@ def bake_brdf_table(
 
     ``samples``: quadrature points per strategy (ignored with ``tol``, which
     refines each texel until its error estimate is at most ``tol`` or
-    ``max_samples`` is reached). ``exr_dir``: the band EXRs and the Fig. 2 sheet, with
-    ``png`` a PNG beside every EXR.
+    ``max_samples`` is reached; ``max_samples`` in
+    [:data:`~shbake.brdf.tabulate.FIRST_LEVEL_POINTS`,
+    :data:`~shbake.brdf.tabulate.MAX_SAMPLES_LIMIT`]). ``exr_dir``: the band EXRs and the
+    Fig. 2 sheet, with ``png`` a PNG beside every EXR.
     """
     lmax = check_lmax(lmax, limit=KAUTZ_LMAX_LIMIT)
     brdf = make_brdf(model, merl_path=merl_path, **(params or {}))
@@ -140,7 +144,8 @@ def bake_brdf_table(
                 for name, _ in axes for t in spec.targets(name) if t in fixed]  # fmt: skip
     if tol is not None and err > tol:
         bad = int(sum((c.view_errors > tol).sum() for c in convs))
-        # the nested rules' first level (1088 points) is used even below --max-samples
+        # every view integrates the nested rules' first level whole: a grazing view's lobe
+        # rule cut at many steps can exceed --max-samples there
         used = max(max_samples, *(c.samples for c in convs))
         warnings.append(
             f"{bad} texels did not reach --tol {tol:g} by {used} samples (largest error "

@@ -18,6 +18,7 @@ from shbake.evaluation.cube_chain import chain_errors, chain_warnings
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs, transaction
 from shbake.format.exports import check_ending, target_module
 from shbake.format.exports.source import ExportSource, load_source, require_sh
+from shbake.resources import path_arguments
 
 TARGET_OPTIONS = {
     "env_path": "--env",
@@ -74,6 +75,7 @@ def cube_settings(target: str, size=None, floor=None, samples=None, mapping=None
     return cfg
 
 
+@path_arguments("assets", "env_path")
 def load_sources(assets: list[str], target: str, frame: str = "y-up", rotate_deg: float = 0.0,
                  env_path: str | None = None) -> list[ExportSource]:  # fmt: skip
     """Read every asset of a batch for ``target`` and check it before any export work
@@ -90,6 +92,7 @@ def load_sources(assets: list[str], target: str, frame: str = "y-up", rotate_deg
     return sources
 
 
+@path_arguments("assets", "out", "env_path")
 def export_assets(
     assets: list[str],
     target: str,
@@ -194,6 +197,7 @@ def _chain_report(path, cfg, env, levels, rotation, bake_s) -> dict:
             "roughness": errors, "warnings": chain_warnings(errors)}  # fmt: skip
 
 
+@path_arguments("asset_path", "env_path")
 def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 2048,
                  scene_check: bool = False, whole: bool = False) -> tuple[dict, dict]:  # fmt: skip
     """The error of what an engine evaluates from any SH export of the ``env_sh`` asset (its
@@ -227,6 +231,7 @@ def export_error(asset_path: str, env_path: str | None = None, n_dirs: int = 204
     return export_irradiance_errors(asset, env, ref, rotation=turn, coeffs=coeffs), methods
 
 
+@path_arguments("assets", "env_path")
 def load_webgl(assets: list[str], env_path: str | None = None) -> list[tuple[dict, dict]]:
     """Read every asset of a ``--to webgl`` batch and build its export
     (:func:`shbake.format.exports.webgl.build_export`, which runs every check of its kind: at

@@ -25,6 +25,7 @@ from shbake.format.asset import is_asset_file
 from shbake.format.atomic import check_output_dir, makedirs, staged, transaction
 from shbake.format.exports import target_module
 from shbake.progress import NO_PROGRESS
+from shbake.resources import path_arguments
 
 MAP_OPTIONS = {
     "lmax": "--lmax",
@@ -44,6 +45,7 @@ coefficients), no window, the dominant compact light taken out as a directional 
 where the map has one (``project-env``'s advice; nothing is taken from a map without one)."""
 
 
+@path_arguments("inputs", "out", "keep_asset")
 def export_inputs(
     inputs: list[str],
     target: str,
@@ -208,6 +210,7 @@ def _shrm_error(asset, path: str) -> dict:
                       "measure": "relative RMS vs brute force"}}  # fmt: skip
 
 
+@path_arguments("path", "env_path")
 def measure_asset(path: str, target: str, env_path: str | None = None) -> dict:
     """The ``--report`` entry ``{"input", "error"}`` of the asset input ``path`` exported to
     ``target`` (not ``ktx2``: cube maps, no SH): the headline

@@ -7,12 +7,13 @@ from pathlib import Path
 
 from shbake.errors import InputError, ParameterError, ShbakeError
 from shbake.format.atomic import check_output_dir, check_output_path, makedirs, refuse_same_file
-from shbake.resources import read_bounded
+from shbake.resources import path_arguments, read_bounded
 
 MAP_LIST_MAX_BYTES = 16 << 20
 """Largest map list read (bytes)."""
 
 
+@path_arguments("path")
 def read_map_list(path: str) -> list[tuple[str, str | None]]:
     """Lines ``MAP [OUTPUT]``; blank lines and ``#`` comments skipped; relative paths
     are relative to the list's folder."""
@@ -37,6 +38,7 @@ def read_map_list(path: str) -> list[tuple[str, str | None]]:
     return out
 
 
+@path_arguments("maps", "map_list")
 def map_entries(maps, map_list) -> list[tuple[str, str | None]]:
     """``(map, output or None)``: the ``maps`` given, then the list file's lines; refused
     when there is none."""
@@ -46,6 +48,7 @@ def map_entries(maps, map_list) -> list[tuple[str, str | None]]:
     return entries
 
 
+@path_arguments("maps", "map_list", "out_dir")
 def map_outputs(maps, map_list, out_dir: str) -> list[tuple[str, str]]:
     """``(map, output)`` pairs, absolute: each map's output ``OUT_DIR/STEM.h5`` unless the
     list names one; refused before any work: no map, two maps writing one file, an output

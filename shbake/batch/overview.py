@@ -29,7 +29,7 @@ from shbake.errors import InputError
 from shbake.evaluation.metrics import HEADLINE_WARNING
 from shbake.format.atomic import write_text
 from shbake.preview.overview import render_page
-from shbake.resources import read_bounded
+from shbake.resources import path_arguments, read_bounded
 
 SUMMARY_MAX_BYTES = 1 << 20
 """Largest ``--json`` summary file read."""
@@ -256,6 +256,7 @@ def _lock_rows(lock_path: Path, tol: float | None) -> list[dict]:
     return rows
 
 
+@path_arguments("folder")
 def gather(folder: str, tol: float | None = None) -> dict:
     """What the page shows of ``folder``: ``rows`` of the summary table, ``groups`` (name →
     its ``previews`` ``(stem, summary)``, ``bakes`` and sheets without a summary) and the
@@ -302,6 +303,7 @@ def gather(folder: str, tol: float | None = None) -> dict:
     return {"rows": rows, "groups": groups, "plots": plots}
 
 
+@path_arguments("folder", "output")
 def write_overview(folder: str, output: str, title: str = "shbake previews",
                    tol: float | None = None) -> dict:  # fmt: skip
     """Write the overview page of ``folder`` to ``output``; returns ``{"cards": n, ...}``

@@ -80,6 +80,7 @@ from shbake.envmap import load_environment
 from shbake.envmap.environment import Environment as EnvMap
 from shbake.envmap.sun import SUN_RADIUS_DEG, extract_sun
 from shbake.evaluation.metrics import mean_relative_norm
+from shbake.resources import path_arguments
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 from shbake.texture.parabolic import fetch
 
@@ -107,6 +108,7 @@ PLAN_VERSION = 8
 _HASHED: dict = {}
 
 
+@path_arguments("path")
 def file_hash(path: str, own_output: bool = False) -> str:
     """SHA-256 of a file's bytes (hex); special files (FIFO, ``/dev/zero``) are refused
     and no more than the file's size is read (:func:`shbake.resources.sha256_of`;
@@ -260,20 +262,35 @@ class TableErrors:
                 "total": total}  # fmt: skip
 
 
+LMAX_SHARE = 0.6
+"""Share of a ``brdf_table``'s tolerance its truncation at the planned lmax may take (the
+rest is left to the samples and the look-up; :func:`table_lmax`)."""
+
+
+def table_lmax(truncation, tol: float) -> int:
+    """The planner's ``brdf_table`` lmax: the smallest of :data:`TABLE_LMAX` whose truncation
+    error ``truncation(L)`` (a relative error, :class:`TableErrors`) is at most
+    :data:`LMAX_SHARE` of ``tol``, else the largest. ``truncation`` is called in that order,
+    and no further than the lmax it returns."""
+    return next((L for L in TABLE_LMAX if truncation(L) <= LMAX_SHARE * tol), TABLE_LMAX[-1])
+
+
+@path_arguments("merl")
 def plan_brdf_table(model: str, params: dict, merl: str | None, tol: float) -> dict:
     """Cheapest ``(lmax, size, samples)`` whose predicted error meets ``tol`` (greedy: lmax for
-    60 % of it, then samples, then the smallest size meeting the whole)."""
+    :data:`LMAX_SHARE` of it, :func:`table_lmax`, then samples, then the smallest size meeting
+    the whole)."""
     brdf, t_make = _timed(make_brdf, model, merl_path=merl, **param_strings(params))
     views = probe_views()
     energy = product_energy(brdf, views, 256)
     total = energy.sum(axis=1)
     ref, _ = project_views(brdf, views, max(TABLE_LMAX), samples=REFERENCE_SAMPLES)
-    lmax = TABLE_LMAX[-1]
-    for L in TABLE_LMAX:
+
+    def truncation(L):
         kept = np.sum(ref[:, : n_coeffs(L)] ** 2, axis=(1, 2))
-        if mean_relative_norm(np.clip(total - kept, 0, None), total) <= 0.6 * tol:
-            lmax = L
-            break
+        return mean_relative_norm(np.clip(total - kept, 0, None), total)
+
+    lmax = table_lmax(truncation, tol)
     for samples in TABLE_SAMPLES:  # the last one if none meets 40 % of tol
         got, _ = project_views(brdf, views, lmax, samples=samples)
         noise = np.sum((got - ref[:, : n_coeffs(lmax)]) ** 2, axis=(1, 2))

@@ -29,7 +29,7 @@ from shbake.format.shexp import probe_from_set
 from shbake.preview.contact_sheet import beyond_scale, write_contact_sheet
 from shbake.preview.passes import render_pass
 from shbake.progress import NO_PROGRESS
-from shbake.resources import check_memory, check_regular_file
+from shbake.resources import check_memory, check_regular_file, path_arguments
 from shbake.shading.shader import DEFAULT_OF_KIND, shader, shader_classes, shaders_of_kind
 
 REFERENCE_PASSES = {"reference": None, "reference-tangent": "tangent"}
@@ -141,6 +141,7 @@ def _material(sh, roughness: float, f0: float) -> tuple[dict, dict, str]:
     return material, {"roughness": roughness, "alpha": alpha, "f0": f0}, text
 
 
+@path_arguments("asset_path", "output", "source", "table_path", "merl_path")
 def preview_asset(
     asset_path: str,
     output: str,

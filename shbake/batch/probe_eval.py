@@ -23,6 +23,7 @@ from shbake.evaluation.probes import ALPHAS, MATERIALS, VIEW_YAWS, evaluate_case
 from shbake.format.probe import probe_bytes
 from shbake.format.shexp import build_shexp_asset
 from shbake.format.splitsum import build_splitsum_asset
+from shbake.resources import path_arguments
 
 EVALUATED = ("shexp_v2", "shexp_paper", "splitsum_plain", "splitsum_filtered", "shrm")
 SHRM_EPS = 0.01
@@ -203,6 +204,7 @@ def check_evaluation(
                     "P_limit": P_LIMIT}  # fmt: skip
 
 
+@path_arguments("paths", "cache_dir", "sheet_dir")
 def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=None,
                   cache_dir=None, sheet_dir=None, roughness=None, shrm_eps: float | None = SHRM_EPS,
                   shrm_face_size: int = SHRM_FACE_SIZE, yaws=VIEW_YAWS) -> dict:  # fmt: skip
@@ -392,6 +394,7 @@ def markdown_report(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+@path_arguments("source", "output")
 def bake_splitsum_file(source, output, config: SplitSumConfig, negative="clamp",
                        fix_nonfinite=None) -> dict:  # fmt: skip
     """``split-sum``: read a lat-long map, prefilter its chain at ``config`` (checked when it

@@ -19,6 +19,7 @@ from shbake.batch.scheduler import session
 from shbake.errors import InputError, OutputError, ParameterError
 from shbake.evaluation.metrics import HEADLINE_WARNING
 from shbake.format.atomic import check_output_path
+from shbake.resources import path_arguments
 
 
 def make_jobs(maps, probe_list, out_dir, config, negative, fix_nonfinite, output=None):
@@ -140,6 +141,7 @@ def write_manifest(path: str, jobs, finished: list, output, error) -> None:
         write_text(path, json.dumps(doc, indent=1, sort_keys=True) + "\n")
 
 
+@path_arguments("maps", "probe_list", "output", "out_dir", "manifest")
 def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_CONFIG,
                negative="clamp", fix_nonfinite=None, report=False, tol=None, n_jobs=1,
                scheduler=None, progress=None, notes=None, manifest=None) -> dict:  # fmt: skip

@@ -25,7 +25,7 @@ from shbake.format.atomic import check_output_dir, check_output_path, makedirs
 from shbake.format.env_sh import asset_lights
 from shbake.format.images import HALF_MAX, tonemap_to_srgb8, write_exr, write_png
 from shbake.progress import NO_PROGRESS
-from shbake.resources import check_memory
+from shbake.resources import check_memory, path_arguments
 from shbake.sh.point_sets import fibonacci_sphere
 from shbake.shading.shader import shader
 
@@ -167,12 +167,14 @@ def check_settings(lmax: int, irradiance_lmax: int | None = None, irradiance_sh:
     return irradiance_lmax
 
 
+@path_arguments("env_path", "output")
 def project_environment(env_path: str, output: str, **settings) -> dict:
     """Bake ``env_path`` into the ``env_sh`` asset ``output`` (and companions); the summary
     (:func:`project_environment_asset`, whose keyword ``settings`` it takes)."""
     return project_environment_asset(env_path, output, **settings)[1]
 
 
+@path_arguments("env_path", "output", "exr_dir")
 def project_environment_asset(
     env_path: str,
     output: str,

@@ -21,6 +21,7 @@ from shbake.format.atomic import (
     detached,
     makedirs,
 )
+from shbake.resources import path_arguments
 
 TASK_MAPS = 8
 """Maps per worker task (amortises the task's scheduling and the result's transfer)."""
@@ -40,6 +41,7 @@ def _project_task(command: str, pairs: list[tuple[str, str]], settings: dict) ->
     return out
 
 
+@path_arguments("pairs")
 def run_many(command: str, pairs: list[tuple[str, str]], settings: dict, n_jobs: int = 1,
              progress=None) -> list[dict]:  # fmt: skip
     """Run ``command`` (``project-env``: :func:`~shbake.batch.project_env.project_environment`,

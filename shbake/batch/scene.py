@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 
 from shbake.brdf import MODELS
 from shbake.errors import ParameterError
+from shbake.resources import path_arguments
 
 TOLERANCES = {
     "irradiance": "relative RMS error of Lambert irradiance luminance vs brute force",
@@ -305,6 +306,7 @@ def written_by_shbake(path: str, out_dir: str) -> str | None:
     return top if top in ASSET_FOLDERS + (STAMP_DIR, LOCK_NAME) else None
 
 
+@path_arguments("path")
 def load_scene(path: str, allow_outside: bool = False) -> Scene:
     """Read and validate the scene at ``path``; raises :class:`SceneError` (one line).
 

@@ -58,6 +58,7 @@ from shbake.format.atomic import (
     write_text,
 )
 from shbake.jit import use_one_thread
+from shbake.resources import path_arguments
 
 ASSET_ID = rf"[a-z_]+(?:/{NAME_PATTERN})+"
 """An asset id: its kind, then the names it is baked for (``shrm/satin/dusk``)."""
@@ -531,6 +532,7 @@ def lock_text(lock: dict) -> str:
     return "\n".join(lines + ["}"]) + "\n"
 
 
+@path_arguments("path")
 def read_lock(path: str) -> dict:
     """The lock at ``path``; ``{}`` if it is missing or not a lock (an object whose
     ``assets`` and ``plans`` are objects)."""
@@ -811,6 +813,7 @@ def _shbake_words(shbake: str) -> list[str]:
     return words
 
 
+@path_arguments("path")
 def emit_make(scene: Scene, plan: dict, path: str, shbake: str = "shbake",
               maps_per_rule: int = 1) -> str:  # fmt: skip
     """Write the Makefile fragment of ``plan`` to ``path`` and the settings stamps

@@ -22,6 +22,7 @@ from shbake.conventions import unit_vectors
 from shbake.errors import ParameterError
 from shbake.evaluation.shrm import ShrmCheck
 from shbake.format.shrm import build_shrm_asset
+from shbake.resources import path_arguments
 
 
 def report_rows(env, rb: ReflectionBRDF, F_values, P_values, face_size: int = 32,
@@ -66,6 +67,7 @@ class ShrmSettings:
     search: BRDFCoefficients | None
 
 
+@path_arguments("merl_path")
 def shrm_settings(brdf: str = "microfacet", params: dict | None = None,
                   merl_path: str | None = None, eps: float = 0.03, F=None, P=None,
                   face_size=None, view=(0.0, 0.0, 1.0)) -> ShrmSettings:  # fmt: skip
@@ -103,6 +105,7 @@ def shrm_settings(brdf: str = "microfacet", params: dict | None = None,
     return ShrmSettings(rb, eps, F, P, face_size, v, search)
 
 
+@path_arguments("env_path", "output", "exr_dir")
 def bake_shrm_file(env_path: str, output: str, settings: ShrmSettings,
                    exr_dir: str | None = None, report: bool = False, layout=None,
                    colorspace=None, negative: str | None = None, fix_nonfinite=None,

@@ -3,9 +3,12 @@
 One row per candidate setting, with the error model of :mod:`shbake.batch.plan`
 (the same numbers the planner compares with a tolerance), the measured warm CPU
 time of the baker's own work at that setting and the asset's payload bytes;
-the chosen setting (the cheapest meeting ``tol``, as ``shbake plan`` picks) is
-marked. Written as a PNG (matplotlib: error vs time and error vs bytes, log
-axes, tolerance line, chosen point), a CSV and a JSON file.
+the chosen setting is marked: the one ``shbake plan`` picks, by its rule over the
+errors alone, never by the measured times (``env_sh``: the smallest lmax meeting
+``tol``; ``brdf_table``: the planner's lmax, :func:`~shbake.batch.plan.table_lmax`,
+then the smallest size meeting ``tol``; the samples are ``samples``, not the planner's).
+Written as a PNG (matplotlib: error vs time and error vs bytes, log axes, tolerance line,
+chosen point), a CSV and a JSON file.
 """
 
 import csv
@@ -24,6 +27,7 @@ from shbake.batch.plan import (
     TABLE_SIZES,
     TableErrors,
     irradiance_truncation,
+    table_lmax,
 )
 from shbake.batch.plan_costs import warm_seconds
 from shbake.batch.scene import param_strings
@@ -35,11 +39,13 @@ from shbake.envmap.sun import extract_sun
 from shbake.errors import ParameterError
 from shbake.format.atomic import atomic_path, check_output_path, write_text
 from shbake.messages import warn
+from shbake.resources import path_arguments
 from shbake.sh.kernels import kajiya_kay_kernel, lambert_kernel
 
 TRADEOFF_KINDS = ("env_sh", "brdf_table")
 
 
+@path_arguments("map_path")
 def env_sh_tradeoff(map_path: str, tol: float, sun: bool = True) -> dict:
     """Rows ``lmax, error (irradiance / tangent), seconds, bytes`` for ``lmax = 0 … 16``."""
     env = load_environment(map_path, quiet=True)
@@ -53,19 +59,22 @@ def env_sh_tradeoff(map_path: str, tol: float, sun: bool = True) -> dict:
                      "irradiance_error": float(e_irr[L]), "tangent_error": float(e_tan[L]),
                      "seconds": warm_seconds("env_sh", residual.project, L),
                      "bytes": 3 * n_coeffs(L) * 3 * 8})  # fmt: skip
-    return _finish("env_sh", rows, tol, "relative RMS irradiance error (Parseval)", map_path)
+    return _finish("env_sh", rows, rows, tol, "relative RMS irradiance error (Parseval)",
+                   map_path)  # fmt: skip
 
 
 def brdf_table_tradeoff(model: str, params: dict, tol: float, samples: int = 256) -> dict:
-    """Rows ``(lmax, size)`` over TABLE_LMAX × TABLE_SIZES[:3] at ``samples``."""
+    """Rows ``(lmax, size)`` over TABLE_LMAX × TABLE_SIZES[:3] at ``samples``; the chosen one
+    at the planner's lmax (:func:`~shbake.batch.plan.table_lmax` of the rows' truncation)."""
     brdf = make_brdf(model, **param_strings(params))
     views = probe_views()
     energy = product_energy(brdf, views, 256)
     ref, _ = project_views(brdf, views, max(TABLE_LMAX), samples=REFERENCE_SAMPLES)
     got, _ = project_views(brdf, views, max(TABLE_LMAX), samples=samples)
-    rows = []
+    rows, truncation = [], {}
     for L in TABLE_LMAX:
         errors = TableErrors(brdf, L, samples, views, energy, ref, got[:, : n_coeffs(L)])
+        truncation[L] = errors.truncation
         for size in TABLE_SIZES[:3]:
             errs = errors.at(size)
             rows.append({"setting": f"lmax {L} size {size}", "lmax": L, "size": size,
@@ -74,22 +83,26 @@ def brdf_table_tradeoff(model: str, params: dict, tol: float, samples: int = 256
                          "seconds": warm_seconds("brdf_table", tabulate, brdf, L, (size, size),
                                           samples=samples),
                          "bytes": size * size * n_coeffs(L) * 3 * 8})  # fmt: skip
-    return _finish("brdf_table", rows, tol, "relative L2 error of f*", model)
+    lmax = table_lmax(truncation.__getitem__, tol)
+    candidates = [r for r in rows if r["lmax"] == lmax]  # by size, smallest first
+    return _finish("brdf_table", rows, candidates, tol, "relative L2 error of f*", model,
+                   f" at the planner's lmax {lmax}")  # fmt: skip
 
 
-def _finish(kind, rows, tol, error_label, source) -> dict:
-    ok = [r for r in rows if r["error"] <= tol]
-    chosen = min(ok, key=lambda r: (r["seconds"], r["bytes"])) if ok else None
-    if kind == "env_sh" and ok:
-        chosen = min(ok, key=lambda r: r["lmax"])  # the planner's rule: smallest lmax
+def _finish(kind, rows, candidates, tol, error_label, source, among="") -> dict:
+    """The result: ``rows`` and the chosen setting, the first of ``candidates`` (the rows the
+    planner's rule considers, in its order) meeting ``tol``; none: a warning naming the
+    least error of any row (``among``: where the candidates are, for the warning)."""
+    chosen = next((r for r in candidates if r["error"] <= tol), None)
     if chosen is None:
         best = min(rows, key=lambda r: r["error"])
-        warn(f"no setting meets --tol {tol:g} ({error_label}); the least error is "
+        warn(f"no setting{among} meets --tol {tol:g} ({error_label}); the least error is "
              f"{best['error']:.3g}, at {best['setting']}")  # fmt: skip
     return {"kind": kind, "source": source, "tolerance": tol, "error_label": error_label,
             "rows": rows, "chosen": chosen and chosen["setting"]}  # fmt: skip
 
 
+@path_arguments("output", "csv_path", "json_path")
 def write_tradeoff(result: dict, output: str, csv_path: str | None, json_path: str | None):
     """The PNG at ``output`` and the numbers as CSV / JSON (each atomically)."""
     import matplotlib
@@ -132,6 +145,7 @@ def write_tradeoff(result: dict, output: str, csv_path: str | None, json_path: s
         write_text(json_path, json.dumps(result, indent=1) + "\n")
 
 
+@path_arguments("map_path")
 def tradeoff(kind: str, tol: float, map_path: str | None = None, model: str | None = None,
              params: dict | None = None, samples: int = 256) -> dict:  # fmt: skip
     """Dispatch on ``kind`` (one of :data:`TRADEOFF_KINDS`), validating what it needs."""
@@ -146,6 +160,7 @@ def tradeoff(kind: str, tol: float, map_path: str | None = None, model: str | No
     return brdf_table_tradeoff(model, params or {}, tol, samples)
 
 
+@path_arguments("output", "csv_path", "json_path")
 def tradeoff_files(kind: str, tol: float, output: str, csv_path: str | None = None,
                    json_path: str | None = None, **inputs) -> dict:  # fmt: skip
     """:func:`tradeoff` (``inputs``: its ``map_path``, ``model``, ``params``, ``samples``)

@@ -252,6 +252,11 @@ A_BASE = 32
 """Azimuthal intervals of the base rule (``φ`` or ``u_a``); its embedded coarse rule has 16."""
 R_MAX_LEVEL = 7
 """Radial doublings at most: ``R_BASE · 2^7 = 2048`` intervals."""
+FIRST_LEVEL_POINTS = 2 * (R_BASE + 1) * A_BASE
+"""Points of the hemisphere rule's first level (``θ`` split at ``θ_v``: two Clenshaw–Curtis
+rules of ``R_BASE`` intervals, on ``A_BASE`` lines), which every view integrates whole: the
+least ``max_samples`` the ``tol`` path can honour (the lobe rule's first level is
+``R_BASE + 1`` nodes on about ``A_BASE`` lines)."""
 MAX_STEPS = 64
 """Refinement steps recorded per view (:attr:`Convergence.history`)."""
 UR_TOP = 1.0 - 1e-12
@@ -629,8 +634,10 @@ class Convergence:
 def _check_sampling(samples, tol, max_samples):
     if tol is not None and not (np.isfinite(tol) and 0 < tol < 1):
         raise ParameterError(f"tol must be in (0, 1), got {tol}")
-    if not isinstance(max_samples, int) or not 16 <= max_samples <= MAX_SAMPLES_LIMIT:
-        raise ParameterError(f"max_samples must be an integer in [16, {MAX_SAMPLES_LIMIT}]")
+    least, most = FIRST_LEVEL_POINTS, MAX_SAMPLES_LIMIT
+    if not isinstance(max_samples, int) or not least <= max_samples <= most:
+        raise ParameterError(f"max_samples must be an integer in [{least}, {most}], "
+                             f"got {max_samples}")  # fmt: skip
     if samples is not None and (not isinstance(samples, int) or not 16 <= samples <= max_samples):
         raise ParameterError(f"samples must be an integer in [16, {max_samples}], got {samples}")
 
@@ -659,6 +666,10 @@ def project_views(
         Refine each view's nested rules (module docstring) until the error
         estimate is at most ``tol`` or no doubling fits ``max_samples`` points
         per strategy (or 2048 radial intervals).
+    max_samples : int, FIRST_LEVEL_POINTS … MAX_SAMPLES_LIMIT
+        Points per strategy the ``tol`` refinement stops at, and the most ``samples``
+        without it; at least the nested rules' first level (:data:`FIRST_LEVEL_POINTS`),
+        which every view integrates whole.
     progress : callable(samples, error), optional
     advance : callable(views), optional
         Called as views are finished (a progress bar's step; ``V`` in all).

@@ -17,7 +17,7 @@ from shbake.envmap.layouts import (
 from shbake.envmap.repair import DEFAULT_NEGATIVE, apply_negative_policy, repair_nonfinite
 from shbake.errors import ImageReadError
 from shbake.messages import warn
-from shbake.resources import file_identity
+from shbake.resources import file_identity, path_arguments
 from shbake.sh.projection import fejer_row_weights, project_latlong, project_samples
 
 
@@ -149,6 +149,7 @@ def _decode_key(path, *policies):
     return (os.path.abspath(path), *identity, *policies)
 
 
+@path_arguments("path")
 def load_environment(
     path: str,
     layout: str | None = None,

@@ -91,3 +91,32 @@ class TestTradeoffCommand:
         with unchanged(tmp_path):
             assert_failed(run_cli("tradeoff", "env_sh", "--map", tmp_path / "m.exr", *out),
                           fragment=fragment)  # fmt: skip
+
+
+class TestBrdfTableTradeoff:
+    @staticmethod
+    def measured(times):
+        """A stand-in for :func:`~shbake.batch.plan_costs.warm_seconds` returning ``times`` in
+        turn."""
+        left = iter(times)
+        return lambda *a, **k: next(left)
+
+    def test_choice_is_the_planners_whatever_the_seconds(self, monkeypatch):
+        """The chosen setting is the one ``shbake plan`` picks (its lmax, then the smallest
+        size meeting the tolerance), from the errors alone: measured seconds that make the
+        last row the fastest, then the first, change nothing (a noisy machine once marked
+        different settings on two runs of the same inputs)."""
+        from shbake.batch import tradeoff
+        from shbake.batch.plan import TABLE_SAMPLES, plan_brdf_table
+
+        params, tol, samples = {"nu": "4", "nv": "1"}, 0.25, TABLE_SAMPLES[0]
+        chosen = []
+        # 12 rows (lmax × size): the last one fastest, then the first
+        for times in (np.arange(12.0, 0, -1), np.arange(1.0, 13)):
+            monkeypatch.setattr(tradeoff, "warm_seconds", self.measured(times))
+            result = tradeoff.brdf_table_tradeoff("ashikhmin-shirley", params, tol, samples)
+            assert [r["seconds"] for r in result["rows"]] == list(times)
+            chosen.append(result["chosen"])
+        plan = plan_brdf_table("ashikhmin-shirley", params, None, tol)["settings"]
+        assert plan["samples"] == samples  # the planner's candidates are the tradeoff's rows
+        assert chosen == [f"lmax {plan['lmax']} size {plan['size']}"] * 2

@@ -10,7 +10,15 @@ import numpy as np
 import pytest
 
 from shbake.brdf import make_brdf
-from shbake.brdf.tabulate import SQRT_4PI, _integrate, clenshaw_curtis_unit, project_views, tabulate
+from shbake.brdf.tabulate import (
+    FIRST_LEVEL_POINTS,
+    SQRT_4PI,
+    _integrate,
+    clenshaw_curtis_unit,
+    project_views,
+    tabulate,
+)
+from shbake.errors import ParameterError
 from shbake.jit import run_blocks
 from shbake.sh.basis import real_sh, recurrence_tables
 from shbake.sh.kernels import lambert_kernel
@@ -165,6 +173,18 @@ class TestNestedRefinement:
         _, conv = project_views(brdf, views, lmax=2, samples=None, tol=1e-7, max_samples=4096)
         assert conv.view_samples.max() <= 4096
         assert conv.error > 1e-7
+
+    def test_max_samples_below_the_first_level_refused(self):
+        """Every view integrates the nested rules' first level whole, so a smaller
+        ``max_samples`` could not take effect: refused, naming the least value."""
+        brdf = make_brdf("ggx", alpha=0.3)
+        views = furnace_views()[:2]
+        with pytest.raises(ParameterError, match=rf"\[{FIRST_LEVEL_POINTS}, "):
+            project_views(brdf, views, lmax=2, samples=None, tol=1e-3,
+                          max_samples=FIRST_LEVEL_POINTS - 1)  # fmt: skip
+        _, conv = project_views(brdf, views, lmax=2, samples=None, tol=1e-9,
+                                max_samples=FIRST_LEVEL_POINTS)  # fmt: skip
+        assert conv.samples == FIRST_LEVEL_POINTS
 
 
 class TestClenshawCurtisUnit:

@@ -8,6 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
+from shbake.brdf.tabulate import FIRST_LEVEL_POINTS
 from tests.helpers import map_path
 
 
@@ -120,18 +121,29 @@ class TestBrdfTableCli:
 
     def test_unmet_tol_names_the_samples_used(self, run_cli, tmp_path):
         """A ``--tol`` no refinement meets warns with the points per strategy the table
-        actually used: below the nested rules' first level (1088 points) ``--max-samples 64``
-        does not cap it, and the warning says 1088, the asset's ``samples_max``, not 64."""
+        used, the asset's ``samples_max``: at the least ``--max-samples``, the nested rules'
+        first level, every texel stops there."""
         code, stdout, err = run_cli("brdf-table", "ggx", "-p", "alpha=0.3", "--size", 4,
-                                    "--lmax", 2, "--tol", "1e-6", "--max-samples", 64,
-                                    "-o", tmp_path / "t.h5", "--json", "-q")  # fmt: skip
+                                    "--lmax", 2, "--tol", "1e-6", "--max-samples",
+                                    FIRST_LEVEL_POINTS, "-o", tmp_path / "t.h5", "--json",
+                                    "-q")  # fmt: skip
         assert code == 0, err
         summary = json.loads(stdout)
-        used = summary["samples_max"]
-        assert used > 64
+        assert summary["samples_max"] == FIRST_LEVEL_POINTS
         (warning,) = [w for w in summary["warnings"] if "did not reach --tol" in w]
-        assert f"by {used} samples" in warning and "by 64 samples" not in warning, warning
-        assert f"raise --max-samples above {used}" in warning
+        assert f"by {FIRST_LEVEL_POINTS} samples" in warning, warning
+        assert f"raise --max-samples above {FIRST_LEVEL_POINTS}" in warning
+
+    def test_max_samples_below_the_first_level_refused(self, run_cli, tmp_path):
+        """A ``--max-samples`` below the nested rules' first level, which every texel
+        integrates whole, could not take effect: a usage error naming the least value, not a
+        bake that silently uses more."""
+        code, out, err = run_cli("brdf-table", "ggx", "--size", 4, "--lmax", 2, "--tol", "1e-3",
+                                 "--max-samples", FIRST_LEVEL_POINTS - 1, "-o",
+                                 tmp_path / "t.h5")  # fmt: skip
+        assert code == 2 and err.count("\n") == 1 and out == "", err
+        assert f"is not in the range {FIRST_LEVEL_POINTS}<=x<=" in err, err
+        assert list(tmp_path.iterdir()) == []
 
     def test_preview_kautz_with_diff(self, run_cli, tmp_path):
         env, table = tmp_path / "e.h5", tmp_path / "t.h5"

@@ -9,6 +9,8 @@ import pytest
 from shbake_cli.main import cli, main
 from shbake_cli.options import SizeHW
 
+from shbake.brdf.tabulate import FIRST_LEVEL_POINTS, MAX_SAMPLES_LIMIT
+
 COMMANDS = sorted(cli.list_commands(None))  # lazily imported subcommands
 RETIRED = ("--exr-maps", "--map-height", "--resolution", "--exr ", "--truth-samples", "--top",
            "--set ")  # fmt: skip
@@ -149,7 +151,7 @@ class TestRangesAreUsageErrors:
         ("brdf-table", "--resolution"): R(2, 4096, True, good=("16x4096",)),
         ("brdf-table", "--samples"): R(16, 1 << 22, True),
         ("brdf-table", "--tol"): R(0.0, 1.0, False, True, True),
-        ("brdf-table", "--max-samples"): R(16, 1 << 22, True),
+        ("brdf-table", "--max-samples"): R(FIRST_LEVEL_POINTS, MAX_SAMPLES_LIMIT, True),
         ("probe-fit", "--lmax-p"): R(0, 8, True),
         ("probe-fit", "--lmax-q"): R(1, 8, True),
         ("probe-fit", "--normals"): R(4, 4096, True),

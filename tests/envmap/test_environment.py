@@ -20,6 +20,15 @@ class TestLoadEnvironment:
         assert meta["sha256"] == hashlib.sha256(data).hexdigest()
         assert meta["size"] == len(data)
 
+    def test_path_like(self, tmp_path):
+        """A ``pathlib.Path`` reads the map a ``str`` does (OpenImageIO takes ``str`` alone),
+        and the recorded path is text."""
+        path = write_test_exr(tmp_path / "map.exr", np.linspace(0.1, 2.0, 384).reshape(8, 16, 3))
+        got, want = load_environment(path, quiet=True), load_environment(str(path), quiet=True)
+        np.testing.assert_array_equal(got.pixels, want.pixels)
+        assert got.meta["path"] == want.meta["path"] == str(path)
+        assert got.meta["sha256"] == want.meta["sha256"]
+
     def test_file_written_during_the_read_refused(self, tmp_path, monkeypatch):
         """A map rewritten between the decode and the hash (a pipeline still writing it)
         would record the digest of bytes that were not baked: one line, nothing returned."""
