@@ -62,6 +62,8 @@ HDRI = ROOT.parent / "shared" / "hdri"
 RESULTS = ROOT / "bench" / "results"
 ENGINES = ROOT / "tests" / "engines"
 EVAL_DIRECTIONS = 2048
+ACCEPT_MEAN = 0.01
+"""The acceptance's mean relative error (``--lights auto --tol``)."""
 ACCEPT_MAX = 0.10
 L1_STEPS = 5
 L1_FLOOR = 2e-3
@@ -311,7 +313,7 @@ def measure(name: str, max_lights: int, tmp: str, starts: int = 0) -> dict:
 
     exported("L2")
     exported("L2+sun", extract_sun=True)
-    auto = exported("L2+auto", lights="auto", light_tol=0.01)
+    auto = exported("L2+auto", lights="auto", light_tol=ACCEPT_MEAN)
     for k in range(max_lights + 1):
         exported(f"L2+{k}", lights=k)
     asset, _ = bake_env_sh(env, lmax=4, irradiance_lmax=4)
