@@ -120,14 +120,14 @@ class TestBranchAndBound:
         target = 0.5 + 0.2 * NORMALS[:, 0] + 2.0 * lights_term(d, [0.0])[:, 0]
         assert least_mean(target, d, [0.0]) < 1e-9
         for family in ("directional", "rect"):
-            out = branch_and_bound(NORMALS, target, family, 1, LIMITS, max_level=5)
+            out = branch_and_bound(NORMALS, target, family, 1, LIMITS, max_level=4)
             assert not out["proved"]
-            assert out["generations"][-1]["finest_level"] == 6
+            assert out["generations"][-1]["finest_level"] == 5
 
     def test_proves_what_no_light_meets(self):
         target = studio_like(5)
         out = branch_and_bound(NORMALS, target, "directional", 1, LIMITS)
         assert out["proved"]
-        # and a search agrees: no single light on a fine grid comes near
-        grid = fibonacci_sphere(4000)
-        assert min(least_mean(target, g[None], [0.0]) for g in grid[::8]) > LIMITS[0]
+        # and a search agrees: no single light of a 250-direction grid meets it
+        grid = fibonacci_sphere(250)
+        assert min(least_mean(target, g[None], [0.0]) for g in grid) > LIMITS[0]
