@@ -59,6 +59,10 @@ def studio_like(seed):
     return 0.4 + 0.1 * NORMALS[:, 2] + lights_term(d, [0.0, 0.15]) @ rng.uniform(1, 3, 2)
 
 
+def cells_at(dirs, form_factors, level, tau_level, faces):
+    return [cell_of(d, f, level, tau_level, faces) for d, f in zip(dirs, form_factors, strict=True)]
+
+
 def random_lights(rng, count, rect):
     d = rng.normal(size=(count, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
@@ -76,8 +80,7 @@ class TestRelaxation:
             dirs, ffs = random_lights(rng, 3, rect)
             fit = least_mean(target, dirs, ffs, cap=10.0)
             for level in (0, 2, 4, 7):
-                cells = [cell_of(d, f, level, level - 1 if rect else -1, faces)
-                         for d, f in zip(dirs, ffs, strict=True)]  # fmt: skip
+                cells = cells_at(dirs, ffs, level, max(level - 1, 0) if rect else -1, faces)
                 assert bound.lower(cells, 10.0) <= fit + 1e-7
 
     @pytest.mark.parametrize("rect", [False, True])
@@ -89,8 +92,7 @@ class TestRelaxation:
         for _ in range(3):
             dirs, ffs = random_lights(rng, 2, rect)
             fit = least_mean(target, dirs, ffs, cap=10.0)
-            cells = [cell_of(d, f, 16, 16 if rect else -1, faces)
-                     for d, f in zip(dirs, ffs, strict=True)]  # fmt: skip
+            cells = cells_at(dirs, ffs, 16, 16 if rect else -1, faces)
             assert bound.lower(cells, 10.0) == pytest.approx(fit, rel=1e-3, abs=1e-6)
 
     def test_infeasible_only_where_no_fit_keeps_the_max(self):
