@@ -94,6 +94,26 @@ def _start_worker(folder: str, environment: dict, server_pid: int) -> None:
     use_one_thread()
 
 
+class _Pool(ProcessPoolExecutor):
+    """A process pool whose ``map`` leaves the jobs it did not return to the pool's stop.
+
+    The standard ``map``, left by an exception raised while it waits for a result (SIGINT,
+    SIGTERM), cancels its pending jobs in the caller's thread. When the workers then die
+    (:func:`worker_pool` terminates them; a signal to the process group kills them), the
+    pool's manager thread fails every job it holds, cancelled ones included: CPython 3.11
+    raises ``InvalidStateError`` there, printed as ``Exception in thread`` on the command's
+    stderr, and the pool's threads are left waiting. Here only the manager thread ends jobs,
+    one at a time: it fails them when a worker dies, or cancels them at
+    ``shutdown(cancel_futures=True)``."""
+
+    def map(self, fn, *iterables):
+        """``fn`` applied to the items of ``iterables`` taken together, in the workers; an
+        iterator over the results, in order. Every job is submitted now."""
+        futures = [self.submit(fn, *args) for args in zip(*iterables, strict=True)]
+        futures.reverse()
+        return (futures.pop().result() for _ in range(len(futures)))
+
+
 @contextlib.contextmanager
 def worker_pool(n_jobs: int):
     """A pool of ``n_jobs`` workers forked from the warm server (module docstring). When the
@@ -101,7 +121,7 @@ def worker_pool(n_jobs: int):
     temporaries and exits — instead of finishing their current jobs."""
     start_server()
     server_pid = multiprocessing.forkserver._forkserver._forkserver_pid
-    pool = ProcessPoolExecutor(n_jobs, mp_context=_context(), initializer=_start_worker,
+    pool = _Pool(n_jobs, mp_context=_context(), initializer=_start_worker,
                                initargs=(os.getcwd(), dict(os.environ), server_pid))  # fmt: skip
     try:
         yield pool

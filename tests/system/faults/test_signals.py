@@ -365,6 +365,42 @@ class TestPoolWorkers:
             assert len(list(out.iterdir())) == len(maps)
             assert os.listdir(tmp) == []
 
+    def test_workers_killed_after_the_map_was_left(self, monkeypatch):
+        """SIGTERM raised while the command waits for a result leaves ``pool.map``; its
+        workers die too (a signal to the process group). The pool's manager thread fails
+        the jobs left, with no error of its own: CPython 3.11's ``map`` cancelled them in
+        the command's thread, and the manager's ``set_exception`` on a cancelled job raised
+        ``InvalidStateError``, a traceback on the command's stderr (CI, ``SIGTERM`` case of
+        :meth:`test_workers_die_with_parent`)."""
+        import multiprocessing.forkserver
+        import threading
+
+        from shbake.batch.workers import worker_pool
+
+        errors = []
+        monkeypatch.setattr(threading, "excepthook", errors.append)
+        before = set(threading.enumerate())
+        with pytest.raises(KeyboardInterrupt), worker_pool(2) as pool:
+            # one short job, then long ones: once the first result is in, the manager
+            # thread has queued what the workers can take and waits (no job ends), the
+            # rest are pending
+            results = pool.map(time.sleep, [0.1] + [60] * 11)
+            next(results)
+            time.sleep(0.2)
+            results.close()  # what the exception raised inside the wait does
+            workers = descendants(multiprocessing.forkserver._forkserver._forkserver_pid)
+            for pid in workers:
+                os.kill(pid, signal.SIGKILL)
+            end = time.monotonic() + TIMEOUT
+            while time.monotonic() < end and any(alive(pid) for pid in workers):
+                time.sleep(0.01)
+            time.sleep(0.2)  # the manager thread sees its workers gone
+            raise KeyboardInterrupt
+        for thread in set(threading.enumerate()) - before:
+            thread.join(10)
+        assert len(workers) == 2
+        assert [e.exc_type for e in errors] == []
+
     @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
     def test_workers_die_with_parent(self, box, big, sig, short_tmp):
         from tests.helpers import write_test_exr
