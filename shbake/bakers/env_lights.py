@@ -40,8 +40,13 @@ Directions (and sphere radii, up to :data:`MAX_RADIUS_DEG`) are searched by
 ``scipy.optimize.least_squares`` (trust region) from several starts: each ``K`` keeps
 the ``K − 1`` lights found and adds one at each of the map's brightest coarse cells
 (:data:`MAP_STARTS`) and at the fit normals where the ``K − 1`` fit falls furthest short
-(:data:`RESIDUAL_STARTS`); spheres also start from the ``K`` points' optimum; the best
-optimum wins.
+(:data:`RESIDUAL_STARTS`); spheres also start from the ``K`` points' optimum. The fit
+whose cost is least once its SH part is held non-negative wins, not the least optimum
+before that: on night two spheres' least optimum (a radius at :data:`MAX_RADIUS_DEG`) cost
+more than the points once held, while the next (radii 12.5° and 12.9°) cost less, and which
+of the two came first turned on rounding (CPUs with and without AVX-512). Optima are held
+in order of their cost and the search stops at one that already costs more than the best
+held fit, since holding never lowers a cost.
 :func:`choose_lights` takes the fewest lights (``0 … max``) whose mean relative
 luminance error on the fit normals is at most the tolerance.
 """
@@ -402,7 +407,7 @@ def fit_lights(target: IrradianceTarget, count: int, lmax: int = 2,
     problem = _Problem(target, lmax)
     if count > 0 and previous is None:
         previous = fit_lights(target, count - 1, lmax, shape=shape)
-    dirs, radii = np.zeros((0, 3)), np.zeros(0)
+    dirs, radii, fit = np.zeros((0, 3)), np.zeros(0), None
     if count > 0 and float(np.max(target.energy)) > 0.0:
         starts = [(np.vstack([previous.directions, s[None, :]]),
                    np.append(previous.radii, np.radians(START_RADIUS_DEG)))
@@ -413,23 +418,33 @@ def fit_lights(target: IrradianceTarget, count: int, lmax: int = 2,
             if points.count:
                 start_radius = np.radians(START_RADIUS_DEG)
                 starts.append((points.directions, np.full(points.count, start_radius)))
-        best = None
-        for directions, radii in starts:
-            found = _search(problem, directions, radii if shape == "sphere" else None)
-            if best is None or found[2] < best[2]:
-                best = found
-        if best is not None:
-            dirs, radii = best[0], best[1]
+        found = sorted((_search(problem, d, r if shape == "sphere" else None) for d, r in starts),
+                       key=lambda f: f[2])  # fmt: skip
+        fit = None
+        for dirs, radii, cost in found:
+            if fit is not None and cost >= problem.cost(fit):
+                break  # holding the SH part non-negative never lowers a cost
+            finished = _finish(problem, dirs, radii)
+            if fit is None or problem.cost(finished) < problem.cost(fit):
+                fit = finished
+    if fit is None:
+        fit = _finish(problem, dirs, radii)
+    if points is not None and problem.cost(points) <= problem.cost(fit):
+        return points
+    return fit
+
+
+def _finish(problem: _Problem, dirs: np.ndarray, radii: np.ndarray) -> LightFit:
+    """The fit with lights ``dirs`` of angular ``radii``: linear parameters solved, then
+    solved again with the SH part held non-negative (:data:`NONNEGATIVE_MARGINS`) where it
+    dips below zero."""
     e, a = problem.linear(dirs, radii)
     if problem.sh_minimum(radii, e, a) < 0.0:
         for margin in NONNEGATIVE_MARGINS:
             e, a = problem.constrained(dirs, radii, e, a, margin)
             if problem.sh_minimum(radii, e, a) >= 0.0:
                 break
-    fit = problem.result(dirs, radii, e, a)
-    if points is not None and problem.cost(points) <= problem.cost(fit):
-        return points
-    return fit
+    return problem.result(dirs, radii, e, a)
 
 
 def light_chain(target: IrradianceTarget, max_count: int, lmax: int = 2, shape: str = "point"):

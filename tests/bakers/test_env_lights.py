@@ -232,19 +232,35 @@ class TestSphereLights:
         assert rel.mean() <= 0.01 and rel.max() <= 0.10
 
     def test_never_costs_more_than_points(self):
-        """night: holding the SH part non-negative costs the sphere fits with one light more
-        than the points' (2.82 % mean against 2.15 % before the points were kept), so the
-        points (radius 0) are what a sphere fit returns there; with two lights spheres win."""
+        """night: the fit kept is the one least costly once its SH part is held non-negative,
+        not the least optimum before that, so spheres beat the points with one light (2.10 %
+        mean against 2.15 %) and two (1.45 % against 1.54 %). Judged before holding, one
+        light gave the points (a sphere fit held at 2.82 %) and two gave the points or the
+        spheres by the CPU's rounding (an optimum with a radius at the 30° limit, 12.6 once
+        held against the points' 6.4, came first without AVX-512)."""
         from shbake.bakers.env_lights import _Problem
 
         target = irradiance_target(load_environment(str(map_path("night")), quiet=True))
         problem = _Problem(target, 2)
-        for k, spheres_win in ((1, False), (2, True)):
+        for k in (1, 2):
             points = fit_lights(target, k)
             spheres = fit_lights(target, k, shape="sphere", points=points)
-            assert problem.cost(spheres) <= problem.cost(points)
-            assert spheres.mean_error <= points.mean_error
-            assert bool(spheres.radii.any()) == spheres_win
+            assert problem.cost(spheres) < problem.cost(points)
+            assert spheres.mean_error < points.mean_error
+            assert spheres.radii.all()
+
+    def test_points_returned_when_no_sphere_fit_costs_less(self, monkeypatch):
+        """A sphere of radius 0 is a point: when every sphere fit costs more (here each is
+        finished with its lights dropped, SH alone), the points' fit is returned as it is."""
+        import shbake.bakers.env_lights as env_lights
+
+        target = irradiance_target(load_environment(str(map_path("night")), quiet=True))
+        points = fit_lights(target, 1)
+        finish = env_lights._finish
+        monkeypatch.setattr(env_lights, "_finish", lambda p, d, r: finish(p, d[:0], r[:0]))
+        assert fit_lights(target, 1, shape="sphere", points=points) is points
+        monkeypatch.setattr(env_lights, "_finish", finish)
+        assert fit_lights(target, 1, shape="sphere", points=points) is not points
 
     def test_refuses_an_unknown_shape(self, caps):
         with pytest.raises(ParameterError, match="--light-shape"):
