@@ -22,7 +22,7 @@ from shbake.envmap import load_environment  # noqa: E402
 from shbake.format.asset import write_asset  # noqa: E402
 from shbake.format.images import write_exr  # noqa: E402
 from tests.export_checks import SHARED  # noqa: E402
-from tests.helpers import GOLDEN, smooth_map, write_test_exr  # noqa: E402
+from tests.helpers import GOLDEN, GOLDEN_LANES, golden_file, smooth_map, write_test_exr  # noqa: E402
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -130,17 +130,26 @@ def pytest_addoption(parser):
 
 @pytest.fixture
 def golden(request):
-    """``check(name, path)``: the bytes of ``path`` must equal ``tests/data/golden/NAME``;
-    with ``pytest --update-golden`` the golden file is written instead (the only way one
-    changes, as Filament's cmgen tests do)."""
+    """``check(name, path)``: the bytes of ``path`` must equal its golden file
+    (:func:`tests.helpers.golden_file`: ``tests/data/golden/NAME``, or the CPU's vector
+    width's own file); with ``pytest --update-golden`` the golden file is written instead
+    (the only way one changes, as Filament's cmgen tests do): the main one on a CPU of
+    :data:`~tests.helpers.GOLDEN_LANES`, else the width's own, only where it differs."""
+    from shbake.simd import LANES
+
     update = request.config.getoption("--update-golden")
 
     def check(name: str, path) -> None:
-        want = GOLDEN / name
+        want = golden_file(name, LANES)
         got = Path(path).read_bytes()
         if update:
-            want.parent.mkdir(parents=True, exist_ok=True)
-            want.write_bytes(got)
+            own = GOLDEN / f"lanes-{LANES}" / name
+            if LANES == GOLDEN_LANES or got != (GOLDEN / name).read_bytes():
+                want = GOLDEN / name if LANES == GOLDEN_LANES else own
+                want.parent.mkdir(parents=True, exist_ok=True)
+                want.write_bytes(got)
+            else:
+                own.unlink(missing_ok=True)
             return
         assert want.exists(), f"no golden file {want}; make it with pytest --update-golden"
         assert got == want.read_bytes(), (

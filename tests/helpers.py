@@ -26,6 +26,18 @@ ENGINES_DIR = str(ROOT / "tests" / "engines")
 """The pinned engine packages (three, Babylon.js, Filament) and their node scripts."""
 SHARED_MAPS = ("city", "esplanade", "forest", "night", "studio", "sunset")
 GOLDEN = ROOT / "tests" / "data" / "golden"
+GOLDEN_LANES = 16
+"""The vector width (:data:`shbake.simd.LANES`: 16 with AVX-512, 4 otherwise) the golden
+files were written with. An output whose bytes depend on the width (the lanes' summation
+order: ~1e-16 relative) has a second golden file, for width ``n``, in
+``GOLDEN/lanes-n/`` (:func:`golden_file`)."""
+
+
+def golden_file(name: str, lanes: int) -> Path:
+    """The golden file of output ``name`` on a CPU of vector width ``lanes``: the width's
+    own file where its bytes differ (``GOLDEN/lanes-{lanes}/name``), else the main one."""
+    own = GOLDEN / f"lanes-{lanes}" / name
+    return own if lanes != GOLDEN_LANES and own.exists() else GOLDEN / name
 DIFFUSE_SCENE = """[scene]
 out_dir = "out"
 [[environments]]
