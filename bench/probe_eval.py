@@ -20,8 +20,9 @@ The planner's dielectric limit (α 0.2) and the views the acceptance does not sc
 Runs :func:`shbake.batch.probe_eval.evaluate_maps` (2 materials × the paper's
 six α × 4 views per map, or ``--roughness``/``--yaw``'s) with one process per map
 (``--jobs`` at a time, numba on one thread each) and writes ``bench/results/probe_eval.json`` (every
-case) and ``bench/results/probe_eval.md`` (win rates per α and material, bytes
-per probe, the per-map table and every case). ``SHBAKE_TRUTH_CACHE=DIR`` keeps
+case, with each probe's bake seconds per map) and ``bench/results/probe_eval.md`` (win
+rates per α and material, bytes per probe and mean bake seconds, the per-map table and every
+case). ``SHBAKE_TRUTH_CACHE=DIR`` keeps
 the ground truths there (they do not depend on the probes) for re-runs.
 ``tests/accuracy/test_probe_eval.py`` asserts the figures of the JSON.
 """
@@ -76,6 +77,7 @@ def main():
     result = parts[0]
     for part in parts[1:]:
         result["maps"].update(part["maps"])
+        result["seconds"].update(part["seconds"])
     from shbake.batch.probe_eval import markdown_report
 
     Path(args.out + ".json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")

@@ -22,8 +22,10 @@ from shbake.batch.probe_eval import (
     SHRM_EPS,
     SHRM_FACE_SIZE,
     check_evaluation,
+    check_map_names,
     evaluate_maps,
     markdown_report,
+    mean_bake_seconds,
     present_comparisons,
     shrm_shortfalls,
     win_table,
@@ -34,7 +36,10 @@ from shbake.format.atomic import check_output_path, refuse_same_file, write_text
 
 @click.command("probe-eval")
 @click.argument("maps", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@output_opt("Markdown report: win rates per α and material, bytes, every case", required=False)
+@output_opt(
+    "Markdown report: win rates per α and material, bytes and bake seconds, every case",
+    required=False,
+)
 @size_opt(32, "Sphere image size", lo=8, hi=512)
 @samples_opt(4096, "per pixel of the ground truth (visible-normal + map samples)")
 @deprecated("--truth-samples", "samples", "--samples", type=click.IntRange(16, SAMPLES_LIMIT))
@@ -88,10 +93,13 @@ def probe_eval(maps, output, size, samples, roughness, eps, face_size, shrm, she
     (--sets 1 --weights log --alpha-weight 0), split-sum plain (1024 samples per texel, levels
     at those α), split-sum filtered (engine-grade) and the GGX SHRM (E0 and E1
     SHRMs per α by the shrm command's baker, orders from --eps). A probe that
-    does not cover an α (SH-exp: α < 0.2) reports n/a there.
+    does not cover an α (SH-exp: α < 0.2) reports n/a there. Each probe's
+    bake is timed per map (wall seconds; --json: "seconds", the report: the
+    mean next to its bytes).
     """
     with usage_errors():
         check_evaluation(roughness or None, eps if shrm else None, face_size)
+        check_map_names(maps)
     if output is not None:  # checked (and compared with every map read) before any work
         check_output_path(output)
         refuse_same_file([output], maps)
@@ -114,6 +122,10 @@ def probe_eval(maps, output, size, samples, roughness, eps, face_size, shrm, she
               for m, b in present_comparisons(result)}  # fmt: skip
     for k, (w, n) in totals.items():
         info(f"probe-eval: {k}: {w}/{n} ({w / n:.0%})", quiet)
+    means = mean_bake_seconds(result)
+    info(f"probe-eval: bake s (mean of {len(result['seconds'])} map"
+         f"{'s' if len(result['seconds']) != 1 else ''}): "
+         + ", ".join(f"{k} {v:.3g}" for k, v in means.items()), quiet)  # fmt: skip
     if output:
         write_text(output, markdown_report(result))
     if as_json:

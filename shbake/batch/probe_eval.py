@@ -9,10 +9,15 @@ SHRM per evaluated ``α``, baked by :func:`shbake.bakers.shrm.bake_shrm` (the
 ``shrm`` command's baker) with orders from a tolerance ``ε``. A probe that
 does not cover a case's ``α`` (SH-exp is fitted on ``α ≥ 0.2``) has no MSE
 there (``None``, "n/a" in the report): nothing is extrapolated.
+
+Each probe's bake is timed per map (wall seconds, :func:`time.perf_counter`;
+:func:`evaluate_map`): the error and the time of every technique are reported together.
 """
 
 import functools
+import time
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -73,12 +78,16 @@ class ShrmProbe:
     :func:`shbake.shading.shrm.evaluate_ggx_shrm` (per-pixel eq. 7, ``F0 E0 + (1 − F0) E1``).
 
     The SHRMs of one ``α`` are baked when a case first needs them and dropped when the next
-    ``α`` comes (at the capped orders one cube is 85 MB at ``S = 64``)."""
+    ``α`` comes (at the capped orders one cube is 85 MB at ``S = 64``). ``seconds``: wall
+    seconds spent in :func:`~shbake.bakers.shrm.bake_shrm` so far, summed over its ``bakes``
+    calls (a re-bake of an ``α`` that was dropped counts again)."""
 
     env: object
     orders: list
     face_size: int
     eps: float
+    seconds: float = 0.0
+    bakes: int = 0
     _held: tuple = field(default=(None, None), repr=False)
 
     def _level(self, alpha: float):
@@ -108,8 +117,11 @@ class ShrmProbe:
             for term, f0 in (("E0", 1.0), ("E1", 0.0)):
                 rb, co = ggx_shrm_coefficients(row["alpha"], f0)
                 o = row[term]
+                t0 = time.perf_counter()
                 cubes.append(bake_shrm(self.env, rb, self.eps, o["F"], o["P"], self.face_size,
                                        coeffs_full=co).cube)  # fmt: skip
+                self.seconds += time.perf_counter() - t0
+                self.bakes += 1
             self._held = (row["alpha"], tuple(cubes))
         return self._held[1]
 
@@ -134,36 +146,54 @@ def split_levels(alphas) -> tuple:
 
 
 def bake_probes(env, plans: dict, split_config: SplitSumConfig, dfg, shrm: dict | None = None,
-                alphas=ALPHAS) -> dict:  # fmt: skip
-    """The probe assets of one loaded map: ``plans`` name → :class:`FitPlan` for the
-    SH-exp probes; both split-sum prefilters of ``split_config``; the :class:`ShrmProbe`
+                alphas=ALPHAS) -> tuple[dict, dict]:  # fmt: skip
+    """The probe assets of one loaded map and the wall seconds each took to bake:
+    ``(assets, seconds)``, both keyed by probe name. ``plans`` name → :class:`FitPlan` for
+    the SH-exp probes; both split-sum prefilters of ``split_config``; the :class:`ShrmProbe`
     when ``shrm`` (``{"eps", "face_size", "orders"}``) is given. SH-exp probes are not fitted
-    when no ``α`` of ``alphas`` lies in their range."""
-    assets = {}
+    when no ``α`` of ``alphas`` lies in their range.
+
+    ``seconds`` counts, per SH-exp probe, ``plan.fit`` and its asset (not the plan, which is
+    built once per config and map shape before: ``fit_plan``); per split-sum, its prefiltered
+    chain and asset; the shared DFG table is not counted. The SHRM bakes its cubes lazily
+    (:meth:`ShrmProbe.cubes`), so it is not in ``seconds``: read ``assets["shrm"].seconds``
+    after shading (:func:`evaluate_map` does)."""
+    assets, seconds = {}, {}
     for name, plan in plans.items():
         if any(plan.config.alpha_min - 1e-9 <= a <= plan.config.alpha_max + 1e-9 for a in alphas):
+            t0 = time.perf_counter()
             assets[name] = build_shexp_asset(plan.fit(env.pixels), plan.config, dfg, env.meta)
+            seconds[name] = time.perf_counter() - t0
     for prefilter in ("plain", "filtered"):
+        name = f"splitsum_{prefilter}"
+        t0 = time.perf_counter()
         cfg = replace(split_config, prefilter=prefilter)
         chain = prefilter_chain(env.pixels, cfg)
-        assets[f"splitsum_{prefilter}"] = build_splitsum_asset(chain, cfg, dfg, env.meta)
+        assets[name] = build_splitsum_asset(chain, cfg, dfg, env.meta)
+        seconds[name] = time.perf_counter() - t0
     if shrm is not None:
         assets["shrm"] = ShrmProbe(env, shrm["orders"], shrm["face_size"], shrm["eps"])
-    return assets
+    return assets, seconds
 
 
 def evaluate_map(env, plans: dict, split_config: SplitSumConfig, dfg, size: int = 32,
                  truth_samples: int = 4096, alphas=ALPHAS, yaws=VIEW_YAWS,
                  materials=MATERIALS, cache_dir=None, sheet_dir=None, label="map",
                  shrm: dict | None = None):  # fmt: skip
-    """Every case of one loaded map: rows (:func:`evaluate_cases`), the assets and their
-    bytes per probe; ``sheet_dir``: one contact sheet per case, named after ``label``."""
-    assets = bake_probes(env, plans, split_config, dfg, shrm, alphas)
+    """Every case of one loaded map: ``(rows, assets, nbytes, seconds)``: the rows
+    (:func:`evaluate_cases`), the assets, their bytes per probe and the wall seconds each
+    probe took to bake on this map (:func:`bake_probes`; the SHRM: the seconds of all its
+    :func:`~shbake.bakers.shrm.bake_shrm` calls while the cases were shaded,
+    :attr:`ShrmProbe.seconds`; neither the plans, the ground truth nor the shading are
+    counted). ``sheet_dir``: one contact sheet per case, named after ``label``."""
+    assets, seconds = bake_probes(env, plans, split_config, dfg, shrm, alphas)
     rows = evaluate_cases(env.pixels, assets, size, truth_samples, alphas, yaws, materials,
                           cache_dir, sheet_dir, label)  # fmt: skip
     nbytes = {name: (a.nbytes if isinstance(a, ShrmProbe) else probe_bytes(a))
               for name, a in assets.items()}  # fmt: skip
-    return rows, assets, nbytes
+    if isinstance(assets.get("shrm"), ShrmProbe):
+        seconds["shrm"] = assets["shrm"].seconds
+    return rows, assets, nbytes, seconds
 
 
 ROUGHNESS_MIN = 0.1
@@ -209,7 +239,10 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
                   cache_dir=None, sheet_dir=None, roughness=None, shrm_eps: float | None = SHRM_EPS,
                   shrm_face_size: int = SHRM_FACE_SIZE, yaws=VIEW_YAWS) -> dict:  # fmt: skip
     """Every case of every map (lat-long files): ``{"maps": {stem: rows}, "bytes": {name:
-    bytes per probe}, "configs": …, "alphas": …, "shrm": …}``; SH-exp v2 is
+    bytes per probe}, "seconds": {stem: {name: bake seconds}}, "configs": …, "alphas": …,
+    "shrm": …}`` (``seconds``: wall seconds each probe took to bake on that map,
+    :func:`evaluate_map`; the SH-exp fit plans are built before and not counted, and the
+    first map's seconds may include numba compiling a kernel); SH-exp v2 is
     :class:`FitConfig` ``()``, the paper's fit :meth:`FitConfig.paper`, both split-sums
     :class:`SplitSumConfig` with levels at the evaluated ``α``
     (:func:`split_levels`; the default levels for the paper's six), the GGX SHRM at
@@ -217,8 +250,6 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
     captured energy and whether ``1 − ε`` was reached under ``"shrm"``). ``roughness``:
     perceptual roughness values of the cases (:func:`evaluation_alphas`); ``yaws``: the views'
     yaws in degrees (default the paper's four, :data:`VIEW_YAWS`)."""
-    from pathlib import Path
-
     from shbake.bakers.shexp import FitConfig
     from shbake.batch.probe_jobs import fit_plan, shared_dfg_table
     from shbake.envmap import load_environment
@@ -236,12 +267,13 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
     dfg = shared_dfg_table()
     split = SplitSumConfig(alphas=split_levels(alphas))
     configs = {"shexp_v2": FitConfig(), "shexp_paper": FitConfig.paper()}
-    out = {"maps": {}, "bytes": {}, "size": size, "truth_samples": truth_samples,
+    out = {"maps": {}, "bytes": {}, "seconds": {}, "size": size, "truth_samples": truth_samples,
            "alphas": list(alphas), "yaws": list(yaws),
            "configs": {k: c.as_dict() for k, c in configs.items()} | {
                "splitsum": split.as_dict()}}  # fmt: skip
     if shrm is not None:
         out["shrm"] = shrm
+    check_map_names(paths)
     for path in paths:
         env = load_environment(str(path), quiet=True)
         if env.layout != "latlong":
@@ -249,11 +281,13 @@ def evaluate_maps(paths, size: int = 32, truth_samples: int = 4096, progress=Non
         plans = {k: fit_plan(c, env.shape) for k, c in configs.items()}
         if sheet_dir is not None:
             makedirs(sheet_dir)
-        rows, _, nbytes = evaluate_map(env, plans, split, dfg, size, truth_samples, alphas,
-                                       yaws, cache_dir=cache_dir, sheet_dir=sheet_dir,
-                                       label=Path(path).stem, shrm=shrm)  # fmt: skip
+        rows, _, nbytes, seconds = evaluate_map(env, plans, split, dfg, size, truth_samples,
+                                                alphas, yaws, cache_dir=cache_dir,
+                                                sheet_dir=sheet_dir, label=Path(path).stem,
+                                                shrm=shrm)  # fmt: skip
         out["maps"][Path(path).stem] = rows
         out["bytes"] = nbytes
+        out["seconds"][Path(path).stem] = seconds
         if progress:
             progress(Path(path).stem, rows)
     return out
@@ -320,10 +354,33 @@ def _mse(v) -> str:
     return "n/a" if v is None else f"{v:.3e}"
 
 
+def check_map_names(paths) -> None:
+    """A :class:`~shbake.errors.ParameterError` when two of ``paths`` share a file name
+    without its suffix: results are kept per name (``result["maps"]``), so the second
+    would replace the first."""
+    stems = [Path(p).stem for p in paths]
+    twice = sorted({s for s in stems if stems.count(s) > 1})
+    if twice:
+        names = ", ".join(map(repr, twice))
+        raise ParameterError(f"maps named {names} are given more than once: results are kept "
+                             "per file name (without its suffix)")  # fmt: skip
+
+
+def mean_bake_seconds(result: dict) -> dict:
+    """Each probe's bake seconds, the mean over the maps that baked it (``result["seconds"]``,
+    :func:`evaluate_maps`); empty for a result without seconds."""
+    out = {}
+    for per_map in (result.get("seconds") or {}).values():
+        for name, sec in per_map.items():
+            out.setdefault(name, []).append(sec)
+    return {name: sum(v) / len(v) for name, v in out.items()}
+
+
 def markdown_report(result: dict) -> str:
-    """Win rates per α and material for the :data:`COMPARISONS` present, bytes per probe,
-    the SHRM's orders and captured energy, and the full per-map table and case list
-    (``n/a``: the probe does not cover that ``α``)."""
+    """Win rates per α and material for the :data:`COMPARISONS` present, bytes per probe
+    and bake seconds (mean over the maps; a result without ``"seconds"``, as written before
+    they were measured, has no such column), the SHRM's orders and captured energy, and the
+    full per-map table and case list (``n/a``: the probe does not cover that ``α``)."""
     comps = present_comparisons(result)
     tables = {c: win_table(result, *c) for c in comps}
     keys = sorted({k for t in tables.values() for k in t["cells"]})
@@ -343,8 +400,17 @@ def markdown_report(result: dict) -> str:
         "ties (|ΔMSE| below the truth's own error estimate): "
         + ", ".join(f"{m} vs {b}: {tables[(m, b)]['ties']}" for m, b in comps),
     ]
-    lines += ["", "| probe | bytes per probe |", "|---|---|"]
-    lines += [f"| {k} | {v} |" for k, v in result["bytes"].items()]
+    per_map = result.get("seconds")
+    if per_map:
+        means = mean_bake_seconds(result)
+        lines += ["", f"| probe | bytes per probe | bake s (mean of {len(per_map)} "
+                  f"map{'s' if len(per_map) != 1 else ''}) |", "|---|---|---|"]  # fmt: skip
+        for k, v in result["bytes"].items():
+            mean = f"{means[k]:.3g}" if k in means else "n/a"
+            lines.append(f"| {k} | {v} | {mean} |")
+    else:
+        lines += ["", "| probe | bytes per probe |", "|---|---|"]
+        lines += [f"| {k} | {v} |" for k, v in result["bytes"].items()]
     s = result.get("shrm")
     if s:
         lines += ["", f"GGX SHRM: ε = {s['eps']:g}, face {s['face_size']}² × 6, caps "

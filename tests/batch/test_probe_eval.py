@@ -7,14 +7,20 @@ order selection's shortfall at ε = 0.01 is measured (the captured energy is
 monotone in ``F`` and ``P``, so the value at the caps bounds every choice), and
 the report carries the three families (SH-exp, split-sum, SHRM) with ``n/a``
 where a probe does not cover a width. The command: ``tests/cli/test_probe_eval.py``; the
-reported figures: ``tests/accuracy/test_probe_eval_shrm.py``.
+reported figures: ``tests/accuracy/test_probe_eval_shrm.py``. Every probe's bake is timed
+per map (lower bounds only: a baker slowed by a known sleep must show at least that sleep).
 """
+
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from shbake.batch.probe_eval import (
+    EVALUATED,
     ShrmProbe,
+    evaluate_maps,
     evaluation_alphas,
     ggx_shrm_coefficients,
     markdown_report,
@@ -83,6 +89,29 @@ class TestShrmProbe:
         with pytest.raises(ParameterError, match="not one of"):
             probe.cubes(0.5)
 
+    def test_seconds_sum_its_bakes(self, forest64, monkeypatch):
+        """``seconds`` sums every ``bake_shrm`` call: none before the first use, none when an
+        ``α``'s cubes are held, again when a dropped ``α`` comes back (each call slowed by
+        0.2 s: at least 0.2 s per call counted)."""
+        import shbake.bakers.shrm as shrm_module
+
+        calls, original = [], shrm_module.bake_shrm
+
+        def slow(*args, **kwargs):
+            calls.append(args[1])
+            time.sleep(0.2)
+            return original(*args, **kwargs)
+
+        monkeypatch.setattr(shrm_module, "bake_shrm", slow)
+        probe = ShrmProbe(forest64, [orders_row(0.25, 2, 0), orders_row(0.36, 2, 0)], 4, 0.01)
+        assert probe.seconds == 0.0 and probe.bakes == 0
+        probe.cubes(0.25)
+        probe.cubes(0.25)
+        assert probe.bakes == len(calls) == 2 and probe.seconds >= 0.2 * 2
+        probe.cubes(0.36)
+        probe.cubes(0.25)
+        assert probe.bakes == len(calls) == 6 and probe.seconds >= 0.2 * 6
+
 
 class TestShrmOrders:
     def test_reached_flag_and_capped_orders(self):
@@ -134,6 +163,45 @@ class TestCases:
         assert split_levels([0.25]) == (0.25, 1.0) and split_levels([1.0]) == (0.25, 1.0)
 
 
+class TestEvaluateMaps:
+    def test_seconds_for_every_map_and_probe(self, probe_maps):
+        """Two small maps at r 0.5 (every probe covers it), a 4² SHRM at ε 0.5: ``seconds``
+        has every map and, per map, every evaluated probe (the keys of ``bytes``), each
+        finite and positive; the report gives their mean next to the bytes."""
+        result = evaluate_maps(probe_maps[:2], 8, 16, roughness=[0.5], shrm_eps=0.5,
+                               shrm_face_size=4)  # fmt: skip
+        stems = [Path(p).stem for p in probe_maps[:2]]
+        assert list(result["seconds"]) == stems
+        for stem in stems:
+            secs = result["seconds"][stem]
+            assert set(secs) == set(result["bytes"]) == set(EVALUATED)
+            assert all(np.isfinite(v) and v > 0 for v in secs.values()), secs
+        text = markdown_report(result)
+        assert "| probe | bytes per probe | bake s (mean of 2 maps) |" in text
+        for k, nbytes in result["bytes"].items():
+            mean = sum(result["seconds"][m][k] for m in stems) / 2
+            assert f"| {k} | {nbytes} | {mean:.3g} |" in text
+
+    def test_each_bake_is_timed(self, probe_maps, monkeypatch):
+        """Without the SHRM: each SH-exp asset and each split-sum chain slowed by 0.2 s shows
+        at least 0.2 s on every map, and no ``shrm`` entry is reported."""
+        import shbake.batch.probe_eval as probe_eval
+
+        def slowed(fn):
+            def slow(*args, **kwargs):
+                time.sleep(0.2)
+                return fn(*args, **kwargs)
+
+            return slow
+
+        for name in ("build_shexp_asset", "prefilter_chain"):
+            monkeypatch.setattr(probe_eval, name, slowed(getattr(probe_eval, name)))
+        result = evaluate_maps(probe_maps[:2], 8, 16, roughness=[0.5], shrm_eps=None)
+        for secs in result["seconds"].values():
+            assert set(secs) == set(EVALUATED) - {"shrm"}
+            assert all(v >= 0.2 for v in secs.values()), secs
+
+
 def fake_result():
     mse = [  # (α, shexp_v2, splitsum_plain, shrm)
         (0.0625, None, 2e-3, 1e-3),
@@ -168,3 +236,16 @@ class TestReport:
         assert f"| shrm | {2 * shrm_cube_bytes(64, 16)} |" in text
         assert "| 0.0625 | 0.25 | 64, 16 | 0.9400 | 64, 16 | 0.5900 | no (capped) |" in text
         assert "shrm vs splitsum_plain" in text and "**2/2 (100.0 %)**" in text
+
+    def test_bake_seconds_next_to_bytes(self):
+        """The mean bake seconds over the maps that have the probe; ``n/a`` where none has;
+        a result written before seconds were measured keeps the bytes-only table."""
+        r = fake_result()
+        r["seconds"] = {"m": {"shexp_v2": 0.5, "shrm": 2.0}, "n": {"shexp_v2": 0.25, "shrm": 4.0}}
+        text = markdown_report(r)
+        assert "| probe | bytes per probe | bake s (mean of 2 maps) |" in text
+        assert "| shexp_v2 | 792 | 0.375 |" in text and "| splitsum_plain | 245760 | n/a |" in text
+        assert f"| shrm | {2 * shrm_cube_bytes(64, 16)} | 3 |" in text
+        old = markdown_report(fake_result())
+        assert "| probe | bytes per probe |" in old and "bake s" not in old
+        assert "| shexp_v2 | 792 |" in old

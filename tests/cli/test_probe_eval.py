@@ -1,8 +1,12 @@
 """``shbake probe-eval`` end to end on a small map: every comparison counted, the report
-written, the probes' bytes reported; the SHRM column with its shortfall, ranges and bad ``--eps``.
+written, the probes' bytes and bake seconds reported; the SHRM column with its shortfall, ranges
+and bad ``--eps``.
 """
 
+import collections
 import json
+import math
+import time
 
 import pytest
 
@@ -22,6 +26,65 @@ class TestProbeEvalCli:
         assert all(n == 48 for _, n in summary["totals"].values())
         assert summary["bytes"]["shexp_v2"] == 1056 and summary["bytes"]["shexp_paper"] == 396
         assert "shexp_v2 vs splitsum_plain" in (tmp_path / "eval.md").read_text()
+
+    def test_bake_seconds_per_map_in_json_and_report(self, probe_maps, tmp_path, run_cli):
+        """``--no-shrm`` on two maps: ``seconds`` per map for exactly the four probes baked
+        (no ``shrm``), each finite and positive; the report's bytes table gives their mean."""
+        code, out, err = run_cli("probe-eval", *probe_maps[:2], "--size", "8", "--samples", "16",
+                                 "--roughness", "0.5", "--no-shrm", "--json",
+                                 "-o", tmp_path / "eval.md")  # fmt: skip
+        assert code == 0, err
+        summary = json.loads(out)
+        probes = {"shexp_v2", "shexp_paper", "splitsum_plain", "splitsum_filtered"}
+        assert list(summary["seconds"]) == ["m0", "m1"] and set(summary["bytes"]) == probes
+        for secs in summary["seconds"].values():
+            assert set(secs) == probes
+            assert all(math.isfinite(v) and v > 0 for v in secs.values()), secs
+        text = (tmp_path / "eval.md").read_text()
+        assert "| probe | bytes per probe | bake s (mean of 2 maps) |" in text
+        line = next(x for x in err.splitlines() if x.startswith("probe-eval: bake s"))
+        assert line.startswith("probe-eval: bake s (mean of 2 maps): ")
+        for k in probes:
+            mean = (summary["seconds"]["m0"][k] + summary["seconds"]["m1"][k]) / 2
+            assert f"| {k} | {summary['bytes'][k]} | {mean:.3g} |" in text
+            assert f"{k} {mean:.3g}" in line
+
+    def test_maps_of_one_name_refused(self, probe_maps, tmp_path, run_cli):
+        """Results are kept per file stem: two maps of one name (in two folders) are refused
+        in one line before any work, instead of the second silently replacing the first."""
+        (tmp_path / "b").mkdir()
+        other = tmp_path / "b" / "m0.exr"
+        other.write_bytes(open(probe_maps[0], "rb").read())
+        code, out, err = run_cli("probe-eval", probe_maps[0], other, "--size", "8",
+                                 "--samples", "16", "--no-shrm")  # fmt: skip
+        assert code == 2 and out == "", err
+        assert err.strip().splitlines() == [
+            "shbake: error: maps named 'm0' are given more than once: results are kept per "
+            "file name (without its suffix)"
+        ]
+
+    def test_shrm_seconds_count_its_bakes(self, probe_maps, run_cli, monkeypatch):
+        """Every ``bake_shrm`` call slowed by 0.2 s (r 0.5: one E0 and one E1 per map, 4² faces,
+        ε 0.5): each map's ``shrm`` seconds are at least 0.2 s per call made for it."""
+        import shbake.bakers.shrm as shrm_module
+
+        calls, original = [], shrm_module.bake_shrm
+
+        def slow(env, *args, **kwargs):
+            calls.append(env)  # held: the maps' ids stay distinct
+            time.sleep(0.2)
+            return original(env, *args, **kwargs)
+
+        monkeypatch.setattr(shrm_module, "bake_shrm", slow)
+        code, out, err = run_cli("probe-eval", *probe_maps[:2], "--size", "8", "--samples", "16",
+                                 "--roughness", "0.5", "--eps", "0.5", "--face-size", "4",
+                                 "--json")  # fmt: skip
+        assert code == 0, err
+        seconds = json.loads(out)["seconds"]
+        per_map = list(collections.Counter(id(e) for e in calls).values())
+        assert per_map == [2, 2]
+        for stem, n in zip(("m0", "m1"), per_map, strict=True):
+            assert seconds[stem]["shrm"] >= 0.2 * n
 
 
 class TestCli:
