@@ -168,16 +168,15 @@ def measure_overheads(classes) -> dict[str, float]:
     classes = sorted(set(classes))
     result = {}
     with tempfile.TemporaryDirectory(prefix="shbake-costs-") as tmp:
-        import OpenImageIO as oiio
+        from shbake.format.atomic import detached
+        from shbake.format.images import write_exr
 
         tiny_map = os.path.join(tmp, "tiny.exr")
         h, w = TINY_SHAPE
         px = np.full((h, w, 3), 0.5, np.float32)
         px[h // 4, w // 3] = 1e3  # a sun: the extraction path runs
-        img = oiio.ImageOutput.create(tiny_map)
-        img.open(tiny_map, oiio.ImageSpec(w, h, 3, "float"))
-        img.write_image(px)
-        img.close()
+        with detached():  # the recipes read it now, not when the command's outputs commit
+            write_exr(tiny_map, px, half=False)
         scene = os.path.join(tmp, "tiny.toml")
         with open(scene, "w") as f:
             f.write('[scene]\nout_dir = "out"\n[[environments]]\nmap = "tiny.exr"\n'

@@ -151,6 +151,8 @@ def _write(path, spec, pixels):
             raise _oiio_error(path, "write failed", err if not ok else out.geterror())
         if path.lower().endswith(".png"):
             check_png(tmp, path)
+        elif path.lower().endswith(".exr"):
+            check_exr(tmp, path)
 
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -181,6 +183,47 @@ def check_png(tmp: str, path: str) -> None:
             break
         pos = end + 4
     if not (whole and kind == b"IEND" and pos == len(data)):
+        raise _short_write(path)
+
+
+EXR_MAGIC = b"\x76\x2f\x31\x01"
+EXR_TILED = 0x200
+"""The version field's flag of a tiled single-part file (OpenEXR file layout)."""
+
+
+def check_exr(tmp: str, path: str) -> None:
+    """Refuse an OpenEXR file ``tmp`` (staged for ``path``) that is not whole: the magic
+    number, a header of attributes ending in a null byte, then the offset table, each
+    offset inside the file, and the last chunk (its line or tile coordinates, its data size,
+    its data) ending at the end of the file (OpenEXR file layout, single part). OpenEXR
+    writes through a buffered stream whose failed writes (full disk, file size limit)
+    OpenImageIO reports as success: a file cut at 128 of its 390 bytes was "written"."""
+    import struct
+
+    with open(tmp, "rb") as f:
+        data = f.read()
+    try:
+        if data[:4] != EXR_MAGIC:
+            raise ValueError
+        prefix = 20 if struct.unpack_from("<I", data, 4)[0] & EXR_TILED else 8
+        pos = 8
+        while data[pos] != 0:  # attribute: name, type (both null-terminated), size, value
+            pos = data.index(b"\0", data.index(b"\0", pos) + 1) + 1
+            pos += 4 + struct.unpack_from("<i", data, pos)[0]
+        start = pos + 1  # the offset table: up to the first chunk, the least offset
+        end = last = struct.unpack_from("<Q", data, start)[0]
+        for table in range(start, len(data), 8):
+            if table >= end:
+                break
+            offset = struct.unpack_from("<Q", data, table)[0]
+            if not start < offset <= len(data) - prefix:
+                raise ValueError
+            end, last = min(end, offset), max(last, offset)
+        size = struct.unpack_from("<i", data, last + prefix - 4)[0]
+        whole = last + prefix + size == len(data)
+    except (ValueError, IndexError, struct.error):
+        whole = False
+    if not whole:
         raise _short_write(path)
 
 

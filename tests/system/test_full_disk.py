@@ -347,3 +347,86 @@ write_png(sys.argv[1], (rng.random((64, 64, int(sys.argv[3]))) * 255).astype(np.
         with unchanged(tmp_path):
             short = run(tmp_path / "short.png", size - 1)
         assert short.returncode == 1 and "cannot write all of" in short.stderr, short.stderr
+
+
+class TestExrWhole:
+    """OpenEXR's buffered writes fail silently too (a file size limit cut a 390-byte map at
+    128 bytes and OpenImageIO reported it written): :func:`shbake.format.images.check_exr`
+    reads the file's layout back."""
+
+    SCRIPT = """
+import resource, signal, sys
+import numpy as np
+from shbake.format.images import write_exr
+limit = int(sys.argv[2])
+if limit:
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+rng = np.random.default_rng(0)
+write_exr(sys.argv[1], rng.random((40, 24, 3)), half=sys.argv[3] == "half")
+"""
+
+    @pytest.mark.parametrize("kind", ["half", "float"])
+    def test_exr_short_by_one_byte(self, tmp_path, kind):
+        import sys
+
+        def run(path, limit):
+            return subprocess.run([sys.executable, "-c", self.SCRIPT, path, str(limit), kind],
+                                  capture_output=True, text=True)  # fmt: skip
+
+        whole = tmp_path / "whole.exr"
+        assert run(whole, 0).returncode == 0
+        size = whole.stat().st_size
+        with unchanged(tmp_path):
+            short = run(tmp_path / "short.exr", size - 1)
+        assert short.returncode == 1 and "cannot write all of" in short.stderr, short.stderr
+
+    @pytest.mark.parametrize("shape", [(1, 1, 3), (17, 9, 1), (20, 3, 4)])
+    @pytest.mark.parametrize("half", [True, False])
+    def test_every_cut_refused_every_whole_file_kept(self, tmp_path, shape, half):
+        """Whole files OpenImageIO wrote (one or two chunks, 1 to 4 channels, half and float)
+        pass; the same files cut at every length, or with a byte appended, are refused."""
+        import numpy as np
+
+        from shbake.errors import OutputError
+        from shbake.format.images import check_exr, write_exr
+
+        path = tmp_path / "x.exr"
+        write_exr(str(path), np.random.default_rng(1).random(shape), half=half,
+                  channel_names=("Y", "G", "B", "A")[: shape[2]] if shape[2] != 3 else None)
+        check_exr(str(path), "x.exr")
+        data = path.read_bytes()
+        for cut in [*range(len(data)), len(data) + 1]:
+            path.write_bytes(data[:cut] if cut < len(data) else data + b"\0")
+            with pytest.raises(OutputError, match="cannot write all of x.exr"):
+                check_exr(str(path), "x.exr")
+
+
+class TestCostCalibration:
+    """``plan`` measures each recipe's fixed cost once per machine by baking a tiny scene in a
+    temporary folder (:func:`shbake.batch.plan_costs.measure_overheads`)."""
+
+    SCRIPT = """
+import resource, signal, sys
+from shbake.batch.plan_costs import measure_overheads
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (128, 128))  # below the map's header
+try:
+    measure_overheads(["env_sh"])
+except Exception as e:
+    print(type(e).__name__, e)
+"""
+
+    def test_its_map_unwritten_says_so(self, tmp_path):
+        """The tiny map cannot be written (a file size limit): the error names that write,
+        not the recipe that then read a truncated map ("truncated or corrupt image"), and
+        its temporary folder is removed."""
+        import sys
+
+        env = dict(os.environ, TMPDIR=str(tmp_path))
+        done = subprocess.run([sys.executable, "-c", self.SCRIPT], capture_output=True,
+                              text=True, env=env, timeout=120)  # fmt: skip
+        assert re.fullmatch(r"OutputError cannot write all of \S+/shbake-costs-\w+/tiny\.exr "
+                            r"\(a disk quota, a file size limit or an I/O error\)\n",
+                            done.stdout), done.stdout + done.stderr  # fmt: skip
+        assert os.listdir(tmp_path) == []
