@@ -192,14 +192,44 @@ def _scheduler_address(ctx, param, value):
         raise click.BadParameter(str(e), ctx, param) from None
 
 
-scheduler_opt = click.option(
-    "--scheduler",
-    default=None,
-    metavar="ADDRESS",
-    callback=_scheduler_address,
-    help="Run on the Dask scheduler at [tcp|tls|ws|wss://]HOST:PORT (tcp when omitted; "
-    "connected before any work).",
-)
+def scheduler_opt(f):
+    """``--scheduler ADDRESS`` and ``--connect-timeout SECONDS`` (how long connecting may
+    take; only with ``--scheduler``, else a usage error, as ``--tol`` without ``--lights
+    auto``): every command that runs on Dask takes both. The command receives
+    ``scheduler`` (an address, :func:`shbake.batch.scheduler.parse_address`, or ``None``)
+    and ``connect_timeout`` (seconds; :data:`~shbake.batch.scheduler.CONNECT_SECONDS`
+    unless given)."""
+    from click.core import ParameterSource
+
+    from shbake.batch.scheduler import CONNECT_SECONDS, CONNECT_SECONDS_LIMIT
+
+    @functools.wraps(f)
+    def wrapper(*args, **kwargs):
+        ctx = click.get_current_context()
+        given = ctx.get_parameter_source("connect_timeout") is ParameterSource.COMMANDLINE
+        if given and kwargs.get("scheduler") is None:
+            raise click.UsageError("--connect-timeout applies to --scheduler only")
+        return f(*args, **kwargs)
+
+    wrapper = click.option(
+        "--connect-timeout",
+        type=FiniteRange(0.0, CONNECT_SECONDS_LIMIT, min_open=True),
+        default=CONNECT_SECONDS,
+        show_default=True,
+        metavar="SECONDS",
+        help="With --scheduler: the seconds connecting to it may take before the run is "
+        "refused (one line, exit 1).",
+    )(wrapper)
+    return click.option(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        callback=_scheduler_address,
+        help="Run on the Dask scheduler at [tcp|tls|ws|wss://]HOST:PORT (tcp when omitted; "
+        "connected before any work).",
+    )(wrapper)
+
+
 report_opt = click.option(
     "--report",
     is_flag=True,

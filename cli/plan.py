@@ -84,11 +84,12 @@ def plan(scene, emit, shbake_cmd, maps_per_rule, jobs, allow_outside, as_json, q
 @allow_outside_opt
 @json_opt
 @quiet_opt
-def bake(scene, jobs, scheduler, only, allow_outside, as_json, quiet):
+def bake(scene, jobs, scheduler, connect_timeout, only, allow_outside, as_json, quiet):
     """Bake what SCENE needs and is out of date (scene.lock.json in the scene's out_dir).
 
     With --scheduler the assets are baked on Dask workers and written here, with the
-    lock, all together or not at all.
+    lock, all together or not at all; a scheduler that does not answer within
+    --connect-timeout seconds is one line (exit 1), before anything is planned.
     """
     if scheduler and jobs != 1:
         raise click.UsageError("use --jobs or --scheduler, not both")
@@ -96,7 +97,8 @@ def bake(scene, jobs, scheduler, only, allow_outside, as_json, quiet):
         raise click.UsageError("--asset bakes one asset in this process: no --scheduler")
     with scene_errors():
         summary = bake_scene(load_scene(scene, allow_outside), jobs=jobs, scheduler=scheduler,
-                             only=list(only) or None)  # fmt: skip
+                             only=list(only) or None,
+                             connect_timeout=connect_timeout)  # fmt: skip
     for w in summary["warnings"]:
         warn(w, quiet)
     if as_json:

@@ -117,7 +117,7 @@ def probe_fit(maps, probe_list, output, out_dir, alpha_range, roughness_range, a
     with --jobs, --scheduler or neither.
     """
     run = {k: settings.pop(k) for k in ("negative", "fix_nonfinite", "report", "tol", "n_jobs",
-                                        "scheduler", "manifest")}  # fmt: skip
+                                        "scheduler", "connect_timeout", "manifest")}  # fmt: skip
     if output and probe_list is None and not maps:
         raise ParameterError("give maps as arguments or a --list file")
     if run["scheduler"] and run["n_jobs"] != 1:

@@ -15,7 +15,7 @@ from pathlib import Path
 from shbake.bakers.shexp import FitConfig
 from shbake.batch.map_list import map_entries, map_outputs
 from shbake.batch.probe_jobs import ProbeJob, fit_plan, run_dask, run_local, shared_dfg_table
-from shbake.batch.scheduler import session
+from shbake.batch.scheduler import CONNECT_SECONDS, session
 from shbake.errors import InputError, OutputError, ParameterError
 from shbake.evaluation.metrics import HEADLINE_WARNING
 from shbake.format.atomic import check_output_path
@@ -144,14 +144,16 @@ def write_manifest(path: str, jobs, finished: list, output, error) -> None:
 @path_arguments("maps", "probe_list", "output", "out_dir", "manifest")
 def fit_probes(maps, probe_list=None, output=None, out_dir=".", config=DEFAULT_CONFIG,
                negative="clamp", fix_nonfinite=None, report=False, tol=None, n_jobs=1,
-               scheduler=None, progress=None, notes=None, manifest=None) -> dict:  # fmt: skip
+               scheduler=None, progress=None, notes=None, manifest=None,
+               connect_timeout=CONNECT_SECONDS) -> dict:  # fmt: skip
     """Fit SH-exp probes to ``maps`` (and the lines of ``probe_list``); the summary
     ``{"probes", "seconds", "probes_per_second", "config", …study}``. ``notes(text)``
     receives the ``--tol`` choice and the ``--report`` tables. ``scheduler`` (a Dask
-    address or client) is connected before any other work."""
+    address or client) is connected before any other work, within ``connect_timeout``
+    seconds (:func:`shbake.batch.scheduler.session`)."""
     if scheduler and n_jobs != 1:
         raise ParameterError("use --jobs or --scheduler, not both")
-    with session(scheduler) if scheduler else nullcontext() as client:
+    with session(scheduler, connect_timeout) if scheduler else nullcontext() as client:
         return _fit_probes(maps, probe_list, output, out_dir, config, negative, fix_nonfinite,
                            report, tol, n_jobs, client, progress, notes, manifest)  # fmt: skip
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 from shbake.bakers.shexp import FitConfig, FitPlan
 from shbake.batch.plan_cache import cached_dfg_table, cached_fit_plan
-from shbake.batch.scheduler import completed, session, write_returned
+from shbake.batch.scheduler import CONNECT_SECONDS, completed, session, write_returned
 from shbake.batch.workers import JOBS_LIMIT, start_server, worker_pool
 from shbake.envmap import load_environment
 from shbake.errors import InputError, ParameterError
@@ -178,14 +178,14 @@ def _dask_job(job: ProbeJob) -> tuple[dict, bytes | None]:
         return summary, (outputs.read(job.output) if job.output else None)
 
 
-def run_dask(jobs: list[ProbeJob], scheduler, progress=None,
-             finished: list | None = None) -> list[dict]:  # fmt: skip
-    """Run jobs on a Dask scheduler (an address or a connected client,
-    :func:`shbake.batch.scheduler.session`); results keep job order (``finished`` as in
-    :func:`run_local`, in completion order). Each probe's file is written here as its
-    result arrives, atomic on its own."""
+def run_dask(jobs: list[ProbeJob], scheduler, progress=None, finished: list | None = None,
+             connect_timeout: float = CONNECT_SECONDS) -> list[dict]:  # fmt: skip
+    """Run jobs on a Dask scheduler (an address, connected within ``connect_timeout``
+    seconds, or a connected client, :func:`shbake.batch.scheduler.session`); results keep
+    job order (``finished`` as in :func:`run_local`, in completion order). Each probe's
+    file is written here as its result arrives, atomic on its own."""
     check_jobs(jobs)
-    with session(scheduler) as client:
+    with session(scheduler, connect_timeout) as client:
         results: list = [None] * len(jobs)
         futures = client.map(_dask_job, jobs, pure=False)
         for done, (i, (summary, data)) in enumerate(completed(client, futures), 1):

@@ -44,6 +44,7 @@ from shbake.batch.scene import (
     written_by_shbake,
 )
 from shbake.batch.scene_paths import resolved, scene_folder, stored, stored_asset
+from shbake.batch.scheduler import CONNECT_SECONDS
 from shbake.batch.workers import start_server, worker_pool
 from shbake.errors import OutputError, ParameterError
 from shbake.format.atomic import (
@@ -662,7 +663,8 @@ def _bake_stamped(scene: Scene, ids: list[str]) -> dict:
 
 
 def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
-               only: str | list[str] | None = None, progress=None) -> dict:  # fmt: skip
+               only: str | list[str] | None = None, progress=None,
+               connect_timeout: float = CONNECT_SECONDS) -> dict:  # fmt: skip
     """Plan ``scene`` and bake what is out of date; the summary (baked, skipped, records,
     ``warnings``: lock records that could not be trusted and were baked again).
 
@@ -674,14 +676,15 @@ def bake_scene(scene: Scene, jobs: int = 1, scheduler=None,
     declared before any work and refused if one is an input; a bake then reads back only
     its own outputs (measured errors, exports of its ``env_sh`` assets).
 
-    ``scheduler``: a Dask scheduler address, connected before planning, or a connected
+    ``scheduler``: a Dask scheduler address, connected before planning (within
+    ``connect_timeout`` seconds, :func:`shbake.batch.scheduler.session`), or a connected
     client; the workers' outputs are written here and committed with the lock, all
     together or not at all (:func:`_bake_on_scheduler`).
     """
     from shbake.batch.scheduler import session
 
     if isinstance(scheduler, str):  # connected before planning; the run is all or nothing
-        with session(scheduler) as client, transaction():
+        with session(scheduler, connect_timeout) as client, transaction():
             return bake_scene(scene, jobs, client, only, progress)
     if only is not None:
         return _bake_stamped(scene, [only] if isinstance(only, str) else list(only))

@@ -5,8 +5,11 @@
 or a bracketed IPv6 address, ``PORT`` in 1-65535: anything else (other schemes,
 spaces, shell or control characters) is refused by :func:`parse_address`
 before any connection (a usage error in the CLI). :func:`session` connects
-before the caller plans anything and gives up after :data:`CONNECT_SECONDS`
-with one line (:class:`~shbake.errors.InputError`); the connection is tried
+before the caller plans anything and gives up after its ``timeout`` seconds
+(:data:`CONNECT_SECONDS` unless given: ``--connect-timeout`` in the CLI, a finite
+number in (0, :data:`CONNECT_SECONDS_LIMIT`], else a
+:class:`~shbake.errors.ParameterError` from :func:`check_timeout`) with one line
+naming the timeout used (:class:`~shbake.errors.InputError`); the connection is tried
 first with a bare Dask comm, so a failure leaves no half-made ``Client``
 behind (whose finaliser would block and print).
 
@@ -23,6 +26,7 @@ the client: a run's messages are shbake's one-line messages.
 """
 
 import logging
+import math
 import os
 import re
 from contextlib import contextmanager, suppress
@@ -40,7 +44,9 @@ ADDRESS = re.compile(
 ADDRESS_MAX_CHARS = 300
 """Longest address accepted (a host name is at most 253 characters)."""
 CONNECT_SECONDS = 10.0
-"""How long connecting to a scheduler may take before the run is refused."""
+"""How long connecting to a scheduler may take before the run is refused, by default."""
+CONNECT_SECONDS_LIMIT = 600.0
+"""The longest connect timeout accepted (``--connect-timeout``)."""
 CLOSE_SECONDS = 2.0
 """How long closing the client may take (its futures are cancelled first on an error)."""
 QUIET_LOGGERS = ("distributed", "tornado", "asyncio", "bokeh")
@@ -59,6 +65,19 @@ def parse_address(text: str) -> str:
             f"SCHEME one of {', '.join(SCHEMES)})"
         )
     return text if m.group(1) else f"tcp://{text}"
+
+
+def check_timeout(timeout) -> float:
+    """``timeout`` as a float if it is a finite number of seconds in
+    (0, :data:`CONNECT_SECONDS_LIMIT`]; a :class:`~shbake.errors.ParameterError` otherwise."""
+    try:
+        seconds = float(timeout)
+    except (TypeError, ValueError):
+        seconds = math.nan
+    if not (math.isfinite(seconds) and 0 < seconds <= CONNECT_SECONDS_LIMIT):
+        raise ParameterError(f"connect timeout {timeout!r}: expected seconds in "
+                             f"(0, {CONNECT_SECONDS_LIMIT:g}]")  # fmt: skip
+    return seconds
 
 
 def quiet_logging() -> None:
@@ -86,9 +105,9 @@ def _reason(e: BaseException) -> str:
     return lines[0][:200] if lines else type(e).__name__
 
 
-def _reach(address: str) -> None:
+def _reach(address: str, timeout: float = CONNECT_SECONDS) -> None:
     """Open and close one Dask comm to ``address`` (the handshake included), within
-    :data:`CONNECT_SECONDS`; raises what Dask raises."""
+    ``timeout`` seconds; raises what Dask raises."""
     import asyncio
 
     from distributed.comm import connect
@@ -96,27 +115,29 @@ def _reach(address: str) -> None:
 
     async def probe():
         args = Security().get_connection_args("client")
-        comm = await connect(address, timeout=CONNECT_SECONDS, **args)
+        comm = await connect(address, timeout=timeout, **args)
         await comm.close()
 
     asyncio.run(probe())
 
 
-def connect(address: str):
+def connect(address: str, timeout: float = CONNECT_SECONDS):
     """A ``distributed.Client`` of the scheduler at ``address`` (checked by
-    :func:`parse_address`); one line if it does not answer within :data:`CONNECT_SECONDS`."""
+    :func:`parse_address`); one line if it does not answer within ``timeout`` seconds
+    (checked by :func:`check_timeout`)."""
     address = parse_address(address)
+    timeout = check_timeout(timeout)
     try:
         from distributed import Client
     except ImportError:  # pragma: no cover - dask is an install requirement
         raise ParameterError("--scheduler needs the 'distributed' package") from None
     quiet_logging()
     try:
-        _reach(address)
-        return Client(address, timeout=CONNECT_SECONDS, set_as_default=False)
+        _reach(address, timeout)
+        return Client(address, timeout=timeout, set_as_default=False)
     except Exception as e:  # noqa: BLE001 - whatever Dask raises is "cannot reach"
         raise InputError(f"cannot reach the Dask scheduler at {address} within "
-                         f"{CONNECT_SECONDS:g} s ({_reason(e)})") from None  # fmt: skip
+                         f"{timeout:g} s ({_reason(e)})") from None  # fmt: skip
 
 
 def _close(client) -> None:
@@ -125,13 +146,14 @@ def _close(client) -> None:
 
 
 @contextmanager
-def session(scheduler):
-    """A connected client for ``scheduler``: an address (connected here, before the block,
-    and closed after it) or a ``distributed.Client`` (used as it is)."""
+def session(scheduler, timeout: float = CONNECT_SECONDS):
+    """A connected client for ``scheduler``: an address (connected here within ``timeout``
+    seconds, before the block, and closed after it) or a ``distributed.Client`` (used as it
+    is; ``timeout`` is then not used)."""
     if not isinstance(scheduler, str):
         yield scheduler
         return
-    client = connect(scheduler)
+    client = connect(scheduler, timeout)
     try:
         yield client
     finally:

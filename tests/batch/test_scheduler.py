@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from shbake.batch import scheduler
-from shbake.errors import ParameterError
+from shbake.errors import InputError, ParameterError
 from shbake.format import atomic
 from tests.faults import TIMEOUT, assert_failed, shbake, snapshot, unchanged
 from tests.helpers import local_cluster, write_test_exr
@@ -156,13 +156,12 @@ class TestConnectBeforePlanning:
 
         monkeypatch.setattr(scene_bake, "plan_scene_kept", never)
         monkeypatch.setattr(probe_fit, "make_jobs", never)
-        monkeypatch.setattr(scheduler, "CONNECT_SECONDS", 1.0)
         scene = write_scene(tmp_path, 1)
         address = nothing_listens()
         args = [scene] if command == "bake" else [tmp_path / "maps" / "m00.exr", "--out-dir",
                                                   tmp_path / "probes", "--tol", "0.1"]  # fmt: skip
         with unchanged(tmp_path):
-            result = run_cli(command, *args, "--scheduler", address)
+            result = run_cli(command, *args, "--scheduler", address, "--connect-timeout", "1")
         line = assert_failed(result, code=1, fragment="cannot reach the Dask scheduler")
         assert f"tcp://{address}" in line and "within 1 s" in line
 
@@ -174,6 +173,117 @@ class TestConnectBeforePlanning:
             code, out, err = shbake("bake", scene, "--scheduler", nothing_listens())
         assert_failed((code, out, err), code=1, fragment="cannot reach the Dask scheduler")
         assert err.count("\n") == 1 and out == ""
+
+
+def command_args(command: str, folder: Path) -> list:
+    """The inputs of a run of ``command`` (``bake`` or ``probe-fit``) on one map in
+    ``folder``."""
+    scene = write_scene(folder, 1)
+    return [scene] if command == "bake" else [folder / "maps" / "m00.exr", "--out-dir",
+                                              folder / "probes"]  # fmt: skip
+
+
+class TestConnectTimeout:
+    """``--connect-timeout SECONDS`` (``connect(address, timeout)`` in the library): how long
+    connecting may take, named in the one line of an unreachable scheduler."""
+
+    COMMANDS = ["bake", "probe-fit"]
+    """The commands that take ``--scheduler``."""
+
+    @pytest.mark.parametrize("command", COMMANDS)
+    def test_unreachable_command_line(self, tmp_path, command):
+        """The real command: exit 1, one line naming the timeout given, nothing on stdout,
+        nothing written."""
+        args = command_args(command, tmp_path)
+        with unchanged(tmp_path):
+            code, out, err = shbake(command, *args, "--scheduler", nothing_listens(),
+                                    "--connect-timeout", "0.5")  # fmt: skip
+        line = assert_failed((code, out, err), code=1, fragment="cannot reach the Dask scheduler")
+        assert "within 0.5 s (" in line and "within 10 s" not in line
+        assert err.count("\n") == 1 and out == ""
+
+    def test_library_connect(self):
+        """``connect(address, timeout=0.5)`` gives up after about 0.5 s (well before the
+        default 10 s, a bound that holds on a loaded machine) and says so."""
+        address = nothing_listens()
+        t0 = time.monotonic()
+        with pytest.raises(InputError) as e:
+            scheduler.connect(address, timeout=0.5)
+        seconds = time.monotonic() - t0
+        assert str(e.value).startswith(f"cannot reach the Dask scheduler at tcp://{address} "
+                                       "within 0.5 s (")  # fmt: skip
+        assert seconds < 8, seconds
+
+    def test_default_is_named(self, monkeypatch):
+        """Without a timeout, the line names :data:`CONNECT_SECONDS` (no 10 s wait here:
+        the comm is refused at once)."""
+
+        def refused(address, timeout):
+            assert timeout == scheduler.CONNECT_SECONDS == 10
+            raise ConnectionRefusedError(111, "Connection refused")
+
+        monkeypatch.setattr(scheduler, "_reach", refused)
+        with pytest.raises(InputError, match=r"within 10 s \(Connection refused\)"):
+            scheduler.connect(nothing_listens())
+
+    def test_library_entry_points_take_it(self, tmp_path):
+        """``bake_scene``, ``fit_probes`` and ``run_dask`` pass ``connect_timeout`` on."""
+        from shbake.bakers.shexp import FitConfig
+        from shbake.batch.probe_fit import fit_probes
+        from shbake.batch.probe_jobs import ProbeJob, run_dask
+        from shbake.batch.scene import load_scene
+        from shbake.batch.scene_bake import bake_scene
+
+        scene = write_scene(tmp_path, 1)
+        map_path = str(tmp_path / "maps" / "m00.exr")
+        job = ProbeJob(map_path, str(tmp_path / "p.h5"), FitConfig(normals=16, views=8,
+                                                                   samples=64))  # fmt: skip
+        runs = [lambda a: bake_scene(load_scene(str(scene)), scheduler=a, connect_timeout=0.5),
+                lambda a: fit_probes([map_path], out_dir=str(tmp_path / "probes"),
+                                     scheduler=a, connect_timeout=0.5),
+                lambda a: run_dask([job], a, connect_timeout=0.5)]  # fmt: skip
+        for run in runs:
+            with unchanged(tmp_path), pytest.raises(InputError, match=r"within 0\.5 s \("):
+                run(nothing_listens())
+
+    @pytest.mark.parametrize("value", [0, -1, float("nan"), float("inf"), -float("inf"), 601,
+                                       "soon", None])  # fmt: skip
+    def test_library_refuses(self, monkeypatch, value):
+        """A timeout that is not a finite number of seconds in (0, 600] is refused before
+        any connection is tried."""
+
+        def never(*args, **kwargs):
+            raise AssertionError("connected with a bad timeout")
+
+        monkeypatch.setattr(scheduler, "_reach", never)
+        with pytest.raises(ParameterError, match=r"expected seconds in \(0, 600\]"):
+            scheduler.connect(nothing_listens(), timeout=value)
+
+    @pytest.mark.parametrize("command", COMMANDS)
+    @pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "-inf", "601", "1e300", "x"])
+    def test_bad_value_is_a_usage_error(self, run_cli, tmp_path, command, value):
+        args = command_args(command, tmp_path)
+        with unchanged(tmp_path):
+            code, out, err = run_cli(command, *args, "--scheduler", nothing_listens(),
+                                     "--connect-timeout", value)  # fmt: skip
+        line = assert_failed((code, out, err), code=2, fragment="--connect-timeout")
+        assert "Invalid value for '--connect-timeout'" in line and out == ""
+
+    @pytest.mark.parametrize("command", COMMANDS)
+    def test_without_scheduler_is_a_usage_error(self, run_cli, tmp_path, command):
+        """Like ``--tol`` without ``--lights auto``: refused, not ignored."""
+        args = command_args(command, tmp_path)
+        with unchanged(tmp_path):
+            result = run_cli(command, *args, "--connect-timeout", "5")
+        line = assert_failed(result, code=2, fragment="--connect-timeout")
+        assert line == "shbake: error: --connect-timeout applies to --scheduler only"
+
+    @pytest.mark.parametrize("command", COMMANDS)
+    def test_help(self, run_cli, command):
+        code, out, _ = run_cli(command, "--help")
+        out = " ".join(out.split())  # as wrapped at any width
+        assert code == 0 and "--scheduler ADDRESS" in out
+        assert "--connect-timeout SECONDS" in out and "[default: 10.0;" in out
 
 
 class TestCollected:

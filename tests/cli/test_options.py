@@ -76,6 +76,15 @@ class TestEveryCommand:
             assert not opts["--exr-dir"].type.file_okay
 
     @pytest.mark.parametrize("name", COMMANDS)
+    def test_scheduler_comes_with_its_timeout(self, name):
+        """Every command that runs on Dask takes ``--connect-timeout`` (``scheduler_opt``)."""
+        opts = visible_options(name)
+        assert ("--scheduler" in opts) == ("--connect-timeout" in opts), name
+        if "--scheduler" in opts:
+            p = opts["--connect-timeout"]
+            assert p.default == 10.0 and p.show_default and "With --scheduler" in p.help
+
+    @pytest.mark.parametrize("name", COMMANDS)
     def test_help_names_only_existing_options(self, name):
         text = help_text(name)
         if "--list-params" in text:
@@ -133,6 +142,8 @@ class TestRangesAreUsageErrors:
 
     R = namedtuple("R", "lo hi integer lo_open hi_open extra good", defaults=(False, False, (), ()))
     CPUS = os.cpu_count() or 1
+    DASK = ("--scheduler", "127.0.0.1:9")
+    """What ``--connect-timeout`` needs (an address; nothing is connected in these tests)."""
     RANGES = {
         ("project-env", "--lmax"): R(0, 128, True),
         ("project-env", "--irradiance-lmax"): R(0, 128, True, extra=("--lmax", "128")),
@@ -190,6 +201,9 @@ class TestRangesAreUsageErrors:
         ("shrm", "--P"): R(0, 16, True),
         ("shrm", "--face-size"): R(4, 1024, True),
         ("bake", "--jobs"): R(1, 64, True),
+        # only with --scheduler; in range, the run goes on to connect (refused at once here)
+        ("bake", "--connect-timeout"): R(0.0, 600.0, False, lo_open=True, extra=DASK),
+        ("probe-fit", "--connect-timeout"): R(0.0, 600.0, False, lo_open=True, extra=DASK),
         ("project-env", "--jobs"): R(1, 4 * CPUS, True),
         ("split-sum", "--jobs"): R(1, 4 * CPUS, True),
         ("plan", "--maps-per-rule"): R(1, 1024, True),
@@ -239,9 +253,16 @@ class TestRangesAreUsageErrors:
         assert {(c, o) for c, o, _ in self.numeric_options()} == set(self.RANGES)
 
     @pytest.mark.parametrize("command,option,hidden", list(numeric_options.__func__()))
-    def test_out_of_range_is_a_usage_error(self, run_cli, tmp_path, inputs, command, option,
-                                           hidden):  # fmt: skip
+    def test_out_of_range_is_a_usage_error(self, run_cli, tmp_path, monkeypatch, inputs,
+                                           command, option, hidden):  # fmt: skip
         r = self.RANGES[(command, option)]
+        if option == "--connect-timeout":  # no scheduler: refused at once, whatever the timeout
+            from shbake.batch import scheduler
+
+            def refused(address, timeout):
+                raise ConnectionRefusedError(111, "Connection refused")
+
+            monkeypatch.setattr(scheduler, "_reach", refused)
         before = {p: p.read_bytes() for p in inputs.iterdir()}
         bad, good = self.values(r)
         for value in bad:
@@ -261,7 +282,8 @@ class TestRangesAreUsageErrors:
             args = [str(missing / "x") if str(a).startswith(str(inputs)) else a
                     for a in self.base(command, inputs, missing)]  # fmt: skip
             code, _, err = run_cli(command, *args, *r.extra, option, value)
-            assert "no such file" in err or "does not exist" in err, (value, err)
+            connected = option == "--connect-timeout" and f"within {float(value):g} s" in err
+            assert "no such file" in err or "does not exist" in err or connected, (value, err)
 
     @pytest.mark.parametrize(
         "command,args",
