@@ -69,29 +69,29 @@ def random_lights(rng, count, rect):
     return d, rng.uniform(0.0, 0.4, count) if rect else np.zeros(count)
 
 
+def random_fits(seed, variant, lights, rect, trials):
+    """``trials`` fits of ``lights`` random lights to a studio-like target (``variant``), each
+    ``(faces, bound, dirs, form factors, the fit's least mean error)``."""
+    rng = np.random.default_rng(seed)
+    faces = _faces(6)
+    target = studio_like(variant)
+    bound = Relaxation(NORMALS, target, len(target), faces)
+    for _ in range(trials):
+        dirs, ffs = random_lights(rng, lights, rect)
+        yield faces, bound, dirs, ffs, least_mean(target, dirs, ffs, cap=10.0)
+
+
 class TestRelaxation:
     @pytest.mark.parametrize("rect", [False, True])
     def test_never_above_a_fit_in_its_cells(self, rect):
-        rng = np.random.default_rng(3)
-        faces = _faces(6)
-        target = studio_like(1)
-        bound = Relaxation(NORMALS, target, len(target), faces)
-        for _ in range(4):
-            dirs, ffs = random_lights(rng, 3, rect)
-            fit = least_mean(target, dirs, ffs, cap=10.0)
+        for faces, bound, dirs, ffs, fit in random_fits(3, 1, 3, rect, 4):
             for level in (0, 2, 4, 7):
                 cells = cells_at(dirs, ffs, level, max(level - 1, 0) if rect else -1, faces)
                 assert bound.lower(cells, 10.0) <= fit + 1e-7
 
     @pytest.mark.parametrize("rect", [False, True])
     def test_meets_the_fit_as_cells_shrink(self, rect):
-        rng = np.random.default_rng(5)
-        faces = _faces(6)
-        target = studio_like(2)
-        bound = Relaxation(NORMALS, target, len(target), faces)
-        for _ in range(3):
-            dirs, ffs = random_lights(rng, 2, rect)
-            fit = least_mean(target, dirs, ffs, cap=10.0)
+        for faces, bound, dirs, ffs, fit in random_fits(5, 2, 2, rect, 3):
             cells = cells_at(dirs, ffs, 16, 16 if rect else -1, faces)
             assert bound.lower(cells, 10.0) == pytest.approx(fit, rel=1e-3, abs=1e-6)
 
