@@ -420,13 +420,14 @@ def fit_lights(target: IrradianceTarget, count: int, lmax: int = 2,
                 starts.append((points.directions, np.full(points.count, start_radius)))
         found = sorted((_search(problem, d, r if shape == "sphere" else None) for d, r in starts),
                        key=lambda f: f[2])  # fmt: skip
-        fit = None
+        least = np.inf
         for dirs, radii, cost in found:
-            if fit is not None and cost >= problem.cost(fit):
+            if cost >= least:
                 break  # holding the SH part non-negative never lowers a cost
             finished = _finish(problem, dirs, radii)
-            if fit is None or problem.cost(finished) < problem.cost(fit):
-                fit = finished
+            held = problem.cost(finished)
+            if fit is None or held < least:
+                fit, least = finished, held
     if fit is None:
         fit = _finish(problem, dirs, radii)
     if points is not None and problem.cost(points) <= problem.cost(fit):
