@@ -209,7 +209,10 @@ def check_exr(tmp: str, path: str) -> None:
         pos = 8
         while data[pos] != 0:  # attribute: name, type (both null-terminated), size, value
             pos = data.index(b"\0", data.index(b"\0", pos) + 1) + 1
-            pos += 4 + struct.unpack_from("<i", data, pos)[0]
+            size = struct.unpack_from("<i", data, pos)[0]
+            if size < 0:
+                raise ValueError
+            pos += 4 + size
         start = pos + 1  # the offset table: up to the first chunk, the least offset
         end = last = struct.unpack_from("<Q", data, start)[0]
         for table in range(start, len(data), 8):
